@@ -1,0 +1,219 @@
+"""The paper's AR(p) position-error process (Eq. 2-3), vectorised over agents.
+
+Each horizontal axis (north = latitude error, east = longitude error, metres)
+follows ``e(t) = delta + sum_i phi_i e(t-i) + w(t)`` on the model's grid. The
+process is carried as deviations from its mean ``m = delta / (1 - sum phi)``
+in companion (state-space) form, so its exact stationary covariance follows
+from the discrete Lyapunov equation rather than from simulation.
+
+Sign convention (written once): the AR polynomial is
+``a(z) = 1 - phi_1 z - ... - phi_p z**p``; the process is stationary when all
+roots of ``a(z)`` lie strictly outside the unit circle.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from . import streams
+
+AXES = ('north', 'east')
+
+
+class ModelError(ValueError):
+    """An AR specification that cannot define a stationary error process."""
+
+
+def ar_roots(phi):
+    """Return the roots of ``1 - phi_1 z - ... - phi_p z**p``."""
+    phi = np.asarray(phi, dtype=float)
+    # numpy.roots wants the highest power first.
+    return np.roots(np.r_[-phi[::-1], 1.0])
+
+
+def is_stationary(phi, margin=0.0):
+    """Return True when every AR root lies outside the unit circle (+margin)."""
+    phi = np.asarray(phi, dtype=float)
+    if phi.size == 0 or not np.any(phi):
+        return True
+    return bool(np.all(np.abs(ar_roots(np.trim_zeros(phi, 'b'))) > 1.0 + margin))
+
+
+@dataclass(frozen=True)
+class AxisParams:
+    """AR(p) parameters of one axis, as in the paper's Table II.
+
+    Attributes
+    ----------
+    delta : float
+        Constant term (metres), ``delta = (1 - sum phi) * mean``.
+    phi : tuple of float
+        AR coefficients phi_1..phi_p; the order is ``len(phi)``.
+    sigma_w : float
+        Standard deviation of the white innovation noise (metres).
+    """
+
+    delta: float
+    phi: tuple
+    sigma_w: float
+
+    def __post_init__(self):
+        object.__setattr__(self, 'phi', tuple(float(v) for v in self.phi))
+        values = (self.delta, self.sigma_w) + self.phi
+        if not all(np.isfinite(v) for v in values):
+            raise ModelError(f'AR parameters must be finite, got {self}')
+        if len(self.phi) < 1:
+            raise ModelError('phi must hold at least one coefficient (p >= 1)')
+        if not self.sigma_w > 0:
+            raise ModelError(f'sigma_w must be > 0, got {self.sigma_w}')
+        if not is_stationary(self.phi):
+            roots = np.abs(ar_roots(self.phi))
+            raise ModelError(
+                f'phi={list(self.phi)} is not stationary: the smallest root '
+                f'modulus of 1 - sum phi_i z^i is {roots.min():.4f}, expected > 1')
+
+    @property
+    def order(self):
+        """Return the AR order p."""
+        return len(self.phi)
+
+    @property
+    def mean(self):
+        """Return the process mean ``delta / (1 - sum phi)`` (Eq. 3)."""
+        return self.delta / (1.0 - sum(self.phi))
+
+
+class ARErrorModel:
+    """Two-axis AR error process with exact stationary moments.
+
+    Parameters
+    ----------
+    north, east : AxisParams
+        Per-axis parameters; orders may differ (the shorter is zero-padded).
+    innovation_corr : float
+        Correlation of the north and east innovations (0 in the paper).
+    """
+
+    def __init__(self, north, east, innovation_corr=0.0):
+        if not -1.0 < innovation_corr < 1.0:
+            raise ModelError(
+                f'innovation_corr must be in (-1, 1), got {innovation_corr}')
+        self.axes = (north, east)
+        p = max(north.order, east.order)
+        self.order = p
+        self.phi = np.zeros((2, p))
+        for a, ax in enumerate(self.axes):
+            self.phi[a, :ax.order] = ax.phi
+        self.mean = np.array([ax.mean for ax in self.axes])
+        sw = np.array([ax.sigma_w for ax in self.axes])
+        self.innovation_cov = np.array(
+            [[sw[0] ** 2, innovation_corr * sw[0] * sw[1]],
+             [innovation_corr * sw[0] * sw[1], sw[1] ** 2]])
+        self._innovation_chol = np.linalg.cholesky(self.innovation_cov)
+        self.transition = self._companion()
+        noise_map = np.zeros((2 * p, 2))
+        noise_map[0, 0] = 1.0
+        noise_map[p, 1] = 1.0
+        self.state_cov = linalg.solve_discrete_lyapunov(
+            self.transition, noise_map @ self.innovation_cov @ noise_map.T)
+        self.state_cov = 0.5 * (self.state_cov + self.state_cov.T)
+        self._state_chol = np.linalg.cholesky(self.state_cov)
+
+    def _companion(self):
+        p = self.order
+        a = np.zeros((2 * p, 2 * p))
+        for ax in range(2):
+            o = ax * p
+            a[o, o:o + p] = self.phi[ax]
+            a[o + 1:o + p, o:o + p - 1] += np.eye(p - 1)
+        return a
+
+    @property
+    def stationary_cov(self):
+        """Return the 2x2 (north, east) covariance of the error about its mean."""
+        i = [0, self.order]
+        return self.state_cov[np.ix_(i, i)].copy()
+
+    @property
+    def stationary_sd(self):
+        """Return the stationary standard deviation per axis (north, east)."""
+        return np.sqrt(np.diag(self.stationary_cov))
+
+    def autocovariance(self, max_lag):
+        """Return the exact autocovariance, shape (max_lag + 1, 2, 2).
+
+        Entry ``[k, i, j]`` is ``Cov(e_i(t + k), e_j(t))`` with axes ordered
+        (north, east).
+        """
+        i = [0, self.order]
+        out = np.empty((max_lag + 1, 2, 2))
+        cov = self.state_cov
+        for k in range(max_lag + 1):
+            out[k] = cov[np.ix_(i, i)]
+            cov = self.transition @ cov
+        return out
+
+    def autocorrelation(self, max_lag):
+        """Return the exact autocorrelation per axis, shape (max_lag + 1, 2)."""
+        acv = self.autocovariance(max_lag)
+        diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
+        return diag / diag[0]
+
+    # --- simulation -----------------------------------------------------
+
+    def initial_state(self, keys, index):
+        """Draw the state at model step ``index`` from the stationary law.
+
+        Returns deviations from the mean, shape (n, 2, p): ``[:, a, 0]`` is
+        the current deviation of axis ``a``, ``[:, a, i]`` the one i steps ago.
+        """
+        keys = np.asarray(keys, dtype=np.uint64)
+        p = self.order
+        z = np.empty((keys.size, 2 * p))
+        for j in range(p):
+            z[:, 2 * j:2 * j + 2] = streams.normal_pairs(
+                keys, streams.DOMAIN_INIT, index * 16 + j)
+        x = z @ self._state_chol.T
+        return x.reshape(keys.size, 2, p)
+
+    def advance(self, state, keys, index):
+        """Advance ``state`` in place to model step ``index``; return errors.
+
+        The innovation of step ``index`` is drawn from each key's stream at
+        that index. Returns the errors (mean included), shape (n, 2).
+        """
+        z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
+        return self.advance_with(state, z)
+
+    def advance_with(self, state, z):
+        """Advance ``state`` in place with standard-normal draws ``z`` (n, 2)."""
+        new = np.einsum('ap,nap->na', self.phi, state) + \
+            z @ self._innovation_chol.T
+        state[:, :, 1:] = state[:, :, :-1]
+        state[:, :, 0] = new
+        return new + self.mean
+
+    def errors(self, state):
+        """Return the current errors (mean included) of ``state``, (n, 2)."""
+        return state[:, :, 0] + self.mean
+
+    def simulate(self, keys, n_steps, start=0):
+        """Simulate errors at model steps ``start .. start + n_steps - 1``.
+
+        The state at ``start`` is drawn from the stationary law. Returns shape
+        (n_steps, n_agents, 2) in metres, axes (north, east).
+        """
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        out = np.empty((n_steps, keys.size, 2))
+        if n_steps == 0:
+            return out
+        state = self.initial_state(keys, start)
+        out[0] = self.errors(state)
+        block = 4096
+        for b0 in range(1, n_steps, block):
+            count = min(block, n_steps - b0)
+            z = streams.normal_block(keys, streams.DOMAIN_STEP, start + b0, count)
+            for j in range(count):
+                out[b0 + j] = self.advance_with(state, z[j])
+        return out

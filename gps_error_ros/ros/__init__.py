@@ -1,0 +1,1 @@
+"""ROS 2 layer: parameter tables, message conversions and the nodes."""

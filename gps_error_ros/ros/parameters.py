@@ -1,0 +1,146 @@
+"""Parameter tables: every node parameter declared once, with a descriptor."""
+
+from dataclasses import dataclass
+import math
+
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange,
+                                ParameterDescriptor, ParameterType)
+from rclpy.exceptions import (InvalidParameterTypeException,
+                              InvalidParameterValueException,
+                              ParameterException)
+from rclpy.parameter import Parameter
+
+INT64_MAX = 2 ** 63 - 1
+
+
+class ConfigError(ValueError):
+    """A parameter value that stops the node at start-up."""
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One parameter: name, default, type, description and bounds."""
+
+    name: str
+    default: object
+    type: int
+    description: str
+    read_only: bool = True
+    low: float = None
+    high: float = None
+    choices: tuple = ()
+
+    def descriptor(self):
+        """Return the rcl_interfaces ParameterDescriptor of this parameter."""
+        extra = ''
+        if self.choices:
+            extra = f' One of: {", ".join(self.choices)}.'
+        d = ParameterDescriptor(
+            name=self.name, type=self.type,
+            description=self.description + extra, read_only=self.read_only)
+        if self.low is not None and self.type == ParameterType.PARAMETER_DOUBLE:
+            d.floating_point_range = [FloatingPointRange(
+                from_value=float(self.low), to_value=float(self.high), step=0.0)]
+        if self.low is not None and self.type == ParameterType.PARAMETER_INTEGER:
+            d.integer_range = [IntegerRange(
+                from_value=int(self.low), to_value=int(self.high), step=0)]
+        return d
+
+    def check(self, value):
+        """Return None if ``value`` is acceptable, else the reason."""
+        if self.choices and value not in self.choices:
+            return f'expected one of {list(self.choices)}'
+        if self.low is not None and isinstance(value, (int, float)):
+            if not (math.isfinite(value) and self.low <= value <= self.high):
+                return f'expected a value in [{self.low}, {self.high}]'
+        if self.type == ParameterType.PARAMETER_STRING and self.name in (
+                'frame_id', 'profile') and not str(value).strip():
+            return 'expected a non-empty string'
+        return None
+
+
+_TYPE_NAMES = {
+    ParameterType.PARAMETER_STRING: 'string',
+    ParameterType.PARAMETER_DOUBLE: 'double',
+    ParameterType.PARAMETER_INTEGER: 'integer',
+    ParameterType.PARAMETER_DOUBLE_ARRAY: 'double array',
+}
+
+ERROR_NODE_PARAMS = (
+    ParamSpec('profile', 'DS5', ParameterType.PARAMETER_STRING,
+              'Error-model profile: a built-in name (DS1, DS2, DS5, DS7 have '
+              'fits; case-insensitive) or the path of a profile YAML.'),
+    ParamSpec('input_type', 'pose', ParameterType.PARAMETER_STRING,
+              'Ground truth input: pose (geometry_msgs/PoseStamped on "pose"), '
+              'odometry (nav_msgs/Odometry on "odom"), navsatfix '
+              '(noise-free sensor_msgs/NavSatFix on "fix_truth").',
+              choices=('pose', 'odometry', 'navsatfix')),
+    ParamSpec('datum', None, ParameterType.PARAMETER_DOUBLE_ARRAY,
+              'WGS84 [lat_deg, lon_deg, alt_m] of the local map frame origin '
+              '(ENU metres); required for pose and odometry input. '
+              'alt may be omitted (0).'),
+    ParamSpec('seed', -1, ParameterType.PARAMETER_INTEGER,
+              'Seed of the error streams; the same seed gives the same errors. '
+              '-1: a random seed, logged at start-up.', low=-1, high=INT64_MAX),
+    ParamSpec('rate', 1.0, ParameterType.PARAMETER_DOUBLE,
+              'Fixes per second of the ROS clock. The AR model keeps its own '
+              '1 Hz grid: errors are held between model steps above 1 Hz and '
+              'sampled below it.', low=0.01, high=100.0),
+    ParamSpec('frame_id', 'gps', ParameterType.PARAMETER_STRING,
+              'header.frame_id of the published fixes (the antenna frame).',
+              read_only=False),
+    ParamSpec('max_pose_age', 1.0, ParameterType.PARAMETER_DOUBLE,
+              'Seconds past its stamp that the newest truth sample may be '
+              'held when no newer one arrives; older truth gives no fix.',
+              low=0.0, high=60.0),
+)
+
+
+def declare(node, specs):
+    """Declare ``specs`` on ``node`` and return {name: value}.
+
+    Raises
+    ------
+    ConfigError
+        Naming the parameter and the value, when an override has the wrong
+        type or is out of range.
+    """
+    values = {}
+    for spec in specs:
+        default = spec.default
+        if default is None:
+            default = Parameter.Type.DOUBLE_ARRAY \
+                if spec.type == ParameterType.PARAMETER_DOUBLE_ARRAY \
+                else Parameter.Type.STRING
+        try:
+            param = node.declare_parameter(spec.name, default, spec.descriptor())
+        except (InvalidParameterTypeException, InvalidParameterValueException,
+                ParameterException) as exc:
+            override = node.get_parameter_overrides().get(spec.name)
+            got = override.value if override is not None else '?'
+            raise ConfigError(
+                f'parameter {spec.name!r}: invalid value {got!r}: expected a '
+                f'{_TYPE_NAMES.get(spec.type, "value")}'
+                f'{_range_text(spec)} ({type(exc).__name__})') from None
+        value = param.value
+        if value is not None and spec.type == ParameterType.PARAMETER_DOUBLE_ARRAY:
+            value = [float(v) for v in value]
+        reason = spec.check(value) if value is not None else None
+        if reason:
+            raise ConfigError(f'parameter {spec.name!r}: invalid value '
+                              f'{value!r}: {reason}')
+        values[spec.name] = value
+    return values
+
+
+def _range_text(spec):
+    if spec.choices:
+        return f' (one of {list(spec.choices)})'
+    if spec.low is not None:
+        return f' in [{spec.low}, {spec.high}]'
+    return ''
+
+
+def spec_by_name(specs):
+    """Return {name: ParamSpec}."""
+    return {s.name: s for s in specs}

@@ -1,0 +1,33 @@
+from glob import glob
+import os
+
+from setuptools import find_packages, setup
+
+package_name = 'gps_error_ros'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages',
+            ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        (os.path.join('share', package_name, 'config', 'profiles'),
+            sorted(glob('config/profiles/*.yaml'))),
+    ],
+    install_requires=['setuptools', 'numpy', 'scipy', 'pyproj', 'PyYAML'],
+    extras_require={'report': ['matplotlib'], 'bags': ['rosbags']},
+    zip_safe=True,
+    maintainer='gps_error_ros maintainers',
+    maintainer_email='maintainers@gps-error-ros.invalid',
+    description='Smartphone GPS errors (AR(3), Rostami et al.) for ROS 2 simulation',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'gps_error_node = gps_error_ros.ros.error_node:main',
+            'gps_error_demo = gps_error_ros.ros.demo:main',
+        ],
+    },
+)
