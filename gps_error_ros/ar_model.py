@@ -1,4 +1,5 @@
-"""The paper's AR(p) position-error process (Eq. 2-3), vectorised over agents.
+"""
+The paper's AR(p) position-error process (Eq. 2-3), vectorised over agents.
 
 Each horizontal axis (north = latitude error, east = longitude error, metres)
 follows ``e(t) = delta + sum_i phi_i e(t-i) + w(t)`` on the model's grid. The
@@ -42,7 +43,8 @@ def is_stationary(phi, margin=0.0):
 
 @dataclass(frozen=True)
 class AxisParams:
-    """AR(p) parameters of one axis, as in the paper's Table II.
+    """
+    AR(p) parameters of one axis, as in the paper's Table II.
 
     Attributes
     ----------
@@ -52,6 +54,7 @@ class AxisParams:
         AR coefficients phi_1..phi_p; the order is ``len(phi)``.
     sigma_w : float
         Standard deviation of the white innovation noise (metres).
+
     """
 
     delta: float
@@ -85,7 +88,8 @@ class AxisParams:
 
 
 class ARErrorModel:
-    """Two-axis AR error process with exact stationary moments.
+    """
+    Two-axis AR error process with exact stationary moments.
 
     Parameters
     ----------
@@ -93,6 +97,7 @@ class ARErrorModel:
         Per-axis parameters; orders may differ (the shorter is zero-padded).
     innovation_corr : float
         Correlation of the north and east innovations (0 in the paper).
+
     """
 
     def __init__(self, north, east, innovation_corr=0.0):
@@ -141,7 +146,8 @@ class ARErrorModel:
         return np.sqrt(np.diag(self.stationary_cov))
 
     def autocovariance(self, max_lag):
-        """Return the exact autocovariance, shape (max_lag + 1, 2, 2).
+        """
+        Return the exact autocovariance, shape (max_lag + 1, 2, 2).
 
         Entry ``[k, i, j]`` is ``Cov(e_i(t + k), e_j(t))`` with axes ordered
         (north, east).
@@ -163,7 +169,8 @@ class ARErrorModel:
     # --- simulation -----------------------------------------------------
 
     def initial_state(self, keys, index):
-        """Draw the state at model step ``index`` from the stationary law.
+        """
+        Draw the state at model step ``index`` from the stationary law.
 
         Returns deviations from the mean, shape (n, 2, p): ``[:, a, 0]`` is
         the current deviation of axis ``a``, ``[:, a, i]`` the one i steps ago.
@@ -178,7 +185,8 @@ class ARErrorModel:
         return x.reshape(keys.size, 2, p)
 
     def advance(self, state, keys, index):
-        """Advance ``state`` in place to model step ``index``; return errors.
+        """
+        Advance ``state`` in place to model step ``index``; return errors.
 
         The innovation of step ``index`` is drawn from each key's stream at
         that index. Returns the errors (mean included), shape (n, 2).
@@ -195,11 +203,12 @@ class ARErrorModel:
         return new + self.mean
 
     def errors(self, state):
-        """Return the current errors (mean included) of ``state``, (n, 2)."""
+        """Return the current errors of ``state`` (mean included), (n, 2)."""
         return state[:, :, 0] + self.mean
 
     def simulate(self, keys, n_steps, start=0):
-        """Simulate errors at model steps ``start .. start + n_steps - 1``.
+        """
+        Simulate errors at model steps ``start .. start + n_steps - 1``.
 
         The state at ``start`` is drawn from the stationary law. Returns shape
         (n_steps, n_agents, 2) in metres, axes (north, east).

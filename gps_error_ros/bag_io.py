@@ -13,7 +13,8 @@ class BagError(ValueError):
 
 
 def read_messages(path, topics):
-    """Return {topic: [(bag_timestamp_ns, message), ...]} for ``topics``.
+    """
+    Return {topic: [(bag_timestamp_ns, message), ...]} for ``topics``.
 
     Messages are deserialised with the Jazzy type store. Raises
     :class:`BagError` naming the topics the bag has when one is missing.

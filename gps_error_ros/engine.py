@@ -1,4 +1,5 @@
-"""The fix engine: model steps from the clock, truth history, fixes out.
+"""
+The fix engine: model steps from the clock, truth history, fixes out.
 
 This is everything the error node computes, without ROS. The node feeds it
 truth positions and clock readings and publishes what it returns.
@@ -28,6 +29,7 @@ Timing rules
 * The clock going backwards resets the engine: pending steps and truth
   history are discarded and the model restarts from its stationary law at the
   new instant.
+
 """
 
 from collections import deque
@@ -89,7 +91,8 @@ class _TruthRing:
         self.count[:] = 0
 
     def interpolate(self, rows, t_ns):
-        """Return truth at ``t_ns`` for ``rows`` (each must have a sample >= t).
+        """
+        Return truth at ``t_ns`` for ``rows`` (each must have a sample >= t).
 
         Returns (coords (m, 3), ok (m,)): ``ok`` is False where no sample at
         or before ``t_ns`` is held.
@@ -111,7 +114,8 @@ class _TruthRing:
 
 
 class FixEngine:
-    """Turn truth samples and clock readings into noisy fixes.
+    """
+    Turn truth samples and clock readings into noisy fixes.
 
     Parameters
     ----------
@@ -130,6 +134,7 @@ class FixEngine:
     max_pending : int
         Output steps that may wait for truth at once; older ones are
         resolved (held or skipped) early when more arrive.
+
     """
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
@@ -168,7 +173,8 @@ class FixEngine:
         return True
 
     def on_clock(self, now_ns):
-        """Advance to clock time ``now_ns``; return the fixes now ready.
+        """
+        Advance to clock time ``now_ns``; return the fixes now ready.
 
         Returns a list of :class:`Fix`, oldest first. A clock reading of 0
         (simulated time not yet received) is ignored.

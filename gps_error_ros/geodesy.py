@@ -1,4 +1,5 @@
-"""WGS84 geodesy: local east-north-up frames and metre offsets, via pyproj.
+"""
+WGS84 geodesy: local east-north-up frames and metre offsets, via pyproj.
 
 Two operations are needed:
 
@@ -37,7 +38,8 @@ def check_latlon(lat, lon, what='position'):
 
 
 class LocalTangentFrame:
-    """East-north-up metres about a WGS84 datum ``(lat, lon, alt)``.
+    """
+    East-north-up metres about a WGS84 datum ``(lat, lon, alt)``.
 
     The datum's height is ellipsoidal; ``up`` is along the ellipsoid normal
     at the datum (so far from the datum the frame's up departs from the
@@ -62,17 +64,26 @@ class LocalTangentFrame:
 
     def to_geodetic(self, east, north, up=0.0):
         """Return (lat, lon, alt) of local ENU coordinates (arrays or floats)."""
-        lat, lon, alt = self._to_enu.transform(
+        east, north, up = _broadcast(east, north, up)
+        return self._to_enu.transform(
             east, north, up, direction='INVERSE', errcheck=True)
-        return lat, lon, alt
 
     def to_enu(self, lat, lon, alt=0.0):
         """Return (east, north, up) of geodetic coordinates."""
+        lat, lon, alt = _broadcast(lat, lon, alt)
         return self._to_enu.transform(lat, lon, alt, errcheck=True)
 
 
+def _broadcast(*values):
+    """Return floats unchanged, or arrays broadcast to one shape."""
+    if all(np.ndim(v) == 0 for v in values):
+        return tuple(float(v) for v in values)
+    return tuple(np.array(v, dtype=float) for v in np.broadcast_arrays(*values))
+
+
 def offset(lat, lon, north, east):
-    """Return (lat, lon) of the points ``north``/``east`` metres from (lat, lon).
+    """
+    Return (lat, lon) of the points ``north``/``east`` metres from (lat, lon).
 
     Vectorised over numpy arrays.
     """
@@ -87,7 +98,8 @@ def offset(lat, lon, north, east):
 
 
 def difference(lat, lon, lat_ref, lon_ref):
-    """Return (north, east) metres from (lat_ref, lon_ref) to (lat, lon).
+    """
+    Return (north, east) metres from (lat_ref, lon_ref) to (lat, lon).
 
     The inverse of :func:`offset`; vectorised over numpy arrays.
     """

@@ -1,4 +1,5 @@
-"""Error-model profiles: the YAML schema (version 1), loading and lookup.
+"""
+Error-model profiles: the YAML schema (version 1), loading and lookup.
 
 A profile names a data set and carries its AR fit per axis::
 
@@ -67,12 +68,14 @@ class Profile:
         return self.axes is not None
 
     def model(self):
-        """Return the :class:`ARErrorModel` of this profile.
+        """
+        Return the :class:`ARErrorModel` of this profile.
 
         Raises
         ------
         ProfileNotFittedError
             For a placeholder profile.
+
         """
         if not self.fitted:
             fitted = [p.name for p in (load_profile(n) for n in builtin_names())
@@ -86,7 +89,8 @@ class Profile:
         return ARErrorModel(self.axes['north'], self.axes['east'])
 
     def vertical_variance(self, model=None):
-        """Return the altitude variance (m^2) reported in fixes.
+        """
+        Return the altitude variance (m^2) reported in fixes.
 
         The paper has no vertical model, so the published altitude is the
         truth's. A profile may set ``vertical_sd``; otherwise it is twice the
@@ -206,7 +210,8 @@ def load_profile_file(path):
 
 
 def profile_dirs():
-    """Return the directories searched for built-in profiles, in order.
+    """
+    Return the directories searched for built-in profiles, in order.
 
     1. ``config/profiles`` beside the package source (editable installs and
        running from a checkout);

@@ -1,4 +1,5 @@
-"""Error series from recorded fixes and truth, their statistics and figures.
+"""
+Error series from recorded fixes and truth, their statistics and figures.
 
 Used by the demo to analyse the bag it recorded: the errors are measured
 independently of the node, from the published fixes and the recorded truth.
@@ -14,7 +15,8 @@ NS = 1_000_000_000
 
 
 def errors_from_bag(bag, datum, pose_topic='/pose', fix_topic='/fix'):
-    """Return fix errors (north, east metres) measured against recorded poses.
+    """
+    Return fix errors (north, east metres) measured against recorded poses.
 
     The truth is the recorded pose stream (ENU metres about ``datum``),
     interpolated linearly to each fix's header stamp.

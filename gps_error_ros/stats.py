@@ -4,7 +4,8 @@ import numpy as np
 
 
 def autocovariance(x, max_lag):
-    """Return the biased sample autocovariance of ``x`` at lags 0..max_lag.
+    """
+    Return the biased sample autocovariance of ``x`` at lags 0..max_lag.
 
     The divisor is ``n`` at every lag (the estimator whose autocovariance
     matrices are positive semi-definite, as Yule-Walker needs).
@@ -26,7 +27,8 @@ def autocorrelation(x, max_lag):
 
 
 def bartlett_acf_se(rho, lag, n):
-    """Return Bartlett's standard error of the sample autocorrelation.
+    """
+    Return Bartlett's standard error of the sample autocorrelation.
 
     Parameters
     ----------
@@ -42,6 +44,7 @@ def bartlett_acf_se(rho, lag, n):
     -----
     Bartlett (1946): ``n Var(r_k) = sum_j (rho_{j+k}^2 + rho_{j-k} rho_{j+k}
     - 4 rho_k rho_j rho_{j+k} + 2 rho_j^2 rho_k^2)`` over all integers j.
+
     """
     rho = np.asarray(rho, dtype=float)
     L = rho.size - 1
@@ -59,7 +62,8 @@ def bartlett_acf_se(rho, lag, n):
 
 
 def variance_se(rho, n, variance):
-    """Return the large-sample standard error of the sample variance.
+    """
+    Return the large-sample standard error of the sample variance.
 
     For a Gaussian linear process, ``n Var(s^2) = 2 gamma_0^2 sum_j rho_j^2``
     over all integers j.

@@ -1,4 +1,5 @@
-"""Counter-based random streams: noise as a pure function of (key, domain, index).
+"""
+Counter-based random streams: noise as a pure function of (key, domain, index).
 
 Every random number the error model uses is addressed by an agent key, a
 domain (what the number is for) and an index (the model step, or a slot of the
@@ -39,7 +40,8 @@ DOMAIN_INIT = 1
 
 
 def agent_key(seed, name=''):
-    """Return the 64-bit stream key of an agent.
+    """
+    Return the 64-bit stream key of an agent.
 
     Parameters
     ----------
@@ -53,6 +55,7 @@ def agent_key(seed, name=''):
     numpy.uint64
         BLAKE2b of the seed and the name: stable across processes, Python
         runs and platforms (unlike the salted built-in ``hash``).
+
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise TypeError(f'seed must be an integer, got {seed!r}')
@@ -87,11 +90,13 @@ def _position(domain, index):
 
 
 def uniform_pairs(keys, domain, index):
-    """Return two uniforms in (0, 1) per key at one position of each stream.
+    """
+    Return two uniforms in (0, 1) per key at one position of each stream.
 
     Parameters
     ----------
     keys : array of uint64, shape (n,)
+        The agents' stream keys (:func:`agent_key`).
     domain : int
         What the draw is for (``DOMAIN_STEP``, ``DOMAIN_INIT``, ...).
     index : int or array of int broadcastable to (n,)
@@ -100,6 +105,7 @@ def uniform_pairs(keys, domain, index):
     Returns
     -------
     numpy.ndarray, shape (n, 2)
+
     """
     keys = np.asarray(keys, dtype=np.uint64)
     with np.errstate(over='ignore'):
@@ -111,7 +117,8 @@ def uniform_pairs(keys, domain, index):
 
 
 def normal_pairs(keys, domain, index):
-    """Return two independent standard normals per key (Box-Muller).
+    """
+    Return two independent standard normals per key (Box-Muller).
 
     Same arguments as :func:`uniform_pairs`; returns shape (n, 2).
     """
@@ -125,7 +132,8 @@ def normal_pairs(keys, domain, index):
 
 
 def normal_block(keys, domain, start, count):
-    """Return standard normal pairs for ``count`` consecutive indices.
+    """
+    Return standard normal pairs for ``count`` consecutive indices.
 
     Returns shape (count, n, 2): entry ``[j]`` equals
     ``normal_pairs(keys, domain, start + j)``.

@@ -1,4 +1,5 @@
-"""A simulated pedestrian walking Manhattan's avenues, for demos and tests.
+"""
+A simulated pedestrian walking Manhattan's avenues, for demos and tests.
 
 The walk is a random route on an idealised Manhattan grid: avenues run along
 the grid's "uptown" bearing (29 degrees east of true north), streets cross
@@ -25,7 +26,8 @@ STREET_BLOCK_M = 260.0
 
 @dataclass(frozen=True)
 class Walk:
-    """A piecewise-linear walk: positions at the breakpoint times.
+    """
+    A piecewise-linear walk: positions at the breakpoint times.
 
     Attributes
     ----------
@@ -34,6 +36,7 @@ class Walk:
     east, north : numpy.ndarray
         Positions (m) at those times; between them the walker moves in a
         straight line at constant speed (or stands, when equal).
+
     """
 
     t: np.ndarray
@@ -50,7 +53,7 @@ class Walk:
         return (np.interp(t, self.t, self.east), np.interp(t, self.t, self.north))
 
     def speed(self, t):
-        """Return the speed (m/s) at times ``t``."""
+        """Return the walking speed in m/s at times ``t``."""
         seg = np.clip(np.searchsorted(self.t, t, side='right') - 1, 0,
                       len(self.t) - 2)
         dt = self.t[seg + 1] - self.t[seg]
@@ -62,7 +65,8 @@ class Walk:
 def manhattan_walk(duration, rng, speed=1.4, avenues=(0, 3), streets=(-4, 16),
                    turn_probability=0.25, red_probability=0.5,
                    red_wait=(5.0, 45.0)):
-    """Return a random :class:`Walk` of at least ``duration`` seconds.
+    """
+    Return a random :class:`Walk` of at least ``duration`` seconds.
 
     Parameters
     ----------
@@ -80,6 +84,7 @@ def manhattan_walk(duration, rng, speed=1.4, avenues=(0, 3), streets=(-4, 16),
         Chance of waiting at a corner for the light.
     red_wait : tuple of float
         Uniform range of a wait (s).
+
     """
     if not duration > 0:
         raise ValueError(f'duration must be > 0, got {duration}')

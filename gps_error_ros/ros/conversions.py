@@ -23,7 +23,8 @@ def _finite(*values):
 
 
 def pose_position(pose):
-    """Return (east, north, up) of a geometry_msgs/Pose, or raise ValueError.
+    """
+    Return (east, north, up) of a geometry_msgs/Pose, or raise ValueError.
 
     The orientation is not used, but a non-finite or zero-length quaternion
     marks a corrupt message and is refused like a non-finite position.
@@ -51,7 +52,8 @@ def navsatfix_position(msg):
 
 
 def enu_covariance(cov_ne, vertical_var):
-    """Return the row-major ENU 3x3 covariance (9 floats) and its type.
+    """
+    Return the row-major ENU 3x3 covariance (9 floats) and its type.
 
     ``cov_ne`` is the 2x2 (north, east) horizontal covariance in m^2.
     """

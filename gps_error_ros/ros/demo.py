@@ -1,4 +1,5 @@
-"""``make demo``: a simulated Manhattan pedestrian through the error node.
+"""
+``make demo``: a simulated Manhattan pedestrian through the error node.
 
 A driver node publishes ``/clock`` and the walker's ground-truth pose on
 ``/pose``; the error node (a separate process, profile DS5, ``use_sim_time``)

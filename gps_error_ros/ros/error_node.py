@@ -1,4 +1,5 @@
-"""``gps_error_node``: ground-truth poses in, smartphone-like NavSatFix out.
+"""
+``gps_error_node``: ground-truth poses in, smartphone-like NavSatFix out.
 
 Subscribes to the truth (``pose``, ``odom`` or ``fix_truth`` by
 ``input_type``), steps the profile's AR error model on the ROS clock and
@@ -16,7 +17,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import qos_profile_sensor_data, QoSProfile
+from rclpy.qos import (HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import NavSatFix
 
@@ -33,6 +34,10 @@ INPUT_TOPICS = {
     'navsatfix': ('fix_truth', NavSatFix),
 }
 WARN_PERIOD_S = 5.0
+# Sensor-data QoS (best effort, volatile) with a deeper history than the
+# stock profile's 5, so a burst of truth messages is buffered, not dropped.
+TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                       reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 class GpsErrorNode(Node):
@@ -65,8 +70,7 @@ class GpsErrorNode(Node):
             model.stationary_cov, self.profile.vertical_variance(model))
 
         topic, msg_type = INPUT_TOPICS[self.input_type]
-        self.create_subscription(msg_type, topic, self._on_truth,
-                                 qos_profile_sensor_data)
+        self.create_subscription(msg_type, topic, self._on_truth, TRUTH_QOS)
         self.pub = self.create_publisher(NavSatFix, 'fix', QoSProfile(depth=10))
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         self.add_on_set_parameters_callback(self._on_set_parameters)

@@ -97,13 +97,15 @@ ERROR_NODE_PARAMS = (
 
 
 def declare(node, specs):
-    """Declare ``specs`` on ``node`` and return {name: value}.
+    """
+    Declare ``specs`` on ``node`` and return {name: value}.
 
     Raises
     ------
     ConfigError
         Naming the parameter and the value, when an override has the wrong
         type or is out of range.
+
     """
     values = {}
     for spec in specs:
@@ -115,13 +117,15 @@ def declare(node, specs):
         try:
             param = node.declare_parameter(spec.name, default, spec.descriptor())
         except (InvalidParameterTypeException, InvalidParameterValueException,
-                ParameterException) as exc:
-            override = node.get_parameter_overrides().get(spec.name)
+                ParameterException):
+            # rclpy keeps the command-line/file values in _parameter_overrides
+            # (no public accessor in Jazzy); the value makes the message useful.
+            override = getattr(node, '_parameter_overrides', {}).get(spec.name)
             got = override.value if override is not None else '?'
             raise ConfigError(
                 f'parameter {spec.name!r}: invalid value {got!r}: expected a '
                 f'{_TYPE_NAMES.get(spec.type, "value")}'
-                f'{_range_text(spec)} ({type(exc).__name__})') from None
+                f'{_range_text(spec)}') from None
         value = param.value
         if value is not None and spec.type == ParameterType.PARAMETER_DOUBLE_ARRAY:
             value = [float(v) for v in value]

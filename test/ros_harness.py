@@ -1,0 +1,133 @@
+"""
+Start the real nodes as processes and talk to them over real topics.
+
+There is no launch_testing on PyPI: a subprocess per node and an rclpy test
+node in the test process do the same job.
+"""
+
+import itertools
+import os
+from pathlib import Path
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import rclpy
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock
+
+NS = 1_000_000_000
+_counter = itertools.count()
+
+
+def node_executable(name='gps_error_node'):
+    """Return the argv prefix that runs the installed console script."""
+    exe = Path(sys.executable).with_name(name)
+    if exe.exists():
+        return [str(exe)]
+    found = shutil.which(name)
+    if found:
+        return [found]
+    raise FileNotFoundError(f'{name} is not installed next to {sys.executable}')
+
+
+def unique_ns():
+    """Return a fresh namespace so tests in one domain do not meet."""
+    return f'/t{os.getpid()}_{next(_counter)}'
+
+
+class NodeProcess:
+    """A node running as a child process."""
+
+    def __init__(self, args, name='gps_error_node', env=None):
+        self.argv = node_executable(name) + list(args)
+        self.proc = subprocess.Popen(
+            self.argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+            text=True, env=env)
+        self._output = None
+
+    def stop(self, timeout=10):
+        """SIGINT the node; return (exit code, output)."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+        try:
+            out, _ = self.proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            out, _ = self.proc.communicate()
+        self._output = (self._output or '') + (out or '')
+        return self.proc.returncode, self._output
+
+    def wait_exit(self, timeout=20):
+        """Wait for the node to exit by itself; return (exit code, output)."""
+        out, _ = self.proc.communicate(timeout=timeout)
+        self._output = out
+        return self.proc.returncode, out
+
+
+class Peer:
+    """An in-process rclpy node that drives /clock and truth, and collects."""
+
+    def __init__(self, name='test_peer'):
+        self.node = Node(name)
+        self.clock_pub = self.node.create_publisher(
+            Clock, '/clock', QoSProfile(depth=100))
+        self.received = {}
+
+    def publisher(self, msg_type, topic):
+        """Return a reliable publisher on ``topic``."""
+        return self.node.create_publisher(msg_type, topic, QoSProfile(depth=100))
+
+    def collect(self, msg_type, topic):
+        """Subscribe to ``topic`` and keep every message in a list."""
+        box = self.received.setdefault(topic, [])
+        self.node.create_subscription(
+            msg_type, topic, box.append, QoSProfile(depth=1000))
+        return box
+
+    def spin_for(self, seconds):
+        """Process callbacks for ``seconds`` of wall time."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+
+    def spin_until(self, predicate, timeout=10.0):
+        """Process callbacks until ``predicate()``; return whether it held."""
+        end = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > end:
+                return False
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+        return True
+
+    def wait_connected(self, pub, sub_topic, proc, timeout=20.0):
+        """Wait until the node subscribes to ``pub`` and publishes ``sub_topic``."""
+        def ready():
+            if proc.proc.poll() is not None:
+                raise RuntimeError(f'node exited early: {proc.wait_exit()[1]}')
+            return (pub.get_subscription_count() > 0
+                    and self.node.count_publishers(sub_topic) > 0)
+        assert self.spin_until(ready, timeout), 'node did not connect'
+        self.spin_for(0.3)
+
+    def set_clock(self, ns):
+        """Publish /clock = ``ns`` nanoseconds."""
+        self.clock_pub.publish(Clock(clock=stamp(ns)))
+
+    def destroy(self):
+        """Destroy the rclpy node."""
+        self.node.destroy_node()
+
+
+def stamp(ns):
+    """Return builtin_interfaces/Time for integer nanoseconds."""
+    from builtin_interfaces.msg import Time
+    return Time(sec=int(ns // NS), nanosec=int(ns % NS))
+
+
+def stamp_ns(t):
+    """Return integer nanoseconds of builtin_interfaces/Time."""
+    return t.sec * NS + t.nanosec
