@@ -28,6 +28,7 @@ setup(
         'console_scripts': [
             'gps_error_node = gps_error_ros.ros.error_node:main',
             'gps_error_demo = gps_error_ros.ros.demo:main',
+            'gps_error = gps_error_ros.cli:main',
         ],
     },
 )

@@ -83,9 +83,9 @@ class Profile:
             raise ProfileNotFittedError(
                 f'profile {self.name} ({self.path}) has no published fit: '
                 f'the reference paper gives AR parameters only for '
-                f'{", ".join(fitted)}. Select one of those, or pass the path '
-                f'of a profile YAML fitted to your own recording (schema in '
-                f'README.md)')
+                f'{", ".join(fitted)}. Select one of those, or calibrate a '
+                f'profile from a recording of your own (`gps_error calibrate '
+                f'TRACE.csv -o PROFILE.yaml`) and pass its path')
         return ARErrorModel(self.axes['north'], self.axes['east'])
 
     def vertical_variance(self, model=None):

@@ -1,4 +1,5 @@
-"""Profiles are found, and the node runs, in every install mode.
+"""
+Profiles are found, and the node runs, in every install mode.
 
 Editable (`pip install -e .`, what `make` does), `pip install .` (here into a
 separate --prefix) and colcon (`colcon build` + `install/setup.bash`, as in a
