@@ -29,6 +29,7 @@ setup(
             'gps_error_node = gps_error_ros.ros.error_node:main',
             'gps_error_demo = gps_error_ros.ros.demo:main',
             'gps_error = gps_error_ros.cli:main',
+            'gps_calibration_node = gps_error_ros.ros.calibration_node:main',
         ],
     },
 )

@@ -1,17 +1,39 @@
 """
 ``gps_error``: the command-line tools that need no ROS.
 
-``gps_error calibrate INPUT -o PROFILE.yaml`` fits a profile from a trace CSV.
+``gps_error calibrate INPUT -o PROFILE.yaml`` fits a profile from a trace CSV
+or a rosbag2.
 """
 
 import argparse
 from pathlib import Path
 import sys
 
+from .bag_io import BagError
 from .calibration import calibrate, CalibrationError, DEFAULT_MAX_ORDER, \
     write_profile
+from .inputs import load_trace, parse_datum
+from .pairing import PairingError
 from .profiles import load_profile_file, ProfileError
-from .trace_io import read_trace_csv, TraceError
+from .trace_io import TraceError
+
+ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
+          ValueError)
+
+
+def _add_input_options(p):
+    p.add_argument('--fix-topic', default='/fix',
+                   help='bag input: topic of the measured sensor_msgs/NavSatFix '
+                        '(default /fix)')
+    p.add_argument('--truth-topic', default='/pose',
+                   help='bag input: ground-truth topic, PoseStamped, Odometry or '
+                        'NavSatFix, detected from the bag (default /pose)')
+    p.add_argument('--datum', default=None,
+                   help='bag input with pose/odometry truth: LAT,LON[,ALT] of '
+                        'the truth frame\'s origin')
+    p.add_argument('--max-truth-gap', type=float, default=None,
+                   help='bag input: longest truth interval (s) bridged by '
+                        'interpolation (default 3 x the median, >= 1.5 s)')
 
 
 def _parser():
@@ -24,8 +46,10 @@ def _parser():
         description='Fit an AR profile (schema 1, with a fit section) to the '
                     'errors of a measured trace against its ground truth. '
                     'INPUT is a trace CSV (columns t, lat, lon, truth_lat, '
-                    'truth_lon; see shared/data/README.md).')
-    c.add_argument('input', help='trace CSV')
+                    'truth_lon; see shared/data/README.md) or a rosbag2 '
+                    '(MCAP or SQLite3) with fixes and truth.')
+    c.add_argument('input', help='trace CSV or rosbag2 directory')
+    _add_input_options(c)
     c.add_argument('-o', '--output', required=True, help='profile YAML to write')
     c.add_argument('--order', type=int, default=None,
                    help='fix the AR order (default: chosen per axis by the PACF)')
@@ -39,12 +63,10 @@ def _parser():
 
 def cmd_calibrate(args):
     """Run ``gps_error calibrate``; return the exit code."""
-    path = Path(args.input)
-    if path.is_dir() or path.suffix.lower() in ('.mcap', '.db3'):
-        print(f'gps_error calibrate: {path}: rosbag2 input is not supported '
-              f'yet; expected a trace CSV', file=sys.stderr)
-        return 2
-    trace = read_trace_csv(path)
+    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
+                              parse_datum(args.datum), args.max_truth_gap)
+    for line in notes:
+        print(line)
     result = calibrate(trace, order=args.order, max_order=args.max_order)
     out = Path(args.output)
     profile = result.profile_dict(args.name or out.stem)
@@ -67,7 +89,7 @@ def main(argv=None):
     args = _parser().parse_args(argv)
     try:
         return {'calibrate': cmd_calibrate}[args.command](args)
-    except (TraceError, CalibrationError, ProfileError) as exc:
+    except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)
         return 2
 

@@ -148,3 +148,28 @@ def _range_text(spec):
 def spec_by_name(specs):
     """Return {name: ParamSpec}."""
     return {s.name: s for s in specs}
+
+
+CALIBRATION_NODE_PARAMS = (
+    ParamSpec('input_type', 'pose', ParameterType.PARAMETER_STRING,
+              'Ground truth input: pose (PoseStamped on "pose"), odometry '
+              '(Odometry on "odom"), navsatfix (NavSatFix on "fix_truth"). '
+              'Measured fixes come on "fix".',
+              choices=('pose', 'odometry', 'navsatfix')),
+    ParamSpec('datum', None, ParameterType.PARAMETER_DOUBLE_ARRAY,
+              'WGS84 [lat_deg, lon_deg, alt_m] of the truth frame origin; '
+              'required for pose and odometry input.'),
+    ParamSpec('output', 'calibrated_profile.yaml', ParameterType.PARAMETER_STRING,
+              'Profile YAML written on ~/calibrate and at shutdown. Beside it: '
+              '<stem>.trace.csv (paired trace), <stem>.fixes.csv and '
+              '<stem>.truth.csv (everything received).'),
+    ParamSpec('name', '', ParameterType.PARAMETER_STRING,
+              'Profile name (default: the output file stem).'),
+    ParamSpec('order', 0, ParameterType.PARAMETER_INTEGER,
+              'AR order; 0 lets the PACF choose per axis.', low=0, high=50),
+    ParamSpec('max_order', 10, ParameterType.PARAMETER_INTEGER,
+              'Largest order the PACF may choose.', low=1, high=50),
+    ParamSpec('max_truth_gap', 0.0, ParameterType.PARAMETER_DOUBLE,
+              'Longest truth interval (s) bridged by interpolation; 0: three '
+              'times the median interval, at least 1.5 s.', low=0.0, high=3600.0),
+)

@@ -1,0 +1,209 @@
+"""
+``gps_calibration_node``: fit a profile from live or replayed topics.
+
+Subscribes to measured fixes (``fix``) and ground truth (``pose``, ``odom``
+or ``fix_truth`` by ``input_type``), keeps everything it receives, and on the
+``~/calibrate`` service (``std_srvs/Trigger``) and at shutdown (Ctrl-C,
+SIGTERM) pairs, fits and writes the profile. The raw data are written beside
+the profile at every fit and at shutdown, so nothing received is lost even
+when the fit is refused.
+"""
+
+import csv
+import math
+from pathlib import Path
+
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+from std_srvs.srv import Trigger
+
+from .. import calibration
+from ..geodesy import GeodesyError, LocalTangentFrame
+from ..pairing import pair, PairingError
+from . import conversions
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from .error_node import WARN_PERIOD_S
+from .parameters import CALIBRATION_NODE_PARAMS, ConfigError, declare
+
+# Best effort (so sensor drivers' best-effort publishers match) with a deep
+# history: a recording replayed fast must not overwrite what is not yet read.
+INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
+                       reliability=ReliabilityPolicy.BEST_EFFORT)
+TRUTH_TOPICS = {'pose': ('pose', PoseStamped), 'odometry': ('odom', Odometry),
+                'navsatfix': ('fix_truth', NavSatFix)}
+
+
+class GpsCalibrationNode(Node):
+    """The calibration node (see the module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__('gps_calibration_node', **kwargs)
+        cfg = declare(self, CALIBRATION_NODE_PARAMS)
+        self.cfg = cfg
+        self.output = Path(cfg['output'])
+        if not self.output.parent.exists():
+            raise ConfigError(f'parameter \'output\': invalid value '
+                              f'{cfg["output"]!r}: directory '
+                              f'{self.output.parent} does not exist')
+        self.frame = None
+        if cfg['input_type'] != 'navsatfix':
+            datum = cfg['datum']
+            if not datum or len(datum) not in (2, 3):
+                raise ConfigError(
+                    f'parameter \'datum\' is required for input_type '
+                    f'{cfg["input_type"]!r}: expected [lat_deg, lon_deg, alt_m], '
+                    f'got {datum!r}')
+            try:
+                self.frame = LocalTangentFrame(*datum)
+            except GeodesyError as exc:
+                raise ConfigError(f'parameter \'datum\': invalid value '
+                                  f'{datum!r}: {exc}') from None
+        self.fixes = []      # (t, lat, lon, status)
+        self.truth = []      # (t, lat, lon)
+        self.skipped = {'no_fix': 0, 'non_finite': 0, 'out_of_order': 0}
+        topic, msg_type = TRUTH_TOPICS[cfg['input_type']]
+        self.create_subscription(NavSatFix, 'fix', self._on_fix, INPUT_QOS)
+        self.create_subscription(msg_type, topic, self._on_truth, INPUT_QOS)
+        self.create_service(Trigger, '~/calibrate', self._on_calibrate)
+        self.get_logger().info(
+            f'calibrating from {self.resolve_topic_name("fix")} against '
+            f'{self.resolve_topic_name(topic)}; output {self.output}')
+
+    # --- inputs ----------------------------------------------------------
+
+    def _on_fix(self, msg):
+        t = conversions.stamp_ns(msg.header.stamp) / 1e9
+        if msg.status.status == NavSatStatus.STATUS_NO_FIX:
+            self.skipped['no_fix'] += 1
+            return
+        if not (math.isfinite(msg.latitude) and math.isfinite(msg.longitude)):
+            self.skipped['non_finite'] += 1
+            self.get_logger().warning('skipped a fix with non-finite values',
+                                      throttle_duration_sec=WARN_PERIOD_S)
+            return
+        if self.fixes and t <= self.fixes[-1][0]:
+            self.skipped['out_of_order'] += 1
+            self.get_logger().warning(
+                'skipped a fix stamped at or before the previous one',
+                throttle_duration_sec=WARN_PERIOD_S)
+            return
+        self.fixes.append((t, msg.latitude, msg.longitude, msg.status.status))
+
+    def _on_truth(self, msg):
+        t = conversions.stamp_ns(msg.header.stamp) / 1e9
+        try:
+            if self.frame is None:
+                lat, lon, _ = conversions.navsatfix_position(msg)
+            else:
+                pose = msg.pose if isinstance(msg, PoseStamped) else msg.pose.pose
+                e, n, u = conversions.pose_position(pose)
+                lat, lon, _ = self.frame.to_geodetic(e, n, u)
+        except ValueError as exc:
+            self.get_logger().warning(f'dropped a truth message: {exc}',
+                                      throttle_duration_sec=WARN_PERIOD_S)
+            return
+        if self.truth and t <= self.truth[-1][0]:
+            self.get_logger().warning(
+                'dropped a truth message stamped at or before the previous one',
+                throttle_duration_sec=WARN_PERIOD_S)
+            return
+        self.truth.append((t, lat, lon))
+
+    # --- fitting ---------------------------------------------------------
+
+    def _on_calibrate(self, request, response):
+        response.success, response.message = self.calibrate()
+        return response
+
+    def _sibling(self, suffix):
+        return self.output.with_name(self.output.stem + suffix)
+
+    def save_raw(self):
+        """Write everything received: <stem>.fixes.csv and <stem>.truth.csv."""
+        with open(self._sibling('.fixes.csv'), 'w', newline='') as f:
+            w = csv.writer(f)
+            w.writerow(['t', 'lat', 'lon', 'status'])
+            w.writerows((repr(t), repr(a), repr(o), s) for t, a, o, s in self.fixes)
+        with open(self._sibling('.truth.csv'), 'w', newline='') as f:
+            w = csv.writer(f)
+            w.writerow(['t', 'lat', 'lon'])
+            w.writerows((repr(t), repr(a), repr(o)) for t, a, o in self.truth)
+
+    def calibrate(self):
+        """Pair, fit and write; return (success, message)."""
+        self.save_raw()
+        skipped = ', '.join(f'{v} {k.replace("_", " ")}'
+                            for k, v in self.skipped.items() if v)
+        skipped = f'; skipped fixes: {skipped}' if skipped else ''
+        if not self.fixes or len(self.truth) < 2:
+            return False, (f'not enough data: {len(self.fixes)} fixes, '
+                           f'{len(self.truth)} truth messages{skipped}')
+        fx = np.array([f[:3] for f in self.fixes])
+        tr = np.array(self.truth)
+        gap = self.cfg['max_truth_gap'] or None
+        try:
+            trace, stats = pair(fx[:, 0], fx[:, 1], fx[:, 2], tr[:, 0], tr[:, 1],
+                                tr[:, 2], gap, 'received topics')
+        except PairingError as exc:
+            return False, f'{exc}{skipped}'
+        self._write_trace(trace, fx[0, 0])
+        try:
+            result = calibration.calibrate(
+                trace, order=self.cfg['order'] or None,
+                max_order=self.cfg['max_order'])
+        except calibration.CalibrationError as exc:
+            return False, f'{stats.describe()}{skipped}; fit refused: {exc}'
+        profile = result.profile_dict(
+            self.cfg['name'] or self.output.stem,
+            description='fitted by gps_calibration_node',
+            source=f'gps_calibration_node, {stats.paired} paired fixes')
+        calibration.write_profile(self.output, profile)
+        parts = []
+        for ax, fit in (('north', result.north), ('east', result.east)):
+            p = fit.params
+            parts.append(f'{ax} AR({p.order}) delta={p.delta:.4f} '
+                         f'phi={[round(v, 4) for v in p.phi]} '
+                         f'sigma_w={p.sigma_w:.4f}')
+        return True, (f'wrote {self.output}: {result.grid.n} samples in '
+                      f'{len(result.grid.segments)} segment(s); '
+                      + '; '.join(parts) + f' ({stats.describe()}{skipped})')
+
+    def _write_trace(self, trace, t0):
+        with open(self._sibling('.trace.csv'), 'w', newline='') as f:
+            w = csv.writer(f)
+            w.writerow(['t', 'lat', 'lon', 'truth_lat', 'truth_lon'])
+            for row in zip(trace.t, trace.lat, trace.lon, trace.truth_lat,
+                           trace.truth_lon):
+                w.writerow([repr(float(v)) for v in row])
+
+
+def main(args=None):
+    """Run the calibration node; fit and write at shutdown."""
+    rclpy.init(args=args)
+    node = None
+    logger = rclpy.logging.get_logger('gps_calibration_node')
+    try:
+        node = GpsCalibrationNode()
+        rclpy.spin(node)
+    except ConfigError as exc:
+        logger.fatal(str(exc))
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            ok, message = node.calibrate()
+            (logger.info if ok else logger.warning)(f'at shutdown: {message}')
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

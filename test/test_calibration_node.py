@@ -1,0 +1,123 @@
+"""gps_calibration_node as a real process: topics in, service, shutdown."""
+
+import csv
+import math
+import signal
+
+import numpy as np
+import pytest
+import rclpy
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+from std_srvs.srv import Trigger
+
+from gps_error_ros import streams
+from gps_error_ros.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.geodesy import offset
+from gps_error_ros.profiles import load_profile_file
+from ros_harness import NodeProcess, Peer, stamp, unique_ns
+
+pytestmark = pytest.mark.integration
+LAT, LON = 48.137, 11.575
+
+
+@pytest.fixture(scope='module', autouse=True)
+def ros():
+    rclpy.init()
+    yield
+    rclpy.try_shutdown()
+
+
+def fix_msg(t, lat, lon, status=NavSatStatus.STATUS_FIX):
+    m = NavSatFix()
+    m.header.stamp = stamp(int(t * 1e9))
+    m.status.status = status
+    m.latitude, m.longitude = lat, lon
+    return m
+
+
+def test_calibrate_service_then_sigterm_keeps_everything(tmp_path):
+    ns = unique_ns()
+    out = tmp_path / 'phone.yaml'
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}',
+                        '-p', 'input_type:=navsatfix', '-p', f'output:={out}',
+                        '-p', 'order:=1'], name='gps_calibration_node')
+    peer = Peer()
+    try:
+        fix_pub = peer.publisher(NavSatFix, f'{ns}/fix')
+        truth_pub = peer.publisher(NavSatFix, f'{ns}/fix_truth')
+        client = peer.node.create_client(Trigger, f'{ns}/gps_calibration_node/calibrate')
+        assert peer.spin_until(lambda: fix_pub.get_subscription_count() > 0
+                               and truth_pub.get_subscription_count() > 0, 20)
+        assert client.wait_for_service(timeout_sec=10)
+        peer.spin_for(0.5)
+        n = 800
+        model = ARErrorModel(AxisParams(0.0, (0.9,), 0.7), AxisParams(0.1, (0.6,), 0.4))
+        err = model.simulate(streams.agent_key(5), n)[:, 0]
+        lat, lon = offset(LAT, LON, err[:, 0], err[:, 1])
+        for i in range(n):
+            t = 100.0 + i
+            truth_pub.publish(fix_msg(t - 0.5, LAT, LON))
+            truth_pub.publish(fix_msg(t + 0.5, LAT, LON))
+            fix_pub.publish(fix_msg(t, float(lat[i]), float(lon[i])))
+            if i % 10 == 9:
+                peer.spin_for(0.01)
+        fix_pub.publish(fix_msg(2000.0, LAT, LON, NavSatStatus.STATUS_NO_FIX))
+        fix_pub.publish(fix_msg(2001.0, math.nan, LON))
+        peer.spin_for(0.5)
+        future = client.call_async(Trigger.Request())
+        assert peer.spin_until(future.done, 20)
+        resp = future.result()
+        assert resp.success, resp.message
+        assert 'AR(1)' in resp.message and '1 no fix' in resp.message \
+            and '1 non finite' in resp.message
+        p = load_profile_file(out)
+        assert abs(p.axes['north'].phi[0] - 0.9) < 5 * np.sqrt((1 - 0.81) / n)
+        out.unlink()
+        node.proc.send_signal(signal.SIGTERM)
+        rc, log = node.wait_exit(timeout=20)
+        assert rc == 0, log
+        assert out.exists(), log             # rewritten at shutdown
+        with open(tmp_path / 'phone.fixes.csv') as f:
+            assert len(list(csv.DictReader(f))) == n
+        with open(tmp_path / 'phone.truth.csv') as f:
+            # t + 0.5 of one step is t - 0.5 of the next: duplicates dropped
+            assert len(list(csv.DictReader(f))) == n + 1
+        with open(tmp_path / 'phone.trace.csv') as f:
+            assert len(list(csv.DictReader(f))) == n
+    finally:
+        node.stop()
+        peer.destroy()
+
+
+def test_too_little_data_is_refused_but_kept(tmp_path):
+    ns = unique_ns()
+    out = tmp_path / 'few.yaml'
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'input_type:=navsatfix',
+                        '-p', f'output:={out}'], name='gps_calibration_node')
+    peer = Peer()
+    try:
+        fix_pub = peer.publisher(NavSatFix, f'{ns}/fix')
+        truth_pub = peer.publisher(NavSatFix, f'{ns}/fix_truth')
+        assert peer.spin_until(lambda: fix_pub.get_subscription_count() > 0
+                               and truth_pub.get_subscription_count() > 0, 20)
+        peer.spin_for(0.5)
+        for i in range(5):
+            truth_pub.publish(fix_msg(10.0 + i, LAT, LON))
+            fix_pub.publish(fix_msg(10.2 + i, LAT, LON))
+        peer.spin_for(0.5)
+        rc, log = node.stop()
+        assert rc == 0, log
+        assert 'too few' in log
+        assert not out.exists()
+        with open(tmp_path / 'few.fixes.csv') as f:
+            assert len(list(csv.DictReader(f))) == 5
+    finally:
+        node.stop()
+        peer.destroy()
+
+
+def test_pose_input_needs_datum():
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}'],
+                       name='gps_calibration_node')
+    rc, out = node.wait_exit()
+    assert rc == 2 and "'datum'" in out
