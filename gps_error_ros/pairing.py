@@ -37,7 +37,8 @@ class PairingStats:
 
 
 def default_truth_gap(truth_t):
-    """Return the default largest truth interval that may be bridged (s).
+    """
+    Return the default largest truth interval that may be bridged (s).
 
     Three times the median truth interval, and at least 1.5 s.
     """
@@ -64,9 +65,13 @@ def pair(fix_t, fix_lat, fix_lon, truth_t, truth_lat, truth_lon,
     ----------
     fix_t, truth_t : array of float
         Stamps in seconds (any common epoch), strictly increasing.
+    fix_lat, fix_lon, truth_lat, truth_lon : array of float
+        Measured and true positions (degrees, WGS84).
     max_truth_gap : float, optional
         Largest truth interval bridged by interpolation (default
         :func:`default_truth_gap`).
+    name : str
+        The input's name, for messages and the returned trace.
 
     Raises
     ------
