@@ -17,7 +17,9 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo test lint clean
+.PHONY: setup demo test lint clean calibration-doc
+
+DATA ?= ../shared/data
 
 setup: $(STAMP)
 
@@ -32,6 +34,10 @@ demo: setup
 
 test: setup
 	$(PY) -m pytest
+
+# Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
+calibration-doc: setup
+	$(PY) -m gps_error_ros.calibration_report --data $(DATA) --out docs
 
 lint: setup
 	$(PY) -m pytest -m linter

@@ -45,6 +45,7 @@ class GriddedErrors:
     segments: tuple
     starts: tuple
     rate_hz: float
+    rows: np.ndarray = None   # trace row of each sample, segments concatenated
 
     @property
     def n(self):
@@ -77,7 +78,7 @@ def errors_on_grid(trace, rate_hz=1.0):
     segs = np.split(err, cuts)
     starts = np.split(step, cuts)
     return GriddedErrors(tuple(segs), tuple(int(s[0]) for s in starts),
-                         float(rate_hz))
+                         float(rate_hz), keep)
 
 
 def pooled_autocovariance(segments, max_lag, mean=None):

@@ -2,7 +2,8 @@
 ``gps_error``: the command-line tools that need no ROS.
 
 ``gps_error calibrate INPUT -o PROFILE.yaml`` fits a profile from a trace CSV
-or a rosbag2.
+or a rosbag2; ``gps_error validate PROFILE INPUT --out DIR`` cross-validates a
+profile against a measured trace.
 """
 
 import argparse
@@ -58,7 +59,70 @@ def _parser():
                         f'{DEFAULT_MAX_ORDER})')
     c.add_argument('--name', default=None,
                    help='profile name (default: the output file stem)')
+    v = sub.add_parser(
+        'validate', help='cross-validate a profile against a measured trace',
+        description='Simulate many traces of the measured trace\'s length and '
+                    'time grid with PROFILE and compare: autocorrelation per '
+                    'lag against the Monte-Carlo 95 % envelope, quantiles per '
+                    'axis (QQ) with envelopes, and a map. Writes '
+                    'DIR/validation.png and DIR/validation.json.')
+    v.add_argument('profile', help='profile name (DS1..DS7) or YAML path')
+    v.add_argument('input', help='trace CSV or rosbag2 directory')
+    v.add_argument('--out', required=True, help='output directory')
+    v.add_argument('--sims', type=int, default=200,
+                   help='Monte-Carlo runs (default 200)')
+    v.add_argument('--max-lag', type=int, default=60,
+                   help='largest autocorrelation lag, s (default 60)')
+    v.add_argument('--part', default='0,1',
+                   help='the part of the trace to validate on, as fractions of '
+                        'its duration START,END (default 0,1; e.g. 0.7,1 for '
+                        'the last 30 %% held out from a fit on 0,0.7)')
+    v.add_argument('--seed', type=int, default=0, help='simulation seed')
+    _add_input_options(v)
     return p
+
+
+def _part(text):
+    try:
+        lo, hi = (float(v) for v in text.split(','))
+    except ValueError:
+        raise ValueError(f'--part {text!r}: expected START,END fractions') from None
+    if not 0.0 <= lo < hi <= 1.0:
+        raise ValueError(f'--part {text!r}: expected 0 <= START < END <= 1')
+    return lo, hi
+
+
+def cmd_validate(args):
+    """Run ``gps_error validate``; return the exit code."""
+    from .profiles import load_profile
+    from .report import write_json
+    from .validation import slice_trace, validate, validation_figure
+
+    lo, hi = _part(args.part)
+    model = load_profile(args.profile).model()
+    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
+                              parse_datum(args.datum), args.max_truth_gap)
+    trace = slice_trace(trace, lo, hi)
+    res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
+                   seed=args.seed)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = res.summary()
+    summary.update({'profile': args.profile, 'part': [lo, hi]})
+    write_json(out / 'validation.json', summary)
+    validation_figure(res, out / 'validation.png',
+                      f'{args.profile} against {trace.name} '
+                      f'(part {lo:g}-{hi:g}, {res.samples} samples)')
+    for line in notes:
+        print(line)
+    for ax in ('north', 'east'):
+        d = summary[ax]
+        print(f'  {ax}: autocorrelation inside the envelope at '
+              f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
+              f'{summary["max_lag"]}; quantiles inside at '
+              f'{100 * d["quantiles_inside_envelope"]:.0f} %')
+    print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
+    return 0
 
 
 def cmd_calibrate(args):
@@ -88,7 +152,8 @@ def main(argv=None):
     """Entry point of ``gps_error``."""
     args = _parser().parse_args(argv)
     try:
-        return {'calibrate': cmd_calibrate}[args.command](args)
+        return {'calibrate': cmd_calibrate,
+                'validate': cmd_validate}[args.command](args)
     except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)
         return 2
