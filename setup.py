@@ -30,6 +30,7 @@ setup(
             'gps_error_demo = gps_error_ros.ros.demo:main',
             'gps_error = gps_error_ros.cli:main',
             'gps_calibration_node = gps_error_ros.ros.calibration_node:main',
+            'gps_error_play = gps_error_ros.ros.bag_play:main',
         ],
     },
 )

@@ -121,3 +121,42 @@ def test_pose_input_needs_datum():
                        name='gps_calibration_node')
     rc, out = node.wait_exit()
     assert rc == 2 and "'datum'" in out
+
+
+def test_bag_replayed_on_clock_gives_the_offline_fit(tmp_path):
+    """The node and `gps_error calibrate` share the fitting code: same bag, same profile."""
+    from gps_error_ros.cli import main as cli_main
+    from gps_error_ros.ros.bag_play import play
+    from bag_helpers import write_walk_bag
+
+    datum = (40.0, -74.0, 0.0)
+    n = 600
+    model = ARErrorModel(AxisParams(0.2, (1.3, -0.4), 0.5), AxisParams(0.0, (0.7,), 0.6))
+    err = model.simulate(streams.agent_key(77), n)[:, 0]
+    bag = tmp_path / 'rec'
+    write_walk_bag(bag, 'mcap', datum, err, 500.0 + np.arange(n), truth_rate=2.0)
+    offline = tmp_path / 'offline.yaml'
+    assert cli_main(['calibrate', str(bag), '-o', str(offline), '--truth-topic',
+                     '/truth', '--datum', '40.0,-74.0,0.0', '--name', 'x']) == 0
+
+    ns = unique_ns()
+    live = tmp_path / 'live.yaml'
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+                        '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={live}',
+                        '-p', 'name:=x', '-r', f'{ns}/pose:=/truth',
+                        '-r', f'{ns}/fix:=/fix'], name='gps_calibration_node')
+    peer = Peer()
+    try:
+        played = play(bag, rate=100.0, wait_for_subscribers=1, node=peer.node)
+        assert played == n + 2 * (n + 1)
+        peer.spin_for(1.0)
+        rc, log = node.stop()
+        assert rc == 0, log
+    finally:
+        node.stop()
+        peer.destroy()
+    a, b = load_profile_file(offline), load_profile_file(live)
+    assert b.fit['samples'] == n
+    for ax in ('north', 'east'):
+        np.testing.assert_allclose(b.axes[ax].phi, a.axes[ax].phi, atol=1e-9)
+        assert b.axes[ax].sigma_w == pytest.approx(a.axes[ax].sigma_w, abs=1e-9)
