@@ -15,7 +15,7 @@ roots of ``a(z)`` lie strictly outside the unit circle.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, signal
 
 from . import streams
 
@@ -175,14 +175,30 @@ class ARErrorModel:
         Returns deviations from the mean, shape (n, 2, p): ``[:, a, 0]`` is
         the current deviation of axis ``a``, ``[:, a, i]`` the one i steps ago.
         """
-        keys = np.asarray(keys, dtype=np.uint64)
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         p = self.order
         z = np.empty((keys.size, 2 * p))
         for j in range(p):
             z[:, 2 * j:2 * j + 2] = streams.normal_pairs(
                 keys, streams.DOMAIN_INIT, index * 16 + j)
-        x = z @ self._state_chol.T
+        # x = L z, written out so that an agent's numbers never depend on how
+        # many agents are drawn together (BLAS may reorder sums by size).
+        x = np.zeros((keys.size, 2 * p))
+        for i in range(2 * p):
+            for j in range(i + 1):
+                if self._state_chol[i, j] != 0.0:
+                    x[:, i] += self._state_chol[i, j] * z[:, j]
         return x.reshape(keys.size, 2, p)
+
+    def _innovations(self, z):
+        """Return innovations from standard normals ``z`` (..., 2), elementwise."""
+        c = self._innovation_chol
+        w = np.empty_like(z)
+        w[..., 0] = c[0, 0] * z[..., 0]
+        w[..., 1] = c[1, 1] * z[..., 1]
+        if c[1, 0] != 0.0:
+            w[..., 1] += c[1, 0] * z[..., 0]
+        return w
 
     def advance(self, state, keys, index):
         """
@@ -196,8 +212,9 @@ class ARErrorModel:
 
     def advance_with(self, state, z):
         """Advance ``state`` in place with standard-normal draws ``z`` (n, 2)."""
-        new = np.einsum('ap,nap->na', self.phi, state) + \
-            z @ self._innovation_chol.T
+        new = self._innovations(z)
+        for i in range(self.order):
+            new += self.phi[:, i] * state[:, :, i]
         state[:, :, 1:] = state[:, :, :-1]
         state[:, :, 0] = new
         return new + self.mean
@@ -206,23 +223,87 @@ class ARErrorModel:
         """Return the current errors of ``state`` (mean included), (n, 2)."""
         return state[:, :, 0] + self.mean
 
-    def simulate(self, keys, n_steps, start=0):
+    def simulate(self, keys, n_steps, start=0, out=None):
         """
         Simulate errors at model steps ``start .. start + n_steps - 1``.
 
-        The state at ``start`` is drawn from the stationary law. Returns shape
-        (n_steps, n_agents, 2) in metres, axes (north, east).
+        The state at ``start`` is drawn from the stationary law; step ``k``
+        uses each key's innovation at stream index ``k``, as :meth:`advance`
+        does. Vectorised over agents and time: crowds (>= 1024 agents) step
+        through time over cache-sized chunks of agents with the node's own
+        arithmetic (bit-identical to :meth:`advance`); a few long series run
+        the recursion in ``scipy.signal.lfilter`` (equal to rounding, ~1e-13).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_steps, n_agents, 2)
+            Errors in metres, axes (north, east); written into ``out`` when
+            given (any array of that shape, e.g. a memory map).
+
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        out = np.empty((n_steps, keys.size, 2))
+        n = keys.size
+        if out is None:
+            out = np.empty((n_steps, n, 2))
         if n_steps == 0:
             return out
+        run = self._simulate_steps if n >= 1024 else self._simulate_lfilter
+        chunk = 8192 if n >= 1024 else max(1, min(n, (1 << 21) // n_steps))
+        for a0 in range(0, n, chunk):
+            a1 = min(n, a0 + chunk)
+            run(keys[a0:a1], n_steps, start, out[:, a0:a1])
+        return out
+
+    def _noise_innovations(self, keys, start, count):
+        """Return innovations (2, count, m) in the node's order of operations."""
+        z = streams.normal_block_axes(keys, streams.DOMAIN_STEP, start, count)
+        c = self._innovation_chol
+        z[1] *= c[1, 1]
+        if c[1, 0] != 0.0:
+            z[1] += c[1, 0] * z[0]
+        z[0] *= c[0, 0]
+        return z
+
+    def _simulate_steps(self, keys, n_steps, start, out):
+        # Axis-major history (axis, time, agent): inner loops run over agents.
+        p, m = self.order, keys.size
+        state = self.initial_state(keys, start)
+        block = max(1, (1 << 19) // (2 * m))
+        hist = np.empty((2, p + block, m))
+        for i in range(p):
+            hist[:, p - 1 - i] = state[:, :, i].T
+        out[0] = self.errors(state)
+        tmp = np.empty((2, m))
+        phi = [self.phi[:, i:i + 1].copy() for i in range(p)]
+        for t0 in range(1, n_steps, block):
+            cnt = min(block, n_steps - t0)
+            hist[:, p:p + cnt] = self._noise_innovations(keys, start + t0, cnt)
+            for j in range(p, p + cnt):
+                row = hist[:, j]
+                for i in range(p):
+                    np.multiply(hist[:, j - 1 - i], phi[i], out=tmp)
+                    np.add(row, tmp, out=row)
+            for ax in range(2):
+                np.add(hist[ax, p:p + cnt], self.mean[ax], out=out[t0:t0 + cnt, :, ax])
+            hist[:, :p] = hist[:, cnt:cnt + p]
+
+    def _simulate_lfilter(self, keys, n_steps, start, out):
+        p, m = self.order, keys.size
         state = self.initial_state(keys, start)
         out[0] = self.errors(state)
-        block = 4096
-        for b0 in range(1, n_steps, block):
-            count = min(block, n_steps - b0)
-            z = streams.normal_block(keys, streams.DOMAIN_STEP, start + b0, count)
-            for j in range(count):
-                out[b0 + j] = self.advance_with(state, z[j])
-        return out
+        # lfilter's direct-form-II-transposed state from the AR history:
+        # zi[i] = sum_{j > i} phi_j * y[-(j - i)]
+        zi = np.zeros((2, m, p))
+        for ax in range(2):
+            for i in range(p):
+                for j in range(i + 1, p + 1):
+                    zi[ax, :, i] += self.phi[ax, j - 1] * state[:, ax, j - i - 1]
+        t_block = max(1, (1 << 21) // m)
+        for t0 in range(1, n_steps, t_block):
+            t1 = min(n_steps, t0 + t_block)
+            w = self._noise_innovations(keys, start + t0, t1 - t0)
+            for ax in range(2):
+                series = np.ascontiguousarray(w[ax].T)           # (m, T)
+                y, zi[ax] = signal.lfilter([1.0], np.r_[1.0, -self.phi[ax]],
+                                           series, axis=-1, zi=zi[ax])
+                out[t0:t1, :, ax] = y.T + self.mean[ax]

@@ -13,7 +13,11 @@ is split into two 32-bit uniforms on the open interval (0, 1), and the
 Box-Muller transform turns them into two independent standard normals, which
 is why draws come in pairs (north, east). With 32-bit uniforms the largest
 normal that can appear is about 6.66 (probability of exceeding it in a true
-normal: 3e-11 per draw).
+normal: 3e-11 per draw). The transform runs in single precision, where numpy
+has vectorised log/sin/cos (a relative error of about 1e-7, micrometres on
+metre-sized errors), and in cache-sized chunks; this roughly triples the
+throughput. Results are bit-identical on one machine type; CPUs whose numpy
+picks another SIMD path may differ in the last float32 bits.
 """
 
 import hashlib
@@ -89,6 +93,12 @@ def _position(domain, index):
         index.astype(np.uint64)
 
 
+def _positions(keys, domain, index):
+    keys = np.asarray(keys, dtype=np.uint64)
+    with np.errstate(over='ignore'):
+        return keys + _position(domain, index) * _GAMMA
+
+
 def uniform_pairs(keys, domain, index):
     """
     Return two uniforms in (0, 1) per key at one position of each stream.
@@ -99,7 +109,7 @@ def uniform_pairs(keys, domain, index):
         The agents' stream keys (:func:`agent_key`).
     domain : int
         What the draw is for (``DOMAIN_STEP``, ``DOMAIN_INIT``, ...).
-    index : int or array of int broadcastable to (n,)
+    index : int or array of int broadcastable with ``keys``
         Position within the domain (for steps: the model step index).
 
     Returns
@@ -107,27 +117,100 @@ def uniform_pairs(keys, domain, index):
     numpy.ndarray, shape (n, 2)
 
     """
-    keys = np.asarray(keys, dtype=np.uint64)
     with np.errstate(over='ignore'):
-        word = _mix(keys + _position(domain, index) * _GAMMA)
+        word = _mix(_positions(keys, domain, index))
     out = np.empty(word.shape + (2,))
     out[..., 0] = ((word >> _S32).astype(np.float64) + 0.5) * _INV32
     out[..., 1] = ((word & _LOW32).astype(np.float64) + 0.5) * _INV32
     return out
 
 
+_CHUNK = 1 << 14
+_F32_INV32 = np.float32(_INV32)
+_F32_HALF = np.float32(0.5)
+_F32_TWO_PI_INV32 = np.float32(2.0 * np.pi * _INV32)
+
+
+class _Workspace:
+    """Cache-sized scratch arrays, reused across calls (not thread-safe)."""
+
+    def __init__(self, n=_CHUNK):
+        self.w = np.empty(n, np.uint64)
+        self.t = np.empty(n, np.uint64)
+        self.r = np.empty(n, np.float32)
+        self.a = np.empty(n, np.float32)
+        self.c = np.empty(n, np.float32)
+
+
+_WS = _Workspace()
+
+
+def _box_muller_into(pos, out_n, out_e):
+    """Fill ``out_n``, ``out_e`` (m,) with the normal pair of each position."""
+    m = pos.size
+    ws = _WS
+    w, t = ws.w[:m], ws.t[:m]
+    r, a, c = ws.r[:m], ws.a[:m], ws.c[:m]
+    with np.errstate(over='ignore'):
+        np.right_shift(pos, _S30, out=t)
+        np.bitwise_xor(pos, t, out=w)
+        np.multiply(w, _M1, out=w)
+        np.right_shift(w, _S27, out=t)
+        np.bitwise_xor(w, t, out=w)
+        np.multiply(w, _M2, out=w)
+        np.right_shift(w, _S31, out=t)
+        np.bitwise_xor(w, t, out=w)
+    # Box-Muller in float32 (SIMD log/sin/cos): relative error ~1e-7.
+    np.right_shift(w, _S32, out=t)
+    r[:] = t
+    np.bitwise_and(w, _LOW32, out=t)
+    a[:] = t
+    np.add(r, _F32_HALF, out=r)
+    np.multiply(r, _F32_INV32, out=r)
+    np.log(r, out=r)
+    np.multiply(r, np.float32(-2.0), out=r)
+    np.sqrt(r, out=r)
+    np.add(a, _F32_HALF, out=a)
+    np.multiply(a, _F32_TWO_PI_INV32, out=a)
+    np.cos(a, out=c)
+    np.multiply(r, c, out=out_n)
+    np.sin(a, out=c)
+    np.multiply(r, c, out=out_e)
+
+
 def normal_pairs(keys, domain, index):
     """
     Return two independent standard normals per key (Box-Muller).
 
-    Same arguments as :func:`uniform_pairs`; returns shape (n, 2).
+    Same arguments as :func:`uniform_pairs`; returns shape
+    ``broadcast(keys, index).shape + (2,)``. The value at a position does not
+    depend on what else is drawn in the same call.
     """
-    u = uniform_pairs(keys, domain, index)
-    radius = np.sqrt(-2.0 * np.log(u[..., 0]))
-    angle = 2.0 * np.pi * u[..., 1]
-    out = np.empty_like(u)
-    out[..., 0] = radius * np.cos(angle)
-    out[..., 1] = radius * np.sin(angle)
+    pos = np.ascontiguousarray(_positions(keys, domain, index))
+    out = np.empty(pos.shape + (2,))
+    flat_pos = pos.reshape(-1)
+    flat_out = out.reshape(-1, 2)
+    for c0 in range(0, flat_pos.size, _CHUNK):
+        c1 = min(c0 + _CHUNK, flat_pos.size)
+        _box_muller_into(flat_pos[c0:c1], flat_out[c0:c1, 0], flat_out[c0:c1, 1])
+    return out
+
+
+def normal_block_axes(keys, domain, start, count):
+    """
+    Return normal pairs for consecutive indices, axis-major: (2, count, n).
+
+    Entry ``[a, j, i]`` equals ``normal_pairs(keys, domain, start + j)[i, a]``;
+    each axis is contiguous over (time, agent), for vectorised loops.
+    """
+    keys = np.asarray(keys, dtype=np.uint64)
+    idx = np.arange(start, start + count, dtype=np.int64)[:, None]
+    pos = np.ascontiguousarray(_positions(keys[None, :], domain, idx)).reshape(-1)
+    out = np.empty((2, count, keys.size))
+    on, oe = out[0].reshape(-1), out[1].reshape(-1)
+    for c0 in range(0, pos.size, _CHUNK):
+        c1 = min(pos.size, c0 + _CHUNK)
+        _box_muller_into(pos[c0:c1], on[c0:c1], oe[c0:c1])
     return out
 
 

@@ -102,3 +102,30 @@ def test_orders_may_differ_and_correlated_innovations_are_exact():
     keys = streams.agent_keys(9, [str(i) for i in range(200)])
     x = model.simulate(keys, 500).reshape(-1, 2)
     np.testing.assert_allclose(np.cov(x.T), model.stationary_cov, rtol=0.08)
+
+
+@pytest.mark.parametrize('n, exact', [(40, False), (1500, True)])
+def test_batch_path_equals_the_node_step_path(n, exact):
+    """simulate (batch) and advance (the node's per-step path) agree."""
+    model = ARErrorModel(AxisParams(0.2, (1.2, -0.3, 0.05), 0.7),
+                         AxisParams(-0.3, (0.9,), 1.2), innovation_corr=0.4)
+    keys = streams.agent_keys(13, [f'p{i}' for i in range(n)])
+    batch = model.simulate(keys, 200, start=77)
+    state = model.initial_state(keys, 77)
+    steps = [model.errors(state)] + [model.advance(state, keys, k)
+                                     for k in range(78, 277)]
+    steps = np.array(steps)
+    if exact:      # crowds run the node's own arithmetic
+        assert np.array_equal(batch, steps)
+    else:          # few long series run through lfilter
+        np.testing.assert_allclose(batch, steps, rtol=0, atol=1e-9)
+
+
+def test_agent_values_do_not_depend_on_the_crowd():
+    model = load_profile('DS5').model()
+    keys = streams.agent_keys(2, [f'p{i}' for i in range(3000)])
+    crowd = model.simulate(keys, 50)
+    small = model.simulate(keys[:1100], 50)      # another chunking, same path
+    assert np.array_equal(crowd[:, :1100], small)
+    alone = model.simulate(keys[5:6], 50)        # lfilter path
+    np.testing.assert_allclose(alone[:, 0], crowd[:, 5], rtol=0, atol=1e-9)
