@@ -106,7 +106,7 @@ def test_orders_may_differ_and_correlated_innovations_are_exact():
 
 @pytest.mark.parametrize('n, exact', [(40, False), (1500, True)])
 def test_batch_path_equals_the_node_step_path(n, exact):
-    """simulate (batch) and advance (the node's per-step path) agree."""
+    """The batch path (simulate) and the node's per-step path agree."""
     model = ARErrorModel(AxisParams(0.2, (1.2, -0.3, 0.05), 0.7),
                          AxisParams(-0.3, (0.9,), 1.2), innovation_corr=0.4)
     keys = streams.agent_keys(13, [f'p{i}' for i in range(n)])

@@ -3,17 +3,24 @@
 
 Subscribes to the truth (``pose``, ``odom`` or ``fix_truth`` by
 ``input_type``), steps the profile's AR error model on the ROS clock and
-publishes ``sensor_msgs/NavSatFix`` on ``fix``. All arithmetic lives in
-:mod:`gps_error_ros.engine`; this module converts messages and parameters.
+publishes ``sensor_msgs/NavSatFix`` on ``fix``. With the ``agents``
+parameter one node serves a crowd: agent ``A`` reads ``A/pose`` and publishes
+``A/fix``, one timer steps every agent together (vectorised), and the agents'
+subscriptions are drained once per step rather than waking the executor per
+message. All arithmetic lives in :mod:`gps_error_ros.engine`; this module
+converts messages and parameters.
 """
 
+from functools import partial
 import math
+import re
 import secrets
 
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 import rclpy
+from rclpy.callback_groups import CallbackGroup
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -40,21 +47,41 @@ TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                        reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
+AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
+
+
+class _Polled(CallbackGroup):
+    """
+    A callback group that the executor never runs.
+
+    Its subscriptions stay out of the wait set, and the node drains them once
+    per model step instead of waking per message (what lets one node serve
+    thousands of agents).
+    """
+
+    def can_execute(self, entity):
+        """Return False: never scheduled by an executor."""
+        return False
+
+    def beginning_execution(self, entity):
+        """Return False: never scheduled by an executor."""
+        return False
+
+    def ending_execution(self, entity):
+        """Do nothing."""
+
+
 class GpsErrorNode(Node):
-    """The single-agent error node (see the module docstring)."""
+    """The error node, for one agent or a crowd (see the module docstring)."""
 
     def __init__(self, **kwargs):
         super().__init__('gps_error_node', **kwargs)
         cfg = declare(self, ERROR_NODE_PARAMS)
         self._specs = spec_by_name(ERROR_NODE_PARAMS)
         self.frame_id = cfg['frame_id']
-        try:
-            self.profile = load_profile(cfg['profile'])
-            model = self.profile.model()
-        except ProfileError as exc:
-            raise ConfigError(f'parameter \'profile\' ({cfg["profile"]!r}): '
-                              f'{exc}') from None
         self.input_type = cfg['input_type']
+        self.agents = self._agent_names(cfg['agents'])
+        profiles = self._agent_profile_specs(cfg)
         self.frame = None
         if self.input_type != 'navsatfix':
             self.frame = self._datum_frame(cfg['datum'])
@@ -63,23 +90,71 @@ class GpsErrorNode(Node):
             seed = secrets.randbits(63)
             self.get_logger().info(f'no seed given: using seed {seed}')
         self.seed = seed
-        self.engine = FixEngine(
-            model, [agent_key(seed, '')], rate=cfg['rate'],
-            model_rate=self.profile.rate_hz, max_pose_age=cfg['max_pose_age'])
-        self.covariance, self.covariance_type = conversions.enu_covariance(
-            model.stationary_cov, self.profile.vertical_variance(model))
+        # One engine per distinct profile, each over its own agents.
+        self.groups = []
+        self.slot = [None] * len(self.agents)     # agent -> (group, local index)
+        for spec in dict.fromkeys(profiles):
+            try:
+                profile = load_profile(spec)
+                model = profile.model()
+            except ProfileError as exc:
+                name = 'agent_profiles' if cfg['agent_profiles'] else 'profile'
+                raise ConfigError(f'parameter {name!r} ({spec!r}): {exc}') from None
+            members = [i for i, p in enumerate(profiles) if p == spec]
+            keys = [agent_key(seed, self.agents[i]) for i in members]
+            engine = FixEngine(model, keys, rate=cfg['rate'],
+                               model_rate=profile.rate_hz,
+                               max_pose_age=cfg['max_pose_age'])
+            cov, cov_type = conversions.enu_covariance(
+                model.stationary_cov, profile.vertical_variance(model))
+            g = len(self.groups)
+            self.groups.append((engine, np.array(members), cov, cov_type))
+            for local, i in enumerate(members):
+                self.slot[i] = (g, local)
 
         topic, msg_type = INPUT_TOPICS[self.input_type]
-        self.create_subscription(msg_type, topic, self._on_truth, TRUTH_QOS)
-        self.pub = self.create_publisher(NavSatFix, 'fix', QoSProfile(depth=10))
+        self.polled = len(self.agents) > 1 or self.agents != ['']
+        group = _Polled() if self.polled else None
+        self.subs, self.pubs = [], []
+        for i, name in enumerate(self.agents):
+            prefix = f'{name}/' if name else ''
+            self.subs.append(self.create_subscription(
+                msg_type, prefix + topic, partial(self._on_truth, i), TRUTH_QOS,
+                callback_group=group))
+            self.pubs.append(self.create_publisher(
+                NavSatFix, prefix + 'fix', QoSProfile(depth=10)))
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        sd = model.stationary_sd
+        sd = self.groups[0][0].model.stationary_sd
+        who = (f'{len(self.agents)} agents' if self.polled else
+               f'input {self.input_type} on {self.resolve_topic_name(topic)}')
         self.get_logger().info(
-            f'profile {self.profile.name}: stationary sd north {sd[0]:.2f} m, '
-            f'east {sd[1]:.2f} m; input {self.input_type} on '
-            f'{self.resolve_topic_name(topic)}; fixes on '
-            f'{self.resolve_topic_name("fix")} at {cfg["rate"]} Hz')
+            f'profile {profiles[0]}: stationary sd north {sd[0]:.2f} m, '
+            f'east {sd[1]:.2f} m; {who}; fixes at {cfg["rate"]} Hz')
+
+    def _agent_names(self, names):
+        if not names:
+            return ['']
+        for n in names:
+            if not AGENT_NAME.match(n):
+                raise ConfigError(
+                    f'parameter \'agents\': invalid agent name {n!r}: expected '
+                    f'a relative ROS name (letters, digits, _ and /, starting '
+                    f'with a letter)')
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ConfigError(f'parameter \'agents\': duplicate names {dup}')
+        return list(names)
+
+    def _agent_profile_specs(self, cfg):
+        per_agent = cfg['agent_profiles']
+        if not per_agent:
+            return [cfg['profile']] * len(self.agents)
+        if len(per_agent) != len(self.agents) or not cfg['agents']:
+            raise ConfigError(
+                f'parameter \'agent_profiles\': {len(per_agent)} entries: '
+                f'expected one per agent in \'agents\' ({len(cfg["agents"])})')
+        return list(per_agent)
 
     def _datum_frame(self, datum):
         if not datum:
@@ -102,7 +177,8 @@ class GpsErrorNode(Node):
     def _now_ns(self):
         return self.get_clock().now().nanoseconds
 
-    def _on_truth(self, msg):
+    def _on_truth(self, agent, msg):
+        """Store one truth message of ``agent``; True if it was kept."""
         try:
             if self.input_type == 'navsatfix':
                 lat, lon, alt = conversions.navsatfix_position(msg)
@@ -115,28 +191,46 @@ class GpsErrorNode(Node):
         except ValueError as exc:
             self.get_logger().warning(f'dropped a truth message: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
-            return
+            return False
         stamp = conversions.stamp_ns(msg.header.stamp) or self._now_ns()
-        if not self.engine.add_truth(0, stamp, lat, lon, alt):
+        g, local = self.slot[agent]
+        if not self.groups[g][0].add_truth(local, stamp, lat, lon, alt):
             self.get_logger().warning(
                 'dropped a truth message stamped at or before the newest one '
                 '(out of order or duplicate)', throttle_duration_sec=WARN_PERIOD_S)
-            return
-        self._publish(self.engine.resolve(self._now_ns()))
+            return False
+        if not self.polled:
+            self._publish(g, self.groups[g][0].resolve(self._now_ns()))
+        return True
+
+    def _drain(self):
+        """Take every waiting truth message of every agent (polled mode)."""
+        for i, sub in enumerate(self.subs):
+            while True:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                if taken is None:
+                    break
+                self._on_truth(i, taken[0])
 
     def _on_timer(self):
-        self._publish(self.engine.on_clock(self._now_ns()))
+        if self.polled:
+            self._drain()
+        now = self._now_ns()
+        for g, (engine, *_rest) in enumerate(self.groups):
+            self._publish(g, engine.on_clock(now))
 
-    def _publish(self, fixes):
+    def _publish(self, g, fixes):
+        _, members, cov, cov_type = self.groups[g]
         for fix in fixes:
-            for lat, lon, alt in zip(fix.lat, fix.lon, fix.alt):
-                if not np.isfinite([lat, lon, alt]).all():
+            for local, lat, lon, alt in zip(fix.agents, fix.lat, fix.lon, fix.alt):
+                if not (math.isfinite(lat) and math.isfinite(lon)
+                        and math.isfinite(alt)):
                     self.get_logger().error('refused to publish a non-finite fix',
                                             throttle_duration_sec=WARN_PERIOD_S)
                     continue
-                self.pub.publish(conversions.make_fix(
-                    fix.stamp_ns, self.frame_id, lat, lon, alt,
-                    self.covariance, self.covariance_type))
+                self.pubs[members[local]].publish(conversions.make_fix(
+                    fix.stamp_ns, self.frame_id, lat, lon, alt, cov, cov_type))
 
     def _on_set_parameters(self, params):
         for p in params:

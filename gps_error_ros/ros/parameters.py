@@ -64,6 +64,7 @@ _TYPE_NAMES = {
     ParameterType.PARAMETER_DOUBLE: 'double',
     ParameterType.PARAMETER_INTEGER: 'integer',
     ParameterType.PARAMETER_DOUBLE_ARRAY: 'double array',
+    ParameterType.PARAMETER_STRING_ARRAY: 'string array',
 }
 
 ERROR_NODE_PARAMS = (
@@ -93,6 +94,13 @@ ERROR_NODE_PARAMS = (
               'Seconds past its stamp that the newest truth sample may be '
               'held when no newer one arrives; older truth gives no fix.',
               low=0.0, high=60.0),
+    ParamSpec('agents', None, ParameterType.PARAMETER_STRING_ARRAY,
+              'Agent names: for each agent A the node reads A/pose (A/odom, '
+              'A/fix_truth) and publishes A/fix. Empty: one agent on the '
+              'plain topics.'),
+    ParamSpec('agent_profiles', None, ParameterType.PARAMETER_STRING_ARRAY,
+              'Optional profile per agent, aligned with agents (default: '
+              'profile for all).'),
 )
 
 
@@ -111,9 +119,10 @@ def declare(node, specs):
     for spec in specs:
         default = spec.default
         if default is None:
-            default = Parameter.Type.DOUBLE_ARRAY \
-                if spec.type == ParameterType.PARAMETER_DOUBLE_ARRAY \
-                else Parameter.Type.STRING
+            default = {
+                ParameterType.PARAMETER_DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
+                ParameterType.PARAMETER_STRING_ARRAY: Parameter.Type.STRING_ARRAY,
+            }.get(spec.type, Parameter.Type.STRING)
         try:
             param = node.declare_parameter(spec.name, default, spec.descriptor())
         except (InvalidParameterTypeException, InvalidParameterValueException,
@@ -129,6 +138,8 @@ def declare(node, specs):
         value = param.value
         if value is not None and spec.type == ParameterType.PARAMETER_DOUBLE_ARRAY:
             value = [float(v) for v in value]
+        if spec.type == ParameterType.PARAMETER_STRING_ARRAY:
+            value = [str(v) for v in value] if value is not None else []
         reason = spec.check(value) if value is not None else None
         if reason:
             raise ConfigError(f'parameter {spec.name!r}: invalid value '

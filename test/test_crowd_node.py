@@ -1,0 +1,107 @@
+"""One error node serving a crowd; sharding over processes gives the same fixes."""
+
+import pytest
+import rclpy
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import NavSatFix
+
+from gps_error_ros.profiles import load_profile
+from ros_harness import NodeProcess, NS, Peer, stamp_ns, unique_ns
+from test_error_node import DATUM_ARG, pose_msg
+
+pytestmark = pytest.mark.integration
+AGENTS = [f'ped{i}' for i in range(6)]
+PROFILES = ['DS1', 'DS5'] * 3
+T0 = 2000
+
+
+@pytest.fixture(scope='module', autouse=True)
+def ros():
+    rclpy.init()
+    yield
+    rclpy.try_shutdown()
+
+
+def crowd_node(ns, agents, profiles):
+    return NodeProcess([
+        '--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+        '-p', DATUM_ARG, '-p', 'seed:=99',
+        '-p', 'agents:=[' + ','.join(f'"{a}"' for a in agents) + ']',
+        '-p', 'agent_profiles:=[' + ','.join(f'"{p}"' for p in profiles) + ']'])
+
+
+def test_crowd_sharded_over_two_processes_gives_identical_fixes():
+    whole, half_a, half_b = unique_ns(), unique_ns(), unique_ns()
+    nodes = [crowd_node(whole, AGENTS, PROFILES),
+             crowd_node(half_a, AGENTS[:3], PROFILES[:3]),
+             crowd_node(half_b, AGENTS[3:], PROFILES[3:])]
+    peer = Peer()
+    try:
+        pubs, boxes = {}, {}
+        for ns, agents in ((whole, AGENTS), (half_a, AGENTS[:3]), (half_b, AGENTS[3:])):
+            for a in agents:
+                pubs[ns, a] = peer.publisher(PoseStamped, f'{ns}/{a}/pose')
+                boxes[ns, a] = peer.collect(NavSatFix, f'{ns}/{a}/fix')
+        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0
+                                           for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
+                                       for ns, a in boxes), 30)
+        peer.spin_for(0.5)
+        n_steps = 40
+        pause = range(T0 + 10, T0 + 20)          # ped1 of the whole crowd goes quiet
+        for k in range(T0, T0 + n_steps + 2):
+            for (ns, a), pub in pubs.items():
+                if ns == whole and a == 'ped1' and k in pause:
+                    continue
+                pub.publish(pose_msg(k * NS, 3.0 * (k - T0), 1.0))
+            peer.set_clock(k * NS)
+            want = (k - 1) * NS
+            peer.spin_until(lambda: all(box and stamp_ns(box[-1].header.stamp) >= want
+                                        for (ns, a), box in boxes.items()
+                                        if not (ns == whole and a == 'ped1')), 5)
+        peer.spin_for(0.5)
+        for node in nodes:
+            rc, out = node.stop()
+            assert rc == 0, out
+    finally:
+        for node in nodes:
+            node.stop()
+        peer.destroy()
+
+    def series(ns, a):
+        return {stamp_ns(m.header.stamp): (m.latitude, m.longitude, tuple(m.position_covariance))
+                for m in boxes[ns, a]}
+
+    for i, a in enumerate(AGENTS):
+        shard = half_a if i < 3 else half_b
+        got, ref = series(whole, a), series(shard, a)
+        assert len(ref) >= n_steps
+        common = sorted(set(got) & set(ref))
+        if a == 'ped1':
+            # inside the pause the whole crowd's node holds the last pose
+            # (a different truth); the error stream must agree outside it
+            common = [t for t in common if not (T0 + 10) * NS <= t < (T0 + 20) * NS]
+        assert common and all(got[t] == ref[t] for t in common), a   # byte-identical
+        if a == 'ped1':
+            missing = sorted(set(ref) - set(got))
+            # quiet for 10 s: held up to max_pose_age (1 s), then no fixes
+            assert len(missing) >= 8 and all((T0 + 11) * NS <= t < (T0 + 21) * NS
+                                             for t in missing)
+            assert max(got) > (T0 + 25) * NS          # resumed, on the same stream
+        else:
+            assert got.keys() == ref.keys()
+        sd = load_profile(PROFILES[i]).model().stationary_sd
+        assert got[common[0]][2][0] == pytest.approx(sd[1] ** 2)
+
+
+def test_crowd_parameter_errors():
+    for params, hint in (
+            (['agents:=["a","a"]'], 'duplicate'),
+            (['agents:=["1bad"]'], 'invalid agent name'),
+            (['agents:=["a","b"]', 'agent_profiles:=["DS1"]'], 'one per agent'),
+            (['agents:=["a"]', 'agent_profiles:=["DS4"]'], 'no published fit')):
+        args = ['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', DATUM_ARG]
+        for p in params:
+            args += ['-p', p]
+        rc, out = NodeProcess(args).wait_exit()
+        assert rc == 2 and hint in out, out
