@@ -3,7 +3,8 @@
 
 ``gps_error calibrate INPUT -o PROFILE.yaml`` fits a profile from a trace CSV
 or a rosbag2; ``gps_error validate PROFILE INPUT --out DIR`` cross-validates a
-profile against a measured trace.
+profile against a measured trace; ``gps_error simulate`` adds errors to SUMO
+FCD or CSV trajectories, or writes raw error series.
 """
 
 import argparse
@@ -19,7 +20,7 @@ from .profiles import load_profile_file, ProfileError
 from .trace_io import TraceError
 
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
-          ValueError)
+          ValueError, OSError)
 
 
 def _add_input_options(p):
@@ -79,7 +80,50 @@ def _parser():
                         'the last 30 %% held out from a fit on 0,0.7)')
     v.add_argument('--seed', type=int, default=0, help='simulation seed')
     _add_input_options(v)
+    s = sub.add_parser(
+        'simulate', help='add errors to trajectories, or write raw error series',
+        description='Smartphone GPS errors for simulators that do not run ROS, '
+                    'with the error node\'s per-agent streams. Either '
+                    '--trajectories INPUT (SUMO FCD output, or a CSV with t, '
+                    'truth_lat, truth_lon and optional agent) --out OUTPUT in '
+                    'the same format with noisy positions (a CSV also keeps the '
+                    'true ones), or --agents N --duration S --out ERRORS.npz.')
+    s.add_argument('--profile', default='DS5', help='profile name or YAML (default DS5)')
+    s.add_argument('--seed', type=int, required=True, help='seed (as the node\'s)')
+    s.add_argument('--out', required=True, help='output file')
+    s.add_argument('--trajectories', help='SUMO FCD .xml or truth CSV')
+    s.add_argument('--net', help='SUMO .net.xml for FCD x/y written without '
+                                 '--fcd-output.geo')
+    s.add_argument('--agents', type=int, help='raw mode: number of agents, named '
+                                              'agent0, agent1, ...')
+    s.add_argument('--duration', type=float, help='raw mode: seconds to simulate')
+    s.add_argument('--start', type=float, default=0.0,
+                   help='raw mode: time of the first step, s (default 0)')
     return p
+
+
+def cmd_simulate(args):
+    """Run ``gps_error simulate``; return the exit code."""
+    from . import batch
+    from .profiles import load_profile
+
+    profile = load_profile(args.profile)
+    model = profile.model()
+    if args.trajectories:
+        src = Path(args.trajectories)
+        if src.suffix.lower() == '.csv':
+            res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed)
+        else:
+            res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
+                                     args.seed, args.net)
+    elif args.agents and args.duration:
+        res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
+                                 args.agents, args.duration, args.start)
+    else:
+        raise ValueError('expected --trajectories INPUT, or --agents N and '
+                         '--duration S')
+    print(', '.join(f'{v} {k}' for k, v in res.items()) + f'; wrote {args.out}')
+    return 0
 
 
 def _part(text):
@@ -152,8 +196,8 @@ def main(argv=None):
     """Entry point of ``gps_error``."""
     args = _parser().parse_args(argv)
     try:
-        return {'calibrate': cmd_calibrate,
-                'validate': cmd_validate}[args.command](args)
+        return {'calibrate': cmd_calibrate, 'validate': cmd_validate,
+                'simulate': cmd_simulate}[args.command](args)
     except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)
         return 2

@@ -1,5 +1,6 @@
 """One error node serving a crowd; sharding over processes gives the same fixes."""
 
+import numpy as np
 import pytest
 import rclpy
 from geometry_msgs.msg import PoseStamped
@@ -105,3 +106,55 @@ def test_crowd_parameter_errors():
             args += ['-p', p]
         rc, out = NodeProcess(args).wait_exit()
         assert rc == 2 and hint in out, out
+
+
+def test_simulate_reproduces_what_the_node_publishes(tmp_path):
+    from gps_error_ros.batch import simulate_csv
+    from gps_error_ros.geodesy import difference
+    from test_error_node import DATUM
+
+    ns = unique_ns()
+    agents = ['walker_a', 'walker_b']
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+                        '-p', DATUM_ARG, '-p', 'seed:=4', '-p', 'profile:=DS7',
+                        '-p', 'agents:=["walker_a","walker_b"]'])
+    peer = Peer()
+    try:
+        pubs = {a: peer.publisher(PoseStamped, f'{ns}/{a}/pose') for a in agents}
+        boxes = {a: peer.collect(NavSatFix, f'{ns}/{a}/fix') for a in agents}
+        assert peer.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix')
+                                       for a in agents), 20)
+        peer.spin_for(0.5)
+        for k in range(T0, T0 + 31):
+            for a in agents:
+                pubs[a].publish(pose_msg(k * NS))
+            peer.set_clock(k * NS)
+            peer.spin_until(lambda: all(b and stamp_ns(b[-1].header.stamp) >= (k - 1) * NS
+                                        for b in boxes.values()), 5)
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+    src, dst = tmp_path / 'truth.csv', tmp_path / 'noisy.csv'
+    with open(src, 'w') as f:
+        f.write('t,agent,truth_lat,truth_lon\n')
+        for k in range(T0, T0 + 30):
+            for a in agents:
+                f.write(f'{k},{a},{DATUM[0]!r},{DATUM[1]!r}\n')
+    simulate_csv(src, dst, load_profile('DS7').model(), 1.0, 4)
+    import csv
+    rows = list(csv.DictReader(open(dst)))
+    sim = {(r['agent'], int(float(r['t']))): difference(
+        float(r['lat']), float(r['lon']), DATUM[0], DATUM[1]) for r in rows}
+    compared = 0
+    for a in agents:
+        for m in boxes[a]:
+            k = stamp_ns(m.header.stamp) // NS
+            if (a, k) in sim:
+                node_err = difference(m.latitude, m.longitude, DATUM[0], DATUM[1])
+                np.testing.assert_allclose(np.ravel(node_err), np.ravel(sim[a, k]),
+                                           rtol=0, atol=1e-6, err_msg=f'{a} {k}')
+                compared += 1
+    assert compared >= 55
