@@ -57,7 +57,7 @@ class CrowdErrors:
                 self.model.advance(self.state, self.keys, self.step)
 
     def errors(self, names):
-        """Return the current north/east errors (metres) of the named agents."""
+        """Return the named agents' current north/east errors, in metres."""
         new = [n for n in dict.fromkeys(names) if n not in self.index]
         if new:
             self._add(new)
