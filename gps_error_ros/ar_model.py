@@ -247,8 +247,12 @@ class ARErrorModel:
             out = np.empty((n_steps, n, 2))
         if n_steps == 0:
             return out
-        run = self._simulate_steps if n >= 1024 else self._simulate_lfilter
-        chunk = 8192 if n >= 1024 else max(1, min(n, (1 << 21) // n_steps))
+        if n >= 1024:
+            # equal chunks of at most 16384 agents: rows stay in cache and no
+            # small remainder chunk pays the per-step overhead alone
+            run, chunk = self._simulate_steps, -(-n // -(-n // 16384))
+        else:
+            run, chunk = self._simulate_lfilter, max(1, min(n, (1 << 21) // n_steps))
         for a0 in range(0, n, chunk):
             a1 = min(n, a0 + chunk)
             run(keys[a0:a1], n_steps, start, out[:, a0:a1])

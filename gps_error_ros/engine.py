@@ -67,28 +67,32 @@ class Fix:
 
 
 class _TruthRing:
-    """Per-agent ring buffers of (stamp, lat, lon, alt), newest last."""
+    """Per-agent circular buffers of (stamp, lat, lon, alt)."""
 
     def __init__(self, n, size):
         self.size = size
         self.stamp = np.full((n, size), -1, dtype=np.int64)
         self.coord = np.zeros((n, size, 3))
-        self.count = np.zeros(n, dtype=np.int64)
+        self.head = np.zeros(n, dtype=np.int64)      # next slot to write
+        self.newest = np.full(n, -1, dtype=np.int64)
 
-    @property
-    def newest(self):
-        return self.stamp[:, -1]
+    def push(self, agents, stamps, coords):
+        """Store one sample for each of ``agents`` (distinct agent indices)."""
+        slot = self.head[agents] % self.size
+        self.stamp[agents, slot] = stamps
+        self.coord[agents, slot] = coords
+        self.head[agents] += 1
+        self.newest[agents] = stamps
 
-    def push(self, agent, stamp_ns, coord):
-        self.stamp[agent, :-1] = self.stamp[agent, 1:]
-        self.coord[agent, :-1] = self.coord[agent, 1:]
-        self.stamp[agent, -1] = stamp_ns
-        self.coord[agent, -1] = coord
-        self.count[agent] = min(self.count[agent] + 1, self.size)
+    def newest_coord(self, rows):
+        """Return the newest sample's coordinates for ``rows``."""
+        return self.coord[rows, (self.head[rows] - 1) % self.size]
 
     def clear(self):
+        """Forget every sample."""
         self.stamp[:] = -1
-        self.count[:] = 0
+        self.newest[:] = -1
+        self.head[:] = 0
 
     def interpolate(self, rows, t_ns):
         """
@@ -169,8 +173,36 @@ class FixEngine:
         if stamp_ns <= self.truth.newest[agent]:
             self.stats.dropped_out_of_order += 1
             return False
-        self.truth.push(agent, int(stamp_ns), (lat, lon, alt))
+        self.truth.push(np.array([agent]), np.array([int(stamp_ns)]),
+                        np.array([[lat, lon, alt]]))
         return True
+
+    def add_truth_batch(self, agents, stamps, coords):
+        """
+        Store many truth samples at once, in arrival order per agent.
+
+        ``agents`` (m,) local agent indices, ``stamps`` (m,) ns, ``coords``
+        (m, 3) lat, lon, alt. Returns a boolean mask of the samples kept (the
+        others were at or before their agent's newest stamp).
+        """
+        agents = np.asarray(agents, dtype=np.int64)
+        stamps = np.asarray(stamps, dtype=np.int64)
+        kept = np.zeros(agents.size, dtype=bool)
+        if agents.size == 0:
+            return kept
+        order = np.argsort(agents, kind='stable')
+        sorted_agents = agents[order]
+        first = np.r_[0, np.flatnonzero(np.diff(sorted_agents)) + 1]
+        rank = np.empty(agents.size, dtype=np.int64)
+        rank[order] = np.arange(agents.size) - np.repeat(first, np.diff(np.r_[first, agents.size]))
+        for r in range(int(rank.max()) + 1):
+            sel = np.flatnonzero(rank == r)
+            ok = stamps[sel] > self.truth.newest[agents[sel]]
+            sel = sel[ok]
+            self.truth.push(agents[sel], stamps[sel], np.asarray(coords)[sel])
+            kept[sel] = True
+        self.stats.dropped_out_of_order += int((~kept).sum())
+        return kept
 
     def on_clock(self, now_ns):
         """
@@ -246,7 +278,7 @@ class FixEngine:
                 self.stats.skipped_no_truth += int((~fresh).sum())
                 if held.size:
                     fixes.append(self._make_fix(
-                        t_ns, held, self.truth.coord[held, -1], err[held]))
+                        t_ns, held, self.truth.newest_coord(held), err[held]))
         return [f for f in fixes if f.agents.size]
 
     def _make_fix(self, t_ns, agents, coords, err):

@@ -15,24 +15,27 @@ from functools import partial
 import math
 import re
 import secrets
+import struct
+import time
 
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 import rclpy
 from rclpy.callback_groups import CallbackGroup
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import (HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rcl_interfaces.msg import SetParametersResult
-from sensor_msgs.msg import NavSatFix
+from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from ..engine import FixEngine
 from ..geodesy import GeodesyError, LocalTangentFrame
 from ..profiles import load_profile, ProfileError
 from ..streams import agent_key
-from . import conversions
+from . import cdr, conversions
 from .parameters import ConfigError, declare, ERROR_NODE_PARAMS, spec_by_name
 
 INPUT_TOPICS = {
@@ -112,17 +115,30 @@ class GpsErrorNode(Node):
             for local, i in enumerate(members):
                 self.slot[i] = (g, local)
 
+        self.slot_group = np.array([g for g, _ in self.slot])
+        self.slot_local = np.array([local for _, local in self.slot])
         topic, msg_type = INPUT_TOPICS[self.input_type]
         self.polled = len(self.agents) > 1 or self.agents != ['']
         group = _Polled() if self.polled else None
+        # rclpy gives every publisher and subscription QoS-event handlers (to
+        # log incompatible QoS); each is a waitable the executor re-adds to its
+        # wait set on every wake, which with thousands of topics costs most of
+        # a core. A crowd goes without them.
+        sub_events = SubscriptionEventCallbacks(use_default_callbacks=not self.polled)
+        pub_events = PublisherEventCallbacks(use_default_callbacks=not self.polled)
         self.subs, self.pubs = [], []
         for i, name in enumerate(self.agents):
             prefix = f'{name}/' if name else ''
             self.subs.append(self.create_subscription(
                 msg_type, prefix + topic, partial(self._on_truth, i), TRUTH_QOS,
-                callback_group=group))
+                callback_group=group, raw=self.polled, event_callbacks=sub_events))
             self.pubs.append(self.create_publisher(
-                NavSatFix, prefix + 'fix', QoSProfile(depth=10)))
+                NavSatFix, prefix + 'fix', QoSProfile(depth=10),
+                event_callbacks=pub_events))
+        self.sub_handles = [(s.handle, s.msg_type) for s in self.subs]
+        self.pub_handles = [p.handle for p in self.pubs]
+        self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
+        self._templates()
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         sd = self.groups[0][0].model.stationary_sd
@@ -203,25 +219,111 @@ class GpsErrorNode(Node):
             self._publish(g, self.groups[g][0].resolve(self._now_ns()))
         return True
 
+    def _templates(self):
+        """Build the serialized fix template of each profile group."""
+        self.fix_templates = [
+            cdr.FixTemplate(self.frame_id, cov, cov_type, NavSatStatus.STATUS_FIX,
+                            NavSatStatus.SERVICE_GPS)
+            for _, _, cov, cov_type in self.groups]
+
     def _drain(self):
-        """Take every waiting truth message of every agent (polled mode)."""
-        for i, sub in enumerate(self.subs):
+        """
+        Take every waiting truth message of every agent (polled mode).
+
+        Messages are taken serialized and parsed in place (:mod:`.cdr`), and
+        converted and stored for all agents at once.
+        """
+        parse = {'pose': cdr.pose_stamped, 'odometry': cdr.odometry,
+                 'navsatfix': cdr.navsatfix}[self.input_type]
+        agents, rows = [], []
+        # The handles are used directly: this node owns the subscriptions and
+        # never destroys them while draining (rclpy's context-manager guard
+        # and Publisher.publish's type checks cost ~1-3 us per message).
+        for i, (handle, msg_type) in enumerate(self.sub_handles):
             while True:
-                with sub.handle:
-                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                taken = handle.take_message(msg_type, True)
                 if taken is None:
                     break
-                self._on_truth(i, taken[0])
+                try:
+                    rows.append(parse(taken[0]))
+                except struct.error:
+                    self.get_logger().warning(
+                        'dropped a truth message that could not be parsed',
+                        throttle_duration_sec=WARN_PERIOD_S)
+                    continue
+                agents.append(i)
+        if not rows:
+            return
+        agents = np.array(agents)
+        data = np.array(rows, dtype=float)
+        stamps = data[:, 0].astype(np.int64)
+        now = self._now_ns()
+        stamps[stamps == 0] = now
+        if self.input_type == 'navsatfix':
+            ok = (data[:, 1] != NavSatStatus.STATUS_NO_FIX) \
+                & np.isfinite(data[:, 2:4]).all(axis=1) \
+                & (np.abs(data[:, 2]) <= 90) & (np.abs(data[:, 3]) <= 180)
+            coords = data[:, 2:5].copy()
+            coords[~np.isfinite(coords[:, 2]), 2] = 0.0
+        else:
+            qnorm = np.sqrt((data[:, 4:8] ** 2).sum(axis=1))
+            ok = np.isfinite(data[:, 1:4]).all(axis=1) & np.isfinite(qnorm) \
+                & (qnorm > 1e-9)
+            lat, lon, alt = self.frame.to_geodetic(data[:, 1], data[:, 2], data[:, 3])
+            coords = np.stack([lat, lon, alt], axis=1)
+            ok &= np.isfinite(coords).all(axis=1)
+        if not ok.all():
+            self.get_logger().warning(
+                f'dropped {int((~ok).sum())} truth message(s) with non-finite or '
+                f'invalid values', throttle_duration_sec=WARN_PERIOD_S)
+        local = self.slot_local[agents]
+        group = self.slot_group[agents]
+        for g, (engine, members, *_rest) in enumerate(self.groups):
+            mine = ok & (group == g)
+            if mine.any():
+                kept = engine.add_truth_batch(local[mine], stamps[mine], coords[mine])
+                if not kept.all():
+                    self.get_logger().warning(
+                        'dropped truth messages stamped at or before the newest '
+                        'one of their agent', throttle_duration_sec=WARN_PERIOD_S)
 
     def _on_timer(self):
+        t0 = time.perf_counter()
         if self.polled:
             self._drain()
         now = self._now_ns()
         for g, (engine, *_rest) in enumerate(self.groups):
             self._publish(g, engine.on_clock(now))
+        dt = time.perf_counter() - t0
+        self.tick_time[0] += 1
+        self.tick_time[1] += dt
+        self.tick_time[2] = max(self.tick_time[2], dt)
+
+    def summary(self):
+        """Return a one-line account of the run (logged at shutdown)."""
+        stats = [g[0].stats for g in self.groups]
+        ticks, total, worst = self.tick_time
+        mean_ms = 1e3 * total / ticks if ticks else 0.0
+        return (f'{ticks} timer ticks, {sum(s.steps for s in stats)} model steps, '
+                f'{sum(s.fixes for s in stats)} fixes published, '
+                f'{sum(s.skipped_no_truth for s in stats)} skipped without truth, '
+                f'{sum(s.dropped_out_of_order for s in stats)} truth messages out of '
+                f'order, {sum(s.resets for s in stats)} clock resets; wall time per '
+                f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
     def _publish(self, g, fixes):
         _, members, cov, cov_type = self.groups[g]
+        if self.polled:
+            for fix in fixes:
+                good = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
+                if not good.all():
+                    self.get_logger().error('refused to publish a non-finite fix',
+                                            throttle_duration_sec=WARN_PERIOD_S)
+                raws = self.fix_templates[g].render(
+                    fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
+                for local, raw in zip(fix.agents[good], raws):
+                    self.pub_handles[members[local]].publish_raw(raw)
+            return
         for fix in fixes:
             for local, lat, lon, alt in zip(fix.agents, fix.lat, fix.lon, fix.alt):
                 if not (math.isfinite(lat) and math.isfinite(lon)
@@ -247,6 +349,7 @@ class GpsErrorNode(Node):
         for p in params:
             if p.name == 'frame_id' and p.type_ == Parameter.Type.STRING:
                 self.frame_id = p.value
+                self._templates()
         return SetParametersResult(successful=True)
 
 
@@ -264,6 +367,8 @@ def main(args=None):
         pass
     finally:
         if node is not None:
+            rclpy.logging.get_logger('gps_error_node').info(
+                f'at shutdown: {node.summary()}')
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

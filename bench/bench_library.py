@@ -1,0 +1,89 @@
+"""
+Library benchmark: error samples per second of the batch path.
+
+For 1, 1e2, 1e4 and 1e6 agents: ``ARErrorModel.simulate`` (per-agent
+streams, the path of ``gps_error simulate``), numpy's ``standard_normal`` for
+the same number of draws (the floor: no model could draw its noise faster
+with numpy), and a naive per-agent Python loop (one Generator per agent,
+stepping the recursion in Python), all measured in this run. Each figure is
+the best of a few repeats into a preallocated, already-touched buffer.
+"""
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+from gps_error_ros.profiles import load_profile
+
+CASES = ((1, 1_000_000), (100, 20_000), (10_000, 200), (1_000_000, 100))
+
+
+def best_of(fn, repeats):
+    best = float('inf')
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def naive(model, n_agents, n_steps, seed=0):
+    """One Generator per agent, the AR recursion stepped in Python."""
+    phi, mean, sw = model.phi, model.mean, np.sqrt(np.diag(model.innovation_cov))
+    p = model.order
+    out = np.empty((n_steps, n_agents, 2))
+    for a in range(n_agents):
+        rng = np.random.default_rng([seed, a])
+        hist = [[0.0] * p, [0.0] * p]
+        z = rng.standard_normal((n_steps, 2))
+        for t in range(n_steps):
+            for ax in range(2):
+                h = hist[ax]
+                v = sw[ax] * z[t, ax] + sum(phi[ax, i] * h[i] for i in range(p))
+                hist[ax] = [v] + h[:-1]
+                out[t, a, ax] = v + mean[ax]
+    return out
+
+
+def run(repeats=3, naive_budget=200_000):
+    model = load_profile('DS5').model()
+    rng = np.random.default_rng(1)
+    rows = []
+    for n, steps in CASES:
+        keys = np.arange(n, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(7)
+        out = np.zeros((steps, n, 2))
+        samples = out.size
+        t_sim = best_of(lambda: model.simulate(keys, steps, out=out), repeats)
+        t_floor = best_of(lambda: rng.standard_normal(out=out), repeats)
+        # the naive loop is slow: time a slice of the same shape's work
+        nn = max(1, min(n, naive_budget // steps))
+        ns = min(steps, naive_budget // nn)
+        t_naive = best_of(lambda: naive(model, nn, ns), 1) * (samples / (nn * ns * 2))
+        row = {'agents': n, 'steps': steps, 'samples': samples,
+               'simulate_Msps': samples / t_sim / 1e6,
+               'floor_Msps': samples / t_floor / 1e6,
+               'naive_Msps': samples / t_naive / 1e6,
+               'ratio_to_floor': t_floor / t_sim,
+               'speedup_over_naive': t_naive / t_sim}
+        rows.append(row)
+        print(f'{n:>9} agents x {steps:>9} steps: simulate {row["simulate_Msps"]:6.1f} M/s'
+              f' | numpy floor {row["floor_Msps"]:6.1f} M/s | ratio {row["ratio_to_floor"]:.2f}'
+              f' | naive loop {row["naive_Msps"]:6.2f} M/s (x{row["speedup_over_naive"]:.0f})',
+              flush=True)
+    return rows
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--json', help='write the figures here')
+    args = p.parse_args()
+    rows = run()
+    if args.json:
+        with open(args.json, 'w') as f:
+            json.dump(rows, f, indent=1)
+
+
+if __name__ == '__main__':
+    main()

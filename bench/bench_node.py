@@ -1,0 +1,211 @@
+"""
+Node benchmark: one gps_error_node serving 1, 100, 1,000 and 5,000 agents.
+
+Three processes per case: this driver publishes /clock and one pose per agent
+per simulated second; the node (a separate process) steps all agents; a
+counter process subscribes to every agent's fix topic and counts fixes keyed
+by (agent, stamp). Reported: the node's CPU seconds per simulated hour (from
+/proc, all its threads), the fraction of one core that means at real time,
+its wall time per timer tick (from its own shutdown summary), its resident
+memory, and fixes published against fixes received.
+"""
+
+import argparse
+import json
+import os
+from pathlib import Path
+import re
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+NS = 1_000_000_000
+CASES = ((1, 600, 50.0), (100, 600, 20.0), (1000, 300, 5.0), (5000, 120, 2.0))
+
+
+def proc_cpu_s(pid):
+    with open(f'/proc/{pid}/stat') as f:
+        fields = f.read().rsplit(')', 1)[1].split()
+    tick = os.sysconf('SC_CLK_TCK')
+    return (int(fields[11]) + int(fields[12])) / tick
+
+
+def proc_mem_mb(pid):
+    out = {}
+    with open(f'/proc/{pid}/status') as f:
+        for line in f:
+            if line.startswith(('VmRSS', 'VmHWM')):
+                k, v = line.split(':')
+                out[k] = int(v.split()[0]) / 1024
+    return out
+
+
+def counter_main(n, out_path):
+    """Count fixes per (agent, stamp) on n topics, draining on a timer."""
+    import rclpy
+    from rclpy.callback_groups import CallbackGroup
+    from rclpy.executors import ExternalShutdownException
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import NavSatFix
+
+    class Never(CallbackGroup):
+        def can_execute(self, entity):
+            return False
+
+        def beginning_execution(self, entity):
+            return False
+
+        def ending_execution(self, entity):
+            pass
+
+    rclpy.init()
+    node = Node('fix_counter')
+    group = Never()
+    subs = [node.create_subscription(NavSatFix, f'/bench/a{i}/fix', lambda m: None,
+                                     QoSProfile(depth=100), raw=True, callback_group=group)
+            for i in range(n)]
+    seen, total = set(), [0]
+
+    def drain():
+        for i, sub in enumerate(subs):
+            while True:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, True)
+                if taken is None:
+                    break
+                sec, nsec = struct.unpack_from('<iI', taken[0], 4)
+                seen.add((i, sec * NS + nsec))
+                total[0] += 1
+
+    node.create_timer(0.02, drain)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        drain()
+        Path(out_path).write_text(json.dumps({'unique': len(seen), 'total': total[0]}))
+        rclpy.try_shutdown()
+
+
+def run_case(n, sim_s, speed, workdir):
+    import rclpy
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+    from rosgraph_msgs.msg import Clock
+
+    from gps_error_ros.ros.conversions import to_stamp
+
+    params = Path(workdir, f'params{n}.yaml')
+    names = ', '.join(f'"a{i}"' for i in range(n))
+    params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
+                      '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
+                      f'    profile: DS5\n    agents: [{names}]\n')
+    count_file = Path(workdir, f'count{n}.json')
+    exe = Path(sys.executable).with_name('gps_error_node')
+    prof = os.environ.get('BENCH_NODE_PROFILE')     # cProfile output, optional
+    pre = [sys.executable, '-m', 'cProfile', '-o', prof, '-m',
+           'gps_error_ros.ros.error_node'] if prof else [str(exe)]
+    node = subprocess.Popen(pre + ['--ros-args', '-r', '__ns:=/bench',
+                                   '--params-file', str(params)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    counter = subprocess.Popen([sys.executable, __file__, '--counter', str(n),
+                                str(count_file)])
+    rclpy.init()
+    drv = Node('bench_driver')
+    qos = QoSProfile(depth=10)
+    clock = drv.create_publisher(Clock, '/clock', qos)
+    pubs = [drv.create_publisher(PoseStamped, f'/bench/a{i}/pose', qos) for i in range(n)]
+    deadline = time.monotonic() + 60
+    while (any(p.get_subscription_count() == 0 for p in pubs[:: max(1, n // 50)])
+           or drv.count_subscribers('/bench/a0/fix') == 0):
+        if time.monotonic() > deadline or node.poll() is not None:
+            raise RuntimeError('node or counter did not come up')
+        time.sleep(0.1)
+    time.sleep(2.0)
+    msg = PoseStamped()
+    msg.header.frame_id = 'map'
+    msg.pose.orientation.w = 1.0
+    t0 = 1000
+    cpu0 = mem0 = None
+    wall0 = time.monotonic()
+    for k in range(sim_s + 1):
+        stamp = to_stamp((t0 + k) * NS)
+        msg.header.stamp = stamp
+        for c in range(0, n, 500):
+            for i in range(c, min(n, c + 500)):
+                msg.pose.position.x = float(i)
+                pubs[i].publish(msg)
+            time.sleep(0.001)
+        clock.publish(Clock(clock=stamp))
+        if k == 10:                                  # after warm-up
+            cpu0, wall0 = proc_cpu_s(node.pid), time.monotonic()
+            mem0 = proc_mem_mb(node.pid)
+        lag = (k + 1) / speed - (time.monotonic() - wall0) if k >= 10 else 1.0 / speed
+        time.sleep(max(0.0, lag if k >= 10 else 1.0 / speed))
+    time.sleep(1.5)
+    cpu1, wall1 = proc_cpu_s(node.pid), time.monotonic()
+    mem1 = proc_mem_mb(node.pid)
+    clock.publish(Clock(clock=to_stamp((t0 + sim_s + 1) * NS)))
+    time.sleep(2.0)
+    drv.destroy_node()
+    rclpy.try_shutdown()
+    node.send_signal(signal.SIGINT)
+    out, _ = node.communicate(timeout=60)
+    counter.send_signal(signal.SIGINT)
+    counter.wait(timeout=60)
+    counts = json.loads(count_file.read_text())
+    m = re.search(r'(\d+) fixes published.*wall time per tick ([\d.]+) ms mean, '
+                  r'([\d.]+) ms max', out)
+    if not m:
+        raise RuntimeError(f'no summary from the node:\n{out[-2000:]}')
+    published = int(m.group(1))
+    measured_sim = sim_s - 10
+    cpu = cpu1 - cpu0
+    return {
+        'agents': n, 'simulated_s': measured_sim, 'speed_x_real_time': speed,
+        'node_cpu_s_per_sim_hour': cpu / measured_sim * 3600,
+        'core_fraction_at_real_time': cpu / measured_sim,
+        'tick_ms_mean': float(m.group(2)), 'tick_ms_max': float(m.group(3)),
+        'rss_mb_after_warmup': mem0['VmRSS'], 'rss_mb_end': mem1['VmRSS'],
+        'peak_rss_mb': mem1['VmHWM'],
+        'fixes_published': published, 'fixes_received_unique': counts['unique'],
+        'received_fraction': counts['unique'] / published if published else 0.0,
+        'wall_s': wall1 - wall0,
+    }
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--counter', nargs=2, metavar=('N', 'OUT'), help=argparse.SUPPRESS)
+    p.add_argument('--agents', type=int, nargs='*', help='only these crowd sizes')
+    p.add_argument('--json', help='write the figures here')
+    args = p.parse_args()
+    if args.counter:
+        counter_main(int(args.counter[0]), args.counter[1])
+        return
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    rows = []
+    with tempfile.TemporaryDirectory() as work:
+        for n, sim_s, speed in CASES:
+            if args.agents and n not in args.agents:
+                continue
+            r = run_case(n, sim_s, speed, work)
+            rows.append(r)
+            print(f'{n:>5} agents: node {r["node_cpu_s_per_sim_hour"]:7.1f} CPU-s per '
+                  f'simulated hour ({100 * r["core_fraction_at_real_time"]:.2f} % of a '
+                  f'core at 1x), tick {r["tick_ms_mean"]:.2f} ms mean / '
+                  f'{r["tick_ms_max"]:.1f} ms max, RSS {r["rss_mb_end"]:.0f} MB, '
+                  f'fixes received {r["fixes_received_unique"]}/{r["fixes_published"]} '
+                  f'({100 * r["received_fraction"]:.2f} %)', flush=True)
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == '__main__':
+    main()

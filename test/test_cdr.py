@@ -1,0 +1,51 @@
+"""The CDR fast paths agree with rclpy's own (de)serialization."""
+
+import math
+
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
+import pytest
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+from gps_error_ros.ros import cdr
+
+
+@pytest.mark.parametrize('frame', ['', 'm', 'map', 'odom', 'a' * 7, 'world_frame_x'])
+def test_pose_and_odometry(frame):
+    p = PoseStamped()
+    p.header.frame_id = frame
+    p.header.stamp.sec, p.header.stamp.nanosec = 1_700_000_123, 456_789
+    p.pose.position.x, p.pose.position.y, p.pose.position.z = 1.25, -3.5, math.pi
+    p.pose.orientation.z, p.pose.orientation.w = 0.6, 0.8
+    got = cdr.pose_stamped(serialize_message(p))
+    assert got == (1_700_000_123_000_456_789, 1.25, -3.5, math.pi, 0.0, 0.0, 0.6, 0.8)
+    for child in ('', 'base_link', 'b' * 5):
+        o = Odometry()
+        o.header = p.header
+        o.child_frame_id = child
+        o.pose.pose = p.pose
+        assert cdr.odometry(serialize_message(o)) == got
+
+
+@pytest.mark.parametrize('frame', ['', 'gps', 'gnss_link', 'x' * 12])
+def test_navsatfix_read_and_template(frame):
+    f = NavSatFix()
+    f.header.frame_id = frame
+    f.header.stamp.sec = 42
+    f.status.status, f.status.service = NavSatStatus.STATUS_NO_FIX, 1
+    f.latitude, f.longitude, f.altitude = 40.1, -73.2, 12.5
+    assert cdr.navsatfix(serialize_message(f)) == (42 * 10 ** 9, -1, 40.1, -73.2, 12.5)
+    cov = [float(i) for i in range(9)]
+    tpl = cdr.FixTemplate(frame, cov, NavSatFix.COVARIANCE_TYPE_KNOWN,
+                          NavSatStatus.STATUS_FIX, NavSatStatus.SERVICE_GPS)
+    out = tpl.render(5_000_000_007, [1.5, -2.25], [3.0, 4.0], [5.0, 6.0])
+    for raw, (lat, lon, alt) in zip(out, [(1.5, 3.0, 5.0), (-2.25, 4.0, 6.0)]):
+        m = deserialize_message(raw, NavSatFix)
+        assert (m.header.stamp.sec, m.header.stamp.nanosec) == (5, 7)
+        assert m.header.frame_id == frame
+        assert (m.latitude, m.longitude, m.altitude) == (lat, lon, alt)
+        assert list(m.position_covariance) == cov
+        assert m.position_covariance_type == NavSatFix.COVARIANCE_TYPE_KNOWN
+        assert m.status.status == NavSatStatus.STATUS_FIX
+        assert m.status.service == NavSatStatus.SERVICE_GPS
