@@ -17,7 +17,7 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo test lint clean calibration-doc
+.PHONY: setup demo test lint clean calibration-doc bench
 
 DATA ?= ../shared/data
 
@@ -38,6 +38,14 @@ test: setup
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup
 	$(PY) -m gps_error_ros.calibration_report --data $(DATA) --out docs
+
+# Benchmarks: figures printed (and kept in bench_output/), not timed tests.
+# About 10 minutes on a 2-core machine; see docs/performance.md.
+bench: setup
+	mkdir -p bench_output
+	$(PY) bench/bench_library.py --json bench_output/library.json
+	$(PY) bench/bench_node.py --json bench_output/node.json
+	$(PY) bench/bench_simulate_fcd.py --json bench_output/simulate_fcd.json
 
 lint: setup
 	$(PY) -m pytest -m linter

@@ -25,7 +25,15 @@ Timing rules
   the step produces no fix for that agent (it is counted as skipped, never
   made up). There is no fix for instants before an agent's first sample.
 * Truth samples must arrive in stamp order; a sample stamped at or before the
-  newest one held for its agent is dropped and counted.
+  newest one held for its agent is dropped and counted (out of order or
+  duplicate). A sample stamped more than ``FUTURE_TOLERANCE_S`` (60 s) ahead
+  of the latest clock reading is dropped and counted (stamped in the future,
+  e.g. wall time in a simulated-time run): kept, it would block the real
+  samples after it as out of order. Samples a little ahead are normal (the
+  truth often arrives before the clock tick it belongs to, and a busy node
+  reads the clock late). Two samples further apart than
+  ``max(2 s, 2 * max_pose_age)`` are not interpolated between: steps in
+  such a gap get no fix (nothing is made up across it).
 * The clock going backwards resets the engine: pending steps and truth
   history are discarded and the model restarts from its stationary law at the
   new instant.
@@ -40,6 +48,7 @@ import numpy as np
 from .geodesy import offset
 
 NS = 1_000_000_000
+FUTURE_TOLERANCE_S = 60.0
 
 
 @dataclass
@@ -50,6 +59,7 @@ class EngineStats:
     fixes: int = 0
     skipped_no_truth: int = 0
     dropped_out_of_order: int = 0
+    dropped_future: int = 0
     resets: int = 0
     pending_overflow: int = 0
 
@@ -94,7 +104,7 @@ class _TruthRing:
         self.newest[:] = -1
         self.head[:] = 0
 
-    def interpolate(self, rows, t_ns):
+    def interpolate(self, rows, t_ns, max_gap_ns):
         """
         Return truth at ``t_ns`` for ``rows`` (each must have a sample >= t).
 
@@ -110,6 +120,7 @@ class _TruthRing:
         ok = before[np.arange(len(rows)), i_lo] >= 0
         s_lo = stamps[np.arange(len(rows)), i_lo].astype(float)
         s_hi = stamps[np.arange(len(rows)), i_hi].astype(float)
+        ok &= (s_hi - s_lo) <= max_gap_ns
         c_lo = self.coord[rows, i_lo]
         c_hi = self.coord[rows, i_hi]
         span = s_hi - s_lo
@@ -154,6 +165,8 @@ class FixEngine:
         self.period_ns = int(round(NS / rate))
         self.model_period_ns = int(round(NS / model_rate))
         self.max_pose_age_ns = int(round(max_pose_age * NS))
+        self.future_tolerance_ns = int(FUTURE_TOLERANCE_S * NS)
+        self.max_gap_ns = max(2 * NS, 2 * self.max_pose_age_ns)
         self.max_pending = max_pending
         self.truth = _TruthRing(self.n, history)
         self.stats = EngineStats()
@@ -169,7 +182,11 @@ class FixEngine:
     # --- inputs ----------------------------------------------------------
 
     def add_truth(self, agent, stamp_ns, lat, lon, alt):
-        """Store a truth sample; return False if dropped (out of order)."""
+        """Store a truth sample; return False if dropped (order, future)."""
+        if self.last_now is not None and \
+                stamp_ns > self.last_now + self.future_tolerance_ns:
+            self.stats.dropped_future += 1
+            return False
         if stamp_ns <= self.truth.newest[agent]:
             self.stats.dropped_out_of_order += 1
             return False
@@ -190,6 +207,19 @@ class FixEngine:
         kept = np.zeros(agents.size, dtype=bool)
         if agents.size == 0:
             return kept
+        if self.last_now is not None:
+            future = stamps > self.last_now + self.future_tolerance_ns
+            if future.any():
+                self.stats.dropped_future += int(future.sum())
+                rest = np.flatnonzero(~future)
+                if rest.size:
+                    kept[rest] = self._add_batch(agents[rest], stamps[rest],
+                                                 np.asarray(coords)[rest],
+                                                 np.zeros(rest.size, dtype=bool))
+                return kept
+        return self._add_batch(agents, stamps, coords, kept)
+
+    def _add_batch(self, agents, stamps, coords, kept):
         order = np.argsort(agents, kind='stable')
         sorted_agents = agents[order]
         first = np.r_[0, np.flatnonzero(np.diff(sorted_agents)) + 1]
@@ -264,7 +294,7 @@ class FixEngine:
         fixes = []
         if ready.any():
             rows = np.flatnonzero(ready)
-            coords, ok = self.truth.interpolate(rows, t_ns)
+            coords, ok = self.truth.interpolate(rows, t_ns, self.max_gap_ns)
             done[rows] = True
             self.stats.skipped_no_truth += int((~ok).sum())
             fixes.append(self._make_fix(t_ns, rows[ok], coords[ok], err[rows[ok]]))

@@ -21,6 +21,16 @@ from rosgraph_msgs.msg import Clock
 
 NS = 1_000_000_000
 _counter = itertools.count()
+_LIVE = []
+
+
+def stop_all():
+    """Kill every node process a test started and left running."""
+    while _LIVE:
+        proc = _LIVE.pop()
+        if proc.proc.poll() is None:
+            proc.proc.kill()
+            proc.proc.communicate()
 
 
 def node_executable(name='gps_error_node'):
@@ -48,6 +58,7 @@ class NodeProcess:
             self.argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
             text=True, env=env)
         self._output = None
+        _LIVE.append(self)
 
     def stop(self, timeout=10):
         """SIGINT the node; return (exit code, output)."""

@@ -73,12 +73,12 @@ def test_hold_then_silence_when_truth_stops():
 def test_no_fix_before_first_truth_and_out_of_order_dropped():
     eng = engine()
     assert eng.on_clock(3 * NS) == []
-    assert eng.add_truth(0, 5 * NS, LAT, LON, 0.0)
+    assert eng.add_truth(0, 4 * NS, LAT, LON, 0.0)
+    assert not eng.add_truth(0, int(3.5 * NS), LAT, LON, 0.0)
     assert not eng.add_truth(0, 4 * NS, LAT, LON, 0.0)
-    assert not eng.add_truth(0, 5 * NS, LAT, LON, 0.0)
     assert eng.stats.dropped_out_of_order == 2
-    out = eng.on_clock(6 * NS)
-    assert [f.stamp_ns for f in out] == [5 * NS]   # step 3 had no truth before it
+    out = eng.on_clock(5 * NS)
+    assert [f.stamp_ns for f in out] == [4 * NS]   # step 3 had no truth before it
 
 
 def test_clock_backwards_resets():
@@ -124,3 +124,38 @@ def test_rate_below_model_rate_samples_model():
     n, _ = difference(lat, lon, LAT, LON)
     np.testing.assert_allclose(n, MODEL.simulate(KEY, 40, start=100)[::2, 0, 0],
                                atol=1e-6)
+
+
+def test_future_stamped_truth_is_dropped():
+    eng = engine(max_pose_age=1.0)
+    eng.add_truth(0, 10 * NS, LAT, LON, 0.0)
+    eng.on_clock(10 * NS)
+    assert not eng.add_truth(0, 100 * NS, LAT + 1e-3, LON, 0.0)   # 90 s ahead
+    assert not eng.add_truth(0, 71 * NS, LAT + 1e-3, LON, 0.0)    # 61 s ahead
+    assert eng.stats.dropped_future == 2
+    assert eng.add_truth(0, 30 * NS, LAT, LON, 0.0)             # 20 s ahead: fine
+    kept = eng.add_truth_batch([0, 0], [40 * NS, 500 * NS], [[LAT, LON, 0]] * 2)
+    assert list(kept) == [True, False] and eng.stats.dropped_future == 3
+
+
+def test_no_interpolation_across_a_long_truth_gap():
+    eng = engine(max_pose_age=1.0)               # longest bridged gap: 2 s
+    out = []
+    eng.add_truth(0, 10 * NS, LAT, LON, 0.0)
+    out += eng.on_clock(10 * NS)
+    for k in range(11, 16):
+        out += eng.on_clock(k * NS)
+    eng.add_truth(0, 16 * NS, LAT + 1e-3, LON, 0.0)   # 6 s after the previous
+    out += eng.on_clock(16 * NS)
+    stamps = [f.stamp_ns for f in out]
+    # 10 exact, 11 held (1 s), 12-15 nothing (gap), 16 exact
+    assert stamps == [10 * NS, 11 * NS, 16 * NS]
+
+
+def test_batch_add_keeps_order_per_agent():
+    eng = FixEngine(MODEL, streams.agent_keys(1, ['a', 'b']))
+    kept = eng.add_truth_batch([0, 1, 0, 0, 1], [5, 7, 6, 6, 3],
+                               [[LAT, LON, 0.0]] * 5)
+    # a: 5 then 6 kept, duplicate 6 dropped; b: 7 kept, then 3 out of order
+    assert list(kept) == [True, True, True, False, False]
+    assert eng.stats.dropped_out_of_order == 2

@@ -212,8 +212,9 @@ class GpsErrorNode(Node):
         g, local = self.slot[agent]
         if not self.groups[g][0].add_truth(local, stamp, lat, lon, alt):
             self.get_logger().warning(
-                'dropped a truth message stamped at or before the newest one '
-                '(out of order or duplicate)', throttle_duration_sec=WARN_PERIOD_S)
+                'dropped a truth message stamped at or before the newest one (out '
+                'of order or duplicate) or more than 60 s ahead of the clock',
+                throttle_duration_sec=WARN_PERIOD_S)
             return False
         if not self.polled:
             self._publish(g, self.groups[g][0].resolve(self._now_ns()))
@@ -285,15 +286,22 @@ class GpsErrorNode(Node):
                 if not kept.all():
                     self.get_logger().warning(
                         'dropped truth messages stamped at or before the newest '
-                        'one of their agent', throttle_duration_sec=WARN_PERIOD_S)
+                        'one of their agent, or more than 60 s ahead of the clock',
+                        throttle_duration_sec=WARN_PERIOD_S)
 
     def _on_timer(self):
         t0 = time.perf_counter()
         if self.polled:
             self._drain()
         now = self._now_ns()
+        resets = sum(g[0].stats.resets for g in self.groups)
         for g, (engine, *_rest) in enumerate(self.groups):
             self._publish(g, engine.on_clock(now))
+        if sum(g[0].stats.resets for g in self.groups) > resets:
+            self.get_logger().warning(
+                f'the clock went backwards (to {now / 1e9:.3f} s): truth history '
+                f'and pending steps discarded, models restarted',
+                throttle_duration_sec=WARN_PERIOD_S)
         dt = time.perf_counter() - t0
         self.tick_time[0] += 1
         self.tick_time[1] += dt
@@ -308,7 +316,8 @@ class GpsErrorNode(Node):
                 f'{sum(s.fixes for s in stats)} fixes published, '
                 f'{sum(s.skipped_no_truth for s in stats)} skipped without truth, '
                 f'{sum(s.dropped_out_of_order for s in stats)} truth messages out of '
-                f'order, {sum(s.resets for s in stats)} clock resets; wall time per '
+                f'order, {sum(s.dropped_future for s in stats)} stamped in the future, '
+                f'{sum(s.resets for s in stats)} clock resets; wall time per '
                 f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
     def _publish(self, g, fixes):
