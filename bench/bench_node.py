@@ -166,7 +166,7 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     drv.destroy_node()
     rclpy.try_shutdown()
     node.send_signal(signal.SIGINT)
-    out, _ = node.communicate(timeout=60)
+    out, _ = node.communicate(timeout=300)    # 10,000 entities take ~30 s to destroy
     counter.send_signal(signal.SIGINT)
     counter.wait(timeout=60)
     counts = json.loads(count_file.read_text())
