@@ -16,8 +16,10 @@ setup(
         (os.path.join('share', package_name, 'config', 'profiles'),
             sorted(glob('config/profiles/*.yaml'))),
     ],
-    install_requires=['setuptools', 'numpy', 'scipy', 'pyproj', 'PyYAML'],
-    extras_require={'report': ['matplotlib'], 'bags': ['rosbags']},
+    # The core and the `gps_error` command need no ROS: rclpy and the message
+    # packages come from the ROS install (or requirements-ros.txt).
+    install_requires=['setuptools', 'numpy', 'scipy', 'pyproj', 'PyYAML',
+                      'matplotlib', 'rosbags'],
     zip_safe=True,
     maintainer='gps_error_ros maintainers',
     maintainer_email='maintainers@gps-error-ros.invalid',
