@@ -17,7 +17,7 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo test lint clean calibration-doc bench
+.PHONY: setup demo test lint clean calibration-doc bench soak
 
 DATA ?= ../shared/data
 
@@ -46,6 +46,15 @@ bench: setup
 	$(PY) bench/bench_library.py --json bench_output/library.json
 	$(PY) bench/bench_node.py --json bench_output/node.json
 	$(PY) bench/bench_simulate_fcd.py --json bench_output/simulate_fcd.json
+
+# Soak (not part of make test, which runs a 12-minute version): 24 simulated
+# hours for 100 agents, then one simulated hour for 1,000 agents, as fast as
+# the node keeps up. About 20 minutes on a 2-core machine.
+soak: setup
+	mkdir -p bench_output
+	$(PY) bench/soak.py --agents 100 --hours 24 --json bench_output/soak100.json
+	$(PY) bench/soak.py --agents 1000 --hours 1 --sample-s 600 --window-s 900 \
+		--json bench_output/soak1000.json
 
 lint: setup
 	$(PY) -m pytest -m linter

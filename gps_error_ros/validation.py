@@ -181,7 +181,9 @@ def validation_figure(res, path, title, map_window=180):
     slat, slon = offset(lat, lon, res.simulated[win, 0], res.simulated[win, 1])
     me, mn, _ = frame.to_enu(mlat, mlon, z)
     se, sn, _ = frame.to_enu(slat, slon, z)
-    ax.plot(te, tn, '-', color='0.2', lw=1, label='ground truth')
+    still = np.ptp(te) < 1.0 and np.ptp(tn) < 1.0      # a static receiver
+    ax.plot(te, tn, 'x-' if still else '-', color='0.2', lw=1, ms=12, mew=2,
+            label='ground truth')
     ax.plot(me, mn, '.', color='tab:red', ms=4, alpha=0.7, label='measured fixes')
     ax.plot(se, sn, '.', color='tab:green', ms=4, alpha=0.7,
             label='simulated fixes (one run)')

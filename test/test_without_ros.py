@@ -1,4 +1,5 @@
-"""The core and `gps_error` (calibrate, validate, simulate) run without ROS.
+"""
+The core and `gps_error` (calibrate, validate, simulate) run without ROS.
 
 Each command runs in a fresh interpreter whose import system refuses rclpy
 and every ROS message package, as in an environment with only
