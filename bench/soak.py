@@ -64,7 +64,10 @@ def run(agents, sim_s, sample_s, window_s, rss_growth_mb, profile='DS2', seed=3)
         names = ', '.join(f'"a{i}"' for i in range(agents))
         params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
                           f'    datum: [{lat0}, {lon0}, 0.0]\n    seed: {seed}\n'
-                          f'    profile: {profile}\n    agents: [{names}]\n')
+                          f'    profile: {profile}\n    agents: [{names}]\n'
+                          # the driver runs the clock one step ahead of the
+                          # truth it waits on: see README, max_pose_age
+                          '    max_pose_age: 3.0\n')
         exe = Path(sys.executable).with_name('gps_error_node')
         node = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
                                  '--params-file', str(params)],

@@ -45,9 +45,11 @@ def test_editable(tmp_path):
 @pytest.mark.parametrize('with_ament', [False, True])
 def test_pip_install_non_editable(tmp_path, with_ament):
     prefix = tmp_path / 'prefix'
+    # --ignore-installed: without it pip uninstalls the venv's editable
+    # install (and its console scripts) before installing into --prefix.
     _run([sys.executable, '-m', 'pip', 'install', '--quiet', '--no-deps',
-          '--disable-pip-version-check', '--prefix', str(prefix), str(REPO)],
-         tmp_path, _clean_env())
+          '--ignore-installed', '--disable-pip-version-check', '--prefix',
+          str(prefix), str(REPO)], tmp_path, _clean_env())
     site = next(prefix.glob('lib/python*/site-packages'))
     env = _clean_env(PYTHONPATH=str(site))
     if with_ament:

@@ -85,9 +85,6 @@ class GpsErrorNode(Node):
         self.input_type = cfg['input_type']
         self.agents = self._agent_names(cfg['agents'])
         profiles = self._agent_profile_specs(cfg)
-        self.frame = None
-        if self.input_type != 'navsatfix':
-            self.frame = self._datum_frame(cfg['datum'])
         seed = cfg['seed']
         if seed < 0:
             seed = secrets.randbits(63)
@@ -115,6 +112,10 @@ class GpsErrorNode(Node):
             for local, i in enumerate(members):
                 self.slot[i] = (g, local)
 
+        # the datum is checked after the profiles: a bad profile is named first
+        self.frame = None
+        if self.input_type != 'navsatfix':
+            self.frame = self._datum_frame(cfg['datum'])
         self.slot_group = np.array([g for g, _ in self.slot])
         self.slot_local = np.array([local for _, local in self.slot])
         topic, msg_type = INPUT_TOPICS[self.input_type]
