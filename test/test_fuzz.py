@@ -1,7 +1,7 @@
 """Property-based tests: parsers fail only with their documented errors."""
 
 import numpy as np
-from hypothesis import given, HealthCheck, settings, strategies as st
+from hypothesis import example, given, HealthCheck, settings, strategies as st
 import yaml
 
 from gps_error_ros.geodesy import difference, offset
@@ -40,6 +40,9 @@ def test_any_yaml_value_loads_or_raises_profile_error(raw):
 
 @SETTINGS
 @given(profiles)
+@example({'schema': 1, 'name': '0', 'description': '', 'source': '', 'rate_hz': 1.0,
+          'axes': {'north': {'delta': 0.0, 'phi': [2.225073858507e-311], 'sigma_w': 1.0},
+                   'east': {'delta': 0.0, 'phi': [0.0], 'sigma_w': 1.0}}})
 def test_profile_like_mappings(raw):
     try:
         p = profile_from_dict(raw, 'fuzz')
