@@ -188,7 +188,8 @@ def run(agents, sim_s, sample_s, window_s, rss_growth_mb, profile='DS2', seed=3)
         'agents': agents, 'simulated_s': sim_s, 'wall_s': wall,
         'speed_x_real_time': sim_s / wall, 'fixes_expected': len(expected),
         'fixes_received': len(counted & expected), 'missing': missing, 'unexpected': extra,
-        'missing_steps': missing_steps, 'duplicates': dup, 'rss_mb_samples': [round(r, 1) for r in rss],
+        'missing_steps': missing_steps, 'duplicates': dup,
+        'rss_mb_samples': [round(r, 1) for r in rss],
         'rss_growth_mb': growth, 'stats': checks,
         'passed': missing == 0 and extra == 0 and dup == 0 and growth <= rss_growth_mb
         and stats_ok,
