@@ -85,8 +85,9 @@ class AxisParams:
             raise ModelError(f'AR parameters must be finite, got {self}')
         if len(self.phi) < 1:
             raise ModelError('phi must hold at least one coefficient (p >= 1)')
-        if not self.sigma_w > 0:
-            raise ModelError(f'sigma_w must be > 0, got {self.sigma_w}')
+        if not 1e-6 <= self.sigma_w <= 1e6:
+            raise ModelError(f'sigma_w must be in [1e-6, 1e6] m (> 0 and '
+                             f'representable squared), got {self.sigma_w}')
         if not is_stationary(self.phi):
             rho = inverse_root_modulus(self.phi)
             smallest = 1.0 / rho if rho > 0 else float('inf')
@@ -103,6 +104,21 @@ class AxisParams:
     def mean(self):
         """Return the process mean ``delta / (1 - sum phi)`` (Eq. 3)."""
         return self.delta / (1.0 - sum(self.phi))
+
+
+def _sqrt_psd(cov):
+    """
+    Return L with L @ L.T == cov: Cholesky, or from eigenvalues.
+
+    Near a unit root the stationary covariance can be positive definite in
+    exact arithmetic but not in floating point; the eigen-decomposition
+    (negative rounding clipped to 0) still gives a valid square root.
+    """
+    try:
+        return np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        w, v = np.linalg.eigh(cov)
+        return v * np.sqrt(np.clip(w, 0.0, None))
 
 
 class ARErrorModel:
@@ -141,7 +157,10 @@ class ARErrorModel:
         self.state_cov = linalg.solve_discrete_lyapunov(
             self.transition, noise_map @ self.innovation_cov @ noise_map.T)
         self.state_cov = 0.5 * (self.state_cov + self.state_cov.T)
-        self._state_chol = np.linalg.cholesky(self.state_cov)
+        if not np.all(np.isfinite(self.state_cov)):
+            raise ModelError('the stationary covariance is not finite (a root '
+                             'too close to the unit circle)')
+        self._state_chol = _sqrt_psd(self.state_cov)
 
     def _companion(self):
         p = self.order
@@ -203,7 +222,7 @@ class ARErrorModel:
         # many agents are drawn together (BLAS may reorder sums by size).
         x = np.zeros((keys.size, 2 * p))
         for i in range(2 * p):
-            for j in range(i + 1):
+            for j in range(2 * p):
                 if self._state_chol[i, j] != 0.0:
                     x[:, i] += self._state_chol[i, j] * z[:, j]
         return x.reshape(keys.size, 2, p)

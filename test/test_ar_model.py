@@ -86,6 +86,7 @@ def test_sign_convention_and_stationarity():
 @pytest.mark.parametrize('kwargs, match', [
     (dict(delta=0.0, phi=(1.1,), sigma_w=1.0), 'not stationary'),
     (dict(delta=0.0, phi=(0.5,), sigma_w=0.0), 'sigma_w'),
+    (dict(delta=0.0, phi=(0.5,), sigma_w=1e-200), 'sigma_w'),
     (dict(delta=float('nan'), phi=(0.5,), sigma_w=1.0), 'finite'),
     (dict(delta=0.0, phi=(), sigma_w=1.0), 'at least one'),
 ])

@@ -43,6 +43,9 @@ def test_any_yaml_value_loads_or_raises_profile_error(raw):
 @example({'schema': 1, 'name': '0', 'description': '', 'source': '', 'rate_hz': 1.0,
           'axes': {'north': {'delta': 0.0, 'phi': [2.225073858507e-311], 'sigma_w': 1.0},
                    'east': {'delta': 0.0, 'phi': [0.0], 'sigma_w': 1.0}}})
+@example({'schema': 1, 'name': '0', 'description': '', 'source': '', 'rate_hz': 1.0,
+          'axes': {'north': {'delta': 0.0, 'phi': [0.0], 'sigma_w': 1.0},
+                   'east': {'delta': 0.0, 'phi': [0.0], 'sigma_w': 1.2e-184}}})
 def test_profile_like_mappings(raw):
     try:
         p = profile_from_dict(raw, 'fuzz')
