@@ -227,6 +227,24 @@ class ARErrorModel:
                     x[:, i] += self._state_chol[i, j] * z[:, j]
         return x.reshape(keys.size, 2, p)
 
+    def empty_state(self, n):
+        """Return a state array for ``n`` agents (zeros)."""
+        return np.zeros((n, 2, self.order))
+
+    def state_after(self, keys, start, step):
+        """Return the state at model step ``step`` of a run started at ``start``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        span = step - start + 1
+        p = self.order
+        if span >= p:
+            series = self.simulate(keys, span, start=start)
+            return np.stack([series[-1 - i] - self.mean for i in range(p)],
+                            axis=-1)
+        state = self.initial_state(keys, start)
+        for s in range(start + 1, step + 1):
+            self.advance(state, keys, s)
+        return state
+
     def _innovations(self, z):
         """Return innovations from standard normals ``z`` (..., 2), elementwise."""
         c = self._innovation_chol

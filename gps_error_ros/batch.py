@@ -10,6 +10,10 @@ names and first step give the same errors):
   ``gps_error calibrate`` reads back;
 * no input: ``--agents N --duration S`` writes the raw error series to an
   ``.npz`` (streamed to disk, agents x steps x (north, east) metres).
+
+A profile's ``effects`` apply in every mode, except ``motion_lag`` in the
+``.npz`` mode, which has no trajectory to lag (the two trajectory modes
+report each agent's position ``lag_s`` earlier, interpolated).
 """
 
 import csv
@@ -22,6 +26,7 @@ import numpy as np
 
 from . import streams
 from .crowd import CrowdErrors
+from .effects import LagBuffer
 from .progress import Progress
 from .trajectories import (add_errors_lonlat, FcdWriter, iter_fcd, NetProjection,
                            read_truth_csv, TrajectoryError)
@@ -39,6 +44,7 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
     crowd, rows, steps = None, 0, 0
+    lag = LagBuffer(getattr(model, 'lag_s', 0.0))
     try:
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
@@ -50,8 +56,8 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
                 writer.timestep(elem, [])
                 continue
             names = [a[0] for a in agents]
-            x = np.array([a[1] for a in agents])
-            y = np.array([a[2] for a in agents])
+            x, y = lag.lagged(names, t, [a[1] for a in agents],
+                              [a[2] for a in agents])
             err = crowd.errors(names)
             if proj is None:
                 if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
@@ -83,6 +89,7 @@ def simulate_csv(src, dst, model, rate_hz, seed):
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
     crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz))
+    lag = LagBuffer(getattr(model, 'lag_s', 0.0))
     lat_out = np.empty_like(t)
     lon_out = np.empty_like(t)
     bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
@@ -92,8 +99,9 @@ def simulate_csv(src, dst, model, rate_hz, seed):
         if len(set(names)) != len(names):
             raise TrajectoryError(f'{src}: agent listed twice at t={t[b0]}')
         err = crowd.errors(names)
-        lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(
-            data['truth_lon'][b0:b1], data['truth_lat'][b0:b1], err)
+        lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
+                              data['truth_lat'][b0:b1])
+        lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
     with open(dst, 'w', newline='') as f:
         w = csv.writer(f)
         w.writerow(['t', 'agent', 'lat', 'lon', 'truth_lat', 'truth_lon'])

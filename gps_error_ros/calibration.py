@@ -223,9 +223,9 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
     return CalibrationResult(fits[0], fits[1], grid, trace.name)
 
 
-def write_profile(path, profile):
+def write_profile(path, profile, tool='calibrate'):
     """Write a profile mapping as YAML (keys in schema order)."""
     with open(path, 'w', encoding='utf-8') as f:
-        f.write('# Written by gps_error calibrate.\n')
+        f.write(f'# Written by gps_error {tool}.\n')
         yaml.safe_dump(profile, f, sort_keys=False, default_flow_style=None,
                        width=100)

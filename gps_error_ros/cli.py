@@ -4,7 +4,9 @@
 ``gps_error calibrate INPUT -o PROFILE.yaml`` fits a profile from a trace CSV
 or a rosbag2; ``gps_error validate PROFILE INPUT --out DIR`` cross-validates a
 profile against a measured trace; ``gps_error simulate`` adds errors to SUMO
-FCD or CSV trajectories, or writes raw error series.
+FCD or CSV trajectories, or writes raw error series; ``gps_error diagnose
+INPUT`` finds the structure the AR model misses and fits the extended model;
+``gps_error synth SCENARIO -o WALK.csv`` writes a synthetic walk for it.
 """
 
 import argparse
@@ -20,7 +22,7 @@ from .profiles import load_profile_file, ProfileError
 from .trace_io import TraceError
 
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
-          ValueError, OSError)
+          ValueError, OSError)     # DiagnosisError is a ValueError
 
 
 def _add_input_options(p):
@@ -36,6 +38,11 @@ def _add_input_options(p):
     p.add_argument('--max-truth-gap', type=float, default=None,
                    help='bag input: longest truth interval (s) bridged by '
                         'interpolation (default 3 x the median, >= 1.5 s)')
+
+
+def _scenarios():
+    from .synthetic import SCENARIOS
+    return list(SCENARIOS)
 
 
 def _parser():
@@ -88,6 +95,39 @@ def _parser():
                     'truth_lat, truth_lon and optional agent) --out OUTPUT in '
                     'the same format with noisy positions (a CSV also keeps the '
                     'true ones), or --agents N --duration S --out ERRORS.npz.')
+    d = sub.add_parser(
+        'diagnose', help='find what the AR model misses, add it, report',
+        description='Split INPUT in time (first 70 %% trains, the rest is '
+                    'held out), fit the paper\'s AR model on the training '
+                    'part, test its innovations (serial and cross-axis '
+                    'correlation, tails, persistence of the squares, '
+                    'dependence on the motion of the truth; Holm at 5 %%), '
+                    'attribute the structure to cross_axis_coupling, '
+                    'motion_lag, heavy_tails or variance_regimes (or report '
+                    'it as unexplained), fit the extended model and report '
+                    'the error before and after on the held-out part. See '
+                    'docs/close-the-loop.md.')
+    d.add_argument('input', help='trace CSV or rosbag2 directory')
+    _add_input_options(d)
+    d.add_argument('--json', dest='json_out', help='write the findings as JSON')
+    d.add_argument('--report', help='directory for the figures (PNG)')
+    d.add_argument('--profile-out', help='write the extended model as a profile '
+                                         'YAML (with an effects section)')
+    d.add_argument('--sims', type=int, default=100,
+                   help='simulated traces for the fidelity measures (default 100)')
+    d.add_argument('--seed', type=int, default=0,
+                   help='seed of the simulations and the bootstrap')
+    y = sub.add_parser(
+        'synth', help='write a synthetic walk with an undeclared effect',
+        description='A pedestrian walking Manhattan\'s grid at 1 Hz (turns, '
+                    'waits) with phone errors carrying one effect, made by a '
+                    'mechanism other than the ones diagnose fits, as a trace '
+                    'CSV. Scenarios: ' + ', '.join(_scenarios()) + '.')
+    y.add_argument('scenario', choices=_scenarios())
+    y.add_argument('-o', '--output', required=True, help='trace CSV to write')
+    y.add_argument('--seed', type=int, default=0, help='seed (default 0)')
+    y.add_argument('--duration', type=int, default=3600,
+                   help='seconds (default 3600)')
     s.add_argument('--profile', default='DS5', help='profile name or YAML (default DS5)')
     s.add_argument('--seed', type=int, required=True, help='seed (as the node\'s)')
     s.add_argument('--out', required=True, help='output file')
@@ -192,12 +232,68 @@ def cmd_calibrate(args):
     return 0
 
 
+def cmd_diagnose(args):
+    """Run ``gps_error diagnose``; return the exit code."""
+    from .diagnose import diagnose, extended_profile
+    from .report import write_json
+
+    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
+                              parse_datum(args.datum), args.max_truth_gap)
+    for line in notes:
+        print(line)
+    diag = diagnose(trace, sims=args.sims, seed=args.seed)
+    s = diag.summary
+    print(f'{trace.name}: {s["samples"]} samples, {s["train_samples"]} train / '
+          f'{s["test_samples"]} held out ({s["split"]["rule"]})')
+    print(f'  base: AR orders north {s["base"]["order"]["north"]}, east '
+          f'{s["base"]["order"]["east"]}')
+    for name, t in s['tests'].items():
+        flag = 'REJECTED' if t['rejected'] else 'ok'
+        print(f'  test {name:24s} p={t["p_value"]:.3g} (Holm {t["holm_adjusted_p"]:.3g}) '
+              f'{flag}')
+    print('  effects: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
+    print('  unexplained: ' + ('; '.join(u['structure'] for u in s['unexplained'])
+                               or 'none'))
+    imp = s['improvement']
+    print(f'  held-out NLL per sample: before {s["error_before"]["heldout_nll_per_sample"]:.4f}, '
+          f'after {s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
+          f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
+          f'{imp["ci95"][1]:.4f})')
+    if args.json_out:
+        write_json(Path(args.json_out), s)
+        print(f'wrote {args.json_out}')
+    if args.report:
+        from .diagnose_report import diagnosis_figure
+        out = Path(args.report)
+        out.mkdir(parents=True, exist_ok=True)
+        diagnosis_figure(diag, out / 'diagnosis.png', trace.name)
+        print(f'wrote {out / "diagnosis.png"}')
+    if args.profile_out:
+        out = Path(args.profile_out)
+        write_profile(out, extended_profile(diag, out.stem, trace.name), 'diagnose')
+        load_profile_file(out)          # what we write must load as it is
+        print(f'wrote {out}')
+    return 0
+
+
+def cmd_synth(args):
+    """Run ``gps_error synth``; return the exit code."""
+    from .synthetic import synthetic_trace, write_trace_csv
+
+    trace = synthetic_trace(args.scenario, args.seed, args.duration)
+    write_trace_csv(trace, args.output)
+    print(f'wrote {args.output}: {len(trace)} fixes, scenario {args.scenario}, '
+          f'seed {args.seed}')
+    return 0
+
+
 def main(argv=None):
     """Entry point of ``gps_error``."""
     args = _parser().parse_args(argv)
     try:
         return {'calibrate': cmd_calibrate, 'validate': cmd_validate,
-                'simulate': cmd_simulate}[args.command](args)
+                'simulate': cmd_simulate, 'diagnose': cmd_diagnose,
+                'synth': cmd_synth}[args.command](args)
     except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)
         return 2

@@ -22,7 +22,7 @@ class CrowdErrors:
 
     Parameters
     ----------
-    model : ARErrorModel
+    model : ARErrorModel or ExtendedModel
         The profile's model (one for the whole crowd).
     seed : int
         The run's seed (as the node's ``seed`` parameter).
@@ -43,7 +43,7 @@ class CrowdErrors:
         self.names = []
         self.index = {}
         self.keys = np.zeros(0, dtype=np.uint64)
-        self.state = np.zeros((0, 2, model.order))
+        self.state = model.empty_state(0)
         self.last_seen = np.zeros(0, dtype=np.int64)
 
     def advance_to(self, step):
@@ -72,16 +72,7 @@ class CrowdErrors:
     def _add(self, names):
         keys = np.array([streams.agent_key(self.seed, n) for n in names],
                         dtype=np.uint64)
-        span = self.step - self.start + 1
-        p = self.model.order
-        if span >= p:
-            series = self.model.simulate(keys, span, start=self.start)
-            state = np.stack([series[-1 - i] - self.model.mean
-                              for i in range(p)], axis=-1)
-        else:
-            state = self.model.initial_state(keys, self.start)
-            for s in range(self.start + 1, self.step + 1):
-                self.model.advance(state, keys, s)
+        state = self.model.state_after(keys, self.start, self.step)
         base = len(self.names)
         for i, n in enumerate(names):
             self.index[n] = base + i

@@ -34,6 +34,9 @@ Timing rules
   reads the clock late). Two samples further apart than
   ``max(2 s, 2 * max_pose_age)`` are not interpolated between: steps in
   such a gap get no fix (nothing is made up across it).
+* A profile with a ``motion_lag`` reports the truth ``lag_s`` before the
+  step's instant (interpolated the same way; no fix for an agent until its
+  truth reaches back that far), still stamped at the step's instant.
 * The clock going backwards resets the engine: pending steps and truth
   history are discarded and the model restarts from its stationary law at the
   new instant.
@@ -168,6 +171,11 @@ class FixEngine:
         self.future_tolerance_ns = int(FUTURE_TOLERANCE_S * NS)
         self.max_gap_ns = max(2 * NS, 2 * self.max_pose_age_ns)
         self.max_pending = max_pending
+        # a motion lag reports the truth lag_s before each step: keep enough
+        # samples to reach back that far at pose rates up to ~64 Hz
+        self.lag_ns = int(round(getattr(model, 'lag_s', 0.0) * NS))
+        if self.lag_ns:
+            history = max(history, int(64 * (1 + getattr(model, 'lag_s'))))
         self.truth = _TruthRing(self.n, history)
         self.stats = EngineStats()
         self._reset_time()
@@ -294,7 +302,8 @@ class FixEngine:
         fixes = []
         if ready.any():
             rows = np.flatnonzero(ready)
-            coords, ok = self.truth.interpolate(rows, t_ns, self.max_gap_ns)
+            coords, ok = self.truth.interpolate(rows, t_ns - self.lag_ns,
+                                                self.max_gap_ns)
             done[rows] = True
             self.stats.skipped_no_truth += int((~ok).sum())
             fixes.append(self._make_fix(t_ns, rows[ok], coords[ok], err[rows[ok]]))

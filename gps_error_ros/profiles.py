@@ -14,7 +14,9 @@ A profile names a data set and carries its AR fit per axis::
 
 Optional keys: ``vertical_sd`` (metres, the altitude standard deviation
 reported in the fix covariance), ``notes`` (free text), ``fit`` (how the
-profile was calibrated) and ``effects`` (model extensions). A profile without
+profile was calibrated) and ``effects`` (model extensions written by
+``gps_error diagnose --profile-out``; schema in :mod:`effects`; a profile
+without them behaves exactly as the paper's model). A profile without
 ``axes`` is a placeholder for a data set with no published fit; it loads, but
 :meth:`Profile.model` refuses it. Any other key is an error.
 """
@@ -27,7 +29,8 @@ import re
 
 import yaml
 
-from .ar_model import ARErrorModel, AxisParams, AXES, ModelError
+from .ar_model import AxisParams, AXES, ModelError
+from .effects import build_model, Effects, effects_from_dict, EffectsError
 
 SCHEMA_VERSION = 1
 PACKAGE = 'gps_error_ros'
@@ -59,7 +62,7 @@ class Profile:
     vertical_sd: float = None
     notes: str = ''
     fit: dict = field(default_factory=dict)
-    effects: dict = field(default_factory=dict)
+    effects: Effects = field(default_factory=Effects)
     path: str = ''
 
     @property
@@ -86,7 +89,10 @@ class Profile:
                 f'{", ".join(fitted)}. Select one of those, or calibrate a '
                 f'profile from a recording of your own (`gps_error calibrate '
                 f'TRACE.csv -o PROFILE.yaml`) and pass its path')
-        return ARErrorModel(self.axes['north'], self.axes['east'])
+        try:
+            return build_model(self.axes['north'], self.axes['east'], self.effects)
+        except ModelError as exc:
+            raise ProfileError(f'{self.path}: {exc}') from None
 
     def vertical_variance(self, model=None):
         """
@@ -176,9 +182,12 @@ def profile_from_dict(raw, source='<profile>'):
     for k in ('fit', 'effects'):
         if raw.get(k) is not None and not isinstance(raw[k], dict):
             _fail(source, k, 'a mapping', raw[k])
-    if raw.get('effects'):
-        _fail(source, 'effects',
-              'an empty mapping (this version simulates no model extensions)',
+    try:
+        effects = effects_from_dict(raw.get('effects') or {}, source)
+    except EffectsError as exc:
+        raise ProfileError(str(exc)) from None
+    if effects.names and axes is None:
+        _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
     return Profile(
         name=name,
@@ -189,7 +198,7 @@ def profile_from_dict(raw, source='<profile>'):
         vertical_sd=vertical,
         notes=_text(source, 'notes', raw.get('notes') or ''),
         fit=dict(raw.get('fit') or {}),
-        effects=dict(raw.get('effects') or {}),
+        effects=effects,
         path=source)
 
 
