@@ -17,7 +17,7 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo test lint clean calibration-doc bench soak
+.PHONY: setup demo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc
 
 DATA ?= ../shared/data
 
@@ -55,6 +55,17 @@ soak: setup
 	$(PY) bench/soak.py --agents 100 --hours 24 --json bench_output/soak100.json
 	$(PY) bench/soak.py --agents 1000 --hours 1 --sample-s 600 --window-s 900 \
 		--json bench_output/soak1000.json
+
+# Blind diagnosis of synthetic walks: 100 seeds per effect-free scenario
+# (false alarms against a binomial bound) and 20 per effect (attribution
+# rate). About 15 minutes on a 2-core machine; see docs/close-the-loop.md.
+diagnose-long: setup
+	mkdir -p bench_output
+	$(PY) bench/diagnose_long.py --json bench_output/diagnose_long.json
+
+# Regenerate docs/close-the-loop.md and docs/close-the-loop/ from the traces.
+close-the-loop-doc: setup
+	$(PY) -m gps_error_ros.close_loop_report --data $(DATA) --out docs
 
 lint: setup
 	$(PY) -m pytest -m linter

@@ -12,7 +12,7 @@ part alone:
 2. *Base model.* The paper's model: per axis AR(p) with the order the PACF
    rule of calibration picks on the training part, independent Gaussian
    innovations.
-3. *Tests* on the base model's training innovations, one family, Holm's
+3. *Tests* on the base model's training innovations, one family of seven, Holm's
    step-down procedure at family-wise level ``ALPHA`` (5 %):
 
    - ``cross_axis_correlation``: lag-0 north-east correlation
@@ -25,6 +25,9 @@ part alone:
    - ``squared_persistence``: Ljung-Box over lags 1-10 of the *ranks* of
      the squared Mahalanobis innovations (ranks keep the test's level under
      heavy tails, so sporadic jumps do not pass for persistent regimes);
+   - ``squared_oscillation``: the most negative of those autocorrelations
+     (one-sided, Sidak over the lags): regimes and tails only make squares
+     correlate positively, so this is periodic variance (``unexplained``);
    - ``serial_north``, ``serial_east``: heteroscedasticity-robust Ljung-Box
      over lags 1-30 of each axis's innovations (30 - p degrees of freedom).
 
@@ -70,7 +73,7 @@ ALPHA = 0.05
 MAX_LAG_S = 5.0
 SERIAL_LAGS = 30
 MOTION_TEST_LAGS = (1, 2, 3, 4, 5)
-N_TESTS = 6
+N_TESTS = 7
 PERSIST_LAGS = 10
 MIN_TRAIN = 300
 MIN_TEST = 100
@@ -169,9 +172,9 @@ def condition_count(orders):
     return max(max(orders), int(math.ceil(MAX_LAG_S)))
 
 
-def design(part, orders, lag_s, ctx, linear=False):
+def design(part, orders, lag_s, ctx, linear=False, m0=None):
     """Build the regression of u = e - lag offset on its own past."""
-    m0 = condition_count(orders)
+    m0 = condition_count(orders) if m0 is None else max(m0, max(orders))
     offs = lag_terms(part, lag_s, ctx.get('truth_all'), ctx.get('t_all'), linear)
     ys, lags, seg, scored = [], [[], []], [], []
     for s, (e, o) in enumerate(zip(part.err, offs)):
@@ -520,6 +523,7 @@ class FittedModel:
     law: Law
     train_loglik: float
     n_train: int
+    condition: int = None        # samples per segment not scored (default: own)
 
     @property
     def n_params(self):
@@ -598,7 +602,7 @@ EFFECT_ORDER = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
 
 def score(model, part, ctx):
     """Return (per-sample predictive log densities, residuals, design, pred)."""
-    d = design(part, model.orders, model.mean.lag_s, ctx)
+    d = design(part, model.orders, model.mean.lag_s, ctx, m0=model.condition)
     r = model.mean.residuals(d)
     ll, pred = law_logpdf(model.law, r, d.seg)
     return ll, r, d, pred
@@ -720,6 +724,16 @@ def innovation_tests(r, seg, orders):
         'statistic': q, 'p_value': p, 'acf': [round(v, 4) for v in acf],
         'test': f'Ljung-Box, lags 1-{PERSIST_LAGS}, ranks of squared '
                 f'Mahalanobis innovations'}
+    # Regimes and tails can only make the squares correlate positively; a
+    # significantly negative autocorrelation is periodic variance instead.
+    k = int(np.argmin(acf))
+    z = -acf[k] * math.sqrt(n)
+    p_one = float(stats.norm.sf(z))
+    out['squared_oscillation'] = {
+        'statistic': float(acf[k]), 'at_lag': k + 1,
+        'p_value': float(1.0 - (1.0 - p_one) ** PERSIST_LAGS),
+        'test': f'most negative autocorrelation of the ranks of the squared '
+                f'innovations, lags 1-{PERSIST_LAGS}, one-sided, Sidak over lags'}
     for a, ax in enumerate(AXES):
         q, p, acf = robust_portmanteau(r[:, a], seg, SERIAL_LAGS,
                                        SERIAL_LAGS - orders[a])
@@ -827,8 +841,14 @@ def simulate_part(model, part, ctx, sims, seed):
 
 def fidelity(model, part, ctx, sims=100, seed=0, max_lag=30):
     """Compare the held-out errors with traces simulated along the truth."""
+    return fidelity_of(part, simulate_part(model, part, ctx, sims, seed), max_lag)
+
+
+def fidelity_of(part, simulated, max_lag=30):
+    """Return the fidelity measures of ``part`` against simulated traces."""
+    sims = len(simulated)
     meas = _measures(part.err, max_lag)
-    sim_m = [_measures(s, max_lag) for s in simulate_part(model, part, ctx, sims, seed)]
+    sim_m = [_measures(s, max_lag) for s in simulated]
     acfs = np.stack([m['acf'] for m in sim_m])
     centre = acfs.mean(axis=0)
 
@@ -879,6 +899,7 @@ class Diagnosis:
     base: FittedModel
     extended: FittedModel
     train_residuals: dict = field(default_factory=dict)
+    parts: tuple = ()            # (train, test, ctx)
 
 
 def select_orders(train):
@@ -980,6 +1001,12 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
                 'reason': 'the squared innovations do not persist (Holm-adjusted '
                           f'p = {adjusted["squared_persistence"]:.3g})',
                 'bic': _round(bics)})
+    if reject['squared_oscillation']:
+        t = tests['squared_oscillation']
+        unexplained.append({
+            'structure': 'periodic variance: squared innovations anti-correlated '
+                         f'at lag {t["at_lag"]}', 'stage': 'base model',
+            'p_value': t['p_value'], 'holm_adjusted_p': adjusted['squared_oscillation']})
     for ax in AXES:
         k = f'serial_{ax}'
         if reject[k]:
@@ -1054,7 +1081,8 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
                       'NLL(before) - NLL(after); positive = better after'},
     }
     return Diagnosis(_round(summary), base, extended,
-                     {'base': (r0, d0.seg), 'extended': (r1, d1.seg, pred1)})
+                     {'base': (r0, d0.seg), 'extended': (r1, d1.seg, pred1)},
+                     (train, test, ctx))
 
 
 _RETEST_LABEL = {

@@ -1,0 +1,88 @@
+"""
+Long blind run of ``gps_error diagnose`` on synthetic walks (make diagnose-long).
+
+For every effect-free scenario (``none``, ``ar5``, ``quantised``) ``--seeds``
+walks (default 100): a false alarm is any effect attributed or anything
+reported unexplained. Holm keeps the family-wise level at 5 %, so the count
+must not exceed the binomial(seeds, 0.05) bound at 1 % (the run fails
+otherwise). For every scenario with an effect, ``--effect-seeds`` walks
+(default 20): the share with exactly the right attribution, and the share
+where the held-out NLL after is lower than before, printed (and failed if
+the right attribution is below ``--min-power``).
+
+Prints one line per scenario and a JSON summary (``--json``); exits non-zero
+on a failed check. Seeds start at 1000, apart from the test suite's.
+"""
+
+import argparse
+from concurrent.futures import ProcessPoolExecutor
+import json
+import os
+import sys
+import time
+
+from scipy import stats
+
+from gps_error_ros.diagnose import ALPHA, diagnose
+from gps_error_ros.synthetic import EFFECT_FREE, SCENARIOS, synthetic_trace
+
+
+def one(job):
+    scenario, seed, duration = job
+    s = diagnose(synthetic_trace(scenario, seed, duration), sims=10).summary
+    return {'scenario': scenario, 'seed': seed,
+            'effects': [e['name'] for e in s['effects']],
+            'unexplained': [u['structure'] for u in s['unexplained']],
+            'before': s['error_before']['heldout_nll_per_sample'],
+            'after': s['error_after']['heldout_nll_per_sample']}
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--seeds', type=int, default=100)
+    p.add_argument('--effect-seeds', type=int, default=20)
+    p.add_argument('--duration', type=int, default=3600)
+    p.add_argument('--min-power', type=float, default=0.7)
+    p.add_argument('--workers', type=int, default=os.cpu_count() or 1)
+    p.add_argument('--json', default=None)
+    args = p.parse_args(argv)
+    jobs = [(sc, 1000 + i, args.duration) for sc in SCENARIOS
+            for i in range(args.seeds if sc in EFFECT_FREE else args.effect_seeds)]
+    t0 = time.monotonic()
+    with ProcessPoolExecutor(args.workers) as ex:
+        results = list(ex.map(one, jobs, chunksize=2))
+    ok, summary = True, {}
+    for sc, (expected, unexplained) in SCENARIOS.items():
+        rows = [r for r in results if r['scenario'] == sc]
+        n = len(rows)
+        if sc in EFFECT_FREE:
+            alarms = sum(bool(r['effects'] or r['unexplained']) for r in rows)
+            bound = int(stats.binom.ppf(0.99, n, ALPHA))
+            passed = alarms <= bound
+            line = (f'{sc:20s} {n} seeds: false alarms {alarms} ({100 * alarms / n:.1f} %), '
+                    f'bound {bound} (binomial({n}, {ALPHA}) 99 % quantile)')
+            summary[sc] = {'seeds': n, 'false_alarms': alarms, 'bound': bound,
+                           'passed': passed}
+        else:
+            right = sum(sorted(r['effects']) == sorted(expected)
+                        and bool(r['unexplained']) == unexplained for r in rows)
+            better = sum(r['after'] < r['before'] for r in rows)
+            passed = right / n >= args.min_power
+            line = (f'{sc:20s} {n} seeds: right attribution {right} ({100 * right / n:.0f} %), '
+                    f'held-out NLL lower after {better} ({100 * better / n:.0f} %)')
+            summary[sc] = {'seeds': n, 'right': right, 'after_better': better,
+                           'passed': passed,
+                           'found': sorted({tuple(r['effects']) for r in rows})}
+        ok &= passed
+        print(line + ('' if passed else '  FAILED'))
+    wall = time.monotonic() - t0
+    print(f'{len(jobs)} diagnoses in {wall:.0f} s: {"PASSED" if ok else "FAILED"}')
+    if args.json:
+        with open(args.json, 'w') as f:
+            json.dump({'summary': summary, 'wall_s': wall, 'runs': results}, f,
+                      indent=1)
+    return 0 if ok else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())
