@@ -97,3 +97,13 @@ def test_broken_profile_file_stops_the_node_naming_file_and_key(tmp_path, text, 
     rc, out = node.wait_exit(timeout=20)
     assert rc == 2, out
     assert str(f) in out and hint in out, out
+
+
+def test_unreadable_profile_stops_the_node_naming_it(tmp_path):
+    d = tmp_path / 'a_directory.yaml'
+    d.mkdir()                                  # exists, but cannot be read as a file
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}',
+                        '-p', f'profile:={d}', '-p', DATUM_ARG])
+    rc, out = node.wait_exit(timeout=20)
+    assert rc == 2, out
+    assert str(d) in out and 'profile' in out, out
