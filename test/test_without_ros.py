@@ -1,5 +1,6 @@
 """
-The core and `gps_error` (calibrate, validate, simulate) run without ROS.
+The core and `gps_error` (calibrate, validate, simulate, synth, diagnose) run
+without ROS.
 
 Each command runs in a fresh interpreter whose import system refuses rclpy
 and every ROS message package, as in an environment with only
@@ -61,4 +62,13 @@ def test_commands_without_ros(tmp_path):
     truth.write_text('t,truth_lat,truth_lon\n0,40.0,-74.0\n1,40.0,-74.0\n')
     r = run('simulate', '--seed', '1', '--trajectories', str(truth),
             '--out', str(tmp_path / 'noisy.csv'))
+    assert r.returncode == 0, r.stderr
+    walk = tmp_path / 'synth.csv'
+    r = run('synth', 'multipath', '-o', str(walk), '--seed', '2', '--duration', '1200')
+    assert r.returncode == 0, r.stderr
+    r = run('diagnose', str(walk), '--json', str(tmp_path / 'd.json'),
+            '--profile-out', str(tmp_path / 'x.yaml'), '--sims', '10')
+    assert r.returncode == 0, r.stderr
+    r = run('simulate', '--profile', str(tmp_path / 'x.yaml'), '--seed', '1',
+            '--agents', '2', '--duration', '10', '--out', str(tmp_path / 'x.npz'))
     assert r.returncode == 0, r.stderr
