@@ -1,6 +1,7 @@
 """
-The core and `gps_error` (calibrate, validate, simulate, synth, diagnose) run
-without ROS.
+The core and every `gps_error` command run without ROS.
+
+The commands: calibrate, validate, simulate, synth and diagnose.
 
 Each command runs in a fresh interpreter whose import system refuses rclpy
 and every ROS message package, as in an environment with only
