@@ -42,6 +42,22 @@ CAVEATS = {
 }
 
 
+#: What the figures show beyond the tests (read off them; kept with the data).
+READINGS = {
+    'gsdc2020-mtv1-pixel4.csv': 'the innovations\' autocorrelation dips at '
+    'lag 8 s and the squared innovations\' autocorrelation peaks every 4 s: '
+    'a periodic structure of the phone\'s output, none of the four effects. '
+    'The serial tests report it as unexplained; the variance regimes absorb '
+    'part of the squared structure and what they leave is listed above. The '
+    'tilted ellipse (north-east correlation about -0.6 in the innovations) '
+    'is the clearest coupling in the data.',
+    'urbannav-hk-tst-ublox-spp.csv': 'the squared innovations persist for '
+    'tens of seconds (canyon stretches with very different satellite '
+    'geometry): the regimes are the dominant effect, with three levels '
+    'spanning a factor of about 25 in innovation SD.',
+}
+
+
 def _f(v, digits=3):
     return f'{v:.{digits}f}'
 
@@ -254,6 +270,8 @@ def render(records, synth, long_run=None):
                f'{_f(imp["heldout_nll_per_sample"])} (95 % CI {_f(imp["ci95"][0])} .. '
                f'{_f(imp["ci95"][1])}).', '',
                f'![diagnosis of {name}](close-the-loop/{stem}.png)', '']
+        if name in READINGS:
+            md += [f'Reading the figure: {READINGS[name]}', '']
     md += ['## Model classes on the same held-out data', '',
            'Each class fitted on the same training part and scored on the same '
            'held-out samples (see `gps_error_ros/baselines.py`). Cells: the '
