@@ -97,11 +97,11 @@ def _parser():
                     'true ones), or --agents N --duration S --out ERRORS.npz.')
     d = sub.add_parser(
         'diagnose', help='find what the AR model misses, add it, report',
-        description='Split INPUT in time (first 70 %% trains, the rest is '
+        description='Split INPUT in time (first 70 % trains, the rest is '
                     'held out), fit the paper\'s AR model on the training '
                     'part, test its innovations (serial and cross-axis '
                     'correlation, tails, persistence of the squares, '
-                    'dependence on the motion of the truth; Holm at 5 %%), '
+                    'dependence on the motion of the truth; Holm at 5 %), '
                     'attribute the structure to cross_axis_coupling, '
                     'motion_lag, heavy_tails or variance_regimes (or report '
                     'it as unexplained), fit the extended model and report '
