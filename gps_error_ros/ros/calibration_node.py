@@ -23,13 +23,12 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 from std_srvs.srv import Trigger
 
 from .. import calibration
-from ..geodesy import GeodesyError, LocalTangentFrame
 from ..pairing import pair, PairingError
 from . import conversions
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .error_node import WARN_PERIOD_S
-from .parameters import CALIBRATION_NODE_PARAMS, ConfigError, declare
+from .parameters import CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare
 
 # Best effort (so sensor drivers' best-effort publishers match) with a deep
 # history: a recording replayed fast must not overwrite what is not yet read.
@@ -53,17 +52,7 @@ class GpsCalibrationNode(Node):
                               f'{self.output.parent} does not exist')
         self.frame = None
         if cfg['input_type'] != 'navsatfix':
-            datum = cfg['datum']
-            if not datum or len(datum) not in (2, 3):
-                raise ConfigError(
-                    f'parameter \'datum\' is required for input_type '
-                    f'{cfg["input_type"]!r}: expected [lat_deg, lon_deg, alt_m], '
-                    f'got {datum!r}')
-            try:
-                self.frame = LocalTangentFrame(*datum)
-            except GeodesyError as exc:
-                raise ConfigError(f'parameter \'datum\': invalid value '
-                                  f'{datum!r}: {exc}') from None
+            self.frame = datum_frame(cfg['datum'], cfg['input_type'])
         self.fixes = []      # (t, lat, lon, status)
         self.truth = []      # (t, lat, lon)
         self.skipped = {'no_fix': 0, 'non_finite': 0, 'out_of_order': 0}

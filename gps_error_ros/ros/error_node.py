@@ -32,11 +32,11 @@ from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from ..engine import FixEngine
-from ..geodesy import GeodesyError, LocalTangentFrame
 from ..profiles import load_profile, ProfileError
 from ..streams import agent_key
 from . import cdr, conversions
-from .parameters import ConfigError, declare, ERROR_NODE_PARAMS, spec_by_name
+from .parameters import (ConfigError, datum_frame, declare, ERROR_NODE_PARAMS,
+                         spec_by_name)
 
 INPUT_TOPICS = {
     'pose': ('pose', PoseStamped),
@@ -120,7 +120,7 @@ class GpsErrorNode(Node):
         # the datum is checked after the profiles: a bad profile is named first
         self.frame = None
         if self.input_type != 'navsatfix':
-            self.frame = self._datum_frame(cfg['datum'])
+            self.frame = datum_frame(cfg['datum'], self.input_type)
         self.slot_group = np.array([g for g, _ in self.slot])
         self.slot_local = np.array([local for _, local in self.slot])
         topic, msg_type = INPUT_TOPICS[self.input_type]
@@ -176,22 +176,6 @@ class GpsErrorNode(Node):
                 f'parameter \'agent_profiles\': {len(per_agent)} entries: '
                 f'expected one per agent in \'agents\' ({len(cfg["agents"])})')
         return list(per_agent)
-
-    def _datum_frame(self, datum):
-        if not datum:
-            raise ConfigError(
-                f'parameter \'datum\' is required for input_type '
-                f'{self.input_type!r}: expected [lat_deg, lon_deg, alt_m] of '
-                f'the map frame origin')
-        if len(datum) not in (2, 3):
-            raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
-                              f'expected [lat_deg, lon_deg] or '
-                              f'[lat_deg, lon_deg, alt_m]')
-        try:
-            return LocalTangentFrame(*datum)
-        except GeodesyError as exc:
-            raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
-                              f'{exc}') from None
 
     # --- callbacks -------------------------------------------------------
 

@@ -10,6 +10,8 @@ from rclpy.exceptions import (InvalidParameterTypeException,
                               ParameterException)
 from rclpy.parameter import Parameter
 
+from ..geodesy import GeodesyError, LocalTangentFrame
+
 INT64_MAX = 2 ** 63 - 1
 
 
@@ -184,3 +186,28 @@ CALIBRATION_NODE_PARAMS = (
               'Longest truth interval (s) bridged by interpolation; 0: three '
               'times the median interval, at least 1.5 s.', low=0.0, high=3600.0),
 )
+
+
+def datum_frame(datum, input_type):
+    """
+    Return the :class:`LocalTangentFrame` of the ``datum`` parameter.
+
+    Raises
+    ------
+    ConfigError
+        When it is missing (pose and odometry input need it), has the wrong
+        length, or lies outside valid latitude/longitude.
+
+    """
+    if not datum:
+        raise ConfigError(
+            f'parameter \'datum\' is required for input_type {input_type!r}: '
+            f'expected [lat_deg, lon_deg, alt_m] of the map frame origin')
+    if len(datum) not in (2, 3):
+        raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
+                          f'expected [lat_deg, lon_deg] or [lat_deg, lon_deg, alt_m]')
+    try:
+        return LocalTangentFrame(*datum)
+    except GeodesyError as exc:
+        raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
+                          f'{exc}') from None
