@@ -134,6 +134,9 @@ class ARErrorModel:
 
     """
 
+    #: No motion lag (see :class:`effects.ExtendedModel`).
+    lag_s = 0.0
+
     def __init__(self, north, east, innovation_corr=0.0):
         if not -1.0 < innovation_corr < 1.0:
             raise ModelError(

@@ -130,25 +130,23 @@ def compare(diag, sims=100, seed=0):
     orders = diag.base.orders
     m0 = condition_count(orders)
     rng = np.random.default_rng(seed)
-    out = {}
     wb = WhiteBias().fit(train)
-    out['white noise + bias'] = {
-        'heldout_nll_per_sample': float(-wb.logpdf(test, m0).mean()),
-        **fidelity_of(test, wb.simulate(test, sims, rng))}
     arma = Arma11().fit(train, m0)
-    out['ARMA(1,1)'] = {
-        'heldout_nll_per_sample': float(-arma.logpdf(test, m0).mean()),
-        **fidelity_of(test, arma.simulate(test, sims, rng))}
+    lls = {'white noise + bias': wb.logpdf(test, m0),
+           'ARMA(1,1)': arma.logpdf(test, m0)}
+    sims_of = {'white noise + bias': wb.simulate(test, sims, rng),
+               'ARMA(1,1)': arma.simulate(test, sims, rng)}
+    out = {}
     for label, model in (('AR(1)', fit_model(train, (1, 1), (), ctx)),
                          ('AR(3), paper', fit_model(train, (3, 3), (), ctx)),
                          ('AR(p), PACF', diag.base),
                          ('extended', diag.extended)):
-        model.condition = m0
-        ll = score(model, test, ctx)[0]
-        out[label] = {'heldout_nll_per_sample': float(-ll.mean()),
-                      **fidelity(model, test, ctx, sims, seed)}
-    n = {len(wb.logpdf(test, m0)), len(arma.logpdf(test, m0)),
-         len(score(diag.base, test, ctx)[0])}
+        lls[label] = score(model, test, ctx, m0)[0]
+        out[label] = fidelity(model, test, ctx, sims, seed)
+    for label, traces in sims_of.items():
+        out[label] = fidelity_of(test, traces)
+    n = {len(v) for v in lls.values()}
     if len(n) != 1:
         raise AssertionError(f'models scored on different samples: {n}')
-    return {k: out[k] for k in CLASSES}
+    return {k: {'heldout_nll_per_sample': float(-lls[k].mean()), **out[k]}
+            for k in CLASSES}

@@ -44,7 +44,7 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
     crowd, rows, steps = None, 0, 0
-    lag = LagBuffer(getattr(model, 'lag_s', 0.0))
+    lag = LagBuffer(model.lag_s)
     try:
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
@@ -89,7 +89,7 @@ def simulate_csv(src, dst, model, rate_hz, seed):
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
     crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz))
-    lag = LagBuffer(getattr(model, 'lag_s', 0.0))
+    lag = LagBuffer(model.lag_s)
     lat_out = np.empty_like(t)
     lon_out = np.empty_like(t)
     bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])

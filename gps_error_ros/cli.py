@@ -40,6 +40,12 @@ def _add_input_options(p):
                         'interpolation (default 3 x the median, >= 1.5 s)')
 
 
+def _load_input(args):
+    """Return (trace, notes) of INPUT with the options of _add_input_options."""
+    return load_trace(args.input, args.fix_topic, args.truth_topic,
+                      parse_datum(args.datum), args.max_truth_gap)
+
+
 def _scenarios():
     from .synthetic import SCENARIOS
     return list(SCENARIOS)
@@ -184,8 +190,7 @@ def cmd_validate(args):
 
     lo, hi = _part(args.part)
     model = load_profile(args.profile).model()
-    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
-                              parse_datum(args.datum), args.max_truth_gap)
+    trace, notes = _load_input(args)
     trace = slice_trace(trace, lo, hi)
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
                    seed=args.seed)
@@ -211,8 +216,7 @@ def cmd_validate(args):
 
 def cmd_calibrate(args):
     """Run ``gps_error calibrate``; return the exit code."""
-    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
-                              parse_datum(args.datum), args.max_truth_gap)
+    trace, notes = _load_input(args)
     for line in notes:
         print(line)
     result = calibrate(trace, order=args.order, max_order=args.max_order)
@@ -237,8 +241,7 @@ def cmd_diagnose(args):
     from .diagnose import diagnose, extended_profile
     from .report import write_json
 
-    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
-                              parse_datum(args.datum), args.max_truth_gap)
+    trace, notes = _load_input(args)
     for line in notes:
         print(line)
     diag = diagnose(trace, sims=args.sims, seed=args.seed)

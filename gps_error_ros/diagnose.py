@@ -63,9 +63,9 @@ import numpy as np
 from scipy import optimize, special, stats
 
 from . import streams
-from .ar_model import ARErrorModel, AxisParams, AXES, ModelError
+from .ar_model import AxisParams, AXES, ModelError
 from .calibration import CalibrationError, errors_on_grid, fit_axis
-from .effects import Effects, ExtendedModel, lag_offsets
+from .effects import build_model, Effects, lag_offsets
 from .geodesy import difference
 
 TRAIN_FRACTION = 0.7
@@ -141,30 +141,25 @@ class Design:
     y: np.ndarray          # (n, 2) u at the scored samples
     lags: list             # per axis (n, p_a) lagged u
     seg: np.ndarray        # (n,) segment index of each scored sample
-    scored: list           # per segment: indices (within the segment) scored
 
 
-def lag_terms(part, lag_s, truth_all=None, t_all=None, linear=False):
+def lag_terms(part, lag_s, ctx, linear=False):
     """
     Return per segment the offsets truth(t - lag) - truth(t), (n_s, 2).
 
-    With ``linear`` (a lag in seconds), ``lag_s`` times the offset of that
-    lag instead: the families the motion test uses, linear in one
-    coefficient, so that each likelihood ratio has the chi-bar-squared law.
+    The truth is the whole trace's (``ctx``), so a lag reaches back across
+    the train/test cut. With ``linear`` (a lag in seconds), ``lag_s`` times
+    the offset of that lag instead: the families the motion test uses,
+    linear in one coefficient, so that each likelihood ratio has the
+    chi-bar-squared law.
     """
     if lag_s == 0.0:
         return [np.zeros_like(e) for e in part.err]
     if linear:
-        return [lag_s * o for o in lag_terms(part, float(linear), truth_all, t_all)]
-    out = []
-    for tr, t in zip(part.truth, part.t):
-        if truth_all is not None:
-            back_n = np.interp(t - lag_s, t_all, truth_all[:, 0])
-            back_e = np.interp(t - lag_s, t_all, truth_all[:, 1])
-            out.append(np.stack([back_n - tr[:, 0], back_e - tr[:, 1]], axis=1))
-        else:
-            out.append(lag_offsets(t, tr[:, 0], tr[:, 1], lag_s))
-    return out
+        return [lag_s * o for o in lag_terms(part, float(linear), ctx)]
+    truth, t_all = ctx['truth_all'], ctx['t_all']
+    return [lag_offsets(t_all, truth[:, 0], truth[:, 1], lag_s, at=t)
+            for t in part.t]
 
 
 def condition_count(orders):
@@ -175,12 +170,11 @@ def condition_count(orders):
 def design(part, orders, lag_s, ctx, linear=False, m0=None):
     """Build the regression of u = e - lag offset on its own past."""
     m0 = condition_count(orders) if m0 is None else max(m0, max(orders))
-    offs = lag_terms(part, lag_s, ctx.get('truth_all'), ctx.get('t_all'), linear)
-    ys, lags, seg, scored = [], [[], []], [], []
+    offs = lag_terms(part, lag_s, ctx, linear)
+    ys, lags, seg = [], [[], []], []
     for s, (e, o) in enumerate(zip(part.err, offs)):
         u = e - o
         idx = np.arange(m0, len(u))
-        scored.append(idx)
         if not idx.size:
             continue
         ys.append(u[idx])
@@ -190,9 +184,9 @@ def design(part, orders, lag_s, ctx, linear=False, m0=None):
                                      range(1, orders[a] + 1)], axis=1))
     if not ys:
         return Design(np.zeros((0, 2)), [np.zeros((0, p)) for p in orders],
-                      np.zeros(0, dtype=int), scored)
+                      np.zeros(0, dtype=int))
     return Design(np.concatenate(ys), [np.concatenate(x) for x in lags],
-                  np.concatenate(seg), scored)
+                  np.concatenate(seg))
 
 
 @dataclass
@@ -523,7 +517,6 @@ class FittedModel:
     law: Law
     train_loglik: float
     n_train: int
-    condition: int = None        # samples per segment not scored (default: own)
 
     @property
     def n_params(self):
@@ -563,11 +556,7 @@ class FittedModel:
 
     def simulator(self):
         """Return the model as a simulator: plain AR, or with its effects."""
-        north, east = self.axis_params()
-        eff = self.effects_obj()
-        if not eff.names:
-            return ARErrorModel(north, east)
-        return ExtendedModel(north, east, eff)
+        return build_model(*self.axis_params(), self.effects_obj())
 
     def parameters(self):
         """Return the parameters as plain data."""
@@ -600,9 +589,14 @@ EFFECT_ORDER = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
                 'variance_regimes')
 
 
-def score(model, part, ctx):
-    """Return (per-sample predictive log densities, residuals, design, pred)."""
-    d = design(part, model.orders, model.mean.lag_s, ctx, m0=model.condition)
+def score(model, part, ctx, m0=None):
+    """
+    Return (per-sample predictive log densities, residuals, design, pred).
+
+    ``m0``: samples per segment conditioned on, not scored (default: the
+    model's own :func:`condition_count`).
+    """
+    d = design(part, model.orders, model.mean.lag_s, ctx, m0=m0)
     r = model.mean.residuals(d)
     ll, pred = law_logpdf(model.law, r, d.seg)
     return ll, r, d, pred
@@ -828,7 +822,7 @@ def simulate_part(model, part, ctx, sims, seed):
     """Return ``sims`` simulated error traces along ``part``'s truth."""
     sim = model.simulator()
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
-    offs = lag_terms(part, model.mean.lag_s, ctx.get('truth_all'), ctx.get('t_all'))
+    offs = lag_terms(part, model.mean.lag_s, ctx)
     out = [[] for _ in range(sims)]
     start = 0
     for e, o in zip(part.err, offs):
@@ -937,8 +931,8 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
     # removed, so that lag transients do not pass for tails or regimes.
     lag_fixed, r_law, seg_law = None, r0, d0.seg
     if motion['p_value'] <= alpha / N_TESTS:
-        lag_fixed = fit_model(train, orders, ('motion_lag',), ctx).mean.lag_s
-        lagged = fit_model(train, orders, ('motion_lag',), ctx, lag=lag_fixed)
+        lagged = fit_model(train, orders, ('motion_lag',), ctx)
+        lag_fixed = lagged.mean.lag_s
         _, r_law, dl, _ = score(lagged, train, ctx)
         seg_law = dl.seg
     tests = {'motion_dependence': motion,

@@ -219,16 +219,12 @@ class ExtendedModel:
         self.cum_pi = np.cumsum(self.pi)
         self.cum_pi[-1] = 1.0
         self.dof = effects.dof
-        factor = effects.variance_factor
-        self.innovation_cov = self.unit.innovation_cov * factor
-        self.state_cov = self.unit.state_cov * factor
-        self._init_scale = math.sqrt(factor)
+        self._init_scale = math.sqrt(effects.variance_factor)
 
     @property
     def stationary_cov(self):
         """Return the unconditional 2x2 (north, east) error covariance."""
-        i = [0, self.order]
-        return self.state_cov[np.ix_(i, i)].copy()
+        return self.unit.stationary_cov * self.effects.variance_factor
 
     @property
     def stationary_sd(self):
@@ -325,19 +321,22 @@ class ExtendedModel:
         return out
 
 
-def lag_offsets(t, north, east, lag_s):
+def lag_offsets(t, north, east, lag_s, at=None):
     """
-    Return ``truth(t - lag_s) - truth(t)`` (north, east metres), shape (n, 2).
+    Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
 
-    ``t`` (s) increasing, ``north``/``east`` the truth in a local frame. Before
-    the first sample the truth is held (offset toward the first position).
+    The truth is sampled at times ``t`` (s, increasing) as ``north``/``east``
+    in a local frame and interpolated linearly; ``at`` defaults to ``t``.
+    Before the first sample the truth is held (offset toward the first
+    position).
     """
     t = np.asarray(t, dtype=float)
-    out = np.zeros((t.size, 2))
-    if lag_s == 0.0 or t.size == 0:
+    at = t if at is None else np.asarray(at, dtype=float)
+    out = np.zeros((at.size, 2))
+    if lag_s == 0.0 or at.size == 0:
         return out
-    out[:, 0] = np.interp(t - lag_s, t, north) - north
-    out[:, 1] = np.interp(t - lag_s, t, east) - east
+    for a, x in enumerate((north, east)):
+        out[:, a] = np.interp(at - lag_s, t, x) - np.interp(at, t, x)
     return out
 
 

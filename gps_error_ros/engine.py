@@ -173,9 +173,9 @@ class FixEngine:
         self.max_pending = max_pending
         # a motion lag reports the truth lag_s before each step: keep enough
         # samples to reach back that far at pose rates up to ~64 Hz
-        self.lag_ns = int(round(getattr(model, 'lag_s', 0.0) * NS))
+        self.lag_ns = int(round(model.lag_s * NS))
         if self.lag_ns:
-            history = max(history, int(64 * (1 + getattr(model, 'lag_s'))))
+            history = max(history, int(64 * (1 + model.lag_s)))
         self.truth = _TruthRing(self.n, history)
         self.stats = EngineStats()
         self._reset_time()
