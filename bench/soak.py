@@ -145,7 +145,7 @@ def run(agents, sim_s, sample_s, window_s, rss_growth_mb, profile='DS2', seed=3)
             # every counted fix, also one repaired late by reliable QoS
             end = time.monotonic() + 30
             while counted_n < agents * sim_s and time.monotonic() < end:
-                pending -= drain(t0 + sim_s)
+                drain(t0 + sim_s)
                 time.sleep(0.01)
             rss.append(rss_mb(node.pid))
             wall = time.monotonic() - wall0
