@@ -33,6 +33,22 @@ def proc_cpu_s(pid):
     return (int(fields[11]) + int(fields[12])) / tick
 
 
+def thread_cpu_s(pid):
+    """Return {thread name: CPU seconds} summed over the process's threads."""
+    tick = os.sysconf('SC_CLK_TCK')
+    out = {}
+    for tid in os.listdir(f'/proc/{pid}/task'):
+        try:
+            with open(f'/proc/{pid}/task/{tid}/stat') as f:
+                head, tail = f.read().rsplit(')', 1)
+        except OSError:
+            continue
+        name = re.sub(r'\d+$', '', head.split('(', 1)[1]) or '?'
+        fields = tail.split()
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return out
+
+
 def proc_mem_mb(pid):
     out = {}
     with open(f'/proc/{pid}/status') as f:
@@ -41,6 +57,17 @@ def proc_mem_mb(pid):
                 k, v = line.split(':')
                 out[k] = int(v.split()[0]) / 1024
     return out
+
+
+def _ranges(indices):
+    """Compress sorted integers to [first, last] runs."""
+    runs = []
+    for i in indices:
+        if runs and runs[-1][1] == i - 1:
+            runs[-1][1] = i
+        else:
+            runs.append([i, i])
+    return runs
 
 
 def counter_main(n, out_path):
@@ -88,7 +115,16 @@ def counter_main(n, out_path):
         pass
     finally:
         drain()
-        Path(out_path).write_text(json.dumps({'unique': len(seen), 'total': total[0]}))
+        agents_at = {}
+        for i, stamp in seen:
+            agents_at.setdefault(stamp, set()).add(i)
+        per_stamp = {stamp: len(got) for stamp, got in agents_at.items()}
+        # agents without a fix at each incomplete stamp, as index ranges
+        missing = {stamp: _ranges(sorted(set(range(n)) - got))
+                   for stamp, got in agents_at.items() if len(got) < n}
+        Path(out_path).write_text(json.dumps({'unique': len(seen), 'total': total[0],
+                                              'per_stamp': per_stamp,
+                                              'missing_agents': missing}))
         rclpy.try_shutdown()
 
 
@@ -132,7 +168,7 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     clock = drv.create_publisher(Clock, '/clock', qos)
     pubs = [drv.create_publisher(PoseStamped, f'/bench/a{i}/pose', qos) for i in range(n)]
     deadline = time.monotonic() + 60 + 0.1 * n      # 10k endpoints take a while
-    while (any(p.get_subscription_count() == 0 for p in pubs[:: max(1, n // 50)])
+    while (any(p.get_subscription_count() == 0 for p in pubs)
            or drv.count_subscribers('/bench/a0/fix') == 0):
         if time.monotonic() > deadline or node.poll() is not None:
             raise RuntimeError('node or counter did not come up')
@@ -155,11 +191,13 @@ def _drive(n, sim_s, speed, node, counter, count_file):
         clock.publish(Clock(clock=stamp))
         if k == 10:                                  # after warm-up
             cpu0, wall0 = proc_cpu_s(node.pid), time.monotonic()
+            threads0 = thread_cpu_s(node.pid)
             mem0 = proc_mem_mb(node.pid)
         lag = (k + 1) / speed - (time.monotonic() - wall0) if k >= 10 else 1.0 / speed
         time.sleep(max(0.0, lag if k >= 10 else 1.0 / speed))
     time.sleep(1.5)
     cpu1, wall1 = proc_cpu_s(node.pid), time.monotonic()
+    threads1 = thread_cpu_s(node.pid)
     mem1 = proc_mem_mb(node.pid)
     clock.publish(Clock(clock=to_stamp((t0 + sim_s + 1) * NS)))
     time.sleep(2.0)
@@ -170,23 +208,35 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     counter.send_signal(signal.SIGINT)
     counter.wait(timeout=60)
     counts = json.loads(count_file.read_text())
-    m = re.search(r'(\d+) fixes published.*wall time per tick ([\d.]+) ms mean, '
-                  r'([\d.]+) ms max', out)
+    m = re.search(r'(\d+) fixes published, (\d+) skipped without truth, (\d+) truth '
+                  r'messages out of order, (\d+) stamped in the future.*wall time per '
+                  r'tick ([\d.]+) ms mean, ([\d.]+) ms max', out)
     if not m:
         raise RuntimeError(f'no summary from the node:\n{out[-2000:]}')
     published = int(m.group(1))
     measured_sim = sim_s - 10
+    got = counts['per_stamp']
+    short = {k: n - got.get(str((t0 + k) * NS), 0) for k in range(sim_s + 1)
+             if got.get(str((t0 + k) * NS), 0) < n}
     cpu = cpu1 - cpu0
     return {
         'agents': n, 'simulated_s': measured_sim, 'speed_x_real_time': speed,
         'node_cpu_s_per_sim_hour': cpu / measured_sim * 3600,
         'core_fraction_at_real_time': cpu / measured_sim,
-        'tick_ms_mean': float(m.group(2)), 'tick_ms_max': float(m.group(3)),
+        'tick_ms_mean': float(m.group(5)), 'tick_ms_max': float(m.group(6)),
+        'core_fraction_by_thread': {
+            k: (v - threads0.get(k, 0.0)) / measured_sim for k, v in threads1.items()
+            if v - threads0.get(k, 0.0) > 0},
         'rss_mb_after_warmup': mem0['VmRSS'], 'rss_mb_end': mem1['VmRSS'],
         'peak_rss_mb': mem1['VmHWM'],
         'agent_steps_with_truth': n * (sim_s + 1),
-        'fixes_published': published, 'fixes_received_unique': counts['unique'],
+        'fixes_published': published, 'skipped_without_truth': int(m.group(2)),
+        'truth_out_of_order': int(m.group(3)), 'truth_in_future': int(m.group(4)),
+        'fixes_received_unique': counts['unique'],
         'received_fraction': counts['unique'] / published if published else 0.0,
+        'steps_short_of_fixes': short,      # simulated second -> fixes not received
+        'agents_missing_by_step': {        # simulated second -> [first, last] agent runs
+            int(stamp) // NS - t0: runs for stamp, runs in counts['missing_agents'].items()},
         'wall_s': wall1 - wall0,
     }
 
@@ -219,7 +269,16 @@ def main():
                   f'fixes published {r["fixes_published"]} for '
                   f'{r["agent_steps_with_truth"]} agent-steps with truth, received '
                   f'{r["fixes_received_unique"]}/{r["fixes_published"]} '
-                  f'({100 * r["received_fraction"]:.2f} %)', flush=True)
+                  f'({100 * r["received_fraction"]:.2f} %); node skipped '
+                  f'{r["skipped_without_truth"]} without truth, dropped '
+                  f'{r["truth_out_of_order"]} out of order and {r["truth_in_future"]} '
+                  f'stamped in the future', flush=True)
+            if r['steps_short_of_fixes']:
+                print('       steps short of fixes (simulated s: missing): ' + ', '.join(
+                    f'{k}: {v}' for k, v in sorted(r['steps_short_of_fixes'].items())))
+            threads = sorted(r['core_fraction_by_thread'].items(), key=lambda kv: -kv[1])
+            print('       node threads (% of a core at 1x): ' + ', '.join(
+                f'{k} {100 * v:.2f}' for k, v in threads if v >= 0.0005), flush=True)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 

@@ -1,9 +1,11 @@
 """The CDR fast paths agree with rclpy's own (de)serialization."""
 
 import math
+import struct
 
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import NavSatFix, NavSatStatus
@@ -49,3 +51,52 @@ def test_navsatfix_read_and_template(frame):
         assert m.position_covariance_type == NavSatFix.COVARIANCE_TYPE_KNOWN
         assert m.status.status == NavSatStatus.STATUS_FIX
         assert m.status.service == NavSatStatus.SERVICE_GPS
+
+
+def _pose_big_endian(sec, nsec, frame, values):
+    """Serialize a PoseStamped by hand in big-endian CDR (rclpy writes little)."""
+    body = struct.pack('>iII', sec, nsec, len(frame) + 1) + frame.encode() + b'\0'
+    body += bytes(-len(body) % 8)
+    return b'\x00\x00\x00\x00' + body + struct.pack('>7d', *values)
+
+
+def test_batch_parse_agrees_with_one_by_one():
+    rng = np.random.default_rng(5)
+    raws = []
+    for i in range(60):
+        frame = 'f' * int(rng.integers(0, 14))
+        p = PoseStamped()
+        p.header.frame_id = frame
+        p.header.stamp.sec, p.header.stamp.nanosec = int(rng.integers(0, 2 ** 31)), 999_999_999
+        p.pose.position.x, p.pose.position.y, p.pose.position.z = rng.normal(size=3)
+        p.pose.orientation.w = 1.0
+        o = Odometry()
+        o.header = p.header
+        o.child_frame_id = 'c' * int(rng.integers(0, 9))
+        o.pose.pose = p.pose
+        f = NavSatFix()
+        f.header = p.header
+        f.status.status = int(rng.integers(-1, 3))
+        f.latitude, f.longitude, f.altitude = rng.normal(size=3)
+        raws.append({'pose': serialize_message(p), 'odometry': serialize_message(o),
+                     'navsatfix': serialize_message(f)})
+    one = {'pose': cdr.pose_stamped, 'odometry': cdr.odometry, 'navsatfix': cdr.navsatfix}
+    for kind in one:
+        batch = [r[kind] for r in raws]
+        # damaged messages: truncated at several places, empty, garbage length
+        batch += [batch[0][:n] for n in (0, 3, 15, 17, len(batch[0]) - 1)]
+        batch.append(batch[1][:12] + b'\xff\xff\xff\x7f' + batch[1][16:])
+        if kind == 'pose':
+            batch.append(_pose_big_endian(7, 8, 'map', range(7)))
+        stamps, values, ok = cdr.parse_batch(kind, batch)
+        for i, raw in enumerate(batch):
+            try:
+                want = one[kind](raw)
+            except (struct.error, IndexError):
+                assert not ok[i], (kind, i)
+                continue
+            assert ok[i], (kind, i)
+            assert stamps[i] == want[0]
+            assert tuple(values[i]) == want[1:]
+        assert ok[:60].all() and not ok[60:64].any()
+    assert cdr.parse_batch('pose', [])[0].shape == (0,)

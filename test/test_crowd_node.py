@@ -51,6 +51,11 @@ def test_crowd_sharded_over_two_processes_gives_identical_fixes():
                                            for p in pubs.values())
                                and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
                                        for ns, a in boxes), 30)
+        # the node drains its truth subscriptions itself, outside the executor;
+        # they are still its own in the ROS graph
+        graph = dict(peer.node.get_subscriber_names_and_types_by_node('gps_error_node', whole))
+        assert all(graph.get(f'{whole}/{a}/pose') == ['geometry_msgs/msg/PoseStamped']
+                   for a in AGENTS), graph
         peer.spin_for(0.5)
         n_steps = 40
         pause = range(T0 + 10, T0 + 20)          # ped1 of the whole crowd goes quiet

@@ -60,6 +60,84 @@ def navsatfix(raw):
     return (stamp, status) + struct.unpack_from(e + '3d', raw, HEADER + off)
 
 
+def _u32(buf, at):
+    return buf[at[:, None] + np.arange(4)].copy().view('<u4')[:, 0].astype(np.int64)
+
+
+def parse_batch(kind, raws):
+    """
+    Parse many serialized messages of one kind at once.
+
+    ``kind`` is ``'pose'``, ``'odometry'`` or ``'navsatfix'``; the values per
+    message are those of :func:`pose_stamped`, :func:`odometry` or
+    :func:`navsatfix` after the stamp. Returns ``(stamps, values, ok)``:
+    stamps (m,) int64 ns, values (m, k) float64 and ok (m,) bool, False where
+    a message is too short for its own lengths (such rows are zero). Little-
+    endian messages are read with numpy in one pass; any other is parsed one
+    by one.
+    """
+    one, k = {'pose': (pose_stamped, 7), 'odometry': (odometry, 7),
+              'navsatfix': (navsatfix, 4)}[kind]
+    m = len(raws)
+    stamps = np.zeros(m, dtype=np.int64)
+    values = np.zeros((m, k))
+    ok = np.zeros(m, dtype=bool)
+    if m == 0:
+        return stamps, values, ok
+    lens = np.fromiter(map(len, raws), dtype=np.int64, count=m)
+    starts = np.zeros(m, dtype=np.int64)
+    np.cumsum(lens[:-1], out=starts[1:])
+    # pad so that reads past a short message stay inside the buffer; the
+    # bounds are checked per message below
+    pad = 64
+    buf = np.frombuffer(b''.join(raws) + bytes(pad), dtype=np.uint8)
+    limit = starts + lens
+
+    def inside(at, n):
+        good = (at >= starts) & (at + n <= limit)
+        return good, np.where(good, at, 0)
+
+    little = (lens >= HEADER + 12) & (buf[np.minimum(starts + 1, buf.size - 1)] & 1 == 1)
+    good = little.copy()
+    base = starts + HEADER
+    g, at = inside(base + 8, 4)
+    good &= g
+    off = 12 + _u32(buf, at)                  # payload offset after frame_id
+    if kind == 'odometry':
+        off = _align(off, 4)
+        g, at = inside(base + off, 4)
+        good &= g
+        off = off + 4 + _u32(buf, at)           # after child_frame_id
+    if kind == 'navsatfix':
+        g, at = inside(base + off, 1)
+        good &= g
+        status = buf[at].view(np.int8).astype(float)
+        off = _align(_align(off + 1, 2) + 2, 8)
+        nval = 3
+    else:
+        off = _align(off, 8)
+        nval = 7
+    g, at = inside(base + off, 8 * nval)
+    good &= g
+    vals = buf[at[:, None] + np.arange(8 * nval)].copy().view('<f8')
+    sec = buf[base[:, None] + np.arange(4)].copy().view('<i4')[:, 0].astype(np.int64)
+    nsec = _u32(buf, base + 4)
+    stamps[good] = sec[good] * 1_000_000_000 + nsec[good]
+    if kind == 'navsatfix':
+        values[good, 0] = status[good]
+        values[good, 1:] = vals[good]
+    else:
+        values[good] = vals[good]
+    ok[good] = True
+    for i in np.flatnonzero(~little):          # big-endian or too short
+        try:
+            row = one(raws[i])
+        except (struct.error, IndexError):
+            continue
+        stamps[i], values[i], ok[i] = row[0], row[1:], True
+    return stamps, values, ok
+
+
 class FixTemplate:
     """
     Serialized NavSatFix with fixed frame, status and covariance.
