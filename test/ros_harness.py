@@ -54,6 +54,11 @@ class NodeProcess:
 
     def __init__(self, args, name='gps_error_node', env=None):
         self.argv = node_executable(name) + list(args)
+        # what wait_connected needs to know: the node's namespace, and whether
+        # it runs on /clock
+        self.namespace = next((a.split(':=', 1)[1] for a in args
+                               if str(a).startswith('__ns:=')), None)
+        self.sim_time = 'use_sim_time:=true' in args
         self.proc = subprocess.Popen(
             self.argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
             text=True, env=env)
@@ -115,12 +120,23 @@ class Peer:
         return True
 
     def wait_connected(self, pub, sub_topic, proc, timeout=20.0):
-        """Wait until the node subscribes to ``pub`` and publishes ``sub_topic``."""
+        """
+        Wait until the node subscribes to ``pub`` and publishes ``sub_topic``.
+
+        A node on simulated time must also have subscribed to /clock: a tick
+        published before that is lost to it, and it would start a step late.
+        """
+        def clock_seen():
+            if not (proc.sim_time and proc.namespace):
+                return True
+            return any(e.node_namespace == proc.namespace
+                       for e in self.node.get_subscriptions_info_by_topic('/clock'))
+
         def ready():
             if proc.proc.poll() is not None:
                 raise RuntimeError(f'node exited early: {proc.wait_exit()[1]}')
             return (pub.get_subscription_count() > 0
-                    and self.node.count_publishers(sub_topic) > 0)
+                    and self.node.count_publishers(sub_topic) > 0 and clock_seen())
         assert self.spin_until(ready, timeout), 'node did not connect'
         self.spin_for(0.3)
 

@@ -53,9 +53,17 @@ def test_crowd_sharded_over_two_processes_gives_identical_fixes():
                                        for ns, a in boxes), 30)
         # the node drains its truth subscriptions itself, outside the executor;
         # they are still its own in the ROS graph
-        graph = dict(peer.node.get_subscriber_names_and_types_by_node('gps_error_node', whole))
-        assert all(graph.get(f'{whole}/{a}/pose') == ['geometry_msgs/msg/PoseStamped']
-                   for a in AGENTS), graph
+        graph = {}
+
+        def listed():       # node names reach the graph a little after endpoints
+            try:
+                graph.update(peer.node.get_subscriber_names_and_types_by_node(
+                    'gps_error_node', whole))
+            except RuntimeError:    # rclpy: the node is not (yet) known by name
+                return False
+            return all(graph.get(f'{whole}/{a}/pose') == ['geometry_msgs/msg/PoseStamped']
+                       for a in AGENTS)
+        assert peer.spin_until(listed, 10), graph
         peer.spin_for(0.5)
         n_steps = 40
         pause = range(T0 + 10, T0 + 20)          # ped1 of the whole crowd goes quiet
