@@ -26,26 +26,28 @@ NS = 1_000_000_000
 CASES = ((1, 600, 50.0), (100, 600, 20.0), (1000, 300, 5.0), (5000, 120, 2.0))
 
 
+def _stat_cpu_s(path):
+    """Return (name, user + system CPU seconds) from a /proc .../stat file."""
+    with open(path) as f:
+        head, tail = f.read().rsplit(')', 1)
+    fields = tail.split()
+    return head.split('(', 1)[1], (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
 def proc_cpu_s(pid):
-    with open(f'/proc/{pid}/stat') as f:
-        fields = f.read().rsplit(')', 1)[1].split()
-    tick = os.sysconf('SC_CLK_TCK')
-    return (int(fields[11]) + int(fields[12])) / tick
+    return _stat_cpu_s(f'/proc/{pid}/stat')[1]
 
 
 def thread_cpu_s(pid):
     """Return {thread name: CPU seconds} summed over the process's threads."""
-    tick = os.sysconf('SC_CLK_TCK')
     out = {}
     for tid in os.listdir(f'/proc/{pid}/task'):
         try:
-            with open(f'/proc/{pid}/task/{tid}/stat') as f:
-                head, tail = f.read().rsplit(')', 1)
-        except OSError:
+            name, cpu = _stat_cpu_s(f'/proc/{pid}/task/{tid}/stat')
+        except OSError:         # the thread has exited
             continue
-        name = re.sub(r'\d+$', '', head.split('(', 1)[1]) or '?'
-        fields = tail.split()
-        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+        name = re.sub(r'\d+$', '', name) or '?'
+        out[name] = out.get(name, 0.0) + cpu
     return out
 
 
@@ -215,9 +217,8 @@ def _drive(n, sim_s, speed, node, counter, count_file):
         raise RuntimeError(f'no summary from the node:\n{out[-2000:]}')
     published = int(m.group(1))
     measured_sim = sim_s - 10
-    got = counts['per_stamp']
-    short = {k: n - got.get(str((t0 + k) * NS), 0) for k in range(sim_s + 1)
-             if got.get(str((t0 + k) * NS), 0) < n}
+    got = [counts['per_stamp'].get(str((t0 + k) * NS), 0) for k in range(sim_s + 1)]
+    short = {k: n - c for k, c in enumerate(got) if c < n}
     cpu = cpu1 - cpu0
     return {
         'agents': n, 'simulated_s': measured_sim, 'speed_x_real_time': speed,

@@ -100,3 +100,6 @@ def test_batch_parse_agrees_with_one_by_one():
             assert tuple(values[i]) == want[1:]
         assert ok[:60].all() and not ok[60:64].any()
     assert cdr.parse_batch('pose', [])[0].shape == (0,)
+    for kind in one:        # a batch of nothing but a short message
+        assert not cdr.parse_batch(kind, [b''])[2].any()
+        assert not cdr.parse_batch(kind, [b'\x00\x01\x00'])[2].any()

@@ -60,8 +60,10 @@ def navsatfix(raw):
     return (stamp, status) + struct.unpack_from(e + '3d', raw, HEADER + off)
 
 
-def _u32(buf, at):
-    return buf[at[:, None] + np.arange(4)].copy().view('<u4')[:, 0].astype(np.int64)
+def _read(buf, at, dtype, count=1):
+    """Read ``count`` little-endian ``dtype`` values at each offset ``at``: (m, count)."""
+    size = np.dtype(dtype).itemsize * count
+    return buf[at[:, None] + np.arange(size)].view(dtype)
 
 
 def parse_batch(kind, raws):
@@ -87,27 +89,27 @@ def parse_batch(kind, raws):
     lens = np.fromiter(map(len, raws), dtype=np.int64, count=m)
     starts = np.zeros(m, dtype=np.int64)
     np.cumsum(lens[:-1], out=starts[1:])
-    # pad so that reads past a short message stay inside the buffer; the
-    # bounds are checked per message below
-    pad = 64
-    buf = np.frombuffer(b''.join(raws) + bytes(pad), dtype=np.uint8)
+    # padded by more than the longest read (56 bytes), so that the reads of a
+    # too-short message (its header, or offset 0 where a bound failed) stay
+    # inside the buffer; bounds are checked per message below
+    buf = np.frombuffer(b''.join([*raws, bytes(64)]), dtype=np.uint8)
     limit = starts + lens
 
     def inside(at, n):
         good = (at >= starts) & (at + n <= limit)
         return good, np.where(good, at, 0)
 
-    little = (lens >= HEADER + 12) & (buf[np.minimum(starts + 1, buf.size - 1)] & 1 == 1)
+    little = (lens >= HEADER + 12) & (buf[starts + 1] & 1 == 1)
     good = little.copy()
     base = starts + HEADER
     g, at = inside(base + 8, 4)
     good &= g
-    off = 12 + _u32(buf, at)                  # payload offset after frame_id
+    off = 12 + _read(buf, at, '<u4')[:, 0].astype(np.int64)    # offset after frame_id
     if kind == 'odometry':
         off = _align(off, 4)
         g, at = inside(base + off, 4)
         good &= g
-        off = off + 4 + _u32(buf, at)           # after child_frame_id
+        off = off + 4 + _read(buf, at, '<u4')[:, 0]            # after child_frame_id
     if kind == 'navsatfix':
         g, at = inside(base + off, 1)
         good &= g
@@ -119,10 +121,9 @@ def parse_batch(kind, raws):
         nval = 7
     g, at = inside(base + off, 8 * nval)
     good &= g
-    vals = buf[at[:, None] + np.arange(8 * nval)].copy().view('<f8')
-    sec = buf[base[:, None] + np.arange(4)].copy().view('<i4')[:, 0].astype(np.int64)
-    nsec = _u32(buf, base + 4)
-    stamps[good] = sec[good] * 1_000_000_000 + nsec[good]
+    vals = _read(buf, at, '<f8', nval)
+    sec, nsec = _read(buf, base, '<i4')[:, 0], _read(buf, base + 4, '<u4')[:, 0]
+    stamps[good] = sec[good].astype(np.int64) * 1_000_000_000 + nsec[good]
     if kind == 'navsatfix':
         values[good, 0] = status[good]
         values[good, 1:] = vals[good]
