@@ -7,7 +7,9 @@ counter process subscribes to every agent's fix topic and counts fixes keyed
 by (agent, stamp). Reported: the node's CPU seconds per simulated hour (from
 /proc, all its threads), the fraction of one core that means at real time,
 its wall time per timer tick (from its own shutdown summary), its resident
-memory, and fixes published against fixes received.
+memory, and fixes published against fixes received. Fixes are reliable (the
+node's default) in every case, and best effort in a second 1,000-agent case
+(--fix-reliability; the counter's subscriptions then are best effort too).
 """
 
 import argparse
@@ -23,7 +25,9 @@ import tempfile
 import time
 
 NS = 1_000_000_000
-CASES = ((1, 600, 50.0), (100, 600, 20.0), (1000, 300, 5.0), (5000, 120, 2.0))
+CASES = ((1, 600, 50.0, 'reliable'), (100, 600, 20.0, 'reliable'),
+         (1000, 300, 5.0, 'reliable'), (1000, 300, 5.0, 'best_effort'),
+         (5000, 120, 2.0, 'reliable'))
 
 
 def _stat_cpu_s(path):
@@ -72,13 +76,13 @@ def _ranges(indices):
     return runs
 
 
-def counter_main(n, out_path):
+def counter_main(n, out_path, reliability):
     """Count fixes per (agent, stamp) on n topics, draining on a timer."""
     import rclpy
     from rclpy.callback_groups import CallbackGroup
     from rclpy.executors import ExternalShutdownException
     from rclpy.node import Node
-    from rclpy.qos import QoSProfile
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import NavSatFix
 
     class Never(CallbackGroup):
@@ -94,8 +98,11 @@ def counter_main(n, out_path):
     rclpy.init()
     node = Node('fix_counter')
     group = Never()
+    qos = QoSProfile(depth=100, reliability={
+        'reliable': ReliabilityPolicy.RELIABLE,
+        'best_effort': ReliabilityPolicy.BEST_EFFORT}[reliability])
     subs = [node.create_subscription(NavSatFix, f'/bench/a{i}/fix', lambda m: None,
-                                     QoSProfile(depth=100), raw=True, callback_group=group)
+                                     qos, raw=True, callback_group=group)
             for i in range(n)]
     seen, total = set(), [0]
 
@@ -130,12 +137,13 @@ def counter_main(n, out_path):
         rclpy.try_shutdown()
 
 
-def run_case(n, sim_s, speed, workdir):
+def run_case(n, sim_s, speed, workdir, reliability='reliable'):
     params = Path(workdir, f'params{n}.yaml')
     names = ', '.join(f'"a{i}"' for i in range(n))
     params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
                       '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
-                      f'    profile: DS5\n    agents: [{names}]\n')
+                      f'    profile: DS5\n    fix_reliability: {reliability}\n'
+                      f'    agents: [{names}]\n')
     count_file = Path(workdir, f'count{n}.json')
     exe = Path(sys.executable).with_name('gps_error_node')
     prof = os.environ.get('BENCH_NODE_PROFILE')     # cProfile output, optional
@@ -145,9 +153,10 @@ def run_case(n, sim_s, speed, workdir):
                                    '--params-file', str(params)],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     counter = subprocess.Popen([sys.executable, __file__, '--counter', str(n),
-                                str(count_file)])
+                                str(count_file), reliability])
     try:
-        return _drive(n, sim_s, speed, node, counter, count_file)
+        return dict(_drive(n, sim_s, speed, node, counter, count_file),
+                    fix_reliability=reliability)
     finally:
         for proc in (node, counter):
             if proc.poll() is None:
@@ -244,29 +253,40 @@ def _drive(n, sim_s, speed, node, counter, count_file):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    p.add_argument('--counter', nargs=2, metavar=('N', 'OUT'), help=argparse.SUPPRESS)
+    p.add_argument('--counter', nargs=3, metavar=('N', 'OUT', 'RELIABILITY'),
+                   help=argparse.SUPPRESS)
     p.add_argument('--agents', type=int, nargs='*', help='only these crowd sizes')
     p.add_argument('--json', help='write the figures here')
+    p.add_argument('--fix-reliability', choices=('reliable', 'best_effort'),
+                   help='QoS of the fixes (the node\'s fix_reliability parameter); '
+                        'default: the cases\' own (all reliable, and 1,000 agents '
+                        'also best_effort), or reliable with --agents')
     p.add_argument('--speed', type=float, default=None,
                    help='simulated seconds per wall second for every case '
                         '(default: per case, 50x for 1 agent down to 2x for 5,000)')
     args = p.parse_args()
     if args.counter:
-        counter_main(int(args.counter[0]), args.counter[1])
+        counter_main(int(args.counter[0]), args.counter[1], args.counter[2])
         return
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     rows = []
     with tempfile.TemporaryDirectory() as work:
-        for n, sim_s, speed in CASES:
-            if args.agents and n not in args.agents:
-                continue
+        if args.agents:         # each size asked for, once, with the QoS asked for
+            cases = [(n, sim_s, speed, args.fix_reliability or 'reliable')
+                     for n, sim_s, speed, qos in CASES
+                     if n in args.agents and qos == 'reliable']
+        else:
+            cases = [c for c in CASES
+                     if args.fix_reliability in (None, c[3])]
+        for n, sim_s, speed, reliability in cases:
             speed = args.speed or speed
-            r = run_case(n, sim_s, speed, work)
+            r = run_case(n, sim_s, speed, work, reliability)
             rows.append(r)
-            print(f'{n:>5} agents: node {r["node_cpu_s_per_sim_hour"]:7.1f} CPU-s per '
-                  f'simulated hour ({100 * r["core_fraction_at_real_time"]:.2f} % of a '
-                  f'core at 1x), tick {r["tick_ms_mean"]:.2f} ms mean / '
-                  f'{r["tick_ms_max"]:.1f} ms max, RSS {r["rss_mb_end"]:.0f} MB, '
+            print(f'{n:>5} agents, {reliability} fixes: node '
+                  f'{r["node_cpu_s_per_sim_hour"]:7.1f} CPU-s per simulated hour '
+                  f'({100 * r["core_fraction_at_real_time"]:.2f} % of a core at 1x), '
+                  f'tick {r["tick_ms_mean"]:.2f} ms mean / {r["tick_ms_max"]:.1f} ms max, '
+                  f'RSS {r["rss_mb_end"]:.0f} MB, '
                   f'fixes published {r["fixes_published"]} for '
                   f'{r["agent_steps_with_truth"]} agent-steps with truth, received '
                   f'{r["fixes_received_unique"]}/{r["fixes_published"]} '

@@ -97,11 +97,11 @@ class Peer:
         """Return a reliable publisher on ``topic``."""
         return self.node.create_publisher(msg_type, topic, QoSProfile(depth=100))
 
-    def collect(self, msg_type, topic):
-        """Subscribe to ``topic`` and keep every message in a list."""
+    def collect(self, msg_type, topic, qos=None):
+        """Subscribe to ``topic`` (reliable unless ``qos``); keep every message."""
         box = self.received.setdefault(topic, [])
         self.node.create_subscription(
-            msg_type, topic, box.append, QoSProfile(depth=1000))
+            msg_type, topic, box.append, qos or QoSProfile(depth=1000))
         return box
 
     def spin_for(self, seconds):

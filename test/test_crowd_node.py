@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import rclpy
 from geometry_msgs.msg import PoseStamped
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.profiles import load_profile
@@ -113,12 +114,57 @@ def test_crowd_sharded_over_two_processes_gives_identical_fixes():
         assert got[common[0]][2][0] == pytest.approx(sd[1] ** 2)
 
 
+def test_best_effort_fixes_reach_every_agent_in_paced_bursts():
+    """fix_reliability best_effort: sensor-data QoS, bursts of 100, none lost."""
+    ns, n, steps = unique_ns(), 250, 4          # 250 agents: bursts of 100, 100, 50
+    agents = [f'p{i}' for i in range(n)]
+    node = NodeProcess([
+        '--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true', '-p', DATUM_ARG,
+        '-p', 'seed:=5', '-p', f'max_pose_age:={MAX_AGE}', '-p', 'fix_reliability:=best_effort',
+        '-p', 'agents:=[' + ','.join(f'"{a}"' for a in agents) + ']'])
+    peer = Peer()
+    best_effort = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+    try:
+        pubs = [peer.publisher(PoseStamped, f'{ns}/{a}/pose') for a in agents]
+        boxes = [peer.collect(NavSatFix, f'{ns}/{a}/fix', best_effort) for a in agents]
+        reliable_box = []           # (collect() would share the topic's list)
+        peer.node.create_subscription(NavSatFix, f'{ns}/{agents[0]}/fix',
+                                      reliable_box.append, QoSProfile(depth=100))
+        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs)
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
+                                       for a in agents), 60)
+        info = peer.node.get_publishers_info_by_topic(f'{ns}/{agents[0]}/fix')
+        assert [i.qos_profile.reliability for i in info] == [ReliabilityPolicy.BEST_EFFORT]
+        peer.spin_for(1.0)
+        for k in range(T0, T0 + steps + 2):
+            for pub in pubs:
+                pub.publish(pose_msg(k * NS, 1.0, 2.0))
+            peer.spin_for(0.05)
+            peer.set_clock(k * NS)
+            want = (k - 1) * NS
+            peer.spin_until(lambda: all(box and stamp_ns(box[-1].header.stamp) >= want
+                                        for box in boxes), 10)
+        peer.spin_for(0.5)
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+    wanted = {k * NS for k in range(T0, T0 + steps + 1)}
+    short = {a: sorted(wanted - {stamp_ns(m.header.stamp) for m in box})
+             for a, box in zip(agents, boxes)}
+    assert not any(short.values()), {a: s for a, s in short.items() if s}
+    # a reliable subscriber does not match a best-effort publisher (ROS QoS rules)
+    assert reliable_box == []
+
+
 def test_crowd_parameter_errors():
     for params, hint in (
             (['agents:=["a","a"]'], 'duplicate'),
             (['agents:=["1bad"]'], 'invalid agent name'),
             (['agents:=["a","b"]', 'agent_profiles:=["DS1"]'], 'one per agent'),
-            (['agents:=["a"]', 'agent_profiles:=["DS4"]'], 'no published fit')):
+            (['agents:=["a"]', 'agent_profiles:=["DS4"]'], 'no published fit'),
+            (['agents:=["a"]', 'fix_reliability:=lossy'], "expected one of ['reliable'")):
         args = ['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', DATUM_ARG]
         for p in params:
             args += ['-p', p]

@@ -46,11 +46,19 @@ WARN_PERIOD_S = 5.0
 # stock profile's 5, so a burst of truth messages is buffered, not dropped.
 TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
                        reliability=ReliabilityPolicy.BEST_EFFORT)
-# Reliable, with a history long enough that a fix lost in a burst can still
-# be repaired (Fast DDS re-sends after ~3 s; a crowd run faster than real time
-# publishes many steps in that time, and depth 10 let 16 of 3.6 M fixes go).
-FIX_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
-                     reliability=ReliabilityPolicy.RELIABLE)
+# Reliable (the default), with a history long enough that a fix lost in a
+# burst can still be repaired (Fast DDS re-sends after ~3 s; a crowd run
+# faster than real time publishes many steps in that time, and depth 10 let 16
+# of 3.6 M fixes go). Best effort on request (parameter fix_reliability).
+FIX_QOS = {
+    name: QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=policy)
+    for name, policy in (('reliable', ReliabilityPolicy.RELIABLE),
+                         ('best_effort', ReliabilityPolicy.BEST_EFFORT))}
+# A crowd's best-effort fixes go out in bursts this size, this far apart: Fast
+# DDS's shared-memory queue of a subscribing process holds 512 messages, and
+# an unspaced burst of 1,000 lost about 1 % of them.
+FIX_BURST = 100
+FIX_BURST_PAUSE_S = 0.001
 
 
 AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
@@ -117,7 +125,8 @@ class GpsErrorNode(Node):
                 msg_type, prefix + topic, partial(self._on_truth, i), TRUTH_QOS,
                 raw=self.polled, event_callbacks=sub_events))
             self.pubs.append(self.create_publisher(
-                NavSatFix, prefix + 'fix', FIX_QOS, event_callbacks=pub_events))
+                NavSatFix, prefix + 'fix', FIX_QOS[cfg['fix_reliability']],
+                event_callbacks=pub_events))
         self.sub_handles = [(s.handle, s.msg_type) for s in self.subs]
         if self.polled:
             # A crowd's truth subscriptions are taken off the node's list that
@@ -127,6 +136,8 @@ class GpsErrorNode(Node):
             mine = set(map(id, self.subs))
             self._subscriptions[:] = [s for s in self._subscriptions if id(s) not in mine]
         self.pub_handles = [p.handle for p in self.pubs]
+        self.fix_burst = (FIX_BURST if cfg['fix_reliability'] == 'best_effort'
+                          else len(self.agents))
         self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
         self._templates()
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
@@ -305,8 +316,13 @@ class GpsErrorNode(Node):
                                             throttle_duration_sec=WARN_PERIOD_S)
                 raws = self.fix_templates[g].render(
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
-                for local, raw in zip(fix.agents[good], raws):
-                    self.pub_handles[members[local]].publish_raw(raw)
+                handles = [self.pub_handles[i] for i in members[fix.agents[good]]]
+                for start in range(0, len(raws), self.fix_burst):
+                    if start:
+                        time.sleep(FIX_BURST_PAUSE_S)
+                    for handle, raw in zip(handles[start:start + self.fix_burst],
+                                           raws[start:start + self.fix_burst]):
+                        handle.publish_raw(raw)
             return
         for fix in fixes:
             for local, lat, lon, alt in zip(fix.agents, fix.lat, fix.lon, fix.alt):
