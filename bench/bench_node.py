@@ -105,8 +105,11 @@ def counter_main(n, out_path, reliability):
                                      qos, raw=True, callback_group=group)
             for i in range(n)]
     seen, total = set(), [0]
+    ready = Path(out_path + '.ready')
 
     def drain():
+        if not ready.exists() and all(sub.get_publisher_count() > 0 for sub in subs):
+            ready.touch()       # the driver starts once every fix topic is matched
         for i, sub in enumerate(subs):
             while True:
                 with sub.handle:
@@ -144,7 +147,8 @@ def run_case(n, sim_s, speed, workdir, reliability='reliable'):
                       '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
                       f'    profile: DS5\n    fix_reliability: {reliability}\n'
                       f'    agents: [{names}]\n')
-    count_file = Path(workdir, f'count{n}.json')
+    count_file = Path(workdir, f'count{n}_{reliability}.json')
+    Path(str(count_file) + '.ready').unlink(missing_ok=True)
     exe = Path(sys.executable).with_name('gps_error_node')
     prof = os.environ.get('BENCH_NODE_PROFILE')     # cProfile output, optional
     pre = [sys.executable, '-m', 'cProfile', '-o', prof, '-m',
@@ -179,9 +183,9 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     clock = drv.create_publisher(Clock, '/clock', qos)
     pubs = [drv.create_publisher(PoseStamped, f'/bench/a{i}/pose', qos) for i in range(n)]
     deadline = time.monotonic() + 60 + 0.1 * n      # 10k endpoints take a while
-    while (any(p.get_subscription_count() == 0 for p in pubs)
-           or drv.count_subscribers('/bench/a0/fix') == 0):
-        if time.monotonic() > deadline or node.poll() is not None:
+    ready = Path(str(count_file) + '.ready')     # written by the counter
+    while any(p.get_subscription_count() == 0 for p in pubs) or not ready.exists():
+        if time.monotonic() > deadline or node.poll() is not None or counter.poll() is not None:
             raise RuntimeError('node or counter did not come up')
         time.sleep(0.1)
     time.sleep(2.0)
