@@ -40,7 +40,7 @@ calibration-doc: setup
 	$(PY) -m gps_error_ros.calibration_report --data $(DATA) --out docs
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
-# About 10 minutes on a 2-core machine; see docs/performance.md.
+# 10-13 minutes on a 2-core machine; see docs/performance.md.
 bench: setup
 	mkdir -p bench_output
 	$(PY) bench/bench_library.py --json bench_output/library.json
