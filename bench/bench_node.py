@@ -76,6 +76,11 @@ def _ranges(indices):
     return runs
 
 
+def ready_file(count_file):
+    """Return the file the counter creates once every fix topic has a publisher."""
+    return Path(f'{count_file}.ready')
+
+
 def counter_main(n, out_path, reliability):
     """Count fixes per (agent, stamp) on n topics, draining on a timer."""
     import rclpy
@@ -104,12 +109,12 @@ def counter_main(n, out_path, reliability):
     subs = [node.create_subscription(NavSatFix, f'/bench/a{i}/fix', lambda m: None,
                                      qos, raw=True, callback_group=group)
             for i in range(n)]
-    seen, total = set(), [0]
-    ready = Path(out_path + '.ready')
+    seen, total, matched = set(), [0], [False]
 
     def drain():
-        if not ready.exists() and all(sub.get_publisher_count() > 0 for sub in subs):
-            ready.touch()       # the driver starts once every fix topic is matched
+        if not matched[0] and all(sub.get_publisher_count() > 0 for sub in subs):
+            matched[0] = True
+            ready_file(out_path).touch()    # the driver starts once every fix topic is matched
         for i, sub in enumerate(subs):
             while True:
                 with sub.handle:
@@ -147,8 +152,7 @@ def run_case(n, sim_s, speed, workdir, reliability='reliable'):
                       '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
                       f'    profile: DS5\n    fix_reliability: {reliability}\n'
                       f'    agents: [{names}]\n')
-    count_file = Path(workdir, f'count{n}_{reliability}.json')
-    Path(str(count_file) + '.ready').unlink(missing_ok=True)
+    count_file = Path(workdir, f'count{n}_{reliability}.json')    # one per case
     exe = Path(sys.executable).with_name('gps_error_node')
     prof = os.environ.get('BENCH_NODE_PROFILE')     # cProfile output, optional
     pre = [sys.executable, '-m', 'cProfile', '-o', prof, '-m',
@@ -183,7 +187,7 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     clock = drv.create_publisher(Clock, '/clock', qos)
     pubs = [drv.create_publisher(PoseStamped, f'/bench/a{i}/pose', qos) for i in range(n)]
     deadline = time.monotonic() + 60 + 0.1 * n      # 10k endpoints take a while
-    ready = Path(str(count_file) + '.ready')     # written by the counter
+    ready = ready_file(count_file)
     while any(p.get_subscription_count() == 0 for p in pubs) or not ready.exists():
         if time.monotonic() > deadline or node.poll() is not None or counter.poll() is not None:
             raise RuntimeError('node or counter did not come up')
