@@ -37,7 +37,7 @@ test: setup
 
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup
-	$(PY) -m gps_error_ros.calibration_report --data $(DATA) --out docs
+	$(PY) tools/calibration_doc.py --data $(DATA) --out docs
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
 # 10-13 minutes on a 2-core machine; see docs/performance.md.
@@ -65,7 +65,7 @@ diagnose-long: setup
 
 # Regenerate docs/close-the-loop.md and docs/close-the-loop/ from the traces.
 close-the-loop-doc: setup
-	$(PY) -m gps_error_ros.close_loop_report --data $(DATA) --out docs
+	$(PY) tools/close_loop_doc.py --data $(DATA) --out docs
 
 lint: setup
 	$(PY) -m pytest -m linter

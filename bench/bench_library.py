@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from gps_error_ros.profiles import load_profile
+from gps_error_ros.model.profiles import load_profile
 
 CASES = ((1, 1_000_000), (100, 20_000), (10_000, 200), (1_000_000, 100))
 

@@ -24,7 +24,7 @@ import time
 from scipy import stats
 
 from gps_error_ros.diagnose import ALPHA, diagnose
-from gps_error_ros.synthetic import EFFECT_FREE, SCENARIOS, synthetic_trace
+from gps_error_ros.sim.synthetic import EFFECT_FREE, SCENARIOS, synthetic_trace
 
 
 def one(job):

@@ -61,11 +61,11 @@ def run(agents, sim_s, sample_s, window_s, rss_growth_mb, profile='DS2', seed=3,
     from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import NavSatFix
 
-    from gps_error_ros.geodesy import difference
-    from gps_error_ros.profiles import load_profile
+    from gps_error_ros.model.geodesy import difference
+    from gps_error_ros.model.profiles import load_profile
     from gps_error_ros.ros.cdr import navsatfix
     from gps_error_ros.ros.conversions import to_stamp
-    from gps_error_ros.stats import variance_se
+    from gps_error_ros.fit.autocorrelation import variance_se
 
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     lat0, lon0 = 40.75, -73.99

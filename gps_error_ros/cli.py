@@ -13,13 +13,14 @@ import argparse
 from pathlib import Path
 import sys
 
-from .bag_io import BagError
-from .calibration import calibrate, CalibrationError, DEFAULT_MAX_ORDER, \
+from gps_error_ros.fit.calibration import calibrate, CalibrationError, \
+    DEFAULT_MAX_ORDER
+from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
-from .inputs import load_trace, parse_datum
-from .pairing import PairingError
-from .profiles import load_profile_file, ProfileError
-from .trace_io import TraceError
+from gps_error_ros.traces.bag_io import BagError
+from gps_error_ros.traces.loading import load_trace, parse_datum
+from gps_error_ros.traces.pairing import PairingError
+from gps_error_ros.traces.trace_io import TraceError
 
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
           ValueError, OSError)     # DiagnosisError is a ValueError
@@ -41,21 +42,20 @@ def _add_input_options(p):
 
 
 def _load_input(args):
-    """Return (trace, notes) of INPUT with the options of _add_input_options."""
-    return load_trace(args.input, args.fix_topic, args.truth_topic,
-                      parse_datum(args.datum), args.max_truth_gap)
+    """Load INPUT with the options of _add_input_options; print how it went."""
+    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
+                              parse_datum(args.datum), args.max_truth_gap)
+    for line in notes:
+        print(line)
+    return trace
 
 
 def _scenarios():
-    from .synthetic import SCENARIOS
+    from gps_error_ros.sim.synthetic import SCENARIOS
     return list(SCENARIOS)
 
 
-def _parser():
-    p = argparse.ArgumentParser(
-        prog='gps_error',
-        description='Smartphone GPS error model tools (no ROS needed).')
-    sub = p.add_subparsers(dest='command', required=True)
+def _add_calibrate(sub):
     c = sub.add_parser(
         'calibrate', help='fit a profile from a measured trace',
         description='Fit an AR profile (schema 1, with a fit section) to the '
@@ -73,6 +73,9 @@ def _parser():
                         f'{DEFAULT_MAX_ORDER})')
     c.add_argument('--name', default=None,
                    help='profile name (default: the output file stem)')
+
+
+def _add_validate(sub):
     v = sub.add_parser(
         'validate', help='cross-validate a profile against a measured trace',
         description='Simulate many traces of the measured trace\'s length and '
@@ -93,6 +96,9 @@ def _parser():
                         'the last 30 %% held out from a fit on 0,0.7)')
     v.add_argument('--seed', type=int, default=0, help='simulation seed')
     _add_input_options(v)
+
+
+def _add_simulate(sub):
     s = sub.add_parser(
         'simulate', help='add errors to trajectories, or write raw error series',
         description='Smartphone GPS errors for simulators that do not run ROS, '
@@ -101,6 +107,20 @@ def _parser():
                     'truth_lat, truth_lon and optional agent) --out OUTPUT in '
                     'the same format with noisy positions (a CSV also keeps the '
                     'true ones), or --agents N --duration S --out ERRORS.npz.')
+    s.add_argument('--profile', default='DS5', help='profile name or YAML (default DS5)')
+    s.add_argument('--seed', type=int, required=True, help='seed (as the node\'s)')
+    s.add_argument('--out', required=True, help='output file')
+    s.add_argument('--trajectories', help='SUMO FCD .xml or truth CSV')
+    s.add_argument('--net', help='SUMO .net.xml for FCD x/y written without '
+                                 '--fcd-output.geo')
+    s.add_argument('--agents', type=int, help='raw mode: number of agents, named '
+                                              'agent0, agent1, ...')
+    s.add_argument('--duration', type=float, help='raw mode: seconds to simulate')
+    s.add_argument('--start', type=float, default=0.0,
+                   help='raw mode: time of the first step, s (default 0)')
+
+
+def _add_diagnose(sub):
     d = sub.add_parser(
         'diagnose', help='find what the AR model misses, add it, report',
         description='Split INPUT in time (first 70 % trains, the rest is '
@@ -123,6 +143,9 @@ def _parser():
                    help='simulated traces for the fidelity measures (default 100)')
     d.add_argument('--seed', type=int, default=0,
                    help='seed of the simulations and the bootstrap')
+
+
+def _add_synth(sub):
     y = sub.add_parser(
         'synth', help='write a synthetic walk with an undeclared effect',
         description='A pedestrian walking Manhattan\'s grid at 1 Hz (turns, '
@@ -134,24 +157,23 @@ def _parser():
     y.add_argument('--seed', type=int, default=0, help='seed (default 0)')
     y.add_argument('--duration', type=int, default=3600,
                    help='seconds (default 3600)')
-    s.add_argument('--profile', default='DS5', help='profile name or YAML (default DS5)')
-    s.add_argument('--seed', type=int, required=True, help='seed (as the node\'s)')
-    s.add_argument('--out', required=True, help='output file')
-    s.add_argument('--trajectories', help='SUMO FCD .xml or truth CSV')
-    s.add_argument('--net', help='SUMO .net.xml for FCD x/y written without '
-                                 '--fcd-output.geo')
-    s.add_argument('--agents', type=int, help='raw mode: number of agents, named '
-                                              'agent0, agent1, ...')
-    s.add_argument('--duration', type=float, help='raw mode: seconds to simulate')
-    s.add_argument('--start', type=float, default=0.0,
-                   help='raw mode: time of the first step, s (default 0)')
+
+
+def _parser():
+    p = argparse.ArgumentParser(
+        prog='gps_error',
+        description='Smartphone GPS error model tools (no ROS needed).')
+    sub = p.add_subparsers(dest='command', required=True)
+    for add in (_add_calibrate, _add_validate, _add_simulate, _add_diagnose,
+                _add_synth):
+        add(sub)
     return p
 
 
 def cmd_simulate(args):
     """Run ``gps_error simulate``; return the exit code."""
-    from . import batch
-    from .profiles import load_profile
+    from gps_error_ros.sim import simulate as batch
+    from gps_error_ros.model.profiles import load_profile
 
     profile = load_profile(args.profile)
     model = profile.model()
@@ -184,14 +206,14 @@ def _part(text):
 
 def cmd_validate(args):
     """Run ``gps_error validate``; return the exit code."""
-    from .profiles import load_profile
-    from .report import write_json
-    from .validation import slice_trace, validate, validation_figure
+    from gps_error_ros.model.profiles import load_profile
+    from gps_error_ros.reports.jsonfile import write_json
+    from gps_error_ros.fit.validation import slice_trace, validate
+    from gps_error_ros.reports.validation_figure import validation_figure
 
     lo, hi = _part(args.part)
     model = load_profile(args.profile).model()
-    trace, notes = _load_input(args)
-    trace = slice_trace(trace, lo, hi)
+    trace = slice_trace(_load_input(args), lo, hi)
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
                    seed=args.seed)
     out = Path(args.out)
@@ -202,8 +224,6 @@ def cmd_validate(args):
     validation_figure(res, out / 'validation.png',
                       f'{args.profile} against {trace.name} '
                       f'(part {lo:g}-{hi:g}, {res.samples} samples)')
-    for line in notes:
-        print(line)
     for ax in ('north', 'east'):
         d = summary[ax]
         print(f'  {ax}: autocorrelation inside the envelope at '
@@ -216,9 +236,7 @@ def cmd_validate(args):
 
 def cmd_calibrate(args):
     """Run ``gps_error calibrate``; return the exit code."""
-    trace, notes = _load_input(args)
-    for line in notes:
-        print(line)
+    trace = _load_input(args)
     result = calibrate(trace, order=args.order, max_order=args.max_order)
     out = Path(args.output)
     profile = result.profile_dict(args.name or out.stem)
@@ -238,12 +256,10 @@ def cmd_calibrate(args):
 
 def cmd_diagnose(args):
     """Run ``gps_error diagnose``; return the exit code."""
-    from .diagnose import diagnose, extended_profile
-    from .report import write_json
+    from gps_error_ros.diagnose import diagnose, extended_profile
+    from gps_error_ros.reports.jsonfile import write_json
 
-    trace, notes = _load_input(args)
-    for line in notes:
-        print(line)
+    trace = _load_input(args)
     diag = diagnose(trace, sims=args.sims, seed=args.seed)
     s = diag.summary
     print(f'{trace.name}: {s["samples"]} samples, {s["train_samples"]} train / '
@@ -266,7 +282,7 @@ def cmd_diagnose(args):
         write_json(Path(args.json_out), s)
         print(f'wrote {args.json_out}')
     if args.report:
-        from .diagnose_report import diagnosis_figure
+        from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
         out = Path(args.report)
         out.mkdir(parents=True, exist_ok=True)
         diagnosis_figure(diag, out / 'diagnosis.png', trace.name)
@@ -281,7 +297,8 @@ def cmd_diagnose(args):
 
 def cmd_synth(args):
     """Run ``gps_error synth``; return the exit code."""
-    from .synthetic import synthetic_trace, write_trace_csv
+    from gps_error_ros.sim.synthetic import synthetic_trace
+    from gps_error_ros.traces.trace_io import write_trace_csv
 
     trace = synthetic_trace(args.scenario, args.seed, args.duration)
     write_trace_csv(trace, args.output)

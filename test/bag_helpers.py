@@ -5,8 +5,8 @@ import numpy as np
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from gps_error_ros import bag_io
-from gps_error_ros.geodesy import LocalTangentFrame, offset
+from gps_error_ros.traces import bag_io
+from gps_error_ros.model.geodesy import LocalTangentFrame, offset
 
 NS = 1_000_000_000
 

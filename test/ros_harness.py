@@ -14,10 +14,14 @@ import subprocess
 import sys
 import time
 
+from geometry_msgs.msg import PoseStamped
+import numpy as np
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
+
+from gps_error_ros.model.geodesy import difference
 
 NS = 1_000_000_000
 _counter = itertools.count()
@@ -158,3 +162,54 @@ def stamp(ns):
 def stamp_ns(t):
     """Return integer nanoseconds of builtin_interfaces/Time."""
     return t.sec * NS + t.nanosec
+
+
+# --- shared by the error-node tests -------------------------------------
+
+DATUM = (40.75057, -73.99065, -23.0)
+DATUM_ARG = 'datum:=[40.75057, -73.99065, -23.0]'
+T0 = 1000  # simulated seconds at start
+
+
+def start(ns, *params, extra=()):
+    """Start the error node in namespace ``ns`` on /clock with ``params``."""
+    args = ['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true']
+    for p in params:
+        args += ['-p', p]
+    return NodeProcess(args + list(extra))
+
+
+def pose_msg(ns, east=0.0, north=0.0, up=0.0):
+    """Return a PoseStamped at (east, north, up) stamped ``ns``."""
+    m = PoseStamped()
+    m.header.stamp = stamp(ns)
+    m.header.frame_id = 'map'
+    m.pose.position.x, m.pose.position.y, m.pose.position.z = east, north, up
+    m.pose.orientation.w = 1.0
+    return m
+
+
+def drive(peer, pose_pub, fixes, seconds, start_s=T0, batch=1, position=None):
+    """
+    Publish pose then /clock each simulated second; wait for the fixes.
+
+    The first step is waited for on its own: the node counts steps from the
+    first clock reading it sees.
+    """
+    for k in range(start_s, start_s + seconds):
+        e, n = position(k) if position else (0.0, 0.0)
+        pose_pub.publish(pose_msg(k * NS, e, n))
+        peer.set_clock(k * NS)
+        if k == start_s or (k - start_s + 1) % batch == 0 \
+                or k == start_s + seconds - 1:
+            want = k * NS
+            ok = peer.spin_until(
+                lambda: fixes and stamp_ns(fixes[-1].header.stamp) >= want, 5.0)
+            assert ok, f'no fix for step {k}'
+
+
+def errors(fixes, truth_lat, truth_lon):
+    """Return the north/east error (m) of each fix against the truth."""
+    lat = np.array([f.latitude for f in fixes])
+    lon = np.array([f.longitude for f in fixes])
+    return np.stack(difference(lat, lon, truth_lat, truth_lon), axis=1)

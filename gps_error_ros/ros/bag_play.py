@@ -15,10 +15,10 @@ import time
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
-from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
 
-from .conversions import to_stamp
+from gps_error_ros.ros.conversions import to_stamp
+from gps_error_ros.traces.bag_io import opened
 
 
 def message_class(msgtype):
@@ -33,7 +33,7 @@ def play(bag, topics=None, rate=1.0, wait_for_subscribers=0, node=None):
     node = node or Node('gps_error_play')
     qos = QoSProfile(depth=1000)
     clock = node.create_publisher(Clock, '/clock', qos)
-    with Reader(bag) as reader:
+    with opened(bag) as reader:
         conns = [c for c in reader.connections if topics is None or c.topic in topics]
         pubs = {c.id: node.create_publisher(message_class(c.msgtype), c.topic, qos)
                 for c in conns}

@@ -10,32 +10,31 @@ when the fit is refused.
 """
 
 import csv
-import math
 from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped
-from nav_msgs.msg import Odometry
 import numpy as np
 import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from sensor_msgs.msg import NavSatFix, NavSatStatus
+from sensor_msgs.msg import NavSatFix
 from std_srvs.srv import Trigger
 
-from .. import calibration
-from ..pairing import pair, PairingError
-from . import conversions
+from gps_error_ros.fit import calibration
+from gps_error_ros.model.profiles import write_profile
+from gps_error_ros.traces.pairing import pair, PairingError
+from gps_error_ros.traces.trace_io import write_trace_csv
+from gps_error_ros.traces.validity import fix_problem, STATUS_NO_FIX
+from gps_error_ros.ros import conversions
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from .error_node import WARN_PERIOD_S
-from .parameters import CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare
+from gps_error_ros.ros.parameters import (
+    CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, WARN_PERIOD_S)
 
 # Best effort (so sensor drivers' best-effort publishers match) with a deep
 # history: a recording replayed fast must not overwrite what is not yet read.
 INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
                        reliability=ReliabilityPolicy.BEST_EFFORT)
-TRUTH_TOPICS = {'pose': ('pose', PoseStamped), 'odometry': ('odom', Odometry),
-                'navsatfix': ('fix_truth', NavSatFix)}
 
 
 class GpsCalibrationNode(Node):
@@ -55,8 +54,8 @@ class GpsCalibrationNode(Node):
             self.frame = datum_frame(cfg['datum'], cfg['input_type'])
         self.fixes = []      # (t, lat, lon, status)
         self.truth = []      # (t, lat, lon)
-        self.skipped = {'no_fix': 0, 'non_finite': 0, 'out_of_order': 0}
-        topic, msg_type = TRUTH_TOPICS[cfg['input_type']]
+        self.skipped = {'no_fix': 0, 'invalid': 0, 'out_of_order': 0}
+        topic, msg_type = conversions.TRUTH_INPUTS[cfg['input_type']]
         self.create_subscription(NavSatFix, 'fix', self._on_fix, INPUT_QOS)
         self.create_subscription(msg_type, topic, self._on_truth, INPUT_QOS)
         self.create_service(Trigger, '~/calibrate', self._on_calibrate)
@@ -68,13 +67,13 @@ class GpsCalibrationNode(Node):
 
     def _on_fix(self, msg):
         t = conversions.stamp_ns(msg.header.stamp) / 1e9
-        if msg.status.status == NavSatStatus.STATUS_NO_FIX:
-            self.skipped['no_fix'] += 1
-            return
-        if not (math.isfinite(msg.latitude) and math.isfinite(msg.longitude)):
-            self.skipped['non_finite'] += 1
-            self.get_logger().warning('skipped a fix with non-finite values',
-                                      throttle_duration_sec=WARN_PERIOD_S)
+        problem = fix_problem(msg.status.status, msg.latitude, msg.longitude)
+        if problem is not None:
+            kind = 'no_fix' if msg.status.status == STATUS_NO_FIX else 'invalid'
+            self.skipped[kind] += 1
+            if kind != 'no_fix':
+                self.get_logger().warning(f'skipped a fix: {problem}',
+                                          throttle_duration_sec=WARN_PERIOD_S)
             return
         if self.fixes and t <= self.fixes[-1][0]:
             self.skipped['out_of_order'] += 1
@@ -152,7 +151,7 @@ class GpsCalibrationNode(Node):
             self.cfg['name'] or self.output.stem,
             description='fitted by gps_calibration_node',
             source=f'gps_calibration_node, {stats.paired} paired fixes')
-        calibration.write_profile(self.output, profile)
+        write_profile(self.output, profile)
         parts = []
         for ax, fit in (('north', result.north), ('east', result.east)):
             p = fit.params
@@ -164,12 +163,7 @@ class GpsCalibrationNode(Node):
                       + '; '.join(parts) + f' ({stats.describe()}{skipped})')
 
     def _write_trace(self, trace, t0):
-        with open(self._sibling('.trace.csv'), 'w', newline='') as f:
-            w = csv.writer(f)
-            w.writerow(['t', 'lat', 'lon', 'truth_lat', 'truth_lon'])
-            for row in zip(trace.t, trace.lat, trace.lon, trace.truth_lat,
-                           trace.truth_lon):
-                w.writerow([repr(float(v)) for v in row])
+        write_trace_csv(trace, self._sibling('.trace.csv'))
 
 
 def main(args=None):

@@ -3,7 +3,18 @@
 import math
 
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped
+from nav_msgs.msg import Odometry
 from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+from gps_error_ros.traces.validity import fix_problem, pose_problem
+
+#: input_type -> (truth topic, message type): the one map both nodes use.
+TRUTH_INPUTS = {
+    'pose': ('pose', PoseStamped),
+    'odometry': ('odom', Odometry),
+    'navsatfix': ('fix_truth', NavSatFix),
+}
 
 NS = 1_000_000_000
 
@@ -18,35 +29,24 @@ def to_stamp(ns):
     return Time(sec=int(ns // NS), nanosec=int(ns % NS))
 
 
-def _finite(*values):
-    return all(math.isfinite(v) for v in values)
-
-
 def pose_position(pose):
     """
     Return (east, north, up) of a geometry_msgs/Pose, or raise ValueError.
 
-    The orientation is not used, but a non-finite or zero-length quaternion
-    marks a corrupt message and is refused like a non-finite position.
+    The rule is :func:`gps_error_ros.traces.validity.pose_problem`.
     """
     p, q = pose.position, pose.orientation
-    if not _finite(p.x, p.y, p.z):
-        raise ValueError(f'non-finite position ({p.x}, {p.y}, {p.z})')
-    norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
-    if not math.isfinite(norm) or norm < 1e-9:
-        raise ValueError(f'invalid quaternion ({q.x}, {q.y}, {q.z}, {q.w})')
+    problem = pose_problem((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+    if problem:
+        raise ValueError(problem)
     return p.x, p.y, p.z
 
 
 def navsatfix_position(msg):
     """Return (lat, lon, alt) of a noise-free NavSatFix, or raise ValueError."""
-    if msg.status.status == NavSatStatus.STATUS_NO_FIX:
-        raise ValueError('status is STATUS_NO_FIX')
-    if not _finite(msg.latitude, msg.longitude):
-        raise ValueError(f'non-finite position ({msg.latitude}, {msg.longitude})')
-    if abs(msg.latitude) > 90 or abs(msg.longitude) > 180:
-        raise ValueError(f'latitude/longitude out of range '
-                         f'({msg.latitude}, {msg.longitude})')
+    problem = fix_problem(msg.status.status, msg.latitude, msg.longitude)
+    if problem:
+        raise ValueError(problem)
     alt = msg.altitude if math.isfinite(msg.altitude) else 0.0
     return msg.latitude, msg.longitude, alt
 

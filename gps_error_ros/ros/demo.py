@@ -45,21 +45,114 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
+class _Driver:
+    """The demo's ROS side: the error node's process, /clock, poses, the bag."""
+
+    def __init__(self, args, bag_path):
+        import rclpy
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.node import Node
+        from rclpy.qos import QoSProfile
+        from rosgraph_msgs.msg import Clock
+        from sensor_msgs.msg import NavSatFix
+
+        from gps_error_ros.sim.walker import MANHATTAN_DATUM
+        from gps_error_ros.traces import bag_io
+
+        self.rclpy, self.Clock = rclpy, Clock
+        datum = '[%r, %r, %r]' % MANHATTAN_DATUM
+        self.node_proc = subprocess.Popen(
+            [sys.executable, '-m', 'gps_error_ros.ros.error_node',
+             '--ros-args', '-p', 'use_sim_time:=true',
+             '-p', f'profile:={args.profile}', '-p', f'datum:={datum}',
+             '-p', f'seed:={args.seed}', '--log-level', 'warn'])
+        rclpy.init()
+        self.node = Node('demo_driver')
+        reliable = QoSProfile(depth=100)
+        self.clock_pub = self.node.create_publisher(Clock, '/clock', reliable)
+        self.pose_pub = self.node.create_publisher(PoseStamped, '/pose', reliable)
+        self.writer = bag_io.open_writer(bag_path, 'mcap')
+        self.c_pose = bag_io.add_topic(self.writer, '/pose',
+                                       'geometry_msgs/msg/PoseStamped')
+        self.c_fix = bag_io.add_topic(self.writer, '/fix', 'sensor_msgs/msg/NavSatFix')
+        self.last, self.count, self.node_rc = -1, 0, None
+        self.node.create_subscription(NavSatFix, '/fix', self._on_fix, reliable,
+                                      raw=True)
+
+    def _on_fix(self, raw):
+        from rclpy.serialization import deserialize_message
+        from sensor_msgs.msg import NavSatFix
+        msg = deserialize_message(raw, NavSatFix)
+        ns = msg.header.stamp.sec * 10 ** 9 + msg.header.stamp.nanosec
+        self.writer.write(self.c_fix, ns, raw)
+        self.last = max(self.last, ns)
+        self.count += 1
+
+    def wait_for_node(self, timeout=30.0):
+        """Wait until the error node subscribes to /pose and publishes /fix."""
+        deadline = time.monotonic() + timeout
+        while (self.pose_pub.get_subscription_count() == 0
+               or self.node.count_publishers('/fix') == 0):
+            if self.node_proc.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError('the error node did not come up '
+                                   f'(exit code {self.node_proc.poll()})')
+            self.rclpy.spin_once(self.node, timeout_sec=0.1)
+        time.sleep(0.5)
+
+    def walk(self, walk, t0, duration, pose_rate, wall0):
+        """Publish poses and /clock for every step; return steps with no fix."""
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.serialization import serialize_message
+
+        from gps_error_ros.ros.conversions import to_stamp
+        msg = PoseStamped()
+        msg.header.frame_id = 'map'
+        msg.pose.orientation.w = 1.0
+        missed = 0
+        for sec in range(duration + 1):
+            for j in range(pose_rate):
+                ns = t0 + sec * 10 ** 9 + j * 10 ** 9 // pose_rate
+                e, n = walk.position((ns - t0) / 1e9)
+                msg.header.stamp = to_stamp(ns)
+                msg.pose.position.x, msg.pose.position.y = float(e), float(n)
+                self.pose_pub.publish(msg)
+                self.writer.write(self.c_pose, ns, serialize_message(msg))
+                self.clock_pub.publish(self.Clock(clock=to_stamp(ns)))
+                if j == 0:
+                    missed += not self._wait_for_fix(ns, 2.0)
+            if sec % 1800 == 0 and sec:
+                print(f'demo: {sec / 3600:.1f} h simulated, {self.count} fixes, '
+                      f'{time.monotonic() - wall0:.0f} s wall', flush=True)
+        self._wait_for_fix(None, 1.0)
+        return missed
+
+    def _wait_for_fix(self, ns, timeout):
+        end = time.monotonic() + timeout
+        while (ns is None or self.last < ns) and time.monotonic() < end:
+            self.rclpy.spin_once(self.node, timeout_sec=0.01)
+        return ns is not None and self.last >= ns
+
+    def close(self):
+        """Close the bag, stop ROS and the node (SIGINT, then kill)."""
+        self.writer.close()
+        self.node.destroy_node()
+        self.rclpy.try_shutdown()
+        if self.node_proc.poll() is None:
+            self.node_proc.send_signal(signal.SIGINT)
+        try:
+            self.node_rc = self.node_proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            self.node_proc.kill()
+            self.node_rc = 'killed'
+
+
 def run(args):
     """Run the demo; return the summary dict."""
     _ros_env()
-    import rclpy
-    from geometry_msgs.msg import PoseStamped
-    from rclpy.node import Node
-    from rclpy.qos import QoSProfile
-    from rclpy.serialization import deserialize_message, serialize_message
-    from rosgraph_msgs.msg import Clock
-    from sensor_msgs.msg import NavSatFix
-
-    from .. import bag_io, report
-    from ..profiles import load_profile
-    from ..walker import MANHATTAN_DATUM, manhattan_walk
-    from .conversions import to_stamp
+    from gps_error_ros.model.profiles import load_profile
+    from gps_error_ros.reports import demo_report
+    from gps_error_ros.reports.jsonfile import write_json
+    from gps_error_ros.sim.walker import MANHATTAN_DATUM, manhattan_walk
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -69,100 +162,33 @@ def run(args):
     model = load_profile(args.profile).model()
     duration = int(round(args.hours * 3600))
     walk = manhattan_walk(duration + 5, np.random.default_rng(args.seed))
-    t0 = 100 * 10 ** 9            # simulated time starts at 100 s
-    datum = '[%r, %r, %r]' % MANHATTAN_DATUM
-
-    node_cmd = [sys.executable, '-m', 'gps_error_ros.ros.error_node',
-                '--ros-args', '-p', 'use_sim_time:=true',
-                '-p', f'profile:={args.profile}', '-p', f'datum:={datum}',
-                '-p', f'seed:={args.seed}', '--log-level', 'warn']
-    node_proc = subprocess.Popen(node_cmd)
-    rclpy.init()
-    driver = Node('demo_driver')
-    reliable = QoSProfile(depth=100)
-    clock_pub = driver.create_publisher(Clock, '/clock', reliable)
-    pose_pub = driver.create_publisher(PoseStamped, '/pose', reliable)
-    writer = bag_io.open_writer(bag_path, 'mcap')
-    c_pose = bag_io.add_topic(writer, '/pose', 'geometry_msgs/msg/PoseStamped')
-    c_fix = bag_io.add_topic(writer, '/fix', 'sensor_msgs/msg/NavSatFix')
-    received = {'last': -1, 'count': 0}
-
-    def on_fix(raw):
-        msg = deserialize_message(raw, NavSatFix)
-        ns = msg.header.stamp.sec * 10 ** 9 + msg.header.stamp.nanosec
-        writer.write(c_fix, ns, raw)
-        received['last'] = max(received['last'], ns)
-        received['count'] += 1
-
-    driver.create_subscription(NavSatFix, '/fix', on_fix, reliable, raw=True)
+    driver = _Driver(args, bag_path)
     wall0 = time.monotonic()
-    missed = 0
     try:
-        deadline = time.monotonic() + 30
-        while (pose_pub.get_subscription_count() == 0
-               or driver.count_publishers('/fix') == 0):
-            if node_proc.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError('the error node did not come up '
-                                   f'(exit code {node_proc.poll()})')
-            rclpy.spin_once(driver, timeout_sec=0.1)
-        time.sleep(0.5)
-        msg = PoseStamped()
-        msg.header.frame_id = 'map'
-        msg.pose.orientation.w = 1.0
-        sub = args.pose_rate
+        driver.wait_for_node()
         print(f'demo: walking {args.hours:g} simulated hours '
-              f'({walk.t.size} route points), profile {args.profile}, '
+              f'({walk.t.size} route points), profile {args.profile}, datum '
+              f'{list(MANHATTAN_DATUM)} (lat, lon, alt), '
               f'ROS_DOMAIN_ID={os.environ["ROS_DOMAIN_ID"]}', flush=True)
-        for sec in range(duration + 1):
-            for j in range(sub):
-                ns = t0 + sec * 10 ** 9 + j * 10 ** 9 // sub
-                e, n = walk.position((ns - t0) / 1e9)
-                msg.header.stamp = to_stamp(ns)
-                msg.pose.position.x, msg.pose.position.y = float(e), float(n)
-                raw = serialize_message(msg)
-                pose_pub.publish(msg)
-                writer.write(c_pose, ns, raw)
-                clock_pub.publish(Clock(clock=to_stamp(ns)))
-                if j == 0:
-                    want = ns
-                    wait_until = time.monotonic() + 2.0
-                    while received['last'] < want and time.monotonic() < wait_until:
-                        rclpy.spin_once(driver, timeout_sec=0.01)
-                    missed += received['last'] < want
-            if sec % 1800 == 0 and sec:
-                print(f'demo: {sec / 3600:.1f} h simulated, '
-                      f'{received["count"]} fixes, '
-                      f'{time.monotonic() - wall0:.0f} s wall', flush=True)
-        end = time.monotonic() + 1.0
-        while time.monotonic() < end:
-            rclpy.spin_once(driver, timeout_sec=0.05)
+        missed = driver.walk(walk, 100 * 10 ** 9, duration, args.pose_rate, wall0)
     finally:
         wall = time.monotonic() - wall0
-        writer.close()
-        driver.destroy_node()
-        rclpy.try_shutdown()
-        if node_proc.poll() is None:
-            node_proc.send_signal(signal.SIGINT)
-        try:
-            node_rc = node_proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            node_proc.kill()
-            node_rc = 'killed'
-
-    err = report.errors_from_bag(bag_path, MANHATTAN_DATUM)
-    summary = report.summarise(err, model)
+        driver.close()
+    err = demo_report.errors_from_bag(bag_path, MANHATTAN_DATUM)
+    summary = demo_report.summarise(err, model)
     summary.update({
-        'profile': args.profile, 'simulated_seconds': duration,
-        'wall_seconds': round(wall, 1),
+        'profile': args.profile, 'datum': list(MANHATTAN_DATUM),
+        'simulated_seconds': duration, 'wall_seconds': round(wall, 1),
         'speed_up': round(duration / wall, 1) if wall > 0 else None,
         'fixes_expected': duration + 1, 'steps_without_fix': int(missed),
-        'node_exit_code': node_rc,
+        'node_exit_code': driver.node_rc,
         'bag': str(bag_path), 'figure': str(out / 'demo.png'),
     })
-    report.demo_figure(err, model, out / 'demo.png',
-                       f'gps_error_node, profile {args.profile}: '
-                       f'{duration / 3600:g} simulated hours of a Manhattan walk')
-    report.write_json(out / 'summary.json', summary)
+    demo_report.demo_figure(
+        err, model, out / 'demo.png',
+        f'gps_error_node, profile {args.profile}: '
+        f'{duration / 3600:g} simulated hours of a Manhattan walk')
+    write_json(out / 'summary.json', summary)
     return summary
 
 

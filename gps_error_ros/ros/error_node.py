@@ -11,37 +11,31 @@ message. All arithmetic lives in :mod:`gps_error_ros.engine`; this module
 converts messages and parameters.
 """
 
+from dataclasses import dataclass
 from functools import partial
 import math
 import re
 import secrets
 import time
 
-from geometry_msgs.msg import PoseStamped
-from nav_msgs.msg import Odometry
 import numpy as np
 import rclpy
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import (HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from ..engine import FixEngine
-from ..profiles import load_profile, ProfileError
-from ..streams import agent_key
-from . import cdr, conversions
-from .parameters import (ConfigError, datum_frame, declare, ERROR_NODE_PARAMS,
-                         spec_by_name)
+from gps_error_ros.sim.engine import FixEngine
+from gps_error_ros.model.profiles import load_profile, ProfileError
+from gps_error_ros.model.streams import agent_key
+from gps_error_ros.ros import cdr
+from gps_error_ros.ros import conversions
+from gps_error_ros.traces.validity import usable_fix, usable_pose
+from gps_error_ros.ros.parameters import (
+    ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, spec_by_name, WARN_PERIOD_S)
 
-INPUT_TOPICS = {
-    'pose': ('pose', PoseStamped),
-    'odometry': ('odom', Odometry),
-    'navsatfix': ('fix_truth', NavSatFix),
-}
-WARN_PERIOD_S = 5.0
 # Sensor-data QoS (best effort, volatile) with a deeper history than the
 # stock profile's 5, so a burst of truth messages is buffered, not dropped.
 TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
@@ -59,6 +53,17 @@ FIX_QOS = {
 # an unspaced burst of 1,000 lost about 1 % of them.
 FIX_BURST = 100
 FIX_BURST_PAUSE_S = 0.001
+
+
+@dataclass
+class ProfileGroup:
+    """The agents that share one profile, and the engine that steps them."""
+
+    engine: FixEngine
+    members: np.ndarray        # node-wide agent indices, in engine order
+    covariance: list           # row-major ENU m^2 of the published fixes
+    covariance_type: int
+    profile: str               # the profile parameter's value for these agents
 
 
 AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
@@ -82,7 +87,22 @@ class GpsErrorNode(Node):
             seed = secrets.randbits(63)
             self.get_logger().info(f'no seed given: using seed {seed}')
         self.seed = seed
-        # One engine per distinct profile, each over its own agents.
+        self._build_groups(cfg, profiles)
+        # the datum is checked after the profiles: a bad profile is named first
+        self.frame = None
+        if self.input_type != 'navsatfix':
+            self.frame = datum_frame(cfg['datum'], self.input_type)
+        self.polled = len(self.agents) > 1 or self.agents != ['']
+        self._create_topics(cfg['fix_reliability'])
+        self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
+        self._templates()
+        self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
+        self.add_on_set_parameters_callback(self._check_new_parameters)
+        self.add_post_set_parameters_callback(self._apply_new_parameters)
+        self._log_start(cfg, profiles)
+
+    def _build_groups(self, cfg, profiles):
+        """Make one engine per distinct profile, each over its own agents."""
         self.groups = []
         self.slot = [None] * len(self.agents)     # agent -> (group, local index)
         for spec in dict.fromkeys(profiles):
@@ -93,25 +113,23 @@ class GpsErrorNode(Node):
                 name = 'agent_profiles' if cfg['agent_profiles'] else 'profile'
                 raise ConfigError(f'parameter {name!r} ({spec!r}): {exc}') from None
             members = [i for i, p in enumerate(profiles) if p == spec]
-            keys = [agent_key(seed, self.agents[i]) for i in members]
+            keys = [agent_key(self.seed, self.agents[i]) for i in members]
             engine = FixEngine(model, keys, rate=cfg['rate'],
                                model_rate=profile.rate_hz,
                                max_pose_age=cfg['max_pose_age'])
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
-            self.groups.append((engine, np.array(members), cov, cov_type))
+            self.groups.append(ProfileGroup(engine, np.array(members), cov, cov_type,
+                                            spec))
             for local, i in enumerate(members):
                 self.slot[i] = (g, local)
-
-        # the datum is checked after the profiles: a bad profile is named first
-        self.frame = None
-        if self.input_type != 'navsatfix':
-            self.frame = datum_frame(cfg['datum'], self.input_type)
         self.slot_group = np.array([g for g, _ in self.slot])
         self.slot_local = np.array([local for _, local in self.slot])
-        topic, msg_type = INPUT_TOPICS[self.input_type]
-        self.polled = len(self.agents) > 1 or self.agents != ['']
+
+    def _create_topics(self, reliability):
+        """Create each agent's truth subscription and fix publisher."""
+        topic, msg_type = conversions.TRUTH_INPUTS[self.input_type]
         # rclpy gives every publisher and subscription QoS-event handlers (to
         # log incompatible QoS); each is a waitable the executor re-adds to its
         # wait set on every wake, which with thousands of topics costs most of
@@ -125,7 +143,7 @@ class GpsErrorNode(Node):
                 msg_type, prefix + topic, partial(self._on_truth, i), TRUTH_QOS,
                 raw=self.polled, event_callbacks=sub_events))
             self.pubs.append(self.create_publisher(
-                NavSatFix, prefix + 'fix', FIX_QOS[cfg['fix_reliability']],
+                NavSatFix, prefix + 'fix', FIX_QOS[reliability],
                 event_callbacks=pub_events))
         self.sub_handles = [(s.handle, s.msg_type) for s in self.subs]
         if self.polled:
@@ -136,18 +154,21 @@ class GpsErrorNode(Node):
             mine = set(map(id, self.subs))
             self._subscriptions[:] = [s for s in self._subscriptions if id(s) not in mine]
         self.pub_handles = [p.handle for p in self.pubs]
-        self.fix_burst = (FIX_BURST if cfg['fix_reliability'] == 'best_effort'
-                          else len(self.agents))
-        self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
-        self._templates()
-        self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        sd = self.groups[0][0].model.stationary_sd
+        self.fix_burst = FIX_BURST if reliability == 'best_effort' else len(self.agents)
+
+    def _log_start(self, cfg, profiles):
+        """Log what the node serves: each profile, its agents and its SD."""
+        topic = conversions.TRUTH_INPUTS[self.input_type][0]
         who = (f'{len(self.agents)} agents' if self.polled else
                f'input {self.input_type} on {self.resolve_topic_name(topic)}')
-        self.get_logger().info(
-            f'profile {profiles[0]}: stationary sd north {sd[0]:.2f} m, '
-            f'east {sd[1]:.2f} m; {who}; fixes at {cfg["rate"]} Hz')
+        parts = []
+        for group in self.groups:
+            sd = group.engine.model.stationary_sd
+            agents = f' ({group.members.size} agents)' if self.polled else ''
+            parts.append(f'profile {group.profile}{agents}: stationary sd north '
+                         f'{sd[0]:.2f} m, east {sd[1]:.2f} m')
+        self.get_logger().info(f'{"; ".join(parts)}; {who}; fixes at '
+                               f'{cfg["rate"]} Hz, seed {self.seed}')
 
     def destroy_node(self):
         """Destroy the node, the truth subscriptions it drains itself included."""
@@ -202,22 +223,23 @@ class GpsErrorNode(Node):
             return False
         stamp = conversions.stamp_ns(msg.header.stamp) or self._now_ns()
         g, local = self.slot[agent]
-        if not self.groups[g][0].add_truth(local, stamp, lat, lon, alt):
+        if not self.groups[g].engine.add_truth(local, stamp, lat, lon, alt):
             self.get_logger().warning(
                 'dropped a truth message stamped at or before the newest one (out '
                 'of order or duplicate) or more than 60 s ahead of the clock',
                 throttle_duration_sec=WARN_PERIOD_S)
             return False
         if not self.polled:
-            self._publish(g, self.groups[g][0].resolve(self._now_ns()))
+            self._publish(g, self.groups[g].engine.resolve(self._now_ns()))
         return True
 
     def _templates(self):
         """Build the serialized fix template of each profile group."""
         self.fix_templates = [
-            cdr.FixTemplate(self.frame_id, cov, cov_type, NavSatStatus.STATUS_FIX,
+            cdr.FixTemplate(self.frame_id, group.covariance, group.covariance_type,
+                            NavSatStatus.STATUS_FIX,
                             NavSatStatus.SERVICE_GPS)
-            for _, _, cov, cov_type in self.groups]
+            for group in self.groups]
 
     def _drain(self):
         """
@@ -247,15 +269,11 @@ class GpsErrorNode(Node):
         now = self._now_ns()
         stamps[stamps == 0] = now
         if self.input_type == 'navsatfix':
-            ok = parsed & (values[:, 0] != NavSatStatus.STATUS_NO_FIX) \
-                & np.isfinite(values[:, 1:3]).all(axis=1) \
-                & (np.abs(values[:, 1]) <= 90) & (np.abs(values[:, 2]) <= 180)
+            ok = parsed & usable_fix(values[:, 0], values[:, 1], values[:, 2])
             coords = values[:, 1:4].copy()
             coords[~np.isfinite(coords[:, 2]), 2] = 0.0
         else:
-            qnorm = np.sqrt((values[:, 3:7] ** 2).sum(axis=1))
-            ok = parsed & np.isfinite(values[:, 0:3]).all(axis=1) & np.isfinite(qnorm) \
-                & (qnorm > 1e-9)
+            ok = parsed & usable_pose(values[:, 0:3], values[:, 3:7])
             lat, lon, alt = self.frame.to_geodetic(values[:, 0], values[:, 1], values[:, 2])
             coords = np.stack([lat, lon, alt], axis=1)
             ok &= np.isfinite(coords).all(axis=1)
@@ -264,11 +282,11 @@ class GpsErrorNode(Node):
                 f'dropped {int((~ok[parsed]).sum())} truth message(s) with non-finite '
                 f'or invalid values', throttle_duration_sec=WARN_PERIOD_S)
         local = self.slot_local[agents]
-        group = self.slot_group[agents]
-        for g, (engine, members, *_rest) in enumerate(self.groups):
-            mine = ok & (group == g)
+        group_of = self.slot_group[agents]
+        for g, group in enumerate(self.groups):
+            mine = ok & (group_of == g)
             if mine.any():
-                kept = engine.add_truth_batch(local[mine], stamps[mine], coords[mine])
+                kept = group.engine.add_truth_batch(local[mine], stamps[mine], coords[mine])
                 if not kept.all():
                     self.get_logger().warning(
                         'dropped truth messages stamped at or before the newest '
@@ -280,10 +298,10 @@ class GpsErrorNode(Node):
         if self.polled:
             self._drain()
         now = self._now_ns()
-        resets = sum(g[0].stats.resets for g in self.groups)
-        for g, (engine, *_rest) in enumerate(self.groups):
-            self._publish(g, engine.on_clock(now))
-        if sum(g[0].stats.resets for g in self.groups) > resets:
+        resets = sum(g.engine.stats.resets for g in self.groups)
+        for g, group in enumerate(self.groups):
+            self._publish(g, group.engine.on_clock(now))
+        if sum(g.engine.stats.resets for g in self.groups) > resets:
             self.get_logger().warning(
                 f'the clock went backwards (to {now / 1e9:.3f} s): truth history '
                 f'and pending steps discarded, models restarted',
@@ -295,7 +313,7 @@ class GpsErrorNode(Node):
 
     def summary(self):
         """Return a one-line account of the run (logged at shutdown)."""
-        stats = [g[0].stats for g in self.groups]
+        stats = [g.engine.stats for g in self.groups]
         ticks, total, worst = self.tick_time
         mean_ms = 1e3 * total / ticks if ticks else 0.0
         return (f'{ticks} timer ticks, {sum(s.steps for s in stats)} model steps, '
@@ -307,7 +325,8 @@ class GpsErrorNode(Node):
                 f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
     def _publish(self, g, fixes):
-        _, members, cov, cov_type = self.groups[g]
+        group = self.groups[g]
+        members = group.members
         if self.polled:
             for fix in fixes:
                 good = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
@@ -332,25 +351,30 @@ class GpsErrorNode(Node):
                                             throttle_duration_sec=WARN_PERIOD_S)
                     continue
                 self.pubs[members[local]].publish(conversions.make_fix(
-                    fix.stamp_ns, self.frame_id, lat, lon, alt, cov, cov_type))
+                    fix.stamp_ns, self.frame_id, lat, lon, alt, group.covariance,
+                    group.covariance_type))
 
-    def _on_set_parameters(self, params):
+    def _check_new_parameters(self, params):
+        """
+        Reject a runtime change that the descriptors cannot express.
+
+        rclpy already refuses read-only parameters, wrong types and values
+        outside a declared range; this adds the choices and non-empty strings.
+        """
         for p in params:
             spec = self._specs.get(p.name)
-            if spec is None:
-                continue
-            if spec.read_only:
-                return SetParametersResult(
-                    successful=False, reason=f'{p.name} is read-only')
-            reason = spec.check(p.value)
+            reason = spec.check(p.value) if spec is not None else None
             if reason:
                 return SetParametersResult(
                     successful=False, reason=f'{p.name}={p.value!r}: {reason}')
+        return SetParametersResult(successful=True)
+
+    def _apply_new_parameters(self, params):
+        """Apply accepted changes (frame_id: the fix template is rebuilt)."""
         for p in params:
-            if p.name == 'frame_id' and p.type_ == Parameter.Type.STRING:
+            if p.name == 'frame_id':
                 self.frame_id = p.value
                 self._templates()
-        return SetParametersResult(successful=True)
 
 
 def main(args=None):

@@ -10,9 +10,12 @@ from rclpy.exceptions import (InvalidParameterTypeException,
                               ParameterException)
 from rclpy.parameter import Parameter
 
-from ..geodesy import GeodesyError, LocalTangentFrame
+from gps_error_ros.model.ar_model import MAX_ORDER
+from gps_error_ros.model.geodesy import GeodesyError, LocalTangentFrame
 
 INT64_MAX = 2 ** 63 - 1
+#: Seconds between repeats of a throttled per-message warning, in every node.
+WARN_PERIOD_S = 5.0
 
 
 class ConfigError(ValueError):
@@ -62,11 +65,11 @@ class ParamSpec:
 
 
 _TYPE_NAMES = {
-    ParameterType.PARAMETER_STRING: 'string',
-    ParameterType.PARAMETER_DOUBLE: 'double',
-    ParameterType.PARAMETER_INTEGER: 'integer',
-    ParameterType.PARAMETER_DOUBLE_ARRAY: 'double array',
-    ParameterType.PARAMETER_STRING_ARRAY: 'string array',
+    ParameterType.PARAMETER_STRING: 'a string',
+    ParameterType.PARAMETER_DOUBLE: 'a number',
+    ParameterType.PARAMETER_INTEGER: 'an integer',
+    ParameterType.PARAMETER_DOUBLE_ARRAY: 'a list of numbers',
+    ParameterType.PARAMETER_STRING_ARRAY: 'a list of strings',
 }
 
 ERROR_NODE_PARAMS = (
@@ -114,6 +117,80 @@ ERROR_NODE_PARAMS = (
 )
 
 
+def _is_number(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _coerce(spec, given):
+    """
+    Return ``given`` as the spec's type, or raise ConfigError naming it.
+
+    Integers are accepted where a double is declared (``rate:=1`` means 1.0,
+    ``datum:=[40, -73, 0]`` three doubles), as a user would expect.
+    """
+    t = spec.type
+    ok = {
+        ParameterType.PARAMETER_DOUBLE: _is_number,
+        ParameterType.PARAMETER_INTEGER: lambda v: isinstance(v, int)
+        and not isinstance(v, bool),
+        ParameterType.PARAMETER_STRING: lambda v: isinstance(v, str),
+        ParameterType.PARAMETER_DOUBLE_ARRAY: lambda v: not isinstance(v, str)
+        and all(_is_number(x) for x in v),
+        ParameterType.PARAMETER_STRING_ARRAY: lambda v: not isinstance(v, str)
+        and all(isinstance(x, str) for x in v),
+    }[t]
+    try:
+        good = ok(given)
+    except TypeError:
+        good = False
+    if not good:
+        shown = list(given) if hasattr(given, '__iter__') and \
+            not isinstance(given, str) else given
+        raise ConfigError(f'parameter {spec.name!r}: invalid value {shown!r}: '
+                          f'expected {_TYPE_NAMES[t]}{_range_text(spec)}')
+    if t == ParameterType.PARAMETER_DOUBLE:
+        return float(given)
+    if t == ParameterType.PARAMETER_DOUBLE_ARRAY:
+        return [float(x) for x in given]
+    if t == ParameterType.PARAMETER_STRING_ARRAY:
+        return [str(x) for x in given]
+    return given
+
+
+def _declare_one(node, spec):
+    """Declare one parameter from the table; return its (checked) value."""
+    # What the user gave (command line or parameters file) is read through a
+    # dynamically typed declaration first, so that an integer for a double can
+    # be converted and a wrong value named; then the parameter is declared
+    # for good with its descriptor (type, range, read-only).
+    given = node.declare_parameter(
+        spec.name, None, ParameterDescriptor(dynamic_typing=True)).value
+    node.undeclare_parameter(spec.name)
+    if given is None:
+        value = spec.default
+    else:
+        value = _coerce(spec, given)
+    initial = value if value is not None else {
+        ParameterType.PARAMETER_DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
+        ParameterType.PARAMETER_STRING_ARRAY: Parameter.Type.STRING_ARRAY,
+    }.get(spec.type, Parameter.Type.STRING)
+    try:
+        node.declare_parameter(spec.name, initial, spec.descriptor(),
+                               ignore_override=True)
+    except (InvalidParameterTypeException, InvalidParameterValueException,
+            ParameterException):
+        raise ConfigError(f'parameter {spec.name!r}: invalid value {value!r}: '
+                          f'expected {_TYPE_NAMES.get(spec.type, "a value")}'
+                          f'{_range_text(spec)}') from None
+    if spec.type == ParameterType.PARAMETER_STRING_ARRAY and value is None:
+        value = []
+    reason = spec.check(value) if value is not None else None
+    if reason:
+        raise ConfigError(f'parameter {spec.name!r}: invalid value {value!r}: '
+                          f'{reason}')
+    return value
+
+
 def declare(node, specs):
     """
     Declare ``specs`` on ``node`` and return {name: value}.
@@ -125,37 +202,7 @@ def declare(node, specs):
         type or is out of range.
 
     """
-    values = {}
-    for spec in specs:
-        default = spec.default
-        if default is None:
-            default = {
-                ParameterType.PARAMETER_DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
-                ParameterType.PARAMETER_STRING_ARRAY: Parameter.Type.STRING_ARRAY,
-            }.get(spec.type, Parameter.Type.STRING)
-        try:
-            param = node.declare_parameter(spec.name, default, spec.descriptor())
-        except (InvalidParameterTypeException, InvalidParameterValueException,
-                ParameterException):
-            # rclpy keeps the command-line/file values in _parameter_overrides
-            # (no public accessor in Jazzy); the value makes the message useful.
-            override = getattr(node, '_parameter_overrides', {}).get(spec.name)
-            got = override.value if override is not None else '?'
-            raise ConfigError(
-                f'parameter {spec.name!r}: invalid value {got!r}: expected a '
-                f'{_TYPE_NAMES.get(spec.type, "value")}'
-                f'{_range_text(spec)}') from None
-        value = param.value
-        if value is not None and spec.type == ParameterType.PARAMETER_DOUBLE_ARRAY:
-            value = [float(v) for v in value]
-        if spec.type == ParameterType.PARAMETER_STRING_ARRAY:
-            value = [str(v) for v in value] if value is not None else []
-        reason = spec.check(value) if value is not None else None
-        if reason:
-            raise ConfigError(f'parameter {spec.name!r}: invalid value '
-                              f'{value!r}: {reason}')
-        values[spec.name] = value
-    return values
+    return {spec.name: _declare_one(node, spec) for spec in specs}
 
 
 def _range_text(spec):
@@ -187,9 +234,9 @@ CALIBRATION_NODE_PARAMS = (
     ParamSpec('name', '', ParameterType.PARAMETER_STRING,
               'Profile name (default: the output file stem).'),
     ParamSpec('order', 0, ParameterType.PARAMETER_INTEGER,
-              'AR order; 0 lets the PACF choose per axis.', low=0, high=50),
+              'AR order; 0 lets the PACF choose per axis.', low=0, high=MAX_ORDER),
     ParamSpec('max_order', 10, ParameterType.PARAMETER_INTEGER,
-              'Largest order the PACF may choose.', low=1, high=50),
+              'Largest order the PACF may choose.', low=1, high=MAX_ORDER),
     ParamSpec('max_truth_gap', 0.0, ParameterType.PARAMETER_DOUBLE,
               'Longest truth interval (s) bridged by interpolation; 0: three '
               'times the median interval, at least 1.5 s.', low=0.0, high=3600.0),
@@ -219,3 +266,42 @@ def datum_frame(datum, input_type):
     except GeodesyError as exc:
         raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
                           f'{exc}') from None
+
+
+def _default_text(spec):
+    if spec.default is None:
+        return '`[]`' if spec.type == ParameterType.PARAMETER_STRING_ARRAY else '(none)'
+    if isinstance(spec.default, str):
+        return f'`{spec.default}`'
+    return f'`{spec.default!r}`'
+
+
+def _bounds_text(spec):
+    if spec.choices:
+        return ', '.join(f'`{c}`' for c in spec.choices)
+    if spec.low is not None:
+        high = 'max' if spec.high == INT64_MAX else f'{spec.high:g}'
+        return f'{spec.low:g} to {high}'
+    return ''
+
+
+def markdown_table(specs):
+    """
+    Return the Markdown table of a parameter table, for the README.
+
+    The README's tables are this function's output (``tools/readme_parameters.py``
+    rewrites them; a test checks that they agree), so that the documentation
+    cannot drift from the descriptors the nodes declare.
+    """
+    lines = ['| parameter | type | default | range / choices | read-only | meaning |',
+             '|---|---|---|---|---|---|']
+    for s in specs:
+        lines.append(f'| `{s.name}` | {_TYPE_NAMES[s.type].split(" ", 1)[1]} | '
+                     f'{_default_text(s)} | {_bounds_text(s)} | '
+                     f'{"yes" if s.read_only else "no"} | {s.description} |')
+    return '\n'.join(lines) + '\n'
+
+
+#: README markers around each generated table: node name -> parameter table
+README_TABLES = {'gps_error_node': ERROR_NODE_PARAMS,
+                 'gps_calibration_node': CALIBRATION_NODE_PARAMS}

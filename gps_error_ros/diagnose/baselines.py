@@ -1,0 +1,154 @@
+"""
+The model classes simulators use today, against ours, on the same held-out data.
+
+Every class is fitted on a diagnosis's training part by conditional Gaussian
+maximum likelihood (least squares, as the base model), and scored on the
+same held-out samples (the same conditioning samples per segment are left
+unscored for all) by the same measures as ``gps_error diagnose``:
+
+* ``white noise + bias`` (CARLA, Gazebo): per axis a constant and white noise;
+* ``AR(1)``: a first-order Gauss-Markov process sampled at 1 Hz (Webots);
+* ``ARMA(1,1)``: a Gauss-Markov bias plus white noise, which sampled at 1 Hz
+  is an ARMA(1,1) (hector_gazebo_plugins, PX4's SITL GPS);
+* ``AR(3), paper``: the paper's fixed order;
+* ``AR(p), PACF``: the order calibration picks (the diagnosis's base model);
+* ``extended``: the diagnosis's extended model.
+"""
+
+import math
+
+import numpy as np
+from scipy import optimize, signal
+
+from gps_error_ros.diagnose.common import LOG2PI
+from gps_error_ros.diagnose.fidelity import fidelity, fidelity_of
+from gps_error_ros.diagnose.mean import condition_count
+from gps_error_ros.diagnose.models import fit_model
+
+CLASSES = ('white noise + bias', 'AR(1)', 'ARMA(1,1)', 'AR(3), paper',
+           'AR(p), PACF', 'extended')
+
+
+def _scored(part, m0):
+    """Return per-segment index arrays of the scored samples."""
+    return [np.arange(m0, len(e)) for e in part.err]
+
+
+def _gauss_ll(r, var):
+    return -0.5 * (LOG2PI + np.log(var) + r * r / var)
+
+
+class WhiteBias:
+    """Constant plus white Gaussian noise, per axis."""
+
+    def fit(self, train):
+        """Fit on the training part."""
+        x = np.concatenate(train.err)
+        self.mu, self.var = x.mean(axis=0), x.var(axis=0)
+        return self
+
+    def logpdf(self, part, m0):
+        """Return per-sample log densities of the scored samples."""
+        out = [(_gauss_ll(e[idx] - self.mu, self.var)).sum(axis=1)
+               for e, idx in zip(part.err, _scored(part, m0))]
+        return np.concatenate(out)
+
+    def simulate(self, part, sims, rng):
+        """Return ``sims`` traces on ``part``'s segments."""
+        return [[self.mu + rng.standard_normal((len(e), 2)) * np.sqrt(self.var)
+                 for e in part.err] for _ in range(sims)]
+
+
+class Arma11:
+    """ARMA(1,1) per axis, conditional Gaussian ML (innovations from 0)."""
+
+    def fit(self, train, m0):
+        """Fit on the training part, scoring from ``m0`` in each segment."""
+        self.params = []
+        for a in range(2):
+            segs = [e[:, a] for e in train.err]
+            x = np.concatenate(segs)
+            phi0 = np.clip(np.corrcoef(x[:-1], x[1:])[0, 1], -0.9, 0.99)
+
+            def sse(v, segs=segs):
+                mu, phi, theta = v[0], math.tanh(v[1]), math.tanh(v[2])
+                tot = 0.0
+                for s in segs:
+                    w = self._innov(s, mu, phi, theta)
+                    tot += float(w[m0:] @ w[m0:])
+                return tot
+
+            res = optimize.minimize(sse, [x.mean(), math.atanh(phi0), 0.0],
+                                    method='Nelder-Mead',
+                                    options={'xatol': 1e-6, 'fatol': 1e-8,
+                                             'maxiter': 4000})
+            mu, phi, theta = res.x[0], math.tanh(res.x[1]), math.tanh(res.x[2])
+            n = sum(max(0, len(s) - m0) for s in segs)
+            self.params.append((mu, phi, theta, res.fun / n))
+        return self
+
+    @staticmethod
+    def _innov(s, mu, phi, theta):
+        # w_t = (x_t - mu) - phi (x_{t-1} - mu) - theta w_{t-1}, w_0 = x_0 - mu
+        y = np.asarray(s) - mu
+        e = np.r_[y[0], y[1:] - phi * y[:-1]]
+        return signal.lfilter([1.0], [1.0, theta], e)
+
+    def logpdf(self, part, m0):
+        """Return per-sample log densities of the scored samples."""
+        out = []
+        for e, idx in zip(part.err, _scored(part, m0)):
+            ll = np.zeros(len(idx))
+            for a, (mu, phi, theta, var) in enumerate(self.params):
+                w = self._innov(e[:, a], mu, phi, theta)
+                ll += _gauss_ll(w[idx], var)
+            out.append(ll)
+        return np.concatenate(out)
+
+    def simulate(self, part, sims, rng, burn=500):
+        """Return ``sims`` traces on ``part``'s segments (stationary start)."""
+        out = []
+        for _ in range(sims):
+            trace = []
+            for e in part.err:
+                n = len(e) + burn
+                cols = []
+                for mu, phi, theta, var in self.params:
+                    w = rng.standard_normal(n) * math.sqrt(var)
+                    cols.append(mu + signal.lfilter([1.0, theta], [1.0, -phi], w)[burn:])
+                trace.append(np.stack(cols, axis=1))
+            out.append(trace)
+        return out
+
+
+def compare(diag, sims=100, seed=0):
+    """
+    Fit every class on the diagnosis's training part; score on its test part.
+
+    Returns a dict: class -> measures (``heldout_nll_per_sample`` and the
+    fidelity measures), all on the same scored samples.
+    """
+    train, test, truth = diag.split.train, diag.split.test, diag.split.truth
+    orders = diag.base.orders
+    m0 = condition_count(orders)
+    rng = np.random.default_rng(seed)
+    wb = WhiteBias().fit(train)
+    arma = Arma11().fit(train, m0)
+    lls = {'white noise + bias': wb.logpdf(test, m0),
+           'ARMA(1,1)': arma.logpdf(test, m0)}
+    sims_of = {'white noise + bias': wb.simulate(test, sims, rng),
+               'ARMA(1,1)': arma.simulate(test, sims, rng)}
+    out = {}
+    for label, model in (('AR(1)', fit_model(train, (1, 1), (), truth)),
+                         ('AR(3), paper', fit_model(train, (3, 3), (), truth)),
+                         ('AR(p), PACF', diag.base),
+                         ('extended', diag.extended)):
+        lls[label] = model.score(test, truth, m0)[0]
+        out[label] = fidelity(model, test, truth, sims, seed)
+    for label, traces in sims_of.items():
+        out[label] = fidelity_of(test, traces)
+    n = {len(v) for v in lls.values()}
+    if len(n) != 1:
+        raise AssertionError(f'models scored on different samples: {n}')
+    return {k: {'heldout_nll_per_sample': float(-lls[k].mean()), **out[k]}
+            for k in CLASSES}

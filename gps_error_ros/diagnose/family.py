@@ -1,0 +1,199 @@
+"""
+The test family of the diagnosis: what the innovations still carry.
+
+First round, on the base model's training innovations (seven tests, Holm's
+step-down procedure at family-wise level ``ALPHA``):
+
+- ``cross_axis_correlation``: lag-0 north-east correlation
+  (heteroscedasticity-robust z: changing variance alone does not reject);
+- ``motion_dependence``: does the error follow a lag in [0, 5] s: for each
+  L in 1..5 s the likelihood ratio of ``b x (truth(t - L) - truth(t))``,
+  ``b >= 0`` (chi-bar-squared), Bonferroni over L (:func:`motion_test`);
+- ``kurtosis``: Mardia's bivariate kurtosis against its Gaussian value;
+- ``squared_persistence``: Ljung-Box over lags 1-10 of the *ranks* of the
+  squared Mahalanobis innovations (ranks keep the level under heavy tails);
+- ``squared_oscillation``: the most negative of those autocorrelations
+  (one-sided, Sidak over the lags): regimes and tails only make squares
+  correlate positively, so this is periodic variance;
+- ``serial_north``, ``serial_east``: heteroscedasticity-robust Ljung-Box over
+  lags 1-30 of each axis's innovations (30 - p degrees of freedom).
+
+Second round (:func:`retest`), on the extended model's standardised
+innovations: serial and cross correlation, persistence, and the calibration
+of the predictive distribution (PIT of the Mahalanobis radius).
+"""
+
+import math
+
+import numpy as np
+from scipy import stats
+
+from gps_error_ros.diagnose.common import (ALPHA, MOTION_TEST_LAGS,
+                                           PERSIST_LAGS, SERIAL_LAGS)
+from gps_error_ros.diagnose.laws import mahalanobis
+from gps_error_ros.fit.autocorrelation import segment_acf
+from gps_error_ros.model.ar_model import AXES
+
+
+def ljung_box(x, seg, max_lag, dof):
+    """Return (Q, p-value, acf) of the Ljung-Box test."""
+    n = len(x)
+    acf = segment_acf(x, seg, max_lag)
+    q = n * (n + 2) * np.sum(acf ** 2 / (n - np.arange(1, max_lag + 1)))
+    return float(q), float(stats.chi2.sf(q, max(1, dof))), acf
+
+
+def _lag_products(x, y, seg, k):
+    """Return x_t * y_{t-k} over pairs within one segment (deviations)."""
+    if k == 0:
+        return x * y
+    same = seg[k:] == seg[:-k]
+    return x[k:][same] * y[:-k][same]
+
+
+def robust_portmanteau(x, seg, max_lag, dof):
+    """
+    Return Q, its p-value and the ACF: a heteroscedasticity-robust Ljung-Box.
+
+    Q = sum_k z_k^2, z_k = sum x_t x_{t-k} / sqrt(sum (x_t x_{t-k})^2),
+    chi-squared with ``dof`` degrees of freedom. Variance that changes in
+    time (regimes, tails) does not make it reject serial correlation that is
+    not there.
+    """
+    d = np.asarray(x, dtype=float) - np.mean(x)
+    acf = segment_acf(d, seg, max_lag)
+    z = np.zeros(max_lag)
+    for k in range(1, max_lag + 1):
+        p = _lag_products(d, d, seg, k)
+        den = math.sqrt(float(p @ p))
+        z[k - 1] = p.sum() / den if den > 0 else 0.0
+    q = float(z @ z)
+    return q, float(stats.chi2.sf(q, max(1, dof))), acf
+
+
+def robust_correlation_test(x, y):
+    """Return (correlation, p-value) of a heteroscedasticity-robust z test."""
+    x = np.asarray(x) - np.mean(x)
+    y = np.asarray(y) - np.mean(y)
+    p = x * y
+    den = math.sqrt(float(p @ p))
+    z = p.sum() / den if den > 0 else 0.0
+    rho = float(p.sum() / math.sqrt(float(x @ x) * float(y @ y)))
+    return rho, float(2 * stats.norm.sf(abs(z)))
+
+
+def holm(pvalues, alpha=ALPHA):
+    """Return Holm's reject decisions and adjusted p-values (dict by name)."""
+    names = sorted(pvalues, key=lambda k: pvalues[k])
+    m = len(names)
+    adjusted, reject, running, stop = {}, {}, 0.0, False
+    for i, k in enumerate(names):
+        running = max(running, min(1.0, (m - i) * pvalues[k]))
+        adjusted[k] = running
+        stop = stop or pvalues[k] > alpha / (m - i)
+        reject[k] = not stop
+    return reject, adjusted
+
+
+def motion_test(lrs):
+    """Return the motion-dependence test from the likelihood ratios per lag."""
+    ps = [0.5 * float(stats.chi2.sf(lr, 1)) if lr > 1e-9 else 1.0 for lr in lrs]
+    i = int(np.argmin(ps))
+    return {
+        'statistic': float(lrs[i]), 'at_lag_s': MOTION_TEST_LAGS[i],
+        'p_value': min(1.0, len(ps) * ps[i]),
+        'test': f'likelihood ratio for an error component b x (truth L s '
+                f'ago - truth now), b >= 0, against none, for L in '
+                f'{list(MOTION_TEST_LAGS)} (chi-bar-squared each, '
+                f'Bonferroni over L)'}
+
+
+def innovation_tests(r, seg, orders):
+    """Return the first-round test statistics and p-values (dict by name)."""
+    n = len(r)
+    out = {}
+    rho, p = robust_correlation_test(r[:, 0], r[:, 1])
+    out['cross_axis_correlation'] = {
+        'statistic': rho, 'p_value': p,
+        'test': 'lag-0 north-east correlation of the innovations, '
+                'heteroscedasticity-robust z'}
+    cov = np.cov(r.T, bias=True)
+    dm = mahalanobis(r - r.mean(axis=0), cov)
+    b2 = float(np.mean(dm ** 2))
+    zk = (b2 - 8.0) / math.sqrt(64.0 / n)
+    out['kurtosis'] = {'statistic': b2, 'gaussian_value': 8.0,
+                       'p_value': float(stats.norm.sf(zk)),
+                       'test': "Mardia's bivariate kurtosis, one-sided"}
+    ranks = stats.rankdata(dm)
+    q, p, acf = ljung_box(ranks, seg, PERSIST_LAGS, PERSIST_LAGS)
+    out['squared_persistence'] = {
+        'statistic': q, 'p_value': p, 'acf': [round(v, 4) for v in acf],
+        'test': f'Ljung-Box, lags 1-{PERSIST_LAGS}, ranks of squared '
+                f'Mahalanobis innovations'}
+    # Regimes and tails can only make the squares correlate positively; a
+    # significantly negative autocorrelation is periodic variance instead.
+    k = int(np.argmin(acf))
+    z = -acf[k] * math.sqrt(n)
+    p_one = float(stats.norm.sf(z))
+    out['squared_oscillation'] = {
+        'statistic': float(acf[k]), 'at_lag': k + 1,
+        'p_value': float(1.0 - (1.0 - p_one) ** PERSIST_LAGS),
+        'test': f'most negative autocorrelation of the ranks of the squared '
+                f'innovations, lags 1-{PERSIST_LAGS}, one-sided, Sidak over lags'}
+    for a, ax in enumerate(AXES):
+        q, p, acf = robust_portmanteau(r[:, a], seg, SERIAL_LAGS,
+                                       SERIAL_LAGS - orders[a])
+        top = np.argsort(-np.abs(acf))[:3] + 1
+        out[f'serial_{ax}'] = {
+            'statistic': q, 'p_value': p,
+            'largest_acf_lags': [int(v) for v in top],
+            'test': f'heteroscedasticity-robust Ljung-Box, lags 1-'
+                    f'{SERIAL_LAGS}, {SERIAL_LAGS - orders[a]} dof'}
+    return out
+
+
+def standardised(model, r, pred):
+    """Return innovations whitened by the model's predictive covariance."""
+    scale2 = pred @ (model.law.scales ** 2)
+    chol = np.linalg.cholesky(model.law.cov)
+    z = np.linalg.solve(chol, r.T).T
+    return z / np.sqrt(scale2)[:, None]
+
+
+def pit_radial(model, r, pred):
+    """Return the PIT of each innovation's Mahalanobis radius under the model."""
+    dm = mahalanobis(r, model.law.cov)
+    u = np.zeros(len(r))
+    for j, s in enumerate(model.law.scales):
+        x = dm / (s * s)
+        if math.isfinite(model.law.dof):
+            nu = model.law.dof
+            cdf = stats.f.cdf(x * nu / (nu - 2.0) / 2.0, 2, nu)
+        else:
+            cdf = stats.chi2.cdf(x, 2)
+        u += pred[:, j] * cdf
+    return u
+
+
+def retest(model, r, seg, pred):
+    """Test the extended model's own innovations; return the test dict."""
+    z = standardised(model, r, pred)
+    out = {}
+    rho, p = robust_correlation_test(z[:, 0], z[:, 1])
+    out['cross_axis_correlation'] = {'statistic': rho, 'p_value': p}
+    u = pit_radial(model, r, pred)
+    ranks = stats.rankdata(u)
+    q, p, _ = ljung_box(ranks, seg, PERSIST_LAGS, PERSIST_LAGS)
+    out['squared_persistence'] = {'statistic': q, 'p_value': p}
+    ks = stats.kstest(np.clip(u, 0, 1), 'uniform')
+    out['pit_uniformity'] = {'statistic': float(ks.statistic),
+                             'p_value': float(ks.pvalue),
+                             'test': 'Kolmogorov-Smirnov of the PIT of the '
+                                     'Mahalanobis radius'}
+    for a, ax in enumerate(AXES):
+        q, p, acf = robust_portmanteau(z[:, a], seg, SERIAL_LAGS,
+                                       SERIAL_LAGS - model.orders[a])
+        top = np.argsort(-np.abs(acf))[:3] + 1
+        out[f'serial_{ax}'] = {'statistic': q, 'p_value': p,
+                               'largest_acf_lags': [int(v) for v in top]}
+    return out

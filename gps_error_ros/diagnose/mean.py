@@ -1,0 +1,142 @@
+"""
+The mean part of a model: per axis a constant and AR terms, and the motion.
+
+The error ``e`` is split into a motion term and an AR process ``u``::
+
+    e(t) = gain * (truth(t - lag_s) - truth(t)) + u(t)
+    u(t) = const + sum_i phi_i u(t - i) + innovation
+
+``motion_lag`` is the family ``gain = 1`` with ``lag_s`` estimated; the
+motion test uses the family with ``lag_s`` fixed and ``gain >= 0``
+estimated, which is linear in its one coefficient so that each likelihood
+ratio has the chi-bar-squared law. Both are fitted by profile least squares
+(the conditional Gaussian likelihood of the mean part).
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+from scipy import optimize
+
+from gps_error_ros.diagnose.common import MAX_LAG_S
+from gps_error_ros.model.effects import lag_offsets
+
+
+def motion_offsets(part, truth, lag_s, gain=1.0):
+    """
+    Return per segment ``gain * (truth(t - lag_s) - truth(t))``, (n_s, 2).
+
+    ``truth`` is the whole trace's :class:`~.split.TruthTrack`, so a lag
+    reaches back across the train/test cut.
+    """
+    if lag_s == 0.0 or gain == 0.0:
+        return [np.zeros_like(e) for e in part.err]
+    out = [lag_offsets(truth.t, truth.north_east[:, 0], truth.north_east[:, 1],
+                       lag_s, at=t) for t in part.t]
+    return out if gain == 1.0 else [gain * o for o in out]
+
+
+def condition_count(orders):
+    """Return how many samples per segment are conditioned on, not scored."""
+    return max(max(orders), int(math.ceil(MAX_LAG_S)))
+
+
+@dataclass
+class Design:
+    """Lagged regressions of one part for given orders and motion term."""
+
+    y: np.ndarray          # (n, 2) u at the scored samples
+    lags: list             # per axis (n, p_a) lagged u
+    seg: np.ndarray        # (n,) segment index of each scored sample
+
+
+def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
+    """Build the regression of u = e - motion term on its own past."""
+    m0 = condition_count(orders) if m0 is None else max(m0, max(orders))
+    offs = motion_offsets(part, truth, lag_s, gain)
+    ys, lags, seg = [], [[], []], []
+    for s, (e, o) in enumerate(zip(part.err, offs)):
+        u = e - o
+        idx = np.arange(m0, len(u))
+        if not idx.size:
+            continue
+        ys.append(u[idx])
+        seg.append(np.full(idx.size, s))
+        for a in range(2):
+            lags[a].append(np.stack([u[idx - i, a] for i in
+                                     range(1, orders[a] + 1)], axis=1))
+    if not ys:
+        return Design(np.zeros((0, 2)), [np.zeros((0, p)) for p in orders],
+                      np.zeros(0, dtype=int))
+    return Design(np.concatenate(ys), [np.concatenate(x) for x in lags],
+                  np.concatenate(seg))
+
+
+@dataclass
+class MeanFit:
+    """The fitted mean part: constants, AR coefficients, motion term."""
+
+    const: np.ndarray      # (2,)
+    phi: list              # per axis array
+    lag_s: float = 0.0
+    gain: float = 1.0
+
+    def residuals(self, d):
+        """Return the innovations of design ``d``, (n, 2)."""
+        r = d.y - self.const
+        for a in range(2):
+            r[:, a] -= d.lags[a] @ self.phi[a]
+        return r
+
+
+def least_squares(d, lag_s=0.0, gain=1.0):
+    """Fit the design per axis by least squares; return (MeanFit, residuals)."""
+    const, phis = np.zeros(2), []
+    for a in range(2):
+        x = np.column_stack([np.ones(len(d.y)), d.lags[a]])
+        beta = np.linalg.lstsq(x, d.y[:, a], rcond=None)[0]
+        const[a] = beta[0]
+        phis.append(beta[1:])
+    mf = MeanFit(const, phis, lag_s, gain)
+    return mf, mf.residuals(d)
+
+
+def _profile_minimum(loss, hi):
+    """Return the minimiser of ``loss`` on [0, hi]: a grid, then refined."""
+    grid = np.linspace(0.0, hi, 26)
+    vals = [loss(g) for g in grid]
+    i = int(np.argmin(vals))
+    lo, up = grid[max(0, i - 1)], grid[min(len(grid) - 1, i + 1)]
+    best = grid[i]
+    if up > lo:
+        res = optimize.minimize_scalar(loss, bounds=(lo, up), method='bounded',
+                                       options={'xatol': 1e-3})
+        if res.fun < vals[i]:
+            best = float(res.x)
+    return best
+
+
+def _log_det_loss(part, orders, truth, lag_s, gain):
+    _, r = least_squares(design(part, orders, truth, lag_s, gain))
+    return float(np.sum(np.log(np.mean(r * r, axis=0))))
+
+
+def fit_mean(part, orders, truth, lag_s=0.0, gain=1.0):
+    """Fit the mean part with a fixed motion term; return (MeanFit, r, Design)."""
+    d = design(part, orders, truth, lag_s, gain)
+    return least_squares(d, lag_s, gain) + (d,)
+
+
+def fit_mean_lag(part, orders, truth):
+    """Fit the mean part with ``lag_s`` in [0, MAX_LAG_S] estimated (gain 1)."""
+    best = _profile_minimum(
+        lambda tau: _log_det_loss(part, orders, truth, tau, 1.0), MAX_LAG_S)
+    return fit_mean(part, orders, truth, best, 1.0)
+
+
+def fit_mean_gain(part, orders, truth, lag_s):
+    """Fit the mean part at a fixed ``lag_s`` with the gain in [0, 5] estimated."""
+    best = _profile_minimum(
+        lambda g: _log_det_loss(part, orders, truth, lag_s, g), MAX_LAG_S)
+    return fit_mean(part, orders, truth, lag_s, best)

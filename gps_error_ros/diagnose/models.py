@@ -1,0 +1,147 @@
+"""
+A fitted model of the diagnosis: mean part, innovation law, its measures.
+
+Estimation, the same for every model: conditional quasi-maximum likelihood
+in two stages. (1) The mean part (delta, phi and, with ``motion_lag``, the
+lag) maximises the conditional Gaussian likelihood, i.e. least squares;
+(2) the innovation law (covariances, correlation, dof, regimes) maximises
+the likelihood of the stage-1 innovations.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
+from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf
+from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
+                                         fit_mean_lag, MeanFit)
+from gps_error_ros.fit.calibration import CalibrationError, fit_axis
+from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
+from gps_error_ros.model.effects import build_model, Effects
+
+
+@dataclass
+class FittedModel:
+    """A fitted (base or extended) model on the training part."""
+
+    effects: tuple
+    orders: tuple
+    mean: MeanFit
+    law: Law
+    train_loglik: float
+    n_train: int
+
+    @property
+    def n_params(self):
+        """Return the number of free parameters."""
+        return sum(p + 1 for p in self.orders) + self.law.n_params + \
+            int('motion_lag' in self.effects)
+
+    @property
+    def bic(self):
+        """Return the training BIC."""
+        return -2 * self.train_loglik + self.n_params * math.log(self.n_train)
+
+    def axis_params(self):
+        """Return per-axis :class:`AxisParams` (sigma_w of the unit regime)."""
+        out = []
+        for a in range(2):
+            phi = tuple(float(v) for v in self.mean.phi[a])
+            out.append(AxisParams(float(self.mean.const[a]), phi,
+                                  float(math.sqrt(self.law.cov[a, a]))))
+        return out
+
+    def effects_obj(self):
+        """Return the model's :class:`Effects`."""
+        cov = self.law.cov
+        kw = {}
+        if 'cross_axis_coupling' in self.effects:
+            kw['innovation_corr'] = float(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]))
+        if 'motion_lag' in self.effects:
+            kw['lag_s'] = float(self.mean.lag_s)
+        if 'heavy_tails' in self.effects:
+            kw['dof'] = float(self.law.dof)
+        if 'variance_regimes' in self.effects:
+            kw['scales'] = tuple(float(v) for v in self.law.scales)
+            kw['transition'] = tuple(tuple(float(v) for v in row)
+                                     for row in self.law.transition)
+        return Effects(**kw)
+
+    def simulator(self):
+        """Return the model as a simulator: plain AR, or with its effects."""
+        return build_model(*self.axis_params(), self.effects_obj())
+
+    def parameters(self):
+        """Return the parameters as plain data (profile ``axes`` and ``effects``)."""
+        out = {}
+        for ax, p in zip(AXES, self.axis_params()):
+            out[ax] = {'delta': round(p.delta, 6),
+                       'phi': [round(v, 6) for v in p.phi],
+                       'sigma_w': round(p.sigma_w, 6)}
+        eff = self.effects_obj().to_dict()
+        if eff:
+            out['effects'] = eff
+        return out
+
+    def score(self, part, truth, m0=None):
+        """
+        Return (per-sample predictive log densities, residuals, design, pred).
+
+        ``m0``: samples per segment conditioned on, not scored (default: the
+        model's own :func:`~.mean.condition_count`); ``pred`` holds the
+        predictive regime probabilities (n, K).
+        """
+        d = design(part, self.orders, truth, self.mean.lag_s, self.mean.gain, m0=m0)
+        r = self.mean.residuals(d)
+        ll, pred = law_logpdf(self.law, r, d.seg)
+        return ll, r, d, pred
+
+
+def _with_law(effects, orders, mean, r, d, regimes):
+    law = fit_law(r, d.seg, coupled='cross_axis_coupling' in effects,
+                  tails='heavy_tails' in effects,
+                  regimes=regimes if 'variance_regimes' in effects else 0)
+    ll = float(np.sum(law_logpdf(law, r, d.seg)[0]))
+    return FittedModel(tuple(e for e in EFFECT_ORDER if e in effects),
+                       tuple(orders), mean, law, ll, len(r))
+
+
+def fit_model(train, orders, effects, truth, lag_s=None, regimes=2):
+    """
+    Fit a model with ``effects`` (names) on the training part.
+
+    With ``motion_lag``, ``lag_s`` is estimated unless given; ``regimes`` is
+    the number of variance levels when ``variance_regimes`` is present.
+    """
+    if 'motion_lag' not in effects:
+        mean, r, d = fit_mean(train, orders, truth)
+    elif lag_s is None:
+        mean, r, d = fit_mean_lag(train, orders, truth)
+    else:
+        mean, r, d = fit_mean(train, orders, truth, lag_s)
+    return _with_law(effects, orders, mean, r, d, regimes)
+
+
+def fit_motion_probe(train, orders, truth, lag_s):
+    """Fit the motion test's model at lag ``lag_s``: gain >= 0 estimated."""
+    mean, r, d = fit_mean_gain(train, orders, truth, lag_s)
+    return _with_law(('motion_lag',), orders, mean, r, d, 0)
+
+
+def score(model, part, truth, m0=None):
+    """Return :meth:`FittedModel.score` (a function, for baselines' symmetry)."""
+    return model.score(part, truth, m0)
+
+
+def select_orders(train):
+    """Return the PACF-rule orders of the training part (as calibration)."""
+    orders = []
+    for a, ax in enumerate(AXES):
+        try:
+            orders.append(fit_axis([e[:, a] for e in train.err], axis=ax)
+                          .params.order)
+        except (CalibrationError, ModelError) as exc:
+            raise DiagnosisError(f'training part: {exc}') from None
+    return tuple(orders)

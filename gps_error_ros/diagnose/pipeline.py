@@ -1,0 +1,376 @@
+"""
+Close the loop: find what the AR model misses in a trace, and add it.
+
+``gps_error diagnose`` is the list of steps in :func:`diagnose`, every
+choice made on the training part alone:
+
+1. :func:`split_step`: the errors on the 1 Hz grid, cut in time (the first
+   70 % of the span trains, the rest is held out and used once, to report;
+   :mod:`.split`). The first ``condition_count`` samples of every segment
+   are conditioned on and not scored, by every model.
+2. :func:`fit_base`: the paper's model, per axis AR(p) with the order the
+   PACF rule of calibration picks on the training part, independent
+   Gaussian innovations (:mod:`.models`).
+3. :func:`run_family`: the test family on the base model's innovations,
+   Holm at family-wise level ``ALPHA`` (:mod:`.family`).
+4. :func:`attribute`: ``cross_axis_correlation`` -> ``cross_axis_coupling``;
+   ``motion_dependence`` -> ``motion_lag``. Tails and regimes compete: both
+   fatten the marginal tails, only regimes make the squared innovations
+   persist. With persistence, ``variance_regimes``, the training BIC choosing
+   among 2 levels, 3 levels and 2 levels plus Student-t innovations (then
+   ``heavy_tails`` too); with excess kurtosis and no persistence,
+   ``heavy_tails``. When the motion test rejects on its own, the law is
+   tested on the innovations with the lag removed (lag transients would
+   otherwise look like tails). Serial correlation that no effect explains,
+   and periodic variance, are reported under ``unexplained``.
+5. :func:`fit_extended`: the model with the attributed effects.
+6. :func:`retest_extended`: its own innovations tested again; what remains
+   is ``unexplained`` (or an approximation of an effect already present).
+7. :func:`heldout_measures`: one-step predictive NLL per held-out sample
+   before and after (with a block-bootstrap interval of the difference), and
+   the fidelity of simulated traces (:mod:`.fidelity`).
+
+Estimation is conditional quasi-maximum likelihood in two stages (mean part
+by least squares, innovation law by maximum likelihood; :mod:`.models`).
+"""
+
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, EFFECT_ORDER,
+                                           MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
+                                           N_TESTS, TRAIN_FRACTION)
+from gps_error_ros.diagnose.family import (holm, innovation_tests, motion_test,
+                                           retest)
+from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
+from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
+                                           FittedModel, select_orders)
+from gps_error_ros.diagnose.split import Split, split_trace
+from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.profiles import profile_mapping
+
+ESTIMATION = ('conditional quasi-ML: mean part (delta, phi, lag) by least '
+              'squares, innovation law by maximum likelihood')
+
+
+def rounded(obj):
+    """Return ``obj`` with floats to 6 significant digits, numpy scalars plain."""
+    if isinstance(obj, dict):
+        return {k: rounded(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [rounded(v) for v in obj]
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if not math.isfinite(v) else float(f'{v:.6g}')
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+@dataclass
+class Diagnosis:
+    """
+    Everything ``diagnose`` found, with the data needed for figures.
+
+    ``summary`` holds the raw values; :meth:`to_dict` rounds them for JSON.
+    """
+
+    summary: dict
+    base: FittedModel
+    extended: FittedModel
+    train_residuals: dict = field(default_factory=dict)
+    split: Split = None
+
+    def to_dict(self):
+        """Return the findings as plain data (floats to 6 significant digits)."""
+        return rounded(self.summary)
+
+
+@dataclass
+class FamilyResult:
+    """The first-round tests, their Holm decisions, and what they ran on."""
+
+    tests: dict            # name -> statistic, p_value, holm_adjusted_p, rejected
+    reject: dict
+    adjusted: dict
+    lag_s: float = None    # the lag removed before the law's tests, if any
+
+
+@dataclass
+class Attribution:
+    """Effects chosen from the tests, with their evidence, and what is left."""
+
+    effects: list
+    evidence: dict
+    alternatives_rejected: list
+    unexplained: list
+    regimes: int = 2
+    lag_s: float = None
+    approximations: list = field(default_factory=list)
+
+
+def split_step(trace):
+    """Step 1: split ``trace``; refuse parts too short to fit or to score."""
+    split = split_trace(trace, TRAIN_FRACTION)
+    if split.train.n < MIN_TRAIN or split.test.n < MIN_TEST:
+        raise DiagnosisError(
+            f'{trace.name}: {split.train.n} training and {split.test.n} held-out '
+            f'samples on the 1 Hz grid; need at least {MIN_TRAIN} and {MIN_TEST} '
+            f'(a trace of about {int((MIN_TRAIN + MIN_TEST) / 0.7)} s or more)')
+    return split
+
+
+def fit_base(split):
+    """Step 2: the paper's model with the PACF orders of the training part."""
+    return fit_model(split.train, select_orders(split.train), (), split.truth)
+
+
+def _motion_family(split, base):
+    """Return the motion test: likelihood ratios of the probes at 1..5 s."""
+    moving = any(np.any(np.abs(np.diff(tr, axis=0)) > 0.05)
+                 for tr in split.train.truth)
+    lrs = []
+    for lag in MOTION_TEST_LAGS:
+        probe = fit_motion_probe(split.train, base.orders, split.truth, lag)
+        lrs.append(2.0 * (probe.train_loglik - base.train_loglik) if moving else 0.0)
+    return motion_test(lrs)
+
+
+def run_family(split, base, alpha=ALPHA):
+    """
+    Step 3: run the first-round family on the base model's innovations.
+
+    The mean part first: when the motion test rejects on its own (Holm's
+    first step, alpha / m), the law's tests run on innovations with the lag
+    removed, so that lag transients do not pass for tails or regimes.
+    """
+    motion = _motion_family(split, base)
+    _, r_law, d_law, _ = base.score(split.train, split.truth)
+    lag_s = None
+    if motion['p_value'] <= alpha / N_TESTS:
+        lagged = fit_model(split.train, base.orders, ('motion_lag',), split.truth)
+        lag_s = lagged.mean.lag_s
+        _, r_law, d_law, _ = lagged.score(split.train, split.truth)
+    tests = {'motion_dependence': motion,
+             **innovation_tests(r_law, d_law.seg, base.orders)}
+    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
+    for k in tests:
+        tests[k]['holm_adjusted_p'] = adjusted[k]
+        tests[k]['rejected'] = reject[k]
+    return FamilyResult(tests, reject, adjusted, lag_s)
+
+
+def _pick(test):
+    return {k: test[k] for k in ('statistic', 'p_value', 'holm_adjusted_p',
+                                 'at_lag_s') if k in test}
+
+
+def _attribute_law(split, base, family, att):
+    """Tails against regimes: add the winner to ``att`` (training BIC)."""
+    tests, reject, adjusted = family.tests, family.reject, family.adjusted
+    train, truth, orders = split.train, split.truth, base.orders
+    common = tuple(att.effects)
+    cands = {'heavy_tails': (('heavy_tails',), 2),
+             'variance_regimes (2 levels)': (('variance_regimes',), 2),
+             'variance_regimes (3 levels)': (('variance_regimes',), 3),
+             'both (2 levels + tails)': (('heavy_tails', 'variance_regimes'), 2)}
+    bics = {'neither': fit_model(train, orders, common, truth, att.lag_s).bic}
+    for label, (extra, k) in cands.items():
+        bics[label] = fit_model(train, orders, common + extra, truth,
+                                att.lag_s, regimes=k).bic
+    if reject['squared_persistence']:
+        pick = min([c for c in cands if c != 'heavy_tails'], key=bics.get)
+        extra, att.regimes = cands[pick]
+        att.effects.extend(e for e in EFFECT_ORDER if e in extra)
+        att.evidence['variance_regimes'] = {
+            'test': 'squared_persistence', **_pick(tests['squared_persistence']),
+            'levels': att.regimes, 'bic': bics, 'chosen': pick}
+        if 'heavy_tails' in extra:
+            att.evidence['heavy_tails'] = {
+                'test': 'kurtosis and BIC', **_pick(tests['kurtosis']),
+                'reason': 'tails beyond the regimes: the BIC with both is '
+                          'the lowest', 'bic': bics}
+        else:
+            att.alternatives_rejected.append({
+                'effect': 'heavy_tails',
+                'reason': 'with the regimes, Student-t innovations do not '
+                          'lower the BIC (the marginal tails come from the '
+                          'regimes)', 'bic': bics})
+        return
+    att.effects.append('heavy_tails')
+    att.evidence['heavy_tails'] = {
+        'test': 'kurtosis', **_pick(tests['kurtosis']), 'bic': bics,
+        'reason': 'excess kurtosis without persistence of the squared '
+                  'innovations'}
+    att.alternatives_rejected.append({
+        'effect': 'variance_regimes',
+        'reason': 'the squared innovations do not persist (Holm-adjusted '
+                  f'p = {adjusted["squared_persistence"]:.3g})',
+        'bic': bics})
+
+
+def attribute(split, base, family):
+    """Step 4: turn the rejected tests into effects, or ``unexplained``."""
+    tests, reject, adjusted = family.tests, family.reject, family.adjusted
+    att = Attribution([], {}, [], [])
+    for test, effect in (('cross_axis_correlation', 'cross_axis_coupling'),
+                         ('motion_dependence', 'motion_lag')):
+        if reject[test]:
+            att.effects.append(effect)
+            att.evidence[effect] = {'test': test, **_pick(tests[test])}
+    att.lag_s = family.lag_s if 'motion_lag' in att.effects else None
+    if reject['squared_persistence'] or reject['kurtosis']:
+        _attribute_law(split, base, family, att)
+    if reject['squared_oscillation']:
+        t = tests['squared_oscillation']
+        att.unexplained.append({
+            'structure': 'periodic variance: squared innovations anti-correlated '
+                         f'at lag {t["at_lag"]}', 'stage': 'base model',
+            'p_value': t['p_value'],
+            'holm_adjusted_p': adjusted['squared_oscillation']})
+    for ax in AXES:
+        k = f'serial_{ax}'
+        if reject[k]:
+            att.unexplained.append({
+                'structure': RETEST_LABEL[k], 'stage': 'base model',
+                'lags_largest': tests[k]['largest_acf_lags'],
+                'p_value': tests[k]['p_value'], 'holm_adjusted_p': adjusted[k]})
+    return att
+
+
+def fit_extended(split, base, att):
+    """Step 5: the model with the attributed effects (the base when none)."""
+    if not att.effects:
+        return base
+    return fit_model(split.train, base.orders, tuple(att.effects), split.truth,
+                     att.lag_s, regimes=att.regimes)
+
+
+def retest_extended(split, extended, att, alpha=ALPHA):
+    """
+    Step 6: test the extended model's innovations; record what is left.
+
+    Returns (retests, residuals): the second-round tests with Holm's
+    decisions (empty without effects), and (r, seg, pred) of the training
+    part. Structure left is appended to ``att.unexplained`` (nothing in the
+    model targets it) or ``att.approximations`` (an effect in the model
+    does, but its fitted form only approximates the data's).
+    """
+    _, r, d, pred = extended.score(split.train, split.truth)
+    if not att.effects:
+        return {}, (r, d.seg, pred)
+    tests = retest(extended, r, d.seg, pred)
+    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
+    for k, t in tests.items():
+        t['holm_adjusted_p'] = adjusted[k]
+        t['rejected'] = reject[k]
+        covered = [e for e in RETEST_EFFECTS[k] if e in att.effects]
+        seen = any(u['structure'] == RETEST_LABEL[k] for u in att.unexplained)
+        t['explained_by'] = covered
+        if reject[k] and not covered and not seen:
+            att.unexplained.append({'structure': RETEST_LABEL[k],
+                                    'stage': 'extended model',
+                                    'p_value': t['p_value'],
+                                    'holm_adjusted_p': adjusted[k]})
+        elif reject[k] and covered:
+            att.approximations.append({
+                'structure': RETEST_LABEL[k], 'effects': covered,
+                'holm_adjusted_p': adjusted[k],
+                'note': 'left by an effect already in the model: its fitted '
+                        'form approximates the data-generating one'})
+    return tests, (r, d.seg, pred)
+
+
+def heldout_measures(split, base, extended, sims, seed, name):
+    """
+    Step 7: held-out NLL before and after, and the fidelity of simulations.
+
+    Returns (error_before, error_after, improvement, scored samples).
+    """
+    ll_b = base.score(split.test, split.truth)[0]
+    ll_e = extended.score(split.test, split.truth)[0]
+    if len(ll_b) < MIN_TEST // 2:
+        raise DiagnosisError(f'{name}: only {len(ll_b)} held-out samples '
+                             f'can be scored')
+    mean, lo, hi = block_bootstrap_mean(ll_e - ll_b, seed=seed)
+    before = {'heldout_nll_per_sample': float(-ll_b.mean()),
+              **fidelity(base, split.test, split.truth, sims, seed)}
+    after = before if extended is base else {
+        'heldout_nll_per_sample': float(-ll_e.mean()),
+        **fidelity(extended, split.test, split.truth, sims, seed)}
+    improvement = {
+        'heldout_nll_per_sample': mean, 'ci95': [lo, hi],
+        'method': 'moving-block bootstrap (blocks of 30 samples, 2000 '
+                  'replicates) of the paired per-sample differences '
+                  'NLL(before) - NLL(after); positive = better after'}
+    return before, after, improvement, int(len(ll_b))
+
+
+def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
+    """Run the whole procedure on a trace; return a :class:`Diagnosis`."""
+    split = split_step(trace)
+    base = fit_base(split)
+    family = run_family(split, base, alpha)
+    att = attribute(split, base, family)
+    extended = fit_extended(split, base, att)
+    retests, ext_residuals = retest_extended(split, extended, att, alpha)
+    before, after, improvement, scored = heldout_measures(
+        split, base, extended, sims, seed, trace.name)
+    _, r0, d0, _ = base.score(split.train, split.truth)
+    summary = {
+        'input': trace.name, 'samples': split.train.n + split.test.n,
+        'train_samples': split.train.n, 'test_samples': split.test.n,
+        'scored_test_samples': scored,
+        'split': {'rule': split.rule, 'cut_time_s': split.cut_time_s},
+        'alpha': alpha, 'multiple_testing': 'Holm step-down over the family',
+        'estimation': ESTIMATION,
+        'base': {'order': dict(zip(AXES, base.orders)),
+                 'parameters': base.parameters(), 'train_bic': base.bic},
+        'tests': family.tests,
+        'effects': [{'name': e, 'evidence': att.evidence[e]} for e in att.effects],
+        'alternatives_rejected': att.alternatives_rejected,
+        'extended': {'parameters': extended.parameters(),
+                     'train_bic': extended.bic, 'retest': retests},
+        'unexplained': att.unexplained,
+        'approximations': att.approximations,
+        'error_before': before,
+        'error_after': after,
+        'improvement': improvement,
+    }
+    return Diagnosis(summary, base, extended,
+                     {'base': (r0, d0.seg), 'extended': ext_residuals}, split)
+
+
+RETEST_LABEL = {
+    'cross_axis_correlation': 'north-east correlation left in the innovations',
+    'squared_persistence': 'persistence of the squared innovations left',
+    'pit_uniformity': 'predictive distribution miscalibrated (PIT of the radius)',
+    'serial_north': 'serial correlation of the north innovations',
+    'serial_east': 'serial correlation of the east innovations',
+}
+
+#: retest -> effects whose fitted form targets that structure
+RETEST_EFFECTS = {
+    'cross_axis_correlation': ('cross_axis_coupling',),
+    'squared_persistence': ('variance_regimes',),
+    'pit_uniformity': ('heavy_tails', 'variance_regimes'),
+    'serial_north': (),
+    'serial_east': (),
+}
+
+
+def extended_profile(diag, name, source):
+    """Return the extended model as a profile mapping (schema 1, ``effects``)."""
+    s = diag.summary
+    return profile_mapping(
+        name, f'extended model diagnosed from {source}',
+        f'gps_error diagnose {source}', diag.extended.axis_params(),
+        effects=diag.extended.effects_obj(),
+        fit={'method': s['estimation'], 'input': source,
+             'train_samples': s['train_samples'],
+             'effects_found': [e['name'] for e in s['effects']],
+             'unexplained': [u['structure'] for u in s['unexplained']]})

@@ -1,0 +1,83 @@
+"""
+Step 1 of the diagnosis: the errors on the 1 Hz grid, cut in time.
+
+The errors are taken as in calibration (at the fixes' stamps, never
+interpolated; a missing step splits the data into segments), then the first
+``TRAIN_FRACTION`` of the time span trains and the rest is held out. A
+segment that straddles the cut becomes two.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gps_error_ros.diagnose.common import TRAIN_FRACTION
+from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.model.geodesy import difference
+
+
+@dataclass
+class Part:
+    """Errors, truth and timing of one part (train or test), by segment."""
+
+    err: list            # per segment (n_s, 2) north/east error, m
+    truth: list          # per segment (n_s, 2) truth north/east, local m
+    t: list              # per segment (n_s,) fix times, s
+
+    @property
+    def n(self):
+        """Return the number of samples."""
+        return int(sum(len(e) for e in self.err))
+
+
+@dataclass(frozen=True)
+class TruthTrack:
+    """
+    The truth of every fix of the trace (not only the gridded ones).
+
+    A motion lag reaches back from a sample to the truth ``lag_s`` earlier,
+    across the train/test cut and into steps the grid left out.
+    """
+
+    t: np.ndarray            # (n,) fix times, s
+    north_east: np.ndarray   # (n, 2) truth north/east, local m
+
+
+@dataclass(frozen=True)
+class Split:
+    """The two parts of a trace, the truth they share, and the rule."""
+
+    train: Part
+    test: Part
+    truth: TruthTrack
+    rule: str
+    cut_time_s: float
+
+
+def split_trace(trace, train_fraction=TRAIN_FRACTION):
+    """Return the :class:`Split` of a trace on the 1 Hz grid."""
+    grid = errors_on_grid(trace)
+    rows = grid.rows
+    lat0, lon0 = float(trace.truth_lat[0]), float(trace.truth_lon[0])
+    tn, te = difference(trace.truth_lat, trace.truth_lon, lat0, lon0)
+    truth_all = np.stack([np.asarray(tn), np.asarray(te)], axis=1)
+    err = np.concatenate(grid.segments)
+    seg_id = np.concatenate([np.full(len(s), i) for i, s in
+                             enumerate(grid.segments)])
+    t = trace.t[rows]
+    cut_t = t[0] + train_fraction * (t[-1] - t[0])
+    parts = []
+    for sel in (t < cut_t, t >= cut_t):
+        idx = np.flatnonzero(sel)
+        part = Part([], [], [])
+        if idx.size:
+            # new segment at a grid gap or at the cut
+            brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
+            for chunk in np.split(idx, brk):
+                part.err.append(err[chunk])
+                part.truth.append(truth_all[rows[chunk]])
+                part.t.append(t[chunk])
+        parts.append(part)
+    return Split(parts[0], parts[1], TruthTrack(trace.t, truth_all),
+                 f'first {100 * train_fraction:.0f} % of the time span trains, '
+                 f'the rest is held out', float(cut_t - t[0]))

@@ -1,0 +1,117 @@
+"""
+Cross-validation of a profile against a measured trace (the paper's Sec. IV).
+
+The profile simulates many traces with the measured trace's own time grid:
+one continuous simulated series per Monte-Carlo run, sampled at the steps
+where the measured trace has data, so gaps and segments match. Each
+simulated trace is summarised exactly as the measured one, and the measured
+statistics are compared with the Monte-Carlo envelope (the central 95 % of
+the simulated values):
+
+* autocorrelation per lag (pooled over segments), for the paper's Fig. 5; an
+  envelope accounts for the large sampling spread of a persistent process's
+  sample autocorrelation, where a fixed bound does not;
+* quantiles of the errors per axis (QQ plot with envelope, Fig. 7);
+* a map of truth, measured fixes and one simulated trace (Fig. 8; drawn by
+  :mod:`gps_error_ros.reports.validation_figure`).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gps_error_ros.fit.autocorrelation import pooled_acf
+from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.traces.trace_io import Trace
+QQ_PROBS = np.linspace(0.01, 0.99, 99)
+
+
+def slice_trace(trace, start_frac=0.0, end_frac=1.0):
+    """Return the part of ``trace`` between two fractions of its duration."""
+    t0, t1 = trace.t[0], trace.t[-1]
+    lo, hi = t0 + start_frac * (t1 - t0), t0 + end_frac * (t1 - t0)
+    m = (trace.t >= lo) & (trace.t <= hi) if end_frac >= 1.0 else \
+        (trace.t >= lo) & (trace.t < hi)
+    return Trace(trace.name, trace.t[m] - trace.t[m][0], trace.lat[m], trace.lon[m],
+                 trace.truth_lat[m], trace.truth_lon[m],
+                 {k: v[m] for k, v in trace.extra.items()})
+
+
+@dataclass
+class ValidationResult:
+    """Measured statistics beside their Monte-Carlo envelopes."""
+
+    name: str
+    samples: int
+    segments: int
+    sims: int
+    lags: np.ndarray
+    acf: dict            # axis -> measured ACF (lags 0..L)
+    acf_env: dict        # axis -> (3, L+1): 2.5 %, 50 %, 97.5 %
+    quant: dict          # axis -> measured quantiles at QQ_PROBS
+    quant_env: dict      # axis -> (3, len(QQ_PROBS))
+    grid_steps: np.ndarray
+    measured: np.ndarray   # (n, 2) errors
+    simulated: np.ndarray  # (n, 2) one simulated error trace
+    truth: tuple           # (lat, lon) at the measured steps
+
+    def summary(self):
+        """Return the numbers behind the figures as plain data."""
+        out = {'input': self.name, 'samples': self.samples,
+               'segments': self.segments, 'simulations': self.sims,
+               'max_lag': int(self.lags[-1]), 'qq_probabilities': QQ_PROBS.tolist()}
+        for ax in AXES:
+            acf, env = self.acf[ax], self.acf_env[ax]
+            inside = (acf[1:] >= env[0, 1:]) & (acf[1:] <= env[2, 1:])
+            q, qenv = self.quant[ax], self.quant_env[ax]
+            qin = (q >= qenv[0]) & (q <= qenv[2])
+            out[ax] = {
+                'acf_measured': np.round(acf, 4).tolist(),
+                'acf_envelope_low': np.round(env[0], 4).tolist(),
+                'acf_simulated_median': np.round(env[1], 4).tolist(),
+                'acf_envelope_high': np.round(env[2], 4).tolist(),
+                'acf_lags_inside_envelope': float(inside.mean()),
+                'acf_offset_rms_lags_1_10': float(np.sqrt(np.mean(
+                    (acf[1:11] - env[1, 1:11]) ** 2))),
+                'quantiles_measured_m': np.round(q, 3).tolist(),
+                'quantiles_envelope_low_m': np.round(qenv[0], 3).tolist(),
+                'quantiles_simulated_median_m': np.round(qenv[1], 3).tolist(),
+                'quantiles_envelope_high_m': np.round(qenv[2], 3).tolist(),
+                'quantiles_inside_envelope': float(qin.mean()),
+                'mean_m': float(self.measured[:, AXES.index(ax)].mean()),
+                'sd_m': float(self.measured[:, AXES.index(ax)].std()),
+            }
+        return out
+
+
+def validate(model, trace, sims=200, max_lag=60, seed=0):
+    """Compare ``trace`` with ``sims`` traces simulated by ``model``."""
+    grid = errors_on_grid(trace)
+    steps = np.concatenate([s + np.arange(len(seg)) for s, seg in
+                            zip(grid.starts, grid.segments)])
+    steps = steps - steps[0]
+    measured = np.concatenate(grid.segments)
+    max_lag = int(min(max_lag, max(len(s) for s in grid.segments) - 2))
+    if max_lag < 1:
+        raise ValueError(f'{trace.name}: segments too short to validate')
+    keys = streams.agent_keys(seed, [f'validation/{i}' for i in range(sims)])
+    sim = model.simulate(keys, int(steps[-1]) + 1)[steps]   # (n, sims, 2)
+    bounds = np.cumsum([0] + [len(s) for s in grid.segments])
+    lags = np.arange(max_lag + 1)
+    acf, acf_env, quant, quant_env = {}, {}, {}, {}
+    for a, ax in enumerate(AXES):
+        meas_segs = [measured[b0:b1, a] for b0, b1 in zip(bounds[:-1], bounds[1:])]
+        acf[ax] = pooled_acf(meas_segs, max_lag)
+        sim_acf = np.array([
+            pooled_acf([sim[b0:b1, j, a] for b0, b1 in zip(bounds[:-1], bounds[1:])],
+                       max_lag) for j in range(sims)])
+        acf_env[ax] = np.percentile(sim_acf, [2.5, 50, 97.5], axis=0)
+        quant[ax] = np.quantile(measured[:, a], QQ_PROBS)
+        sim_q = np.quantile(sim[:, :, a], QQ_PROBS, axis=0).T    # (sims, probs)
+        quant_env[ax] = np.percentile(sim_q, [2.5, 50, 97.5], axis=0)
+    truth = (trace.truth_lat[grid.rows], trace.truth_lon[grid.rows])
+    return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
+                            acf, acf_env, quant, quant_env, steps, measured,
+                            sim[:, 0, :], truth)

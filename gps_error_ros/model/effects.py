@@ -1,0 +1,379 @@
+"""
+Model extensions beyond the paper's AR(p): the ``effects`` of a profile.
+
+A profile's optional ``effects`` section adds any of four effects to the AR
+process of :mod:`ar_model` (written by ``gps_error diagnose --profile-out``)::
+
+    effects:
+      cross_axis_coupling: {innovation_corr: 0.35}
+      motion_lag: {lag_s: 1.2}
+      heavy_tails: {dof: 4.5}
+      variance_regimes: {scales: [1.0, 2.4],
+                         transition: [[0.98, 0.02], [0.05, 0.95]]}
+
+The process, per model step ``k``::
+
+    u(k) = delta + sum_i phi_i u(k - i) + s[r(k)] * w(k)
+    reported position = truth(t - lag_s) + u(k)
+
+* ``w(k)`` has covariance ``[[sn^2, c sn se], [c sn se, se^2]]`` with
+  ``sn, se`` the axes' ``sigma_w`` and ``c`` the ``innovation_corr``; it is
+  Gaussian, or bivariate Student-t with ``dof`` degrees of freedom scaled to
+  the same covariance (one shared mixing variable per step, so a multipath
+  jump moves both axes together).
+* ``r(k)`` is a Markov chain over the regimes with the given row-stochastic
+  ``transition`` matrix; regime ``j`` multiplies the innovations by
+  ``scales[j]``. Without the section there is one regime of scale 1.
+* ``lag_s``: the receiver reports where the device was ``lag_s`` seconds
+  ago; the error relative to the truth at the stamp is ``u(k)`` plus
+  ``truth(t - lag_s) - truth(t)`` (zero when standing, about ``-lag_s *
+  velocity`` when walking).
+
+Covariance: the AR part is linear, so its stationary covariance is the
+Lyapunov solution for the *average* innovation covariance, ``E[s^2]`` times
+the covariance of ``w``, with ``E[s^2] = sum_j pi_j scales[j]^2`` over the
+chain's stationary distribution ``pi``. That unconditional covariance is
+what the node publishes (it does not depend on the hidden regime; the
+Student-t scaling keeps the covariance of ``w`` as stated). The lag term is a
+motion-dependent offset, not part of it.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+from scipy import special
+
+from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import ARErrorModel
+
+EFFECT_NAMES = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
+                'variance_regimes')
+_KEYS = {
+    'cross_axis_coupling': ('innovation_corr',),
+    'motion_lag': ('lag_s',),
+    'heavy_tails': ('dof',),
+    'variance_regimes': ('scales', 'transition'),
+}
+MAX_LAG_S = 10.0
+MAX_DOF = 1000.0
+
+
+class EffectsError(ValueError):
+    """An ``effects`` section that does not match the schema."""
+
+
+def stationary_distribution(transition):
+    """Return the stationary distribution of a row-stochastic matrix."""
+    p = np.asarray(transition, dtype=float)
+    k = p.shape[0]
+    a = np.vstack([p.T - np.eye(k), np.ones(k)])
+    b = np.r_[np.zeros(k), 1.0]
+    pi = np.linalg.lstsq(a, b, rcond=None)[0]
+    return np.clip(pi, 0.0, None) / np.clip(pi, 0.0, None).sum()
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Parsed effects (defaults: none of them)."""
+
+    innovation_corr: float = 0.0
+    lag_s: float = 0.0
+    dof: float = math.inf
+    scales: tuple = (1.0,)
+    transition: tuple = ((1.0,),)
+
+    @property
+    def names(self):
+        """Return the names of the effects present, in schema order."""
+        present = (self.innovation_corr != 0.0, self.lag_s != 0.0,
+                   math.isfinite(self.dof), len(self.scales) > 1)
+        return tuple(n for n, p in zip(EFFECT_NAMES, present) if p)
+
+    @property
+    def regime_probabilities(self):
+        """Return the regimes' stationary probabilities."""
+        return stationary_distribution(self.transition)
+
+    @property
+    def variance_factor(self):
+        """Return ``E[s^2]``, the average innovation variance multiplier."""
+        return float(self.regime_probabilities @ np.square(self.scales))
+
+    def to_dict(self):
+        """Return the ``effects`` section as plain data (present ones only)."""
+        out = {}
+        if self.innovation_corr:
+            out['cross_axis_coupling'] = {
+                'innovation_corr': round(float(self.innovation_corr), 6)}
+        if self.lag_s:
+            out['motion_lag'] = {'lag_s': round(float(self.lag_s), 4)}
+        if math.isfinite(self.dof):
+            out['heavy_tails'] = {'dof': round(float(self.dof), 4)}
+        if len(self.scales) > 1:
+            rows = []
+            for i, row in enumerate(self.transition):
+                r = [round(float(v), 6) for v in row]
+                r[i] = round(1.0 - sum(v for j, v in enumerate(r) if j != i), 6)
+                rows.append(r)
+            out['variance_regimes'] = {
+                'scales': [round(float(v), 6) for v in self.scales],
+                'transition': rows}
+        return out
+
+
+def _num(source, key, value, lo, hi, lo_open=True):
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and \
+        math.isfinite(value) and (value > lo if lo_open else value >= lo) and \
+        value <= hi
+    if not ok:
+        bracket = '(' if lo_open else '['
+        raise EffectsError(f'{source}: key {key!r}: expected a number in '
+                           f'{bracket}{lo}, {hi}], got {value!r}')
+    return float(value)
+
+
+def effects_from_dict(raw, source='<profile>'):
+    """Validate a profile's ``effects`` mapping; return :class:`Effects`."""
+    if raw is None:
+        return Effects()
+    if not isinstance(raw, dict):
+        raise EffectsError(f'{source}: key \'effects\': expected a mapping, '
+                           f'got {raw!r}')
+    kw = {}
+    for name, body in raw.items():
+        key = f'effects.{name}'
+        if name not in _KEYS:
+            raise EffectsError(f'{source}: key {key!r}: unknown effect; '
+                               f'expected one of {list(EFFECT_NAMES)}')
+        want = _KEYS[name]
+        if not isinstance(body, dict) or sorted(body) != sorted(want):
+            raise EffectsError(f'{source}: key {key!r}: expected a mapping with '
+                               f'exactly {list(want)}, got {body!r}')
+        if name == 'cross_axis_coupling':
+            kw['innovation_corr'] = _num(source, f'{key}.innovation_corr',
+                                         body['innovation_corr'], -0.99, 0.99,
+                                         lo_open=False)
+        elif name == 'motion_lag':
+            kw['lag_s'] = _num(source, f'{key}.lag_s', body['lag_s'], 0.0,
+                               MAX_LAG_S)
+        elif name == 'heavy_tails':
+            kw['dof'] = _num(source, f'{key}.dof', body['dof'], 2.0, MAX_DOF)
+        else:
+            kw.update(_regimes(source, key, body))
+    return Effects(**kw)
+
+
+def _regimes(source, key, body):
+    scales, trans = body['scales'], body['transition']
+    if not isinstance(scales, list) or len(scales) < 2:
+        raise EffectsError(f'{source}: key {key + ".scales"!r}: expected a list '
+                           f'of at least 2 positive numbers, got {scales!r}')
+    scales = tuple(_num(source, f'{key}.scales[{i}]', v, 0.0, 1e3)
+                   for i, v in enumerate(scales))
+    k = len(scales)
+    if not isinstance(trans, list) or len(trans) != k or not all(
+            isinstance(r, list) and len(r) == k for r in trans):
+        raise EffectsError(f'{source}: key {key + ".transition"!r}: expected a '
+                           f'{k}x{k} list of rows (one per scale), got {trans!r}')
+    rows = tuple(tuple(_num(source, f'{key}.transition[{i}][{j}]', v, 0.0, 1.0,
+                            lo_open=False) for j, v in enumerate(r))
+                 for i, r in enumerate(trans))
+    for i, r in enumerate(rows):
+        if abs(sum(r) - 1.0) > 1e-5:
+            raise EffectsError(f'{source}: key {key}.transition[{i}]: expected '
+                               f'a row summing to 1, got sum {sum(r)!r}')
+    return {'scales': scales, 'transition': rows}
+
+
+class ExtendedModel:
+    """
+    The AR(p) process with effects; same interface as :class:`ARErrorModel`.
+
+    The state of ``n`` agents is an array (n, 2, p + 1): ``[:, :, :p]`` the
+    AR deviations as in :class:`ARErrorModel`, ``[:, 0, p]`` the current
+    regime's index. Draws come from the agents' counter-based streams, one
+    position per model step, so an agent's errors do not depend on how many
+    agents are simulated together or when its state was created.
+    """
+
+    def __init__(self, north, east, effects):
+        self.effects = effects
+        self.unit = ARErrorModel(north, east, effects.innovation_corr)
+        self.axes = self.unit.axes
+        self.order = self.unit.order
+        self.phi = self.unit.phi
+        self.mean = self.unit.mean
+        self.lag_s = effects.lag_s
+        self.scales = np.asarray(effects.scales, dtype=float)
+        self.cum_transition = np.cumsum(np.asarray(effects.transition), axis=1)
+        self.cum_transition[:, -1] = 1.0
+        self.pi = effects.regime_probabilities
+        self.cum_pi = np.cumsum(self.pi)
+        self.cum_pi[-1] = 1.0
+        self.dof = effects.dof
+        self._init_scale = math.sqrt(effects.variance_factor)
+
+    @property
+    def stationary_cov(self):
+        """Return the unconditional 2x2 (north, east) error covariance."""
+        return self.unit.stationary_cov * self.effects.variance_factor
+
+    @property
+    def stationary_sd(self):
+        """Return the unconditional standard deviation per axis."""
+        return np.sqrt(np.diag(self.stationary_cov))
+
+    def autocovariance(self, max_lag):
+        """Return the exact unconditional autocovariance, (max_lag + 1, 2, 2)."""
+        return self.unit.autocovariance(max_lag) * self.effects.variance_factor
+
+    def autocorrelation(self, max_lag):
+        """Return the exact autocorrelation per axis (max_lag + 1, 2)."""
+        return self.unit.autocorrelation(max_lag)
+
+    def empty_state(self, n):
+        """Return a state array for ``n`` agents (zeros)."""
+        return np.zeros((n, 2, self.order + 1))
+
+    def initial_state(self, keys, index):
+        """
+        Draw the state at model step ``index``.
+
+        The regime from the chain's stationary distribution; the AR part
+        Gaussian with the unconditional stationary covariance (under heavy
+        tails or regimes the exact law is not Gaussian; the difference fades
+        within the process's correlation time).
+        """
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        state = self.empty_state(keys.size)
+        state[:, :, :self.order] = self.unit.initial_state(keys, index) * \
+            self._init_scale
+        if self.scales.size > 1:
+            u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_REGIME,
+                                      index)[:, 0]
+            state[:, 0, self.order] = np.searchsorted(self.cum_pi, u, side='right')
+        return state
+
+    def advance(self, state, keys, index):
+        """Advance ``state`` in place to model step ``index``; return errors."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        p = self.order
+        z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
+        w = self.unit._innovations(z)
+        if self.scales.size > 1:
+            u = streams.uniform_pairs(keys, streams.DOMAIN_REGIME, index)[:, 0]
+            regime = state[:, 0, p].astype(np.int64)
+            nxt = (u[:, None] >= self.cum_transition[regime]).sum(axis=1)
+            nxt = np.minimum(nxt, self.scales.size - 1)
+            state[:, 0, p] = nxt
+            w *= self.scales[nxt][:, None]
+        if math.isfinite(self.dof):
+            u = streams.uniform_pairs(keys, streams.DOMAIN_TAIL, index)[:, 0]
+            half = 0.5 * self.dof
+            mix = special.gammaincinv(half, u) / half        # chi2(dof) / dof
+            w *= np.sqrt((self.dof - 2.0) / self.dof / mix)[:, None]
+        for i in range(p):
+            w += self.phi[:, i] * state[:, :, i]
+        state[:, :, 1:p] = state[:, :, 0:p - 1]
+        state[:, :, 0] = w
+        return w + self.mean
+
+    def errors(self, state):
+        """Return the current errors, mean included, shape (n, 2)."""
+        return state[:, :, 0] + self.mean
+
+    def regimes(self, state):
+        """Return the current regime index of each agent."""
+        return state[:, 0, self.order].astype(np.int64)
+
+    def state_after(self, keys, start, step):
+        """Return the state at model step ``step`` of a run started at ``start``."""
+        state = self.initial_state(keys, start)
+        for k in range(start + 1, step + 1):
+            self.advance(state, keys, k)
+        return state
+
+    def simulate(self, keys, n_steps, start=0, out=None):
+        """
+        Simulate errors at model steps ``start .. start + n_steps - 1``.
+
+        As :meth:`ARErrorModel.simulate`, stepping through time vectorised
+        over agents. The lag is not applied (it needs the truth): add
+        :func:`lag_offsets` of the trajectory.
+        """
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        if out is None:
+            out = np.empty((n_steps, keys.size, 2))
+        if n_steps == 0:
+            return out
+        state = self.initial_state(keys, start)
+        out[0] = self.errors(state)
+        for k in range(1, n_steps):
+            out[k] = self.advance(state, keys, start + k)
+        return out
+
+
+def lag_offsets(t, north, east, lag_s, at=None):
+    """
+    Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
+
+    The truth is sampled at times ``t`` (s, increasing) as ``north``/``east``
+    in a local frame and interpolated linearly; ``at`` defaults to ``t``.
+    Before the first sample the truth is held (offset toward the first
+    position).
+    """
+    t = np.asarray(t, dtype=float)
+    at = t if at is None else np.asarray(at, dtype=float)
+    out = np.zeros((at.size, 2))
+    if lag_s == 0.0 or at.size == 0:
+        return out
+    for a, x in enumerate((north, east)):
+        out[:, a] = np.interp(at - lag_s, t, x) - np.interp(at, t, x)
+    return out
+
+
+class LagBuffer:
+    """
+    Recent positions per named agent, to report where each was ``lag_s`` ago.
+
+    For trajectories streamed one time step at a time (SUMO FCD): positions
+    are kept for ``lag_s`` plus one sample and interpolated linearly in the
+    coordinates given; before an agent's first sample its first position is
+    held.
+    """
+
+    def __init__(self, lag_s):
+        self.lag_s = float(lag_s)
+        self.hist = {}
+
+    def lagged(self, names, t, x, y):
+        """Store (t, x, y) per agent; return the positions ``lag_s`` earlier."""
+        ox, oy = np.array(x, dtype=float), np.array(y, dtype=float)
+        if self.lag_s == 0.0:
+            return ox, oy
+        want = t - self.lag_s
+        for i, n in enumerate(names):
+            h = self.hist.setdefault(n, [])
+            h.append((t, ox[i], oy[i]))
+            while len(h) > 2 and h[1][0] <= want:
+                h.pop(0)
+            if len(h) > 1 and h[0][0] <= want:
+                (t0, x0, y0), (t1, x1, y1) = h[0], h[1]
+                w = (want - t0) / (t1 - t0) if t1 > t0 else 0.0
+                ox[i], oy[i] = x0 + w * (x1 - x0), y0 + w * (y1 - y0)
+            else:
+                ox[i], oy[i] = h[0][1], h[0][2]
+        return ox, oy
+
+    def forget(self, names):
+        """Drop the history of agents that left."""
+        for n in names:
+            self.hist.pop(n, None)
+
+
+def build_model(north, east, effects=None):
+    """Return the plain AR model, or an :class:`ExtendedModel` with effects."""
+    if effects is None or not effects.names:
+        return ARErrorModel(north, east)
+    return ExtendedModel(north, east, effects)

@@ -1,0 +1,314 @@
+"""
+Error-model profiles: the YAML schema (version 1), loading and lookup.
+
+A profile names a data set and carries its AR fit per axis::
+
+    schema: 1
+    name: DS5
+    description: 7th Avenue, Manhattan; Google Pixel (1st generation)
+    source: Rostami et al., ..., Table II
+    rate_hz: 1.0
+    axes:
+      north: {delta: 0.07, phi: [1.18, -0.06, -0.14], sigma_w: 1.52}
+      east:  {delta: -0.02, phi: [1.15, -0.03, -0.14], sigma_w: 1.58}
+
+Optional keys: ``vertical_sd`` (metres, the altitude standard deviation
+reported in the fix covariance), ``notes`` (free text), ``fit`` (how the
+profile was calibrated) and ``effects`` (model extensions written by
+``gps_error diagnose --profile-out``; schema in :mod:`effects`; a profile
+without them behaves exactly as the paper's model). A profile without
+``axes`` is a placeholder for a data set with no published fit; it loads, but
+:meth:`Profile.model` refuses it. Any other key is an error.
+"""
+
+from dataclasses import dataclass, field
+import math
+import os
+from pathlib import Path
+import re
+
+import yaml
+
+from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
+from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
+
+SCHEMA_VERSION = 1
+PACKAGE = 'gps_error_ros'
+PROFILE_SUBDIR = ('config', 'profiles')
+
+_TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
+_TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects')
+_AXIS_KEYS = ('delta', 'phi', 'sigma_w')
+_NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
+
+
+class ProfileError(ValueError):
+    """A profile that is missing, unreadable or does not match the schema."""
+
+
+class ProfileNotFittedError(ProfileError):
+    """A placeholder profile (no published fit) was selected for simulation."""
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A loaded, validated profile."""
+
+    name: str
+    description: str
+    source: str
+    rate_hz: float
+    axes: dict = None
+    vertical_sd: float = None
+    notes: str = ''
+    fit: dict = field(default_factory=dict)
+    effects: Effects = field(default_factory=Effects)
+    path: str = ''
+
+    @property
+    def fitted(self):
+        """Return True when the profile carries AR parameters."""
+        return self.axes is not None
+
+    def model(self):
+        """
+        Return the :class:`ARErrorModel` of this profile.
+
+        Raises
+        ------
+        ProfileNotFittedError
+            For a placeholder profile.
+
+        """
+        if not self.fitted:
+            fitted = [p.name for p in (load_profile(n) for n in builtin_names())
+                      if p.fitted]
+            raise ProfileNotFittedError(
+                f'profile {self.name} ({self.path}) has no published fit: '
+                f'the reference paper gives AR parameters only for '
+                f'{", ".join(fitted)}. Select one of those, or calibrate a '
+                f'profile from a recording of your own (`gps_error calibrate '
+                f'TRACE.csv -o PROFILE.yaml`) and pass its path')
+        try:
+            return build_model(self.axes['north'], self.axes['east'], self.effects)
+        except ModelError as exc:
+            raise ProfileError(f'{self.path}: {exc}') from None
+
+    def vertical_variance(self, model=None):
+        """
+        Return the altitude variance (m^2) reported in fixes.
+
+        The paper has no vertical model, so the published altitude is the
+        truth's. A profile may set ``vertical_sd``; otherwise it is twice the
+        larger horizontal stationary standard deviation, so that consumers
+        do not trust the altitude more than the horizontal position.
+        """
+        if self.vertical_sd is not None:
+            return self.vertical_sd ** 2
+        model = model or self.model()
+        return (2.0 * float(max(model.stationary_sd))) ** 2
+
+
+def _fail(source, key, expected, got):
+    raise ProfileError(f'{source}: key {key!r}: expected {expected}, got {got!r}')
+
+
+def _number(source, key, value, positive=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        _fail(source, key, 'a number', value)
+    if not math.isfinite(value):
+        _fail(source, key, 'a finite number', value)
+    if positive and not value > 0:
+        _fail(source, key, 'a number > 0', value)
+    return float(value)
+
+
+def _text(source, key, value):
+    if not isinstance(value, str):
+        _fail(source, key, 'a string', value)
+    return value
+
+
+def _axis(source, name, raw):
+    key = f'axes.{name}'
+    if not isinstance(raw, dict):
+        _fail(source, key, 'a mapping with delta, phi, sigma_w', raw)
+    unknown = sorted(set(raw) - set(_AXIS_KEYS))
+    if unknown:
+        _fail(source, f'{key}.{unknown[0]}', f'one of {list(_AXIS_KEYS)}', unknown[0])
+    for k in _AXIS_KEYS:
+        if k not in raw:
+            raise ProfileError(f'{source}: key {key}.{k!r} is missing '
+                               f'(expected {list(_AXIS_KEYS)})')
+    delta = _number(source, f'{key}.delta', raw['delta'])
+    phi = raw['phi']
+    if not isinstance(phi, list) or not phi:
+        _fail(source, f'{key}.phi', 'a non-empty list of numbers', phi)
+    phi = [_number(source, f'{key}.phi[{i}]', v) for i, v in enumerate(phi)]
+    sigma = _number(source, f'{key}.sigma_w', raw['sigma_w'], positive=True)
+    try:
+        return AxisParams(delta, tuple(phi), sigma)
+    except ModelError as exc:
+        raise ProfileError(f'{source}: key {key!r}: {exc}') from None
+
+
+def profile_from_dict(raw, source='<profile>'):
+    """Validate a parsed profile mapping and return a :class:`Profile`."""
+    if not isinstance(raw, dict):
+        raise ProfileError(f'{source}: expected a YAML mapping at the top level, '
+                           f'got {type(raw).__name__}')
+    unknown = sorted(set(raw) - set(_TOP_REQUIRED) - set(_TOP_OPTIONAL))
+    if unknown:
+        _fail(source, unknown[0],
+              f'one of {list(_TOP_REQUIRED + _TOP_OPTIONAL)}', unknown[0])
+    for k in _TOP_REQUIRED:
+        if k not in raw:
+            raise ProfileError(f'{source}: key {k!r} is missing '
+                               f'(required: {list(_TOP_REQUIRED)})')
+    if raw['schema'] != SCHEMA_VERSION or isinstance(raw['schema'], bool):
+        _fail(source, 'schema', f'{SCHEMA_VERSION}', raw['schema'])
+    name = _text(source, 'name', raw['name'])
+    if not name:
+        _fail(source, 'name', 'a non-empty string', name)
+    axes = None
+    if raw.get('axes') is not None:
+        a = raw['axes']
+        if not isinstance(a, dict) or sorted(a) != sorted(AXES):
+            _fail(source, 'axes', f'a mapping with exactly {list(AXES)}', a)
+        axes = {n: _axis(source, n, a[n]) for n in AXES}
+    vertical = raw.get('vertical_sd')
+    if vertical is not None:
+        vertical = _number(source, 'vertical_sd', vertical, positive=True)
+    for k in ('fit', 'effects'):
+        if raw.get(k) is not None and not isinstance(raw[k], dict):
+            _fail(source, k, 'a mapping', raw[k])
+    try:
+        effects = effects_from_dict(raw.get('effects') or {}, source)
+    except EffectsError as exc:
+        raise ProfileError(str(exc)) from None
+    if effects.names and axes is None:
+        _fail(source, 'effects', 'no effects in a profile without axes',
+              raw['effects'])
+    return Profile(
+        name=name,
+        description=_text(source, 'description', raw['description']),
+        source=_text(source, 'source', raw['source']),
+        rate_hz=_number(source, 'rate_hz', raw['rate_hz'], positive=True),
+        axes=axes,
+        vertical_sd=vertical,
+        notes=_text(source, 'notes', raw.get('notes') or ''),
+        fit=dict(raw.get('fit') or {}),
+        effects=effects,
+        path=source)
+
+
+def load_profile_file(path):
+    """Load and validate the profile YAML at ``path``."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding='utf-8')
+    except FileNotFoundError:
+        raise ProfileError(f'{path}: profile file not found') from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProfileError(f'{path}: cannot read profile file: {exc}') from None
+    try:
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ProfileError(f'{path}: malformed YAML: {exc}') from None
+    return profile_from_dict(raw, str(path))
+
+
+def profile_dirs():
+    """
+    Return the directories searched for built-in profiles, in order.
+
+    1. ``config/profiles`` beside the package source (editable installs and
+       running from a checkout);
+    2. ``share/gps_error_ros/config/profiles`` under each prefix in
+       ``AMENT_PREFIX_PATH`` that has the package in its ament index (colcon
+       and ROS installs);
+    3. ``share/gps_error_ros/config/profiles`` under the prefix the package
+       is installed in (``pip install .`` into a venv or ``--prefix``).
+    """
+    package = Path(__file__).resolve().parent.parent     # gps_error_ros/
+    dirs = [package.parent.joinpath(*PROFILE_SUBDIR)]
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix and Path(prefix, 'share', 'ament_index', 'resource_index',
+                           'packages', PACKAGE).exists():
+            dirs.append(Path(prefix, 'share', PACKAGE, *PROFILE_SUBDIR))
+    # <prefix>/lib/pythonX.Y/site-packages/gps_error_ros
+    if len(package.parents) >= 4:
+        dirs.append(package.parents[3].joinpath('share', PACKAGE, *PROFILE_SUBDIR))
+    return [d for d in dict.fromkeys(dirs)]
+
+
+def builtin_dir():
+    """Return the first existing built-in profile directory."""
+    for d in profile_dirs():
+        if d.is_dir() and any(d.glob('*.yaml')):
+            return d
+    raise ProfileError(
+        'the built-in profiles were not found; searched: '
+        + ', '.join(str(d) for d in profile_dirs()))
+
+
+def builtin_names():
+    """Return the names of the built-in profiles (DS1..DS7)."""
+    return sorted((p.stem for p in builtin_dir().glob('*.yaml')),
+                  key=lambda s: (len(s), s))
+
+
+def load_profile(spec):
+    """Load a profile by built-in name (case-insensitive) or by file path."""
+    spec = str(spec).strip()
+    if _NAME_RE.match(spec):
+        path = builtin_dir() / f'{spec.upper()}.yaml'
+        if not path.exists():
+            raise ProfileError(
+                f'unknown profile {spec!r}: expected one of '
+                f'{", ".join(builtin_names())} or the path of a profile YAML')
+        return load_profile_file(path)
+    path = Path(spec).expanduser()
+    if path.suffix.lower() not in ('.yaml', '.yml') and not path.exists():
+        raise ProfileError(
+            f'unknown profile {spec!r}: expected one of '
+            f'{", ".join(builtin_names())} or the path of a profile YAML')
+    return load_profile_file(path)
+
+
+def axes_mapping(north, east, digits=6):
+    """Return the ``axes`` section of two :class:`AxisParams`, rounded for YAML."""
+    return {ax: {'delta': round(float(p.delta), digits),
+                 'phi': [round(float(v), digits) for v in p.phi],
+                 'sigma_w': round(float(p.sigma_w), digits)}
+            for ax, p in zip(AXES, (north, east))}
+
+
+def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
+                    fit=None):
+    """
+    Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
+
+    ``axes`` is a pair of :class:`AxisParams` (north, east) or an ``axes``
+    mapping; ``effects`` an :class:`Effects` or its mapping. Keys come in
+    schema order, as :func:`write_profile` writes them.
+    """
+    if not isinstance(axes, dict):
+        axes = axes_mapping(*axes)
+    prof = {'schema': SCHEMA_VERSION, 'name': name, 'description': description,
+            'source': source, 'rate_hz': float(rate_hz), 'axes': axes}
+    if isinstance(effects, Effects):
+        effects = effects.to_dict()
+    if effects:
+        prof['effects'] = effects
+    if fit is not None:
+        prof['fit'] = fit
+    return prof
+
+
+def write_profile(path, profile, tool='calibrate'):
+    """Write a profile mapping as YAML (keys in schema order)."""
+    with open(path, 'w', encoding='utf-8') as f:
+        f.write(f'# Written by gps_error {tool}.\n')
+        yaml.safe_dump(profile, f, sort_keys=False, default_flow_style=None,
+                       width=100)

@@ -1,0 +1,92 @@
+"""
+Errors for a changing crowd of named agents, stepped along a time line.
+
+Network simulators (SUMO, ns-3, OMNeT++) do not run ROS; their trajectories
+come as files where agents appear and disappear. :class:`CrowdErrors` gives
+each named agent the same errors the error node would publish for it with the
+same seed, profile and first clock step: every agent's model starts at the
+run's first model step, from its own stream, and advances once per model
+step whether or not the agent is present. An agent first seen later is
+caught up from the run's start (vectorised), so what it gets does not depend
+on when it appeared or who else is present.
+"""
+
+import numpy as np
+
+from gps_error_ros.model import streams
+
+
+class CrowdErrors:
+    """
+    Per-agent AR errors on the model grid, for agents that come and go.
+
+    Parameters
+    ----------
+    model : ARErrorModel or ExtendedModel
+        The profile's model (one for the whole crowd).
+    seed : int
+        The run's seed (as the node's ``seed`` parameter).
+    start_step : int
+        The run's first model step (the node: its first clock step).
+    forget_after : int
+        Agents unseen for this many steps are dropped from the state; if they
+        come back they are caught up again from the start (same values).
+
+    """
+
+    def __init__(self, model, seed, start_step, forget_after=600):
+        self.model = model
+        self.seed = seed
+        self.start = int(start_step)
+        self.step = int(start_step)
+        self.forget_after = forget_after
+        self.names = []
+        self.index = {}
+        self.keys = np.zeros(0, dtype=np.uint64)
+        self.state = model.empty_state(0)
+        self.last_seen = np.zeros(0, dtype=np.int64)
+
+    def advance_to(self, step):
+        """Advance every known agent to model step ``step`` (never back)."""
+        if step < self.step:
+            raise ValueError(f'time went backwards: model step {step} after '
+                             f'{self.step}')
+        while self.step < step:
+            self.step += 1
+            if self.keys.size:
+                self.model.advance(self.state, self.keys, self.step)
+
+    def errors(self, names):
+        """Return the named agents' current north/east errors, in metres."""
+        new = [n for n in dict.fromkeys(names) if n not in self.index]
+        if new:
+            self._add(new)
+        rows = np.fromiter((self.index[n] for n in names), dtype=np.int64,
+                           count=len(names))
+        self.last_seen[rows] = self.step
+        out = self.model.errors(self.state[rows])
+        if self.forget_after and self.step % 64 == 0:
+            self._forget()
+        return out
+
+    def _add(self, names):
+        keys = np.array([streams.agent_key(self.seed, n) for n in names],
+                        dtype=np.uint64)
+        state = self.model.state_after(keys, self.start, self.step)
+        base = len(self.names)
+        for i, n in enumerate(names):
+            self.index[n] = base + i
+        self.names.extend(names)
+        self.keys = np.concatenate([self.keys, keys])
+        self.state = np.concatenate([self.state, state])
+        self.last_seen = np.concatenate(
+            [self.last_seen, np.full(len(names), self.step, dtype=np.int64)])
+
+    def _forget(self):
+        keep = self.step - self.last_seen <= self.forget_after
+        if keep.all():
+            return
+        self.names = [n for n, k in zip(self.names, keep) if k]
+        self.index = {n: i for i, n in enumerate(self.names)}
+        self.keys, self.state = self.keys[keep], self.state[keep]
+        self.last_seen = self.last_seen[keep]

@@ -1,0 +1,327 @@
+"""
+The fix engine: model steps from the clock, truth history, fixes out.
+
+This is everything the error node computes, without ROS. The node feeds it
+truth positions and clock readings and publishes what it returns.
+
+Timing rules
+------------
+* Output steps are the instants ``k * period`` of the clock (``period =
+  1 / rate``), counted from the clock's epoch, so processes that share a clock
+  agree on them. Each clock reading yields every output step that has come due
+  since the previous reading (one fix per step, also when the clock jumps
+  several steps at once).
+* The AR model lives on its own grid (the profile's ``rate_hz``, 1 Hz in the
+  paper). Output step ``k`` carries the error of the model step that contains
+  its instant: at an output rate above the model rate the error is held
+  between model steps; below it, model steps are advanced in between and not
+  published. Either way the published errors have exactly the 1 Hz model's
+  autocorrelation at the lags they are sampled at.
+* The truth at a step's instant is interpolated linearly between the two
+  truth samples that bracket it. A step waits (is *pending*) until a truth
+  sample at or after its instant has arrived. If none has arrived
+  ``max_pose_age`` seconds after the instant, the newest sample is held,
+  provided it is at most ``max_pose_age`` older than the instant; otherwise
+  the step produces no fix for that agent (it is counted as skipped, never
+  made up). There is no fix for instants before an agent's first sample.
+* Truth samples must arrive in stamp order; a sample stamped at or before the
+  newest one held for its agent is dropped and counted (out of order or
+  duplicate). A sample stamped more than ``FUTURE_TOLERANCE_S`` (60 s) ahead
+  of the latest clock reading is dropped and counted (stamped in the future,
+  e.g. wall time in a simulated-time run): kept, it would block the real
+  samples after it as out of order. Samples a little ahead are normal (the
+  truth often arrives before the clock tick it belongs to, and a busy node
+  reads the clock late). Two samples further apart than
+  ``max(2 s, 2 * max_pose_age)`` are not interpolated between: steps in
+  such a gap get no fix (nothing is made up across it).
+* A profile with a ``motion_lag`` reports the truth ``lag_s`` before the
+  step's instant (interpolated the same way; no fix for an agent until its
+  truth reaches back that far), still stamped at the step's instant.
+* The clock going backwards resets the engine: pending steps and truth
+  history are discarded and the model restarts from its stationary law at the
+  new instant.
+
+"""
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gps_error_ros.model.geodesy import offset
+
+NS = 1_000_000_000
+FUTURE_TOLERANCE_S = 60.0
+
+
+@dataclass
+class EngineStats:
+    """Counters an operator may want to see."""
+
+    steps: int = 0
+    fixes: int = 0
+    skipped_no_truth: int = 0
+    dropped_out_of_order: int = 0
+    dropped_future: int = 0
+    resets: int = 0
+    pending_overflow: int = 0
+
+
+@dataclass
+class FixBatch:
+    """The fixes of one output step: one row per agent in ``agents``."""
+
+    stamp_ns: int
+    agents: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    alt: np.ndarray
+    error: np.ndarray = field(repr=False)
+
+
+class _TruthRing:
+    """Per-agent circular buffers of (stamp, lat, lon, alt)."""
+
+    def __init__(self, n, size):
+        self.size = size
+        self.stamp = np.full((n, size), -1, dtype=np.int64)
+        self.coord = np.zeros((n, size, 3))
+        self.head = np.zeros(n, dtype=np.int64)      # next slot to write
+        self.newest = np.full(n, -1, dtype=np.int64)
+
+    def push(self, agents, stamps, coords):
+        """Store one sample for each of ``agents`` (distinct agent indices)."""
+        slot = self.head[agents] % self.size
+        self.stamp[agents, slot] = stamps
+        self.coord[agents, slot] = coords
+        self.head[agents] += 1
+        self.newest[agents] = stamps
+
+    def newest_coord(self, rows):
+        """Return the newest sample's coordinates for ``rows``."""
+        return self.coord[rows, (self.head[rows] - 1) % self.size]
+
+    def clear(self):
+        """Forget every sample."""
+        self.stamp[:] = -1
+        self.newest[:] = -1
+        self.head[:] = 0
+
+    def interpolate(self, rows, t_ns, max_gap_ns):
+        """
+        Return truth at ``t_ns`` for ``rows`` (each must have a sample >= t).
+
+        Returns (coords (m, 3), ok (m,)): ``ok`` is False where no sample at
+        or before ``t_ns`` is held.
+        """
+        stamps = self.stamp[rows]
+        valid = stamps >= 0
+        after = np.where(valid & (stamps >= t_ns), stamps, np.iinfo(np.int64).max)
+        before = np.where(valid & (stamps <= t_ns), stamps, -1)
+        i_hi = np.argmin(after, axis=1)
+        i_lo = np.argmax(before, axis=1)
+        ok = before[np.arange(len(rows)), i_lo] >= 0
+        s_lo = stamps[np.arange(len(rows)), i_lo].astype(float)
+        s_hi = stamps[np.arange(len(rows)), i_hi].astype(float)
+        ok &= (s_hi - s_lo) <= max_gap_ns
+        c_lo = self.coord[rows, i_lo]
+        c_hi = self.coord[rows, i_hi]
+        span = s_hi - s_lo
+        w = np.divide(t_ns - s_lo, span, out=np.zeros_like(span), where=span > 0)
+        return c_lo + w[:, None] * (c_hi - c_lo), ok
+
+
+class FixEngine:
+    """
+    Turn truth samples and clock readings into noisy fixes.
+
+    Parameters
+    ----------
+    model : ARErrorModel
+        The error process (shared by all agents).
+    keys : array of uint64
+        One stream key per agent (:func:`streams.agent_key`).
+    rate : float
+        Output rate in Hz.
+    model_rate : float
+        The model's own rate in Hz (the profile's ``rate_hz``).
+    max_pose_age : float
+        Seconds a truth sample may be held past its stamp (see module doc).
+    history : int
+        Truth samples kept per agent.
+    max_pending : int
+        Output steps that may wait for truth at once; older ones are
+        resolved (held or skipped) early when more arrive.
+
+    """
+
+    def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
+                 history=64, max_pending=1000):
+        if not rate > 0 or not model_rate > 0:
+            raise ValueError(f'rates must be > 0, got rate={rate}, '
+                             f'model_rate={model_rate}')
+        if not max_pose_age >= 0:
+            raise ValueError(f'max_pose_age must be >= 0, got {max_pose_age}')
+        self.model = model
+        self.keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        self.n = self.keys.size
+        self.period_ns = int(round(NS / rate))
+        self.model_period_ns = int(round(NS / model_rate))
+        self.max_pose_age_ns = int(round(max_pose_age * NS))
+        self.future_tolerance_ns = int(FUTURE_TOLERANCE_S * NS)
+        self.max_gap_ns = max(2 * NS, 2 * self.max_pose_age_ns)
+        self.max_pending = max_pending
+        # a motion lag reports the truth lag_s before each step: keep enough
+        # samples to reach back that far at pose rates up to ~64 Hz
+        self.lag_ns = int(round(model.lag_s * NS))
+        if self.lag_ns:
+            history = max(history, int(64 * (1 + model.lag_s)))
+        self.truth = _TruthRing(self.n, history)
+        self.stats = EngineStats()
+        self._reset_time()
+
+    def _reset_time(self):
+        self.state = None
+        self.model_index = None
+        self.last_step = None
+        self.last_now = None
+        self.pending = deque()
+
+    # --- inputs ----------------------------------------------------------
+
+    def add_truth(self, agent, stamp_ns, lat, lon, alt):
+        """Store a truth sample; return False if dropped (order, future)."""
+        if self.last_now is not None and \
+                stamp_ns > self.last_now + self.future_tolerance_ns:
+            self.stats.dropped_future += 1
+            return False
+        if stamp_ns <= self.truth.newest[agent]:
+            self.stats.dropped_out_of_order += 1
+            return False
+        self.truth.push(np.array([agent]), np.array([int(stamp_ns)]),
+                        np.array([[lat, lon, alt]]))
+        return True
+
+    def add_truth_batch(self, agents, stamps, coords):
+        """
+        Store many truth samples at once, in arrival order per agent.
+
+        ``agents`` (m,) local agent indices, ``stamps`` (m,) ns, ``coords``
+        (m, 3) lat, lon, alt. Returns a boolean mask of the samples kept (the
+        others were at or before their agent's newest stamp).
+        """
+        agents = np.asarray(agents, dtype=np.int64)
+        stamps = np.asarray(stamps, dtype=np.int64)
+        kept = np.zeros(agents.size, dtype=bool)
+        if agents.size == 0:
+            return kept
+        if self.last_now is not None:
+            future = stamps > self.last_now + self.future_tolerance_ns
+            if future.any():
+                self.stats.dropped_future += int(future.sum())
+                rest = np.flatnonzero(~future)
+                if rest.size:
+                    kept[rest] = self._add_batch(agents[rest], stamps[rest],
+                                                 np.asarray(coords)[rest],
+                                                 np.zeros(rest.size, dtype=bool))
+                return kept
+        return self._add_batch(agents, stamps, coords, kept)
+
+    def _add_batch(self, agents, stamps, coords, kept):
+        order = np.argsort(agents, kind='stable')
+        sorted_agents = agents[order]
+        first = np.r_[0, np.flatnonzero(np.diff(sorted_agents)) + 1]
+        rank = np.empty(agents.size, dtype=np.int64)
+        rank[order] = np.arange(agents.size) - np.repeat(first, np.diff(np.r_[first, agents.size]))
+        for r in range(int(rank.max()) + 1):
+            sel = np.flatnonzero(rank == r)
+            ok = stamps[sel] > self.truth.newest[agents[sel]]
+            sel = sel[ok]
+            self.truth.push(agents[sel], stamps[sel], np.asarray(coords)[sel])
+            kept[sel] = True
+        self.stats.dropped_out_of_order += int((~kept).sum())
+        return kept
+
+    def on_clock(self, now_ns):
+        """
+        Advance to clock time ``now_ns``; return the fixes now ready.
+
+        Returns a list of :class:`FixBatch`, oldest first. A clock reading of 0
+        (simulated time not yet received) is ignored.
+        """
+        if now_ns <= 0:
+            return []
+        if self.last_now is not None and now_ns < self.last_now:
+            self.stats.resets += 1
+            self.truth.clear()
+            self._reset_time()
+        self.last_now = now_ns
+        due = now_ns // self.period_ns
+        first = due if self.last_step is None else self.last_step + 1
+        for k in range(first, due + 1):
+            self._enqueue(k)
+        self.last_step = due
+        return self.resolve(now_ns)
+
+    # --- internals -------------------------------------------------------
+
+    def _enqueue(self, k):
+        t_ns = k * self.period_ns
+        m = t_ns // self.model_period_ns
+        if self.state is None:
+            self.state = self.model.initial_state(self.keys, m)
+            self.model_index = m
+        while self.model_index < m:
+            self.model_index += 1
+            self.model.advance(self.state, self.keys, self.model_index)
+        self.stats.steps += 1
+        self.pending.append(
+            (t_ns, self.model.errors(self.state), np.zeros(self.n, dtype=bool)))
+
+    def resolve(self, now_ns):
+        """Return fixes for pending steps whose truth is now known."""
+        out = []
+        while len(self.pending) > self.max_pending:
+            out.extend(self._resolve_entry(self.pending[0], force=True))
+            self.pending.popleft()
+            self.stats.pending_overflow += 1
+        while self.pending:
+            entry = self.pending[0]
+            expired = now_ns >= entry[0] + self.max_pose_age_ns
+            out.extend(self._resolve_entry(entry, force=expired))
+            if expired or entry[2].all():
+                self.pending.popleft()
+            else:
+                break
+        return out
+
+    def _resolve_entry(self, entry, force):
+        t_ns, err, done = entry
+        newest = self.truth.newest
+        ready = ~done & (newest >= t_ns)
+        fixes = []
+        if ready.any():
+            rows = np.flatnonzero(ready)
+            coords, ok = self.truth.interpolate(rows, t_ns - self.lag_ns,
+                                                self.max_gap_ns)
+            done[rows] = True
+            self.stats.skipped_no_truth += int((~ok).sum())
+            fixes.append(self._make_fix(t_ns, rows[ok], coords[ok], err[rows[ok]]))
+        if force:
+            rest = np.flatnonzero(~done)
+            if rest.size:
+                fresh = (newest[rest] >= 0) & \
+                    (t_ns - newest[rest] <= self.max_pose_age_ns)
+                held = rest[fresh]
+                done[rest] = True
+                self.stats.skipped_no_truth += int((~fresh).sum())
+                if held.size:
+                    fixes.append(self._make_fix(
+                        t_ns, held, self.truth.newest_coord(held), err[held]))
+        return [f for f in fixes if f.agents.size]
+
+    def _make_fix(self, t_ns, agents, coords, err):
+        lat, lon = offset(coords[:, 0], coords[:, 1], err[:, 0], err[:, 1])
+        self.stats.fixes += agents.size
+        return FixBatch(stamp_ns=t_ns, agents=agents, lat=np.asarray(lat),
+                        lon=np.asarray(lon), alt=coords[:, 2].copy(), error=err)

@@ -1,0 +1,145 @@
+"""
+``gps_error simulate``: smartphone GPS errors for simulators without ROS.
+
+Three modes, all with the error node's per-agent streams (same seed, agent
+names and first step give the same errors):
+
+* SUMO FCD in, FCD out with noisy positions (streamed);
+* a CSV of true positions (``t, truth_lat, truth_lon[, agent]``) in, a trace
+  CSV out (``t, agent, lat, lon, truth_lat, truth_lon``), which
+  ``gps_error calibrate`` reads back;
+* no input: ``--agents N --duration S`` writes the raw error series to an
+  ``.npz`` (streamed to disk, agents x steps x (north, east) metres).
+
+A profile's ``effects`` apply in every mode, except ``motion_lag`` in the
+``.npz`` mode, which has no trajectory to lag (the two trajectory modes
+report each agent's position ``lag_s`` earlier, interpolated).
+"""
+
+import math
+import os
+from pathlib import Path
+import zipfile
+
+import numpy as np
+
+from gps_error_ros.model import streams
+from gps_error_ros.sim.crowd import CrowdErrors
+from gps_error_ros.model.effects import LagBuffer
+from gps_error_ros.traces.progress import Progress
+from gps_error_ros.traces.trace_io import Trace, write_trace_csv
+from gps_error_ros.traces.trajectories import (
+    add_errors_lonlat, FcdWriter, iter_fcd, NetProjection, read_truth_csv, TrajectoryError)
+
+
+def model_step(t, rate_hz):
+    """Return the model step containing time ``t`` (s)."""
+    return int(math.floor(t * rate_hz + 1e-9))
+
+
+def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
+    """Add errors to every agent of a SUMO FCD file; return counts."""
+    proj = NetProjection(net) if net else None
+    size = os.path.getsize(src)
+    progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
+    writer = FcdWriter(dst)
+    crowd, rows, steps, seen = None, 0, 0, set()
+    lag = LagBuffer(model.lag_s)
+    try:
+        for t, elem, agents in iter_fcd(src, progress):
+            m = model_step(t, rate_hz)
+            if crowd is None:
+                crowd = CrowdErrors(model, seed, m)
+            crowd.advance_to(m)
+            steps += 1
+            if not agents:
+                writer.timestep(elem, [])
+                continue
+            names = [a[0] for a in agents]
+            seen.update(names)
+            x, y = lag.lagged(names, t, [a[1] for a in agents],
+                              [a[2] for a in agents])
+            err = crowd.errors(names)
+            if proj is None:
+                if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
+                    raise TrajectoryError(
+                        f'{src}: time {t}: x/y are not lon/lat; pass --net '
+                        f'NET.xml for an FCD file written without --fcd-output.geo')
+                nx, ny = add_errors_lonlat(x, y, err)
+                fmt = '{:.8f}'
+            elif proj.geo:
+                lon, lat = proj.to_lonlat(x, y)
+                nx, ny = proj.to_xy(*add_errors_lonlat(lon, lat, err))
+                fmt = '{:.3f}'
+            else:
+                nx, ny, fmt = x + err[:, 1], y + err[:, 0], '{:.3f}'
+            writer.timestep(elem, [(a[3], {'x': fmt.format(px), 'y': fmt.format(py)})
+                                   for a, px, py in zip(agents, nx, ny)])
+            rows += len(agents)
+    finally:
+        writer.close()
+        progress.close()
+    return {'timesteps': steps, 'positions': rows, 'agents': len(seen)}
+
+
+def simulate_csv(src, dst, model, rate_hz, seed):
+    """Add errors to a CSV of true positions; write a trace CSV."""
+    data = read_truth_csv(src)
+    t = data['t']
+    if np.any(np.diff(t) < 0):
+        raise TrajectoryError(f'{src}: t must be non-decreasing')
+    crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz))
+    lag = LagBuffer(model.lag_s)
+    lat_out = np.empty_like(t)
+    lon_out = np.empty_like(t)
+    bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
+    for b0, b1 in zip(bounds[:-1], bounds[1:]):
+        crowd.advance_to(model_step(t[b0], rate_hz))
+        names = data['agent'][b0:b1]
+        if len(set(names)) != len(names):
+            raise TrajectoryError(f'{src}: agent listed twice at t={t[b0]}')
+        err = crowd.errors(names)
+        lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
+                              data['truth_lat'][b0:b1])
+        lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
+    write_trace_csv(Trace(Path(dst).name, t, lat_out, lon_out, data['truth_lat'],
+                          data['truth_lon']), dst, agent=data['agent'])
+    return {'positions': int(t.size), 'agents': len(set(data['agent']))}
+
+
+def agent_names(n, prefix='agent'):
+    """Return the agent names used by ``--agents N``."""
+    return [f'{prefix}{i}' for i in range(n)]
+
+
+def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
+                 prefix='agent', chunk=1024):
+    """
+    Write raw error series to ``dst`` (.npz), streaming agent chunks to disk.
+
+    Arrays: ``errors`` (agents, steps, 2) float64 north/east metres;
+    ``t`` (steps,) seconds; ``names`` (agents,) strings; ``seed``, ``rate_hz``.
+    """
+    steps = int(round(duration_s * rate_hz))
+    start = model_step(start_s, rate_hz)
+    names = agent_names(n_agents, prefix)
+    shape = (n_agents, steps, 2)
+    progress = Progress(n_agents, f'simulating {n_agents} agents', min_total=1)
+    with zipfile.ZipFile(dst, 'w', compression=zipfile.ZIP_STORED,
+                         allowZip64=True) as zf:
+        with zf.open('errors.npy', 'w', force_zip64=True) as f:
+            np.lib.format.write_array_header_2_0(
+                f, {'descr': '<f8', 'fortran_order': False, 'shape': shape})
+            for a0 in range(0, n_agents, chunk):
+                keys = np.array([streams.agent_key(seed, n)
+                                 for n in names[a0:a0 + chunk]], dtype=np.uint64)
+                block = model.simulate(keys, steps, start=start)
+                f.write(np.ascontiguousarray(block.transpose(1, 0, 2)).tobytes())
+                progress.update(keys.size)
+        for name, arr in (('t', (start + np.arange(steps)) / rate_hz),
+                          ('names', np.array(names)), ('seed', np.array(seed)),
+                          ('rate_hz', np.array(rate_hz))):
+            with zf.open(f'{name}.npy', 'w') as f:
+                np.lib.format.write_array(f, np.asarray(arr), allow_pickle=False)
+    progress.close()
+    return {'agents': n_agents, 'steps': steps}

@@ -1,0 +1,70 @@
+"""
+Load a measured trace from any supported input: a trace CSV or a rosbag2.
+
+A rosbag2 is a directory with ``metadata.yaml`` (MCAP or SQLite3 storage);
+its ``.mcap``/``.db3`` file may be named instead. Fixes and truth are paired
+at the fixes' stamps (:mod:`gps_error_ros.pairing`).
+"""
+
+from pathlib import Path
+
+from gps_error_ros.traces import bag_io
+from gps_error_ros.traces.pairing import pair
+from gps_error_ros.traces.progress import Progress
+from gps_error_ros.traces.trace_io import read_trace_csv
+
+
+def is_bag(path):
+    """Return the bag directory if ``path`` names a rosbag2, else None."""
+    path = Path(path)
+    if path.is_dir():
+        return path
+    if path.suffix.lower() in ('.mcap', '.db3') and \
+            (path.parent / 'metadata.yaml').exists():
+        return path.parent
+    if path.suffix.lower() in ('.mcap', '.db3'):
+        raise bag_io.BagError(f'{path}: a rosbag2 storage file without its '
+                              f'metadata.yaml beside it: pass the bag directory')
+    return None
+
+
+def parse_datum(text):
+    """Return (lat, lon, alt) from 'LAT,LON[,ALT]'."""
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in str(text).split(',')]
+    except ValueError:
+        values = []
+    if len(values) not in (2, 3):
+        raise ValueError(f'--datum {text!r}: expected LAT,LON or LAT,LON,ALT '
+                         f'in degrees and metres')
+    return tuple(values + [0.0] * (3 - len(values)))
+
+
+def load_trace(path, fix_topic='/fix', truth_topic='/pose', datum=None,
+               max_truth_gap=None):
+    """
+    Return (Trace, notes): the paired trace and lines describing the loading.
+
+    Raises the documented errors of the readers (TraceError, BagError,
+    PairingError) with messages naming what was wrong.
+    """
+    bag = is_bag(path)
+    if bag is None:
+        trace = read_trace_csv(path)
+        return trace, [f'{trace.name}: {len(trace)} rows']
+    total = bag_io.message_count(bag, (fix_topic, truth_topic)) \
+        if fix_topic and truth_topic else 0
+    progress = Progress(total, f'reading {bag.name}')
+    try:
+        fixes, truth, skipped = bag_io.read_fix_and_truth(
+            bag, fix_topic, truth_topic, datum, progress)
+    finally:
+        progress.close()
+    trace, stats = pair(fixes['t'], fixes['lat'], fixes['lon'], truth['t'],
+                        truth['lat'], truth['lon'], max_truth_gap, bag.name)
+    notes = [f'{bag.name}: {stats.describe()}']
+    if skipped:
+        notes.append(f'{skipped} fixes skipped (STATUS_NO_FIX or non-finite)')
+    return trace, notes

@@ -1,0 +1,148 @@
+"""
+Read measured traces: the canonical trace CSV of ``shared/data/README.md``.
+
+One header line, comma-separated, one row per fix sorted by ``t`` (seconds):
+``t, lat, lon, truth_lat, truth_lon`` are required; ``alt``, ``truth_alt``,
+``speed``, ``accuracy``, ``nsat`` and ``mean_cn0`` are optional (cells may be
+empty). A UTF-8 byte-order mark and Windows line endings are accepted.
+"""
+
+import csv
+from dataclasses import dataclass, field
+import math
+from pathlib import Path
+
+import numpy as np
+
+REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
+OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0')
+
+
+class TraceError(ValueError):
+    """A trace file that does not match the trace CSV format."""
+
+
+@dataclass(frozen=True)
+class Trace:
+    """A measured trace: fixes and the ground truth at the same instants."""
+
+    name: str
+    t: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    truth_lat: np.ndarray
+    truth_lon: np.ndarray
+    extra: dict = field(default_factory=dict)
+
+    def __len__(self):
+        """Return the number of fixes."""
+        return self.t.size
+
+
+def _header_and_rows(path):
+    """Return (header, data rows) of a trace CSV; refuse what cannot be one."""
+    try:
+        text = path.read_text(encoding='utf-8-sig')
+    except FileNotFoundError:
+        raise TraceError(f'{path}: file not found') from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise TraceError(f'{path}: cannot read: {exc}') from None
+    rows = list(csv.reader(text.splitlines()))
+    if not rows or not any(c.strip() for c in rows[0]):
+        raise TraceError(f'{path}: empty file: expected a header line with '
+                         f'columns {list(REQUIRED)}')
+    header = [c.strip() for c in rows[0]]
+    missing = [c for c in REQUIRED if c not in header]
+    if missing:
+        raise TraceError(f'{path}: missing column(s) {missing}: expected at '
+                         f'least {list(REQUIRED)}, found {header}')
+    body = [r for r in rows[1:] if any(c.strip() for c in r)]
+    if len(body) < 2:
+        raise TraceError(f'{path}: {len(body)} data row(s): a trace needs at '
+                         f'least 2')
+    return header, body
+
+
+def _column(path, body, i, name):
+    """Return column ``i`` as floats (empty optional cells NaN), checked."""
+    values = np.empty(len(body))
+    for r, row in enumerate(body, start=2):
+        cell = row[i].strip() if i < len(row) else ''
+        if cell == '' and name in OPTIONAL:
+            values[r - 2] = np.nan
+            continue
+        try:
+            v = float(cell)
+        except ValueError:
+            raise TraceError(f'{path}: line {r}, column {name!r}: expected '
+                             f'a number, got {cell!r}') from None
+        if not math.isfinite(v) and name in REQUIRED:
+            raise TraceError(f'{path}: line {r}, column {name!r}: expected '
+                             f'a finite number, got {cell!r}')
+        values[r - 2] = v
+    return values
+
+
+def read_trace_csv(path):
+    """
+    Read and validate a trace CSV.
+
+    Raises
+    ------
+    TraceError
+        Naming the file, the row or column, and what was expected.
+
+    """
+    path = Path(path)
+    header, body = _header_and_rows(path)
+    cols = {c: i for i, c in enumerate(header)}
+    data = {name: _column(path, body, cols[name], name)
+            for name in REQUIRED + OPTIONAL if name in cols}
+    t = data['t']
+    step = np.diff(t)
+    if np.any(step <= 0):
+        r = int(np.flatnonzero(step <= 0)[0]) + 3
+        kind = 'duplicate' if step[r - 3] == 0 else 'decreasing'
+        raise TraceError(f'{path}: line {r}: {kind} time t={t[r - 2]!r} after '
+                         f'{t[r - 3]!r}: expected strictly increasing t')
+    for lat_col, lon_col in (('lat', 'lon'), ('truth_lat', 'truth_lon')):
+        bad = np.flatnonzero((np.abs(data[lat_col]) > 90)
+                             | (np.abs(data[lon_col]) > 180))
+        if bad.size:
+            raise TraceError(f'{path}: line {bad[0] + 2}: {lat_col}/{lon_col} '
+                             f'out of range: expected |lat| <= 90, |lon| <= 180')
+    return Trace(name=path.name, t=t, lat=data['lat'], lon=data['lon'],
+                 truth_lat=data['truth_lat'], truth_lon=data['truth_lon'],
+                 extra={k: data[k] for k in OPTIONAL if k in data})
+
+
+def write_trace_csv(trace, path, agent=None):
+    """
+    Write ``trace`` as a trace CSV: the one writer of the format read above.
+
+    Columns: ``t``, then ``agent`` when given (one name per row), then
+    ``lat, lon, truth_lat, truth_lon`` and the trace's optional columns.
+    Numbers are written with ``repr`` (round trip exact); a non-finite
+    optional value as an empty cell. Returns ``path``.
+    """
+    path = Path(path)
+    cols = ['t'] + (['agent'] if agent is not None else []) + \
+        ['lat', 'lon', 'truth_lat', 'truth_lon'] + list(trace.extra)
+    data = [trace.t, trace.lat, trace.lon, trace.truth_lat, trace.truth_lon] + \
+        list(trace.extra.values())
+    names = agent if agent is not None else [None] * len(trace)
+    with open(path, 'w', encoding='utf-8', newline='') as f:
+        f.write(','.join(cols) + '\n')
+        for name, *row in zip(names, *data):
+            cells = ['' if not math.isfinite(v) else repr(float(v)) for v in row]
+            if name is not None:
+                cells.insert(1, _csv_cell(name))
+            f.write(','.join(cells) + '\n')
+    return path
+
+
+def _csv_cell(text):
+    text = str(text)
+    if any(c in text for c in ',"\n\r'):
+        return '"' + text.replace('"', '""') + '"'
+    return text

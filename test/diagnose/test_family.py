@@ -1,0 +1,69 @@
+"""The test family: oracles from statsmodels, levels, Holm, tails against regimes."""
+
+import numpy as np
+import pytest
+from scipy import stats
+from statsmodels.stats.diagnostic import acorr_ljungbox
+
+from gps_error_ros.diagnose.family import (holm, innovation_tests, ljung_box,
+                                           robust_correlation_test,
+                                           robust_portmanteau)
+
+
+def test_ljung_box_on_one_segment_matches_statsmodels():
+    x = np.random.default_rng(9).normal(size=500)
+    x[1:] += 0.3 * x[:-1]
+    q, p, _ = ljung_box(x, np.zeros(500, dtype=int), 10, 10)
+    ref = acorr_ljungbox(x, lags=[10])
+    assert q == pytest.approx(float(ref['lb_stat'].iloc[0]), rel=1e-10)
+    assert p == pytest.approx(float(ref['lb_pvalue'].iloc[0]), rel=1e-8)
+
+
+def test_ljung_box_does_not_bridge_segments():
+    rng = np.random.default_rng(10)
+    x = rng.normal(size=600)
+    seg = np.r_[np.zeros(300, int), np.ones(300, int)]
+    d = x - x.mean()
+    acf1 = (d[:299] @ d[1:300] + d[300:599] @ d[301:600]) / (d @ d)
+    q, _, acf = ljung_box(x, seg, 1, 1)
+    assert acf[0] == pytest.approx(acf1, rel=1e-12)
+    assert q == pytest.approx(600 * 602 * acf1 ** 2 / 599, rel=1e-12)
+    assert ljung_box(x, np.zeros(600, int), 1, 1)[2][0] != pytest.approx(acf1)
+
+
+def test_holm_matches_the_step_down_rule():
+    p = {'a': 0.01, 'b': 0.04, 'c': 0.03, 'd': 0.2}
+    reject, adj = holm(p, 0.05)
+    assert reject == {'a': True, 'c': False, 'b': False, 'd': False}
+    assert adj['a'] == pytest.approx(0.04)
+    assert adj['c'] == pytest.approx(0.09)
+    assert adj['b'] == pytest.approx(0.09)          # monotone
+    reject, _ = holm({'a': 0.001, 'b': 0.02}, 0.05)
+    assert reject == {'a': True, 'b': True}
+
+
+def test_robust_tests_keep_their_level_under_changing_variance():
+    rng = np.random.default_rng(2)
+    rej_lb = rej_cc = 0
+    for i in range(200):
+        scale = np.exp(np.sin(np.arange(2000) / 150.0 + i))   # slow variance drift
+        x = rng.normal(size=(2000, 2)) * scale[:, None]
+        seg = np.zeros(2000, dtype=int)
+        rej_lb += robust_portmanteau(x[:, 0], seg, 30, 30)[1] < 0.05
+        rej_cc += robust_correlation_test(x[:, 0], x[:, 1])[1] < 0.05
+    # binomial(200, 0.05): P(X > 20) < 0.01
+    assert rej_lb <= 20 and rej_cc <= 20, (rej_lb, rej_cc)
+
+
+def test_kurtosis_and_persistence_tell_tails_from_regimes():
+    """Student-t iid: kurtosis yes, persistence no; regimes: both."""
+    rng = np.random.default_rng(5)
+    seg = np.zeros(3000, dtype=int)
+    t_iid = stats.t.rvs(4, size=(3000, 2), random_state=rng)
+    tests = innovation_tests(t_iid, seg, (1, 1))
+    assert tests['kurtosis']['p_value'] < 1e-4
+    assert tests['squared_persistence']['p_value'] > 0.001
+    scale = np.repeat(rng.choice([1.0, 3.0], size=30), 100)
+    reg = rng.normal(size=(3000, 2)) * scale[:, None]
+    tests = innovation_tests(reg, seg, (1, 1))
+    assert tests['squared_persistence']['p_value'] < 1e-6

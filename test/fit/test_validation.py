@@ -1,0 +1,59 @@
+"""Cross-validation: the true model sits in its envelopes, a wrong one does not."""
+
+import json
+import subprocess
+import sys
+
+
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.fit.validation import slice_trace, validate
+from trace_helpers import synthetic_trace, write_csv
+
+TRUE = ARErrorModel(AxisParams(0.3, (1.1, -0.25, 0.05), 0.6), AxisParams(-0.1, (0.8,), 0.9))
+WRONG = ARErrorModel(AxisParams(0.0, (0.2,), 3.0), AxisParams(0.0, (0.2,), 3.0))
+
+
+def test_true_model_fits_its_envelopes_better_than_a_wrong_one():
+    trace, _ = synthetic_trace(1500, seed=31)
+    good = validate(TRUE, trace, sims=200).summary()
+    bad = validate(WRONG, trace, sims=200).summary()
+    for ax in ('north', 'east'):
+        # Past ~20 lags both autocorrelations are near 0 and inside either
+        # envelope; the short lags tell the models apart.
+        assert good[ax]['acf_lags_inside_envelope'] > \
+            bad[ax]['acf_lags_inside_envelope'] + 0.3
+        assert good[ax]['acf_offset_rms_lags_1_10'] < \
+            0.5 * bad[ax]['acf_offset_rms_lags_1_10']
+        assert good[ax]['quantiles_inside_envelope'] > \
+            bad[ax]['quantiles_inside_envelope']
+
+
+def test_gaps_are_kept_in_the_simulated_grid():
+    trace, _ = synthetic_trace(400, drop=range(100, 150))
+    res = validate(TRUE, trace, sims=20)
+    assert res.segments == 2 and res.samples == 350
+    assert res.grid_steps[100] == 150
+
+
+def test_slice_trace():
+    trace, _ = synthetic_trace(101)
+    a, b = slice_trace(trace, 0, 0.7), slice_trace(trace, 0.7, 1)
+    assert len(a) + len(b) == 101 and a.t[0] == 0 and b.t[0] == 0
+
+
+def test_cli_writes_png_and_json(tmp_path):
+    trace, _ = synthetic_trace(700, seed=2)
+    csv = tmp_path / 'w.csv'
+    write_csv(csv, trace)
+    r = subprocess.run([sys.executable, '-m', 'gps_error_ros.cli', 'validate', 'DS1',
+                        str(csv), '--out', str(tmp_path / 'v'), '--sims', '50',
+                        '--part', '0.5,1'], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    data = json.loads((tmp_path / 'v' / 'validation.json').read_text())
+    assert data['part'] == [0.5, 1.0] and data['samples'] == 350
+    assert len(data['north']['acf_measured']) == data['max_lag'] + 1
+    assert (tmp_path / 'v' / 'validation.png').read_bytes()[:4] == b'\x89PNG'
+    r = subprocess.run([sys.executable, '-m', 'gps_error_ros.cli', 'validate', 'DS3',
+                        str(csv), '--out', str(tmp_path / 'v')],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and 'no published fit' in r.stderr

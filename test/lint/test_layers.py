@@ -1,0 +1,113 @@
+"""
+The house rules, checked on the source: imports run one way, sizes stay small.
+
+Wings, bottom to top (``docs/architecture.md``): ``model`` imports nothing
+of the package; ``traces`` the model; ``fit`` and ``sim`` the model and
+traces; ``diagnose`` also fit; ``reports`` anything below; ``ros`` and
+``cli`` sit on top (cli never imports ros). Only ``ros`` imports rclpy or
+message packages, only ``traces.bag_io`` imports rosbags (and not at module
+level), and only ``reports`` imports matplotlib.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PKG = Path(__file__).resolve().parents[2] / 'gps_error_ros'
+BELOW = {
+    'model': set(),
+    'traces': {'model'},
+    'fit': {'model', 'traces'},
+    'sim': {'model', 'traces'},
+    'diagnose': {'model', 'traces', 'fit'},
+    'reports': {'model', 'traces', 'fit', 'sim', 'diagnose'},
+    'ros': {'model', 'traces', 'fit', 'sim', 'reports'},
+    'cli': {'model', 'traces', 'fit', 'sim', 'diagnose', 'reports'},
+}
+ROS_PACKAGES = ('rclpy', 'rcl_interfaces', 'builtin_interfaces', 'rosgraph_msgs',
+                'sensor_msgs', 'geometry_msgs', 'nav_msgs', 'std_srvs', 'std_msgs',
+                'rosidl_runtime_py', 'diagnostic_msgs')
+MAX_MODULE_LINES = 500
+MAX_FUNCTION_LINES = 60
+#: a function longer than the guide says why in its docstring, with this mark
+LONG_MARK = 'Long because'
+
+
+def modules():
+    """Yield (wing, module path, parsed tree) of every package module."""
+    for path in sorted(PKG.rglob('*.py')):
+        rel = path.relative_to(PKG)
+        wing = rel.parts[0] if len(rel.parts) > 1 else rel.stem
+        yield wing, path, ast.parse(path.read_text(), str(path))
+
+
+def imports(tree):
+    """Yield (module name, lineno, at module level) of every import."""
+    top = set(id(n) for n in tree.body)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield alias.name, node.lineno, id(node) in top
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                raise AssertionError(f'line {node.lineno}: relative import; the '
+                                     f'package uses absolute imports')
+            if node.module == 'gps_error_ros':
+                for alias in node.names:
+                    yield f'gps_error_ros.{alias.name}', node.lineno, id(node) in top
+            else:
+                yield node.module, node.lineno, id(node) in top
+
+
+def test_every_module_belongs_to_a_wing():
+    wings = {w for w, _, _ in modules()}
+    assert wings <= set(BELOW) | {'__init__'}, wings - set(BELOW)
+
+
+@pytest.mark.parametrize('wing', sorted(BELOW))
+def test_imports_run_one_way(wing):
+    bad = []
+    for w, path, tree in modules():
+        if w != wing:
+            continue
+        for name, line, top in imports(tree):
+            parts = name.split('.')
+            if parts[0] == 'gps_error_ros' and len(parts) > 1:
+                other = parts[1]
+                if other != wing and other not in BELOW[wing]:
+                    bad.append(f'{path.relative_to(PKG)}:{line} imports {name}')
+            if parts[0] in ROS_PACKAGES and wing != 'ros':
+                bad.append(f'{path.relative_to(PKG)}:{line} imports ROS ({name})')
+            if parts[0] == 'rosbags' and (path.name != 'bag_io.py' or top):
+                bad.append(f'{path.relative_to(PKG)}:{line} imports rosbags '
+                           f'(only bag_io may, inside a function)')
+            if parts[0] == 'matplotlib' and wing != 'reports':
+                bad.append(f'{path.relative_to(PKG)}:{line} imports matplotlib')
+    assert not bad, '\n'.join(bad)
+
+
+def test_the_checks_catch_a_wrong_import(tmp_path):
+    tree = ast.parse('from gps_error_ros.ros import cdr\nimport rclpy\n')
+    names = [n for n, _, _ in imports(tree)]
+    assert names == ['gps_error_ros.ros', 'rclpy']
+    assert 'ros' not in BELOW['model'] and 'ros' not in BELOW['cli']
+    with pytest.raises(AssertionError, match='relative import'):
+        list(imports(ast.parse('from .streams import agent_key\n')))
+
+
+def test_modules_and_functions_fit_the_size_guide():
+    bad = []
+    for _, path, tree in modules():
+        lines = path.read_text().count('\n')
+        if lines > MAX_MODULE_LINES:
+            bad.append(f'{path.relative_to(PKG)}: {lines} lines')
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                doc = ast.get_docstring(node) or ''
+                if n > MAX_FUNCTION_LINES and LONG_MARK not in doc:
+                    bad.append(f'{path.relative_to(PKG)}:{node.lineno} '
+                               f'{node.name}: {n} lines and no "{LONG_MARK}" '
+                               f'in its docstring')
+    assert not bad, '\n'.join(bad)

@@ -1,0 +1,216 @@
+"""One error node serving a crowd; sharding over processes gives the same fixes."""
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseStamped
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import NavSatFix
+
+from gps_error_ros.model.profiles import load_profile
+from ros_harness import DATUM_ARG, NodeProcess, NS, Peer, pose_msg, stamp_ns, unique_ns
+
+pytestmark = pytest.mark.integration
+AGENTS = [f'ped{i}' for i in range(6)]
+PROFILES = ['DS1', 'DS5'] * 3
+T0 = 2000
+# The driver sends /clock k+1 as soon as the fixes of k-1 are in, so a pose
+# may still be in flight one step after its instant: max_pose_age must cover
+# that (README, "Truth"), or a step is held on the previous pose.
+MAX_AGE = 3.0
+
+
+def crowd_node(ns, agents, profiles):
+    return NodeProcess([
+        '--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+        '-p', DATUM_ARG, '-p', 'seed:=99', '-p', f'max_pose_age:={MAX_AGE}',
+        '-p', 'agents:=[' + ','.join(f'"{a}"' for a in agents) + ']',
+        '-p', 'agent_profiles:=[' + ','.join(f'"{p}"' for p in profiles) + ']'])
+
+
+def test_crowd_sharded_over_two_processes_gives_identical_fixes():
+    whole, half_a, half_b = unique_ns(), unique_ns(), unique_ns()
+    nodes = [crowd_node(whole, AGENTS, PROFILES),
+             crowd_node(half_a, AGENTS[:3], PROFILES[:3]),
+             crowd_node(half_b, AGENTS[3:], PROFILES[3:])]
+    peer = Peer()
+    try:
+        pubs, boxes = {}, {}
+        for ns, agents in ((whole, AGENTS), (half_a, AGENTS[:3]), (half_b, AGENTS[3:])):
+            for a in agents:
+                pubs[ns, a] = peer.publisher(PoseStamped, f'{ns}/{a}/pose')
+                boxes[ns, a] = peer.collect(NavSatFix, f'{ns}/{a}/fix')
+        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0
+                                           for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
+                                       for ns, a in boxes), 30)
+        # the node drains its truth subscriptions itself, outside the executor;
+        # they are still its own in the ROS graph
+        graph = {}
+
+        def listed():       # node names reach the graph a little after endpoints
+            try:
+                graph.update(peer.node.get_subscriber_names_and_types_by_node(
+                    'gps_error_node', whole))
+            except RuntimeError:    # rclpy: the node is not (yet) known by name
+                return False
+            return all(graph.get(f'{whole}/{a}/pose') == ['geometry_msgs/msg/PoseStamped']
+                       for a in AGENTS)
+        assert peer.spin_until(listed, 10), graph
+        peer.spin_for(0.5)
+        n_steps = 40
+        pause = range(T0 + 10, T0 + 20)          # ped1 of the whole crowd goes quiet
+        for k in range(T0, T0 + n_steps + 2):
+            for (ns, a), pub in pubs.items():
+                if ns == whole and a == 'ped1' and k in pause:
+                    continue
+                pub.publish(pose_msg(k * NS, 3.0 * (k - T0), 1.0))
+            peer.set_clock(k * NS)
+            want = (k - 1) * NS
+            peer.spin_until(lambda: all(box and stamp_ns(box[-1].header.stamp) >= want
+                                        for (ns, a), box in boxes.items()
+                                        if not (ns == whole and a == 'ped1')), 5)
+        peer.spin_for(0.5)
+        for node in nodes:
+            rc, out = node.stop()
+            assert rc == 0, out
+    finally:
+        for node in nodes:
+            node.stop()
+        peer.destroy()
+
+    def series(ns, a):
+        return {stamp_ns(m.header.stamp): (m.latitude, m.longitude, tuple(m.position_covariance))
+                for m in boxes[ns, a]}
+
+    for i, a in enumerate(AGENTS):
+        shard = half_a if i < 3 else half_b
+        got, ref = series(whole, a), series(shard, a)
+        assert len(ref) >= n_steps
+        common = sorted(set(got) & set(ref))
+        if a == 'ped1':
+            # inside the pause the whole crowd's node holds the last pose
+            # (a different truth); the error stream must agree outside it
+            common = [t for t in common if not (T0 + 10) * NS <= t < (T0 + 20) * NS]
+        assert common and all(got[t] == ref[t] for t in common), a   # byte-identical
+        if a == 'ped1':
+            missing = sorted(set(ref) - set(got))
+            # quiet for 10 s: held up to max_pose_age (3 s), then no fixes
+            # (the 11 s gap is too long to interpolate across)
+            assert len(missing) >= 6 and all((T0 + 11) * NS <= t < (T0 + 21) * NS
+                                             for t in missing)
+            assert max(got) > (T0 + 25) * NS          # resumed, on the same stream
+        else:
+            assert got.keys() == ref.keys()
+        sd = load_profile(PROFILES[i]).model().stationary_sd
+        assert got[common[0]][2][0] == pytest.approx(sd[1] ** 2)
+
+
+def test_best_effort_fixes_reach_every_agent_in_paced_bursts():
+    """fix_reliability best_effort: sensor-data QoS, bursts of 100, none lost."""
+    ns, n, steps = unique_ns(), 250, 4          # 250 agents: bursts of 100, 100, 50
+    agents = [f'p{i}' for i in range(n)]
+    node = NodeProcess([
+        '--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true', '-p', DATUM_ARG,
+        '-p', 'seed:=5', '-p', f'max_pose_age:={MAX_AGE}', '-p', 'fix_reliability:=best_effort',
+        '-p', 'agents:=[' + ','.join(f'"{a}"' for a in agents) + ']'])
+    peer = Peer()
+    best_effort = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+    try:
+        pubs = [peer.publisher(PoseStamped, f'{ns}/{a}/pose') for a in agents]
+        boxes = [peer.collect(NavSatFix, f'{ns}/{a}/fix', best_effort) for a in agents]
+        reliable_box = []           # (collect() would share the topic's list)
+        peer.node.create_subscription(NavSatFix, f'{ns}/{agents[0]}/fix',
+                                      reliable_box.append, QoSProfile(depth=100))
+        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs)
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
+                                       for a in agents), 60)
+        info = peer.node.get_publishers_info_by_topic(f'{ns}/{agents[0]}/fix')
+        assert [i.qos_profile.reliability for i in info] == [ReliabilityPolicy.BEST_EFFORT]
+        peer.spin_for(1.0)
+        for k in range(T0, T0 + steps + 2):
+            for pub in pubs:
+                pub.publish(pose_msg(k * NS, 1.0, 2.0))
+            peer.spin_for(0.05)
+            peer.set_clock(k * NS)
+            want = (k - 1) * NS
+            peer.spin_until(lambda: all(box and stamp_ns(box[-1].header.stamp) >= want
+                                        for box in boxes), 10)
+        peer.spin_for(0.5)
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+    wanted = {k * NS for k in range(T0, T0 + steps + 1)}
+    short = {a: sorted(wanted - {stamp_ns(m.header.stamp) for m in box})
+             for a, box in zip(agents, boxes)}
+    assert not any(short.values()), {a: s for a, s in short.items() if s}
+    # a reliable subscriber does not match a best-effort publisher (ROS QoS rules)
+    assert reliable_box == []
+
+
+def test_crowd_parameter_errors():
+    for params, hint in (
+            (['agents:=["a","a"]'], 'duplicate'),
+            (['agents:=["1bad"]'], 'invalid agent name'),
+            (['agents:=["a","b"]', 'agent_profiles:=["DS1"]'], 'one per agent'),
+            (['agents:=["a"]', 'agent_profiles:=["DS4"]'], 'no published fit'),
+            (['agents:=["a"]', 'fix_reliability:=lossy'], "expected one of ['reliable'")):
+        args = ['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', DATUM_ARG]
+        for p in params:
+            args += ['-p', p]
+        rc, out = NodeProcess(args).wait_exit()
+        assert rc == 2 and hint in out, out
+
+
+def test_simulate_reproduces_what_the_node_publishes(tmp_path):
+    from gps_error_ros.sim.simulate import simulate_csv
+    from gps_error_ros.model.geodesy import difference
+    from ros_harness import DATUM
+
+    ns = unique_ns()
+    agents = ['walker_a', 'walker_b']
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+                        '-p', DATUM_ARG, '-p', 'seed:=4', '-p', 'profile:=DS7',
+                        '-p', f'max_pose_age:={MAX_AGE}',
+                        '-p', 'agents:=["walker_a","walker_b"]'])
+    peer = Peer()
+    try:
+        pubs = {a: peer.publisher(PoseStamped, f'{ns}/{a}/pose') for a in agents}
+        boxes = {a: peer.collect(NavSatFix, f'{ns}/{a}/fix') for a in agents}
+        assert peer.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix')
+                                       for a in agents), 20)
+        peer.spin_for(0.5)
+        for k in range(T0, T0 + 31):
+            for a in agents:
+                pubs[a].publish(pose_msg(k * NS))
+            peer.set_clock(k * NS)
+            peer.spin_until(lambda: all(b and stamp_ns(b[-1].header.stamp) >= (k - 1) * NS
+                                        for b in boxes.values()), 5)
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+    src, dst = tmp_path / 'truth.csv', tmp_path / 'noisy.csv'
+    with open(src, 'w') as f:
+        f.write('t,agent,truth_lat,truth_lon\n')
+        for k in range(T0, T0 + 30):
+            for a in agents:
+                f.write(f'{k},{a},{DATUM[0]!r},{DATUM[1]!r}\n')
+    simulate_csv(src, dst, load_profile('DS7').model(), 1.0, 4)
+    import csv
+    rows = list(csv.DictReader(open(dst)))
+    sim = {(r['agent'], int(float(r['t']))): difference(
+        float(r['lat']), float(r['lon']), DATUM[0], DATUM[1]) for r in rows}
+    compared = 0
+    for a in agents:
+        for m in boxes[a]:
+            k = stamp_ns(m.header.stamp) // NS
+            if (a, k) in sim:
+                node_err = difference(m.latitude, m.longitude, DATUM[0], DATUM[1])
+                np.testing.assert_allclose(np.ravel(node_err), np.ravel(sim[a, k]),
+                                           rtol=0, atol=1e-6, err_msg=f'{a} {k}')
+                compared += 1
+    assert compared >= 55

@@ -1,0 +1,79 @@
+"""The error node under bad input: it drops, warns, carries on, never emits NaN."""
+
+import math
+
+import pytest
+from rclpy.serialization import serialize_message
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import NavSatFix
+
+from ros_harness import DATUM_ARG, NodeProcess, NS, Peer, pose_msg, stamp_ns, unique_ns
+
+pytestmark = pytest.mark.integration
+T0 = 5000
+
+
+@pytest.mark.parametrize('crowd', [False, True])
+def test_bad_poses_and_clock_reset(crowd):
+    ns = unique_ns()
+    params = ['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+              '-p', DATUM_ARG, '-p', 'seed:=1']
+    prefix = ''
+    if crowd:
+        params += ['-p', 'agents:=["a","b"]']
+        prefix = 'a/'
+    node = NodeProcess(params)
+    peer = Peer()
+    try:
+        pub = peer.publisher(PoseStamped, f'{ns}/{prefix}pose')
+        fixes = peer.collect(NavSatFix, f'{ns}/{prefix}fix')
+        peer.wait_connected(pub, f'{ns}/{prefix}fix', node)
+
+        def step(k, msg=None):
+            pub.publish(msg if msg is not None else pose_msg(k * NS))
+            peer.set_clock(k * NS)
+            peer.spin_for(0.05)
+
+        for k in range(T0, T0 + 5):
+            step(k)
+        bad = []
+        for value in (math.nan, math.inf, -math.inf):
+            m = pose_msg((T0 + 5) * NS)
+            m.pose.position.x = value
+            bad.append(m)
+        m = pose_msg((T0 + 5) * NS)
+        m.pose.orientation.w = 0.0
+        bad.append(m)
+        bad.append(pose_msg((T0 + 9999) * NS))        # far in the future
+        bad.append(pose_msg((T0 + 2) * NS))           # out of order
+        whole = serialize_message(pose_msg((T0 + 5) * NS))
+        bad += [whole[:10], whole[:40]]              # truncated CDR bytes
+        for m in bad:
+            pub.publish(m)
+        peer.spin_for(0.3)
+        for k in range(T0 + 5, T0 + 10):
+            step(k)
+        peer.spin_for(1.0)
+        before_reset = len(fixes)
+        for k in range(T0 - 100, T0 - 95):            # simulator reset: time goes back
+            step(k)
+        peer.spin_for(1.0)
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+    stamps = [stamp_ns(f.header.stamp) for f in fixes]
+    assert all(math.isfinite(v) for f in fixes
+               for v in (f.latitude, f.longitude, f.altitude, *f.position_covariance))
+    # the node counts steps from the first clock reading it sees, which may
+    # be the second tick if the first went out before /clock was matched
+    first = stamps[0] // NS
+    assert T0 <= first <= T0 + 2
+    assert stamps[:before_reset] == [k * NS for k in range(first, T0 + 10)]
+    after = stamps[before_reset:]
+    assert after and all((T0 - 100) * NS <= s < (T0 - 95) * NS for s in after)
+    assert '1 clock resets' in out and '1 stamped in the future' in out
+    assert 'went backwards' in out
+    if crowd:     # parsed by the node; rclpy never hands a single agent truncated ones
+        assert 'dropped 2 truth message(s) that could not be parsed' in out

@@ -1,0 +1,158 @@
+"""gps_error simulate: SUMO FCD and CSV trajectories, raw series, node agreement."""
+
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from gps_error_ros.model import streams
+from gps_error_ros.sim.simulate import simulate_fcd, simulate_npz
+from gps_error_ros.cli import main as cli
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.traces.trajectories import TrajectoryError
+
+MODEL = load_profile('DS2').model()
+LAT0, LON0 = 48.85, 2.35
+UTM31 = '+proj=utm +zone=31 +ellps=WGS84 +datum=WGS84 +units=m +no_defs'
+
+
+def presence(i, t):
+    """Return whether ped i is present: from t = 3i to t = 40 + 5i."""
+    return 3 * i <= t <= 40 + 5 * i
+
+
+def write_fcd(path, positions):
+    """positions(i, t) -> (x, y); 6 persons, t = 10..70 s, plus one vehicle."""
+    with open(path, 'w') as f:
+        f.write('<?xml version="1.0" encoding="UTF-8"?>\n<fcd-export>\n')
+        for t in range(10, 71):
+            f.write(f'  <timestep time="{t:.2f}">\n')
+            x, y = positions(99, t)
+            f.write(f'    <vehicle id="veh0" x="{x!r}" y="{y!r}" angle="90" type="car" '
+                    f'speed="10" pos="1" lane="e_0" slope="0"/>\n')
+            for i in range(6):
+                if presence(i, t - 10):
+                    x, y = positions(i, t)
+                    f.write(f'    <person id="ped{i}" x="{x!r}" y="{y!r}" angle="0" '
+                            f'speed="1.3" pos="2" edge="e" slope="0"/>\n')
+            f.write('  </timestep>\n')
+        f.write('</fcd-export>\n')
+
+
+def read_fcd(path):
+    out = {}
+    for ts in ET.parse(path).getroot():
+        t = float(ts.get('time'))
+        for c in ts:
+            out[c.get('id'), t] = (float(c.get('x')), float(c.get('y')), c.tag, c.attrib)
+    return out
+
+
+def reference(name, t, seed):
+    """Return the node's error for ``name`` at time t of a run starting at 10 s."""
+    series = MODEL.simulate(streams.agent_key(seed, name), 61, start=10)
+    return series[int(t) - 10, 0]
+
+
+@pytest.mark.parametrize('kind', ['geo', 'utm', 'planar'])
+def test_fcd_errors_are_the_agents_streams(tmp_path, kind):
+    from pyproj import Transformer
+    utm = Transformer.from_crs('EPSG:4326', UTM31, always_xy=True)
+    offset_xy = (-448000.0, -5411000.0)
+
+    def lonlat(i, t):
+        return LON0 + 1e-5 * (i + 1) * t, LAT0 + 2e-5 * i
+
+    if kind == 'geo':
+        positions, net = lonlat, None
+    elif kind == 'utm':
+        def positions(i, t):
+            x, y = utm.transform(*lonlat(i, t))
+            return x + offset_xy[0], y + offset_xy[1]
+        net = tmp_path / 'net.net.xml'
+        net.write_text(f'<net version="1.16"><location netOffset="{offset_xy[0]},'
+                       f'{offset_xy[1]}" convBoundary="0,0,1,1" origBoundary="0,0,1,1" '
+                       f'projParameter="{UTM31}"/></net>')
+    else:
+        def positions(i, t):
+            return 10.0 * i + t, 5.0 * i
+        net = tmp_path / 'flat.net.xml'
+        net.write_text('<net><location netOffset="0.00,0.00" convBoundary="0,0,9,9" '
+                       'origBoundary="0,0,9,9" projParameter="!"/></net>')
+    src, dst = tmp_path / 'fcd.xml', tmp_path / 'noisy.xml'
+    write_fcd(src, positions)
+    res = simulate_fcd(src, dst, MODEL, 1.0, 5, net)
+    assert res['timesteps'] == 61 and res['agents'] == 7
+    a, b = read_fcd(src), read_fcd(dst)
+    assert a.keys() == b.keys()
+    for (name, t), (x, y, tag, attrs) in a.items():
+        nx, ny, ntag, nattrs = b[name, t]
+        assert ntag == tag and nattrs['speed'] == attrs['speed']
+        ref = reference(name, t, 5)
+        if kind == 'planar':
+            got = (ny - y, nx - x)
+            tol = 2e-3
+        else:
+            if kind == 'utm':
+                inv = Transformer.from_crs(UTM31, 'EPSG:4326', always_xy=True)
+                x, y = inv.transform(x - offset_xy[0], y - offset_xy[1])
+                nx, ny = inv.transform(nx - offset_xy[0], ny - offset_xy[1])
+            got = difference(ny, nx, y, x)
+            tol = 5e-3
+        np.testing.assert_allclose(got, ref, atol=tol), (name, t)
+
+
+def test_fcd_bad_input(tmp_path):
+    bad = tmp_path / 'bad.xml'
+    bad.write_text('<routes><vehicle id="x"/></routes>')
+    with pytest.raises(TrajectoryError, match='expected <fcd-export>'):
+        simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1)
+    write_fcd(bad, lambda i, t: (1000.0 + t, 2000.0))
+    with pytest.raises(TrajectoryError, match='--net'):
+        simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1)
+    bad.write_text('<fcd-export><timestep time="2"></timestep>'
+                   '<timestep time="1"></timestep></fcd-export>')
+    with pytest.raises(TrajectoryError, match='increasing'):
+        simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1)
+    assert cli(['simulate', '--seed', '1', '--trajectories', str(bad),
+                '--out', str(tmp_path / 'o.xml')]) == 2
+
+
+def test_csv_round_trip_through_calibrate(tmp_path):
+    src = tmp_path / 'truth.csv'
+    with open(src, 'w') as f:
+        f.write('t,agent,truth_lat,truth_lon\n')
+        for t in range(3000):
+            f.write(f'{t},walker,{LAT0 + 1e-6 * t!r},{LON0!r}\n')
+    out = tmp_path / 'noisy.csv'
+    assert cli(['simulate', '--profile', 'DS1', '--seed', '2', '--trajectories',
+                str(src), '--out', str(out)]) == 0
+    assert cli(['calibrate', str(out), '-o', str(tmp_path / 'p.yaml'), '--order', '3']) == 0
+    from gps_error_ros.model.profiles import load_profile_file
+    fitted, ds1 = load_profile_file(tmp_path / 'p.yaml'), load_profile('DS1')
+    for ax in ('north', 'east'):
+        assert abs(fitted.axes[ax].sigma_w - ds1.axes[ax].sigma_w) < \
+            5 * ds1.axes[ax].sigma_w / np.sqrt(2 * 3000)
+
+
+def test_npz_matches_library_and_streams(tmp_path):
+    res = simulate_npz(tmp_path / 'e.npz', MODEL, 1.0, 9, 1500, 120.0, start_s=30)
+    d = np.load(tmp_path / 'e.npz')
+    assert res == {'agents': 1500, 'steps': 120}
+    assert d['errors'].shape == (1500, 120, 2) and d['t'][0] == 30.0
+    ref = MODEL.simulate(streams.agent_key(9, 'agent1234'), 120, start=30)[:, 0]
+    np.testing.assert_allclose(d['errors'][1234], ref, atol=1e-9)
+
+
+def test_fcd_summary_counts_every_agent_seen(tmp_path):
+    """An agent gone for longer than the crowd remembers is still counted."""
+    src = tmp_path / 'fcd.xml'
+    src.write_text('<fcd-export>\n'
+                   '<timestep time="0.00"><person id="a" x="-73.99" y="40.75"/>'
+                   '<person id="b" x="-73.99" y="40.75"/></timestep>\n'
+                   '<timestep time="960.00"><person id="c" x="-73.99" y="40.75"/>'
+                   '</timestep>\n</fcd-export>\n')
+    model = load_profile('DS2').model()
+    res = simulate_fcd(src, tmp_path / 'out.xml', model, 1.0, 1)
+    assert res == {'timesteps': 2, 'positions': 3, 'agents': 3}

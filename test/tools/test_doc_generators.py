@@ -1,0 +1,29 @@
+"""The document generators of tools/ regenerate from a data directory."""
+
+import json
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+
+from trace_helpers import synthetic_trace, write_csv
+
+TOOLS = Path(__file__).resolve().parents[2] / 'tools'
+
+
+def test_calibration_doc_regenerates_from_a_data_directory(tmp_path):
+    data = tmp_path / 'data'
+    data.mkdir()
+    trace, _ = synthetic_trace(800, seed=8)
+    write_csv(data / 'synthetic.csv', trace)
+    r = subprocess.run([sys.executable, str(TOOLS / 'calibration_doc.py'),
+                        '--data', str(data), '--out', str(tmp_path / 'docs')],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    doc = (tmp_path / 'docs' / 'calibration.md').read_text()
+    assert '## synthetic.csv' in doc and 'Held out' in doc
+    assert (tmp_path / 'docs' / 'calibration' / 'synthetic-pacf-holdout.png').exists()
+    rec = json.loads((tmp_path / 'docs' / 'calibration' / 'synthetic.json').read_text())
+    assert rec['holdout']['test_samples'] == 240
+    assert np.isfinite(rec['ar3']['profile']['north']['sigma_w'])

@@ -1,0 +1,29 @@
+"""Synthetic traces with known AR parameters, shared by the tests."""
+
+import numpy as np
+
+from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.geodesy import offset
+from gps_error_ros.traces.trace_io import Trace, write_trace_csv
+
+# Known parameters, not Table II's.
+NORTH = AxisParams(0.3, (1.1, -0.25, 0.05), 0.6)
+EAST = AxisParams(-0.1, (0.8,), 0.9)
+TRUTH = (37.42, -122.08)
+
+
+def synthetic_trace(n, seed=1, drop=()):
+    model = ARErrorModel(NORTH, EAST)
+    err = model.simulate(streams.agent_key(seed), n)[:, 0]
+    t = np.arange(n, dtype=float)
+    keep = np.setdiff1d(np.arange(n), np.asarray(drop, dtype=int))
+    lat, lon = offset(TRUTH[0], TRUTH[1], err[keep, 0], err[keep, 1])
+    ones = np.ones(keep.size)
+    return Trace('synthetic', t[keep], lat, lon, TRUTH[0] * ones,
+                 TRUTH[1] * ones), err[keep]
+
+
+def write_csv(path, trace):
+    """Write ``trace`` as a trace CSV (the package's one writer)."""
+    return write_trace_csv(trace, path)

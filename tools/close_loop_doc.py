@@ -1,0 +1,317 @@
+"""
+Regenerate ``docs/close-the-loop.md``: the diagnosis on every measured trace.
+
+Run ``make close-the-loop-doc`` (or ``python tools/close_loop_doc.py
+--data ../shared/data --out docs``). For each trace CSV: ``diagnose`` (JSON,
+figure and extended profile under ``docs/close-the-loop/``) and the model
+classes of :mod:`baselines` on the same held-out samples. One seed of every
+synthetic scenario is diagnosed as well, and the long blind run's summary
+(``make diagnose-long``, ``bench_output/diagnose_long.json``) is included
+when present.
+"""
+
+import argparse
+import json
+from pathlib import Path
+
+from data_sources import CREDITS
+
+from gps_error_ros.diagnose import diagnose, DiagnosisError, extended_profile
+from gps_error_ros.diagnose.baselines import CLASSES, compare
+from gps_error_ros.model.profiles import write_profile
+from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
+from gps_error_ros.sim.synthetic import SCENARIOS, synthetic_trace
+from gps_error_ros.traces.trace_io import read_trace_csv
+
+SIMS = 100
+
+#: What each measured trace can and cannot support (from its README facts).
+CAVEATS = {
+    'gsdc2020-mtv1-pixel4.csv': 'a phone in a car on suburban roads and a '
+    'highway, not a walking pedestrian: speeds up to ~30 m/s, open sky, '
+    'decimetre-level errors. Effects found here are the phone\'s, but their '
+    'sizes do not carry over to a pedestrian in a canyon.',
+    'gsdc2020-mtv1-pixel4xlmodded.csv': 'the same drive with a second (modified) '
+    'phone; the same caveat as the Pixel 4.',
+    'urbannav-hk-tst-ublox-spp.csv': 'a dense urban canyon, but a slow car and '
+    'a u-blox receiver\'s single-epoch least-squares fixes, not a phone\'s '
+    'filtered output; 484 samples give 339 for training and 145 held out, '
+    'so the held-out interval is wide.',
+    'gmt-static-phone-2016-08-22.csv': 'a static phone, 207 samples: too short '
+    'for a split (the diagnosis needs 300 training and 100 held-out '
+    'samples) and without motion, so no conclusion about pedestrians.',
+}
+
+
+#: What the figures show beyond the tests (read off them; kept with the data).
+READINGS = {
+    'gsdc2020-mtv1-pixel4.csv': 'the innovations\' autocorrelation dips at '
+    'lag 8 s and the squared innovations\' autocorrelation peaks every 4 s: '
+    'a periodic structure of the phone\'s output, none of the four effects. '
+    'The serial tests report it as unexplained; the variance regimes absorb '
+    'part of the squared structure and what they leave is listed above. The '
+    'tilted ellipse (north-east correlation about -0.6 in the innovations) '
+    'is the clearest coupling in the data.',
+    'urbannav-hk-tst-ublox-spp.csv': 'the squared innovations persist for '
+    'tens of seconds (canyon stretches with very different satellite '
+    'geometry): the regimes are the dominant effect, with three levels '
+    'spanning a factor of about 25 in innovation SD.',
+}
+
+
+def _f(v, digits=3):
+    return f'{v:.{digits}f}'
+
+
+def run(data_dir, out_dir, sims=SIMS):
+    """Diagnose every trace and every synthetic scenario; return the records."""
+    data_dir, out_dir = Path(data_dir), Path(out_dir)
+    sub = out_dir / 'close-the-loop'
+    sub.mkdir(parents=True, exist_ok=True)
+    records = []
+    for csv_path in sorted(data_dir.glob('*.csv')):
+        trace = read_trace_csv(csv_path)
+        stem = csv_path.stem
+        rec = {'trace': csv_path.name, 'rows': len(trace)}
+        try:
+            diag = diagnose(trace, sims=sims)
+        except DiagnosisError as exc:
+            rec['refused'] = str(exc)
+            records.append(rec)
+            continue
+        rec['summary'] = diag.to_dict()
+        rec['classes'] = compare(diag, sims=sims)
+        (sub / f'{stem}.json').write_text(json.dumps(
+            {'diagnosis': rec['summary'], 'classes': rec['classes']}, indent=1))
+        diagnosis_figure(diag, sub / f'{stem}.png', csv_path.name)
+        write_profile(sub / f'{stem}.extended.yaml',
+                      extended_profile(diag, f'{stem}-extended', csv_path.name),
+                      'diagnose')
+        records.append(rec)
+    synth = []
+    for sc, (expected, unexplained) in SCENARIOS.items():
+        s = diagnose(synthetic_trace(sc, 1, 3600), sims=30).to_dict()
+        synth.append({'scenario': sc, 'expected': list(expected),
+                      'expected_unexplained': unexplained,
+                      'found': [e['name'] for e in s['effects']],
+                      'unexplained': [u['structure'] for u in s['unexplained']],
+                      'before': s['error_before']['heldout_nll_per_sample'],
+                      'after': s['error_after']['heldout_nll_per_sample'],
+                      'ci95': s['improvement']['ci95']})
+    return records, synth
+
+
+def _tests_table(s):
+    lines = ['| test | statistic | p | Holm-adjusted p | rejected |',
+             '|---|---|---|---|---|']
+    for name, t in s['tests'].items():
+        lines.append(f'| {name} | {t["statistic"]:.4g} | {t["p_value"]:.3g} | '
+                     f'{t["holm_adjusted_p"]:.3g} | {"yes" if t["rejected"] else "no"} |')
+    return lines
+
+
+def _effect_lines(s):
+    out = []
+    for e in s['effects']:
+        ev = e['evidence']
+        extra = ''
+        if 'levels' in ev:
+            extra = f'; {ev["levels"]} levels chosen by BIC ({ev["chosen"]})'
+        if 'reason' in ev:
+            extra += f'; {ev["reason"]}'
+        out.append(f'- **{e["name"]}**: test `{ev["test"]}`, Holm-adjusted p = '
+                   f'{ev.get("holm_adjusted_p", float("nan")):.3g}{extra}.')
+    if not out:
+        out.append('- no effect attributed: the base model stands.')
+    for alt in s['alternatives_rejected']:
+        bic = ', '.join(f'{k} {v:.1f}' for k, v in alt.get('bic', {}).items())
+        out.append(f'- rejected: **{alt["effect"]}**: {alt["reason"]} '
+                   f'(training BIC: {bic}).')
+    for u in s['unexplained']:
+        lags = f', largest autocorrelation at lags {u["lags_largest"]}' \
+            if 'lags_largest' in u else ''
+        out.append(f'- unexplained ({u["stage"]}): {u["structure"]}{lags} '
+                   f'(Holm-adjusted p = {u["holm_adjusted_p"]:.3g}).')
+    for a in s.get('approximations', []):
+        out.append(f'- left after the extended model: {a["structure"]} '
+                   f'(Holm-adjusted p = {a["holm_adjusted_p"]:.3g}); '
+                   f'{a["note"]} ({", ".join(a["effects"])}).')
+    return out
+
+
+def _class_row(trace, label, m):
+    sim = m['horizontal_quantiles_simulated_m']
+    q = m['horizontal_quantiles_m']
+    return (f'| {trace} | {label} | {_f(m["heldout_nll_per_sample"])} | '
+            f'{_f(m["acf_distance"])} ({_f(m["acf_distance_simulated"]["median"])}) | '
+            f'{_f(m["ne_correlation"], 2)} ({_f(m["ne_correlation_simulated"]["median"], 2)}) | '
+            + ' | '.join(f'{q[k]:.2f} ({sim[k]["median"]:.2f}, {sim[k]["p2.5"]:.2f}-'
+                         f'{sim[k]["p97.5"]:.2f})' for k in ('q50', 'q95', 'q99'))
+            + ' |')
+
+
+def render(records, synth, long_run=None):
+    """Return the Markdown document."""
+    md = ['# Closing the loop: what the AR model misses in measured data', '',
+          '*Generated by `make close-the-loop-doc` '
+          '(`python tools/close_loop_doc.py`); do not edit by hand.*',
+          '',
+          'The paper models each axis of a phone\'s position error as an '
+          'independent AR(3) process with Gaussian innovations. '
+          '`gps_error diagnose` looks for what that leaves in the one-step '
+          'innovations, traces it to a physical effect, adds the effect and '
+          'measures the error before and after on data the fit did not see. '
+          'The procedure, every choice made on the training part alone '
+          '(details in `gps_error_ros/diagnose/`):', '',
+          '1. **Split** in time: the first 70 % of the time span trains, the '
+          'last 30 % is held out and used once, to report. The first '
+          'max(p, 5) samples of every segment are conditioned on and not '
+          'scored, by every model.',
+          '2. **Base model**: per axis AR(p), p by the PACF rule of '
+          'calibration on the training part, independent Gaussian '
+          'innovations.',
+          '3. **Tests** on the base innovations, one family of seven, Holm\'s '
+          'step-down procedure at a family-wise 5 %: motion dependence '
+          '(likelihood ratio of an error component b x (truth L s ago - truth '
+          'now), L = 1..5 s, chi-bar-squared, Bonferroni over L), lag-0 '
+          'north-east correlation (heteroscedasticity-robust z), Mardia\'s '
+          'bivariate kurtosis, persistence of the squares (Ljung-Box on the '
+          'ranks of the squared Mahalanobis innovations, lags 1-10: ranks '
+          'keep the level under heavy tails), the most negative of those '
+          'autocorrelations (regimes and tails only make squares correlate '
+          'positively: a negative one is periodic variance, `unexplained`) '
+          'and serial correlation per axis '
+          '(heteroscedasticity-robust Ljung-Box, lags 1-30).',
+          '4. **Attribution**: cross-axis correlation -> `cross_axis_coupling`; '
+          'motion dependence -> `motion_lag` (the law is then tested on '
+          'innovations with the lag removed). Tails and regimes compete: both '
+          'fatten the marginal tails, only regimes make the squares persist. '
+          'With persistence, `variance_regimes`, the training BIC choosing '
+          'among 2 levels, 3 levels, and 2 levels plus Student-t innovations '
+          '(`heavy_tails` too); kurtosis without persistence: `heavy_tails`. '
+          'Serial correlation is never forced onto an effect: `unexplained`.',
+          '5. **Extended model** with the attributed effects; its own '
+          'innovations are tested again (serial and cross correlation, '
+          'persistence, PIT of the predictive radius). What remains of a '
+          'structure no attributed effect targets is `unexplained`.',
+          '',
+          'Estimation is the same for every model: conditional quasi-maximum '
+          'likelihood, the mean part (delta, phi, lag) by least squares, the '
+          'innovation law (covariance, correlation, dof, regimes) by maximum '
+          'likelihood (EM for the regimes). Measures on the held-out part: '
+          'the one-step predictive negative log-likelihood of the 2-D error '
+          'in metres per sample (a forward filter for the regimes), with a '
+          'moving-block bootstrap (blocks of 30 samples) of the paired '
+          'per-sample differences; and, against 100 traces simulated by the '
+          'model along the held-out truth and grid, the autocorrelation '
+          'distance (RMS over lags 1-30, both axes, from the simulated mean '
+          'ACF), the lag-0 north-east correlation and the 50/95/99 % '
+          'quantiles of the horizontal error, with the simulated spread.', '',
+          '## Proof on data with an undeclared effect', '',
+          'Synthetic walks (`gps_error synth`, `gps_error_ros/sim/synthetic.py`): '
+          'a pedestrian on Manhattan\'s grid at 1 Hz with stops and turns, '
+          'errors from an AR(3) of DS5-like persistence plus one effect made '
+          'by a mechanism other than the fitted forms. The diagnosis is not '
+          'told which. One seed per scenario (the same seed for all; `make '
+          'test` runs these):', '',
+          '| scenario | expected | found | unexplained | held-out NLL before -> '
+          'after (95 % CI of the gain) |', '|---|---|---|---|---|']
+    for r in synth:
+        exp = ', '.join(r['expected']) or ('unexplained' if r['expected_unexplained']
+                                           else 'nothing')
+        md.append(f'| {r["scenario"]} | {exp} | {", ".join(r["found"]) or "-"} | '
+                  f'{"; ".join(r["unexplained"]) or "-"} | {_f(r["before"])} -> '
+                  f'{_f(r["after"])} ({_f(r["ci95"][0])} .. {_f(r["ci95"][1])}) |')
+    md.append('')
+    if long_run:
+        md += ['Long blind run (`make diagnose-long`, seeds from 1000, 1-hour '
+               f'walks; {long_run["wall_s"]:.0f} s on this machine):', '',
+               '| scenario | seeds | result |', '|---|---|---|']
+        for sc, v in long_run['summary'].items():
+            if 'false_alarms' in v:
+                res = (f'false alarms {v["false_alarms"]} (bound {v["bound"]}: '
+                       f'binomial at the 5 % level, 99 % quantile)')
+            else:
+                res = (f'right attribution {v["right"]}, held-out NLL lower '
+                       f'after {v["after_better"]}')
+            md.append(f'| {sc} | {v["seeds"]} | {res} |')
+        md.append('')
+    else:
+        md += ['(Run `make diagnose-long` and regenerate for the long blind '
+               'run over a hundred seeds per effect-free scenario.)', '']
+    md += ['A motion lag moves the error mostly at stops and turns; on a '
+           '1-hour walk it is detected reliably but its held-out gain is '
+           'small (a few thousandths of a nat per sample), often inside the '
+           'bootstrap interval.', '']
+    md += ['## Measured traces', '']
+    for rec in records:
+        name = rec['trace']
+        what, credit = CREDITS.get(name, ('', 'see ../shared/data/README.md'))
+        md += [f'### {name}', '', f'{what}. Source and licence: {credit}.', '',
+               f'**Can it support a conclusion?** {CAVEATS.get(name, "")}', '']
+        if 'refused' in rec:
+            md += [f'Not diagnosed: {rec["refused"]}', '']
+            continue
+        s = rec['summary']
+        stem = Path(name).stem
+        imp = s['improvement']
+        md += [f'{s["samples"]} samples: {s["train_samples"]} train, '
+               f'{s["test_samples"]} held out ({s["scored_test_samples"]} '
+               f'scored). Base orders: north {s["base"]["order"]["north"]}, '
+               f'east {s["base"]["order"]["east"]}.', '']
+        md += _tests_table(s) + ['']
+        md += _effect_lines(s) + ['']
+        eff = s['extended']['parameters'].get('effects', {})
+        if eff:
+            md += ['Fitted effects: `' + json.dumps(eff) + '`', '']
+        before = s['error_before']['heldout_nll_per_sample']
+        after = s['error_after']['heldout_nll_per_sample']
+        md += [f'Held-out NLL per sample: before {_f(before)}, '
+               f'after {_f(after)}; gain '
+               f'{_f(imp["heldout_nll_per_sample"])} (95 % CI {_f(imp["ci95"][0])} .. '
+               f'{_f(imp["ci95"][1])}).', '',
+               f'![diagnosis of {name}](close-the-loop/{stem}.png)', '']
+        if name in READINGS:
+            md += [f'Reading the figure: {READINGS[name]}', '']
+    md += ['## Model classes on the same held-out data', '',
+           'Each class fitted on the same training part and scored on the same '
+           'held-out samples (see `gps_error_ros/diagnose/baselines.py`). Cells: the '
+           'measured value, with the models\' simulated median (and 95 % range '
+           'for the quantiles) in brackets; for the ACF distance the bracket '
+           'is the median distance of a simulated trace from the simulated '
+           'mean, i.e. what sampling alone gives. Lower NLL is better.', '',
+           '| trace | model class | held-out NLL | ACF distance | N-E correlation '
+           '| q50 m | q95 m | q99 m |', '|---|---|---|---|---|---|---|---|']
+    for rec in records:
+        if 'classes' not in rec:
+            continue
+        for label in CLASSES:
+            md.append(_class_row(rec['trace'], label, rec['classes'][label]))
+    md += ['', 'White noise plus bias: CARLA, Gazebo. AR(1): a first-order '
+           'Gauss-Markov process at 1 Hz (Webots). ARMA(1,1): a Gauss-Markov '
+           'bias plus white noise (hector_gazebo_plugins, PX4). AR(3): the '
+           'paper. AR(p): the PACF-chosen order. Extended: the diagnosis\'s '
+           'model.', '']
+    return '\n'.join(md)
+
+
+def main(argv=None):
+    """Entry point: regenerate the document and its figures."""
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--data', default='../shared/data')
+    p.add_argument('--out', default='docs')
+    p.add_argument('--long-run', default='bench_output/diagnose_long.json')
+    p.add_argument('--sims', type=int, default=SIMS)
+    args = p.parse_args(argv)
+    records, synth = run(args.data, args.out, args.sims)
+    long_run = None
+    if Path(args.long_run).is_file():
+        long_run = json.loads(Path(args.long_run).read_text())
+    doc = Path(args.out) / 'close-the-loop.md'
+    doc.write_text(render(records, synth, long_run))
+    print(f'wrote {doc} and {Path(args.out) / "close-the-loop"}/')
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
