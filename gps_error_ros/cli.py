@@ -10,11 +10,13 @@ INPUT`` finds the structure the AR model misses and fits the extended model;
 """
 
 import argparse
+import secrets
 from pathlib import Path
 import sys
 
 from gps_error_ros.fit.calibration import calibrate, CalibrationError, \
     DEFAULT_MAX_ORDER
+from gps_error_ros.model.ar_model import MAX_ORDER
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
 from gps_error_ros.traces.bag_io import BagError
@@ -24,6 +26,36 @@ from gps_error_ros.traces.trace_io import TraceError
 
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
           ValueError, OSError)     # DiagnosisError is a ValueError
+
+
+def number(kind, lo=None, hi=None, lo_open=False):
+    """
+    Return an argparse type: ``kind`` (int or float) in [lo, hi].
+
+    argparse turns its ValueError into "argument --X: invalid value" with the
+    reason, exit 2, before anything runs.
+    """
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f'{text!r}: expected {"an integer" if kind is int else "a number"}') from None
+        if kind is float and v != v:
+            raise argparse.ArgumentTypeError(f'{text!r}: expected a number')
+        below = lo is not None and (v <= lo if lo_open else v < lo)
+        if below or (hi is not None and v > hi):
+            lo_text = '' if lo is None else ('> ' if lo_open else '>= ') + f'{lo:g}'
+            hi_text = '' if hi is None else f'<= {hi:g}'
+            raise argparse.ArgumentTypeError(
+                f'{text}: expected a value {" and ".join(t for t in (lo_text, hi_text) if t)}')
+        return v
+    return parse
+
+
+#: Simulated traces an envelope needs: its 2.5 and 97.5 % points must be
+#: estimable (with fewer, the central 95 % range is the sample's extremes).
+MIN_SIMS = 20
 
 
 def _add_input_options(p):
@@ -36,7 +68,11 @@ def _add_input_options(p):
     p.add_argument('--datum', default=None,
                    help='bag input with pose/odometry truth: LAT,LON[,ALT] of '
                         'the truth frame\'s origin')
-    p.add_argument('--max-truth-gap', type=float, default=None,
+    p.add_argument('--agent', default=None,
+                   help='trace CSV with an agent column (as gps_error simulate '
+                        'writes): the agent to use (required when it holds more '
+                        'than one)')
+    p.add_argument('--max-truth-gap', type=number(float, 0.0, lo_open=True), default=None,
                    help='bag input: longest truth interval (s) bridged by '
                         'interpolation (default 3 x the median, >= 1.5 s)')
 
@@ -44,7 +80,7 @@ def _add_input_options(p):
 def _load_input(args):
     """Load INPUT with the options of _add_input_options; print how it went."""
     trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
-                              parse_datum(args.datum), args.max_truth_gap)
+                              parse_datum(args.datum), args.max_truth_gap, args.agent)
     for line in notes:
         print(line)
     return trace
@@ -66,9 +102,9 @@ def _add_calibrate(sub):
     c.add_argument('input', help='trace CSV or rosbag2 directory')
     _add_input_options(c)
     c.add_argument('-o', '--output', required=True, help='profile YAML to write')
-    c.add_argument('--order', type=int, default=None,
+    c.add_argument('--order', type=number(int, 1, MAX_ORDER), default=None,
                    help='fix the AR order (default: chosen per axis by the PACF)')
-    c.add_argument('--max-order', type=int, default=DEFAULT_MAX_ORDER,
+    c.add_argument('--max-order', type=number(int, 1, MAX_ORDER), default=DEFAULT_MAX_ORDER,
                    help=f'largest order the PACF may choose (default '
                         f'{DEFAULT_MAX_ORDER})')
     c.add_argument('--name', default=None,
@@ -83,18 +119,20 @@ def _add_validate(sub):
                     'lag against the Monte-Carlo 95 % envelope, quantiles per '
                     'axis (QQ) with envelopes, and a map. Writes '
                     'DIR/validation.png and DIR/validation.json.')
-    v.add_argument('profile', help='profile name (DS1..DS7) or YAML path')
+    v.add_argument('profile', help='profile: DS1, DS2, DS5, DS7 (the published '
+                                   'fits) or a profile YAML path')
     v.add_argument('input', help='trace CSV or rosbag2 directory')
     v.add_argument('--out', required=True, help='output directory')
-    v.add_argument('--sims', type=int, default=200,
+    v.add_argument('--sims', type=number(int, MIN_SIMS), default=200,
                    help='Monte-Carlo runs (default 200)')
-    v.add_argument('--max-lag', type=int, default=60,
+    v.add_argument('--max-lag', type=number(int, 1), default=60,
                    help='largest autocorrelation lag, s (default 60)')
     v.add_argument('--part', default='0,1',
                    help='the part of the trace to validate on, as fractions of '
                         'its duration START,END (default 0,1; e.g. 0.7,1 for '
                         'the last 30 %% held out from a fit on 0,0.7)')
-    v.add_argument('--seed', type=int, default=0, help='simulation seed')
+    v.add_argument('--seed', type=number(int, 0, 2 ** 64 - 1), default=0,
+                   help='simulation seed')
     _add_input_options(v)
 
 
@@ -108,15 +146,22 @@ def _add_simulate(sub):
                     'the same format with noisy positions (a CSV also keeps the '
                     'true ones), or --agents N --duration S --out ERRORS.npz.')
     s.add_argument('--profile', default='DS5', help='profile name or YAML (default DS5)')
-    s.add_argument('--seed', type=int, required=True, help='seed (as the node\'s)')
+    s.add_argument('--seed', type=number(int, -1, 2 ** 64 - 1), required=True,
+                   help='seed of the error streams (as the node\'s; -1: draw one '
+                        'and print it)')
     s.add_argument('--out', required=True, help='output file')
     s.add_argument('--trajectories', help='SUMO FCD .xml or truth CSV')
     s.add_argument('--net', help='SUMO .net.xml for FCD x/y written without '
                                  '--fcd-output.geo')
-    s.add_argument('--agents', type=int, help='raw mode: number of agents, named '
-                                              'agent0, agent1, ...')
-    s.add_argument('--duration', type=float, help='raw mode: seconds to simulate')
-    s.add_argument('--start', type=float, default=0.0,
+    s.add_argument('--coordinates', choices=('lonlat', 'xy'), default=None,
+                   help='FCD positions are lon/lat or x/y metres; default: what '
+                        'SUMO\'s options comment at the top of the file says '
+                        '(required for a file without it)')
+    s.add_argument('--agents', type=number(int, 1),
+                   help='raw mode: number of agents, named agent0, agent1, ...')
+    s.add_argument('--duration', type=number(float, 0.0, lo_open=True),
+                   help='raw mode: seconds to simulate')
+    s.add_argument('--start', type=number(float, 0.0), default=0.0,
                    help='raw mode: time of the first step, s (default 0)')
 
 
@@ -139,9 +184,9 @@ def _add_diagnose(sub):
     d.add_argument('--report', help='directory for the figures (PNG)')
     d.add_argument('--profile-out', help='write the extended model as a profile '
                                          'YAML (with an effects section)')
-    d.add_argument('--sims', type=int, default=100,
+    d.add_argument('--sims', type=number(int, MIN_SIMS), default=100,
                    help='simulated traces for the fidelity measures (default 100)')
-    d.add_argument('--seed', type=int, default=0,
+    d.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,
                    help='seed of the simulations and the bootstrap')
 
 
@@ -154,8 +199,9 @@ def _add_synth(sub):
                     'CSV. Scenarios: ' + ', '.join(_scenarios()) + '.')
     y.add_argument('scenario', choices=_scenarios())
     y.add_argument('-o', '--output', required=True, help='trace CSV to write')
-    y.add_argument('--seed', type=int, default=0, help='seed (default 0)')
-    y.add_argument('--duration', type=int, default=3600,
+    y.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,
+                   help='seed (default 0)')
+    y.add_argument('--duration', type=number(int, 60), default=3600,
                    help='seconds (default 3600)')
 
 
@@ -175,23 +221,37 @@ def cmd_simulate(args):
     from gps_error_ros.sim import simulate as batch
     from gps_error_ros.model.profiles import load_profile
 
+    if args.trajectories and (args.agents is not None or args.duration is not None):
+        raise ValueError('--trajectories and --agents/--duration are two modes: '
+                         'give one of them')
+    if not args.trajectories and (args.agents is None or args.duration is None):
+        raise ValueError('expected --trajectories INPUT, or --agents N and '
+                         '--duration S')
+    _check_output_dir(args.out, '--out')
     profile = load_profile(args.profile)
     model = profile.model()
+    if args.seed == -1:
+        args.seed = secrets.randbits(63)
+        print(f'no seed given: using seed {args.seed}')
     if args.trajectories:
         src = Path(args.trajectories)
         if src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
-                                     args.seed, args.net)
-    elif args.agents and args.duration:
+                                     args.seed, args.net, args.coordinates)
+    else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)
-    else:
-        raise ValueError('expected --trajectories INPUT, or --agents N and '
-                         '--duration S')
     print(', '.join(f'{v} {k}' for k, v in res.items()) + f'; wrote {args.out}')
     return 0
+
+
+def _check_output_dir(path, option):
+    """Refuse an output whose directory does not exist, before any work."""
+    parent = Path(path).expanduser().resolve().parent
+    if not parent.is_dir():
+        raise ValueError(f'{option} {path}: directory {parent} does not exist')
 
 
 def _part(text):
@@ -236,6 +296,7 @@ def cmd_validate(args):
 
 def cmd_calibrate(args):
     """Run ``gps_error calibrate``; return the exit code."""
+    _check_output_dir(args.output, '-o')
     trace = _load_input(args)
     result = calibrate(trace, order=args.order, max_order=args.max_order)
     out = Path(args.output)
@@ -245,11 +306,16 @@ def cmd_calibrate(args):
     g = result.grid
     print(f'{trace.name}: {g.n} samples in {len(g.segments)} segment(s), '
           f'{g.span_s:.0f} s')
+
     for ax, fit in (('north', result.north), ('east', result.east)):
         p = fit.params
         print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
               f'{fit.bic_order}) delta={p.delta:.4f} '
               f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}')
+        if not fit.fixed_order and fit.pacf_order == args.max_order:
+            print(f'  note: the {ax} PACF is significant up to the largest order '
+                  f'allowed (--max-order {args.max_order}); a larger --max-order '
+                  f'may choose more')
     print(f'wrote {out}')
     return 0
 
@@ -259,6 +325,9 @@ def cmd_diagnose(args):
     from gps_error_ros.diagnose import diagnose, extended_profile
     from gps_error_ros.reports.jsonfile import write_json
 
+    for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
+        if path:
+            _check_output_dir(path, option)
     trace = _load_input(args)
     diag = diagnose(trace, sims=args.sims, seed=args.seed)
     s = diag.summary
@@ -278,6 +347,9 @@ def cmd_diagnose(args):
           f'after {s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
           f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
           f'{imp["ci95"][1]:.4f})')
+    if s['effects'] and imp['ci95'][0] <= 0.0 <= imp['ci95'][1]:
+        print('  note: the 95 % interval of the improvement spans zero: the held-out '
+              'part does not show that the extended model predicts better')
     if args.json_out:
         write_json(Path(args.json_out), s)
         print(f'wrote {args.json_out}')
@@ -300,6 +372,7 @@ def cmd_synth(args):
     from gps_error_ros.sim.synthetic import synthetic_trace
     from gps_error_ros.traces.trace_io import write_trace_csv
 
+    _check_output_dir(args.output, '-o')
     trace = synthetic_trace(args.scenario, args.seed, args.duration)
     write_trace_csv(trace, args.output)
     print(f'wrote {args.output}: {len(trace)} fixes, scenario {args.scenario}, '

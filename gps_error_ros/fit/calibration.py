@@ -105,3 +105,31 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
     fits = [fit_axis(grid.axis(a), order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
     return CalibrationResult(fits[0], fits[1], grid, trace.name)
+
+
+#: Share of fixes in truth gaps, or of missing grid steps, that marks a
+#: damaged stream (messages lost on the way, e.g. a replay too fast to take).
+DAMAGE_SHARE = 0.01
+
+
+def damage_note(grid, fixes_in=None, in_truth_gap=0):
+    """
+    Return a warning when the data look damaged in transport, else None.
+
+    Missing steps inside the span (gaps between segments) or fixes that fell
+    into gaps of the truth, above :data:`DAMAGE_SHARE` of the samples, mean
+    messages were lost: a fit goes ahead, but its ``sigma_w`` and ``phi``
+    may be off, so the user is told.
+    """
+    span_steps = int(round(grid.span_s * grid.rate_hz)) + 1
+    missing = span_steps - grid.n
+    parts = []
+    if missing > DAMAGE_SHARE * span_steps:
+        parts.append(f'{missing} of {span_steps} steps missing '
+                     f'({len(grid.segments)} segments)')
+    if fixes_in and in_truth_gap > DAMAGE_SHARE * fixes_in:
+        parts.append(f'{in_truth_gap} of {fixes_in} fixes in gaps of the truth')
+    if not parts:
+        return None
+    return ('the data look damaged (' + '; '.join(parts) + '): messages were lost '
+            'on the way; a replay should run slower, or check the recording')

@@ -59,7 +59,7 @@ class LocalTangentFrame:
             '+step +proj=unitconvert +xy_in=deg +xy_out=rad '
             '+step +proj=cart +ellps=WGS84 '
             f'+step +proj=topocentric +ellps=WGS84 '
-            f'+lat_0={lat!r} +lon_0={lon!r} +h_0={alt!r}')
+            f'+lat_0={float(lat)!r} +lon_0={float(lon)!r} +h_0={float(alt)!r}')
         self._to_enu = Transformer.from_pipeline(pipeline)
 
     def to_geodetic(self, east, north, up=0.0):

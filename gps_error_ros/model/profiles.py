@@ -258,6 +258,15 @@ def builtin_names():
                   key=lambda s: (len(s), s))
 
 
+def _choices():
+    """Return the built-in names for messages: the fitted ones, then the rest."""
+    names = builtin_names()
+    fitted = [n for n in names if load_profile_file(builtin_dir() / f'{n}.yaml').fitted]
+    rest = [n for n in names if n not in fitted]
+    return (', '.join(fitted) + (f' (or {", ".join(rest)}, which have no published '
+                                 f'fit)' if rest else ''))
+
+
 def load_profile(spec):
     """Load a profile by built-in name (case-insensitive) or by file path."""
     spec = str(spec).strip()
@@ -265,14 +274,14 @@ def load_profile(spec):
         path = builtin_dir() / f'{spec.upper()}.yaml'
         if not path.exists():
             raise ProfileError(
-                f'unknown profile {spec!r}: expected one of '
-                f'{", ".join(builtin_names())} or the path of a profile YAML')
+                f'unknown profile {spec!r}: expected one of {_choices()} or the '
+                f'path of a profile YAML')
         return load_profile_file(path)
     path = Path(spec).expanduser()
     if path.suffix.lower() not in ('.yaml', '.yml') and not path.exists():
         raise ProfileError(
-            f'unknown profile {spec!r}: expected one of '
-            f'{", ".join(builtin_names())} or the path of a profile YAML')
+            f'unknown profile {spec!r}: expected one of {_choices()} or the '
+            f'path of a profile YAML')
     return load_profile_file(path)
 
 
@@ -307,8 +316,20 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
 
 
 def write_profile(path, profile, tool='calibrate'):
-    """Write a profile mapping as YAML (keys in schema order)."""
-    with open(path, 'w', encoding='utf-8') as f:
-        f.write(f'# Written by gps_error {tool}.\n')
-        yaml.safe_dump(profile, f, sort_keys=False, default_flow_style=None,
-                       width=100)
+    """
+    Write a profile mapping as YAML (keys in schema order).
+
+    Written beside ``path`` and renamed when complete, so that a failure
+    never leaves a truncated profile behind.
+    """
+    path = Path(path)
+    tmp = path.with_name(f'.{path.name}.partial-{os.getpid()}')
+    try:
+        with open(tmp, 'w', encoding='utf-8') as f:
+            f.write(f'# Written by gps_error {tool}.\n')
+            yaml.safe_dump(profile, f, sort_keys=False, default_flow_style=None,
+                           width=100)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

@@ -62,8 +62,14 @@ def _scatter_panel(a, v):
         w, vecs = np.linalg.eigh(cov)
         pts = vecs @ (2.0 * np.sqrt(w)[:, None] * np.stack([np.cos(t), np.sin(t)]))
         a.plot(pts[1], pts[0], color=colour, label=f'2-sigma, {label}')
+    # The sample correlation of the base model's innovations; the profile's
+    # innovation_corr is the fitted law's (maximum likelihood, weighted by the
+    # regimes' scales when there are regimes), so the two may differ.
     rho = np.corrcoef(r0.T)[0, 1]
-    a.set(title=f'north-east innovations (correlation {rho:.3f})',
+    law = v.diag.extended.law.cov
+    fitted = law[0, 1] / np.sqrt(law[0, 0] * law[1, 1])
+    a.set(title=f'north-east innovations: sample correlation {rho:.3f}, '
+                f'fitted innovation_corr {fitted:.3f}',
           xlabel='east innovation (m)', ylabel='north innovation (m)')
     a.set_aspect('equal', 'datalim')
     a.legend(fontsize=8)

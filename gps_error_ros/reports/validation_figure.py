@@ -38,44 +38,66 @@ def map_window_of(res, map_window):
     """
     Return the slice of samples the map shows, and its local frame.
 
-    Up to ``map_window`` samples around the middle whose truth lies within a
-    radius of a few error SDs (at least 20 samples).
+    Up to ``map_window`` samples around the middle whose truth lies within
+    ten error SDs of it (at least 2 m; at least 5 samples), so that the zoom
+    follows the size of the errors, not the length of the road.
     """
     mid = len(res.truth[0]) // 2
     centre = LocalTangentFrame(float(res.truth[0][mid]), float(res.truth[1][mid]))
     ae, an, _ = centre.to_enu(res.truth[0], res.truth[1], np.zeros_like(res.truth[0]))
-    radius = max(50.0, 8.0 * float(res.measured.std(axis=0).max()))
+    radius = max(2.0, 10.0 * float(res.measured.std(axis=0).max()))
     near = np.hypot(ae, an) <= radius
     lo = hi = mid
     while lo > 0 and near[lo - 1] and mid - lo < map_window // 2:
         lo -= 1
     while hi < len(near) - 1 and near[hi + 1] and hi - mid < map_window // 2:
         hi += 1
-    lo, hi = min(lo, max(0, mid - 10)), max(hi, min(len(near) - 1, mid + 10))
+    lo, hi = min(lo, max(0, mid - 2)), max(hi, min(len(near) - 1, mid + 2))
     return slice(lo, hi + 1), centre
 
 
 def _map_panel(ax, res, map_window):
-    """Draw truth, measured fixes and one simulated run around the middle."""
+    """
+    Draw truth, measured fixes and one simulated run around the middle.
+
+    Where the truth moves further between samples than the errors' size (a
+    car), no zoom of a map shows the errors: the panel then shows the fixes
+    about the truth (the truth at the origin), which is the same picture in
+    the receiver's own frame. Measured fixes are drawn on top.
+    """
     win, frame = map_window_of(res, map_window)
     lat, lon = res.truth[0][win], res.truth[1][win]
     z = np.zeros_like(lat)
     te, tn, _ = frame.to_enu(lat, lon, z)
-    mlat, mlon = offset(lat, lon, res.measured[win, 0], res.measured[win, 1])
-    slat, slon = offset(lat, lon, res.simulated[win, 0], res.simulated[win, 1])
-    me, mn, _ = frame.to_enu(mlat, mlon, z)
-    se, sn, _ = frame.to_enu(slat, slon, z)
-    still = np.ptp(te) < 1.0 and np.ptp(tn) < 1.0      # a static receiver
-    ax.plot(te, tn, 'x-' if still else '-', color='0.2', lw=1, ms=12, mew=2,
-            label='ground truth')
-    ax.plot(me, mn, '.', color='tab:red', ms=4, alpha=0.7, label='measured fixes')
-    ax.plot(se, sn, '.', color='tab:green', ms=4, alpha=0.7,
+    sd = max(float(res.measured.std(axis=0).max()), 0.05)
+    step = float(np.median(np.hypot(np.diff(te), np.diff(tn)))) if te.size > 1 else 0.0
+    relative = step > sd
+    if relative:
+        win = slice(max(0, len(res.truth[0]) // 2 - map_window // 2),
+                    len(res.truth[0]) // 2 + map_window // 2)
+        me, mn = res.measured[win, 1], res.measured[win, 0]
+        se, sn = res.simulated[win, 1], res.simulated[win, 0]
+        ax.plot([0], [0], '+', color='0.2', ms=14, mew=2, label='ground truth')
+        title = (f'fixes about the truth, {len(me)} samples\n'
+                 f'(the truth moves {step:.0f} m a sample: no map shows the errors)')
+    else:
+        mlat, mlon = offset(lat, lon, res.measured[win, 0], res.measured[win, 1])
+        slat, slon = offset(lat, lon, res.simulated[win, 0], res.simulated[win, 1])
+        me, mn, _ = frame.to_enu(mlat, mlon, z)
+        se, sn, _ = frame.to_enu(slat, slon, z)
+        still = np.ptp(te) < 1.0 and np.ptp(tn) < 1.0      # a static receiver
+        ax.plot(te, tn, 'x-' if still else '-', color='0.2', lw=1, ms=12, mew=2,
+                label='ground truth')
+        title = f'map: {len(lat)} samples from the middle of the trace'
+    ax.plot(se, sn, '.', color='tab:green', ms=4, alpha=0.6,
             label='simulated fixes (one run)')
+    ax.plot(me, mn, '.', color='tab:red', ms=5, alpha=0.9, zorder=3,
+            label='measured fixes')          # on top: the data the model is judged on
     ax.set_aspect('equal', adjustable='datalim')
-    ax.set_xlabel('east [m]')
-    ax.set_ylabel('north [m]')
-    ax.set_title(f'map: {len(lat)} samples from the middle of the trace')
-    ax.legend(fontsize=8, markerscale=4)
+    ax.set_xlabel('east [m]' + (' of the truth' if relative else ''))
+    ax.set_ylabel('north [m]' + (' of the truth' if relative else ''))
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, markerscale=4, loc='best')
 
 
 def validation_figure(res, path, title, map_window=180):

@@ -14,8 +14,6 @@ from pathlib import Path
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import NavSatFix
 from std_srvs.srv import Trigger
@@ -23,13 +21,14 @@ from std_srvs.srv import Trigger
 from gps_error_ros.fit import calibration
 from gps_error_ros.model.profiles import write_profile
 from gps_error_ros.traces.pairing import pair, PairingError
-from gps_error_ros.traces.trace_io import write_trace_csv
+from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.validity import fix_problem, STATUS_NO_FIX
 from gps_error_ros.ros import conversions
+from gps_error_ros.ros.lifecycle import run_node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from gps_error_ros.ros.parameters import (
-    CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, WARN_PERIOD_S)
+    CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, help_text, WARN_PERIOD_S)
 
 # Best effort (so sensor drivers' best-effort publishers match) with a deep
 # history: a recording replayed fast must not overwrite what is not yet read.
@@ -41,7 +40,8 @@ class GpsCalibrationNode(Node):
     """The calibration node (see the module docstring)."""
 
     def __init__(self, **kwargs):
-        super().__init__('gps_calibration_node', **kwargs)
+        super().__init__('gps_calibration_node', **kwargs,
+                         automatically_declare_parameters_from_overrides=True)
         cfg = declare(self, CALIBRATION_NODE_PARAMS)
         self.cfg = cfg
         self.output = Path(cfg['output'])
@@ -124,8 +124,16 @@ class GpsCalibrationNode(Node):
             w.writerows((repr(t), repr(a), repr(o)) for t, a, o in self.truth)
 
     def calibrate(self):
-        """Pair, fit and write; return (success, message)."""
+        """
+        Pair, fit and write; return (success, message).
+
+        The three CSVs are written whatever happens (the paired trace empty,
+        header only, when nothing could be paired), so nothing received is
+        lost and the files a user looks for are always there.
+        """
         self.save_raw()
+        empty = np.zeros(0)
+        self._write_trace(Trace('received topics', empty, empty, empty, empty, empty))
         skipped = ', '.join(f'{v} {k.replace("_", " ")}'
                             for k, v in self.skipped.items() if v)
         skipped = f'; skipped fixes: {skipped}' if skipped else ''
@@ -140,7 +148,7 @@ class GpsCalibrationNode(Node):
                                 tr[:, 2], gap, 'received topics')
         except PairingError as exc:
             return False, f'{exc}{skipped}'
-        self._write_trace(trace, fx[0, 0])
+        self._write_trace(trace)
         try:
             result = calibration.calibrate(
                 trace, order=self.cfg['order'] or None,
@@ -158,34 +166,41 @@ class GpsCalibrationNode(Node):
             parts.append(f'{ax} AR({p.order}) delta={p.delta:.4f} '
                          f'phi={[round(v, 4) for v in p.phi]} '
                          f'sigma_w={p.sigma_w:.4f}')
+        note = calibration.damage_note(result.grid, stats.fixes_in, stats.in_truth_gap)
+        if note:
+            self.get_logger().warning(note)
+            note = f'; WARNING: {note}'
         return True, (f'wrote {self.output}: {result.grid.n} samples in '
                       f'{len(result.grid.segments)} segment(s); '
-                      + '; '.join(parts) + f' ({stats.describe()}{skipped})')
+                      + '; '.join(parts) + f' ({stats.describe()}{skipped}){note or ""}')
 
-    def _write_trace(self, trace, t0):
+    def _write_trace(self, trace):
         write_trace_csv(trace, self._sibling('.trace.csv'))
+
+
+def _fit_at_shutdown(node):
+    ok, message = node.calibrate()
+    return f'at shutdown: {message}' if ok else f'at shutdown (no profile): {message}'
 
 
 def main(args=None):
     """Run the calibration node; fit and write at shutdown."""
-    rclpy.init(args=args)
-    node = None
-    logger = rclpy.logging.get_logger('gps_calibration_node')
-    try:
-        node = GpsCalibrationNode()
-        rclpy.spin(node)
-    except ConfigError as exc:
-        logger.fatal(str(exc))
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            ok, message = node.calibrate()
-            (logger.info if ok else logger.warning)(f'at shutdown: {message}')
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(GpsCalibrationNode, 'gps_calibration_node', args,
+                    _fit_at_shutdown, HELP)
+
+
+HELP = help_text(
+    'gps_calibration_node',
+    'measured fixes and ground truth in; on ~/calibrate and at shutdown, a '
+    'profile fitted to their errors (and the raw data as CSV) out.',
+    CALIBRATION_NODE_PARAMS,
+    [('in', 'fix', 'sensor_msgs/NavSatFix', 'the measured fixes (best effort)'),
+     ('in', 'pose', 'geometry_msgs/PoseStamped', 'truth, input_type pose'),
+     ('in', 'odom', 'nav_msgs/Odometry', 'truth, input_type odometry'),
+     ('in', 'fix_truth', 'sensor_msgs/NavSatFix', 'truth, input_type navsatfix'),
+     ('srv', '~/calibrate', 'std_srvs/Trigger', 'fit and write now')],
+    'gps_calibration_node --ros-args -p input_type:=navsatfix '
+    '-p output:=my_phone.yaml -r fix:=/phone/fix -r fix_truth:=/span/fix')
 
 
 if __name__ == '__main__':

@@ -19,9 +19,7 @@ import secrets
 import time
 
 import numpy as np
-import rclpy
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import (HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rcl_interfaces.msg import SetParametersResult
@@ -32,9 +30,11 @@ from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.ros import cdr
 from gps_error_ros.ros import conversions
+from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.traces.validity import usable_fix, usable_pose
 from gps_error_ros.ros.parameters import (
-    ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, spec_by_name, WARN_PERIOD_S)
+    ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
+    WARN_PERIOD_S)
 
 # Sensor-data QoS (best effort, volatile) with a deeper history than the
 # stock profile's 5, so a burst of truth messages is buffered, not dropped.
@@ -75,10 +75,13 @@ class GpsErrorNode(Node):
     polled = False
 
     def __init__(self, **kwargs):
-        super().__init__('gps_error_node', **kwargs)
+        super().__init__('gps_error_node', **kwargs,
+                         automatically_declare_parameters_from_overrides=True)
         cfg = declare(self, ERROR_NODE_PARAMS)
         self._specs = spec_by_name(ERROR_NODE_PARAMS)
         self.frame_id = cfg['frame_id']
+        self.max_pose_age = cfg['max_pose_age']
+        self.late_reported = 0
         self.input_type = cfg['input_type']
         self.agents = self._agent_names(cfg['agents'])
         profiles = self._agent_profile_specs(cfg)
@@ -301,6 +304,14 @@ class GpsErrorNode(Node):
         resets = sum(g.engine.stats.resets for g in self.groups)
         for g, group in enumerate(self.groups):
             self._publish(g, group.engine.on_clock(now))
+        late = sum(g.engine.stats.late_truth for g in self.groups)
+        if late > self.late_reported:
+            self.late_reported = late
+            self.get_logger().warning(
+                f'steps got no fix although their truth came, more than '
+                f'max_pose_age ({self.max_pose_age:g} s of the ROS clock) after the '
+                f'step: /clock runs ahead of the poses; raise max_pose_age to the '
+                f'largest lead', throttle_duration_sec=WARN_PERIOD_S)
         if sum(g.engine.stats.resets for g in self.groups) > resets:
             self.get_logger().warning(
                 f'the clock went backwards (to {now / 1e9:.3f} s): truth history '
@@ -321,7 +332,10 @@ class GpsErrorNode(Node):
                 f'{sum(s.skipped_no_truth for s in stats)} skipped without truth, '
                 f'{sum(s.dropped_out_of_order for s in stats)} truth messages out of '
                 f'order, {sum(s.dropped_future for s in stats)} stamped in the future, '
-                f'{sum(s.resets for s in stats)} clock resets; wall time per '
+                f'{sum(s.resets for s in stats)} clock resets, '
+                f'{sum(s.late_truth for s in stats)} times truth came after its step '
+                f'was skipped; '
+                f'wall time per '
                 f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
     def _publish(self, g, fixes):
@@ -379,23 +393,23 @@ class GpsErrorNode(Node):
 
 def main(args=None):
     """Run the error node until shutdown; exit 2 on a bad parameter."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = GpsErrorNode()
-        rclpy.spin(node)
-    except ConfigError as exc:
-        rclpy.logging.get_logger('gps_error_node').fatal(str(exc))
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            rclpy.logging.get_logger('gps_error_node').info(
-                f'at shutdown: {node.summary()}')
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(GpsErrorNode, 'gps_error_node', args,
+                    lambda node: f'at shutdown: {node.summary()}', HELP)
+
+
+HELP = help_text(
+    'gps_error_node',
+    'ground-truth poses in, smartphone-like sensor_msgs/NavSatFix out (the AR '
+    'error model of a profile, stepped on the ROS clock).',
+    ERROR_NODE_PARAMS,
+    [('in', 'pose', 'geometry_msgs/PoseStamped', 'input_type pose (sensor-data QoS)'),
+     ('in', 'odom', 'nav_msgs/Odometry', 'input_type odometry'),
+     ('in', 'fix_truth', 'sensor_msgs/NavSatFix', 'input_type navsatfix'),
+     ('out', 'fix', 'sensor_msgs/NavSatFix', 'one per step of rate (fix_reliability)'),
+     ('in', '/clock', 'rosgraph_msgs/Clock', 'with use_sim_time:=true'),
+     ('', 'A/pose -> A/fix', '', 'per agent A, with agents:=[...]')],
+    'gps_error_node --ros-args -p profile:=DS5 -p datum:="[40.75, -73.99, 0.0]" '
+    '-p seed:=42 -r pose:=/ped1/pose -r fix:=/ped1/fix')
 
 
 if __name__ == '__main__':

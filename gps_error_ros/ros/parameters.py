@@ -159,12 +159,14 @@ def _coerce(spec, given):
 
 def _declare_one(node, spec):
     """Declare one parameter from the table; return its (checked) value."""
-    # What the user gave (command line or parameters file) is read through a
-    # dynamically typed declaration first, so that an integer for a double can
-    # be converted and a wrong value named; then the parameter is declared
-    # for good with its descriptor (type, range, read-only).
-    given = node.declare_parameter(
-        spec.name, None, ParameterDescriptor(dynamic_typing=True)).value
+    # What the user gave (command line or parameters file) is read first, as
+    # the node declared it from the overrides (or through a dynamically typed
+    # declaration), so that an integer for a double can be converted and a
+    # wrong value named; then the parameter is declared for good with its
+    # descriptor (type, range, read-only).
+    if not node.has_parameter(spec.name):
+        node.declare_parameter(spec.name, None, ParameterDescriptor(dynamic_typing=True))
+    given = node.get_parameter(spec.name).value
     node.undeclare_parameter(spec.name)
     if given is None:
         value = spec.default
@@ -191,9 +193,18 @@ def _declare_one(node, spec):
     return value
 
 
+#: Parameters every rclpy node has; not the table's, not unknown.
+BUILTIN_PARAMETERS = ('use_sim_time', 'start_type_description_service')
+
+
 def declare(node, specs):
     """
     Declare ``specs`` on ``node`` and return {name: value}.
+
+    A node built with ``automatically_declare_parameters_from_overrides``
+    holds every parameter the user gave; those the table does not know (a
+    typo such as ``rat:=2.0``) are named in a warning rather than ignored
+    silently.
 
     Raises
     ------
@@ -202,7 +213,15 @@ def declare(node, specs):
         type or is out of range.
 
     """
-    return {spec.name: _declare_one(node, spec) for spec in specs}
+    values = {spec.name: _declare_one(node, spec) for spec in specs}
+    unknown = sorted(n for n in node.get_parameters_by_prefix('')
+                     if n not in values and n not in BUILTIN_PARAMETERS
+                     and not n.startswith('qos_overrides.'))
+    if unknown:
+        node.get_logger().warning(
+            f'unknown parameter(s) {", ".join(unknown)} ignored: this node\'s '
+            f'parameters are {", ".join(values)} (see --help)')
+    return values
 
 
 def _range_text(spec):
@@ -305,3 +324,28 @@ def markdown_table(specs):
 #: README markers around each generated table: node name -> parameter table
 README_TABLES = {'gps_error_node': ERROR_NODE_PARAMS,
                  'gps_calibration_node': CALIBRATION_NODE_PARAMS}
+
+
+def help_text(node, summary, specs, topics, example):
+    """
+    Return what ``NODE --help`` prints: the node, its parameters, topics, an example.
+
+    ``topics`` is a list of (direction, topic, type, note) rows.
+    """
+    lines = [f'{node}: {summary}', '',
+             f'usage: {node} [--help] [--ros-args -p NAME:=VALUE ... '
+             f'[--params-file FILE] [-r FROM:=TO ...]]', '', 'parameters:']
+    for s in specs:
+        bounds = _bounds_text(s).replace('`', '')
+        extra = ', '.join(t for t in (
+            _TYPE_NAMES[s.type], f'default {_default_text(s).strip("`")}',
+            bounds and (f'one of {bounds}' if s.choices else f'range {bounds}'),
+            'read-only' if s.read_only else 'settable at runtime')
+            if t)
+        lines.append(f'  {s.name} ({extra})')
+        lines.append(f'      {s.description}')
+    lines += ['', 'topics:']
+    for direction, topic, msg_type, note in topics:
+        lines.append(f'  {direction:4} {topic:24} {msg_type}  {note}')
+    lines += ['', 'example:', f'  {example}', '']
+    return '\n'.join(lines)

@@ -33,7 +33,10 @@ Timing rules
   truth often arrives before the clock tick it belongs to, and a busy node
   reads the clock late). Two samples further apart than
   ``max(2 s, 2 * max_pose_age)`` are not interpolated between: steps in
-  such a gap get no fix (nothing is made up across it).
+  such a gap get no fix (nothing is made up across it). Truth that arrives
+  after a step was skipped, stamped at or after it, is counted in
+  ``late_truth`` (once per run of skips): the clock ran ahead of the truth
+  by more than ``max_pose_age``.
 * A profile with a ``motion_lag`` reports the truth ``lag_s`` before the
   step's instant (interpolated the same way; no fix for an agent until its
   truth reaches back that far), still stamped at the step's instant.
@@ -65,6 +68,7 @@ class EngineStats:
     dropped_future: int = 0
     resets: int = 0
     pending_overflow: int = 0
+    late_truth: int = 0      # times truth came for a step already skipped
 
 
 @dataclass
@@ -177,6 +181,9 @@ class FixEngine:
         if self.lag_ns:
             history = max(history, int(64 * (1 + model.lag_s)))
         self.truth = _TruthRing(self.n, history)
+        # per agent: the first step skipped for want of truth since truth was
+        # last found late (-1: none)
+        self.last_skipped = np.full(self.n, -1, dtype=np.int64)
         self.stats = EngineStats()
         self._reset_time()
 
@@ -200,7 +207,15 @@ class FixEngine:
             return False
         self.truth.push(np.array([agent]), np.array([int(stamp_ns)]),
                         np.array([[lat, lon, alt]]))
+        self._note_late(np.array([agent]), np.array([int(stamp_ns)]))
         return True
+
+    def _note_late(self, agents, stamps):
+        """Count truth that would have served a step already skipped without it."""
+        late = (self.last_skipped[agents] >= 0) & (stamps >= self.last_skipped[agents])
+        if late.any():
+            self.stats.late_truth += int(np.unique(agents[late]).size)
+            self.last_skipped[agents[late]] = -1
 
     def add_truth_batch(self, agents, stamps, coords):
         """
@@ -238,6 +253,7 @@ class FixEngine:
             ok = stamps[sel] > self.truth.newest[agents[sel]]
             sel = sel[ok]
             self.truth.push(agents[sel], stamps[sel], np.asarray(coords)[sel])
+            self._note_late(agents[sel], stamps[sel])
             kept[sel] = True
         self.stats.dropped_out_of_order += int((~kept).sum())
         return kept
@@ -254,6 +270,7 @@ class FixEngine:
         if self.last_now is not None and now_ns < self.last_now:
             self.stats.resets += 1
             self.truth.clear()
+            self.last_skipped[:] = -1
             self._reset_time()
         self.last_now = now_ns
         due = now_ns // self.period_ns
@@ -315,6 +332,9 @@ class FixEngine:
                 held = rest[fresh]
                 done[rest] = True
                 self.stats.skipped_no_truth += int((~fresh).sum())
+                gone = rest[~fresh]
+                first = gone[self.last_skipped[gone] < 0]
+                self.last_skipped[first] = t_ns
                 if held.size:
                     fixes.append(self._make_fix(
                         t_ns, held, self.truth.newest_coord(held), err[held]))

@@ -26,10 +26,32 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.model.effects import LagBuffer
+from gps_error_ros.traces.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (
-    add_errors_lonlat, FcdWriter, iter_fcd, NetProjection, read_truth_csv, TrajectoryError)
+    add_errors_lonlat, check_fcd_root, fcd_coordinates, FcdWriter, iter_fcd,
+    NetProjection, read_truth_csv, TrajectoryError)
+
+
+def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None):
+    """Add errors to every agent of a SUMO FCD file; return counts (see module doc)."""
+    with atomic_output(dst) as tmp:
+        return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates)
+
+
+def simulate_csv(src, dst, model, rate_hz, seed):
+    """Add errors to a CSV of true positions; write a trace CSV; return counts."""
+    with atomic_output(dst) as tmp:
+        return _simulate_csv(src, tmp, model, rate_hz, seed)
+
+
+def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
+                 prefix='agent', chunk=1024):
+    """Write raw error series to ``dst`` (.npz); return counts (see module doc)."""
+    with atomic_output(dst) as tmp:
+        return _simulate_npz(tmp, model, rate_hz, seed, n_agents, duration_s,
+                             start_s, prefix, chunk)
 
 
 def model_step(t, rate_hz):
@@ -37,9 +59,46 @@ def model_step(t, rate_hz):
     return int(math.floor(t * rate_hz + 1e-9))
 
 
-def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
+def _fcd_mode(src, net, coordinates):
+    """
+    Return how to move an FCD file's positions: 'lonlat', 'net' or 'plane'.
+
+    Never guessed from the values: SUMO writes its options in a comment at
+    the top of the file (``fcd-output.geo`` there means lon/lat); a file
+    without that comment needs ``coordinates`` ('lonlat' or 'xy').
+    """
+    check_fcd_root(src)
+    mode = coordinates or fcd_coordinates(src)
+    if mode is None:
+        raise TrajectoryError(
+            f'{src}: no SUMO options comment at the top, so whether x/y are '
+            f'lon/lat or metres is unknown: pass --coordinates lonlat or xy')
+    if mode == 'lonlat':
+        return 'lonlat', None
+    if net is None:
+        raise TrajectoryError(
+            f'{src}: positions are x/y metres of the network (SUMO ran without '
+            f'--fcd-output.geo): pass --net NET.xml to georeference them')
+    proj = NetProjection(net)
+    return ('net' if proj.geo else 'plane'), proj
+
+
+def _moved(mode, proj, src, t, x, y, err):
+    """Return the positions moved by ``err`` and their number format."""
+    if mode == 'lonlat':
+        if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
+            raise TrajectoryError(f'{src}: time {t}: x/y outside lon/lat ranges, '
+                                  f'but the file says (or you said) lon/lat')
+        return (*add_errors_lonlat(x, y, err), '{:.8f}')
+    if mode == 'net':
+        lon, lat = proj.to_lonlat(x, y)
+        return (*proj.to_xy(*add_errors_lonlat(lon, lat, err)), '{:.3f}')
+    return x + err[:, 1], y + err[:, 0], '{:.3f}'
+
+
+def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None):
     """Add errors to every agent of a SUMO FCD file; return counts."""
-    proj = NetProjection(net) if net else None
+    mode, proj = _fcd_mode(src, net, coordinates)
     size = os.path.getsize(src)
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
@@ -59,20 +118,7 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
             seen.update(names)
             x, y = lag.lagged(names, t, [a[1] for a in agents],
                               [a[2] for a in agents])
-            err = crowd.errors(names)
-            if proj is None:
-                if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
-                    raise TrajectoryError(
-                        f'{src}: time {t}: x/y are not lon/lat; pass --net '
-                        f'NET.xml for an FCD file written without --fcd-output.geo')
-                nx, ny = add_errors_lonlat(x, y, err)
-                fmt = '{:.8f}'
-            elif proj.geo:
-                lon, lat = proj.to_lonlat(x, y)
-                nx, ny = proj.to_xy(*add_errors_lonlat(lon, lat, err))
-                fmt = '{:.3f}'
-            else:
-                nx, ny, fmt = x + err[:, 1], y + err[:, 0], '{:.3f}'
+            nx, ny, fmt = _moved(mode, proj, src, t, x, y, crowd.errors(names))
             writer.timestep(elem, [(a[3], {'x': fmt.format(px), 'y': fmt.format(py)})
                                    for a, px, py in zip(agents, nx, ny)])
             rows += len(agents)
@@ -82,7 +128,7 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None):
     return {'timesteps': steps, 'positions': rows, 'agents': len(seen)}
 
 
-def simulate_csv(src, dst, model, rate_hz, seed):
+def _simulate_csv(src, dst, model, rate_hz, seed):
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
@@ -112,8 +158,8 @@ def agent_names(n, prefix='agent'):
     return [f'{prefix}{i}' for i in range(n)]
 
 
-def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
-                 prefix='agent', chunk=1024):
+def _simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
+                  prefix='agent', chunk=1024):
     """
     Write raw error series to ``dst`` (.npz), streaming agent chunks to disk.
 

@@ -18,6 +18,10 @@ def is_bag(path):
     """Return the bag directory if ``path`` names a rosbag2, else None."""
     path = Path(path)
     if path.is_dir():
+        if not (path / 'metadata.yaml').exists():
+            raise bag_io.BagError(f'{path}: a directory but not a rosbag2 (no '
+                                  f'metadata.yaml in it): expected a trace CSV '
+                                  f'or a rosbag2 directory')
         return path
     if path.suffix.lower() in ('.mcap', '.db3') and \
             (path.parent / 'metadata.yaml').exists():
@@ -43,17 +47,22 @@ def parse_datum(text):
 
 
 def load_trace(path, fix_topic='/fix', truth_topic='/pose', datum=None,
-               max_truth_gap=None):
+               max_truth_gap=None, agent=None):
     """
     Return (Trace, notes): the paired trace and lines describing the loading.
 
-    Raises the documented errors of the readers (TraceError, BagError,
-    PairingError) with messages naming what was wrong.
+    ``agent`` picks one agent of a trace CSV with an ``agent`` column. Raises
+    the documented errors of the readers (TraceError, BagError, PairingError)
+    with messages naming what was wrong.
     """
     bag = is_bag(path)
     if bag is None:
-        trace = read_trace_csv(path)
-        return trace, [f'{trace.name}: {len(trace)} rows']
+        trace = read_trace_csv(path, agent)
+        who = f' of agent {agent!r}' if agent is not None else ''
+        return trace, [f'{trace.name}: {len(trace)} rows{who}']
+    if agent is not None:
+        raise ValueError(f'--agent {agent!r}: a rosbag2 has no agent column; '
+                         f'choose the agent by --fix-topic and --truth-topic')
     total = bag_io.message_count(bag, (fix_topic, truth_topic)) \
         if fix_topic and truth_topic else 0
     progress = Progress(total, f'reading {bag.name}')

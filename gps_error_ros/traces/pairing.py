@@ -52,8 +52,8 @@ def _check_order(t, what):
     if np.any(d <= 0):
         i = int(np.flatnonzero(d <= 0)[0])
         kind = 'duplicate stamp' if d[i] == 0 else 'time going backwards'
-        raise PairingError(f'{what}: {kind} at sample {i + 1} (t={t[i + 1]!r} '
-                           f'after {t[i]!r}): expected strictly increasing stamps')
+        raise PairingError(f'{what}: {kind} at sample {i + 1} (t={float(t[i + 1])!r} '
+                           f'after {float(t[i])!r}): expected strictly increasing stamps')
 
 
 def pair(fix_t, fix_lat, fix_lon, truth_t, truth_lat, truth_lon,

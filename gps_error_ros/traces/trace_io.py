@@ -4,7 +4,9 @@ Read measured traces: the canonical trace CSV of ``shared/data/README.md``.
 One header line, comma-separated, one row per fix sorted by ``t`` (seconds):
 ``t, lat, lon, truth_lat, truth_lon`` are required; ``alt``, ``truth_alt``,
 ``speed``, ``accuracy``, ``nsat`` and ``mean_cn0`` are optional (cells may be
-empty). A UTF-8 byte-order mark and Windows line endings are accepted.
+empty), and so is ``agent`` (text: the file then holds several agents' traces,
+one chosen by name). Other columns are ignored. A UTF-8 byte-order mark and
+Windows line endings are accepted.
 """
 
 import csv
@@ -83,9 +85,31 @@ def _column(path, body, i, name):
     return values
 
 
-def read_trace_csv(path):
+def _agent_rows(path, header, body, agent):
+    """Return the rows of ``agent`` (a trace CSV with an ``agent`` column)."""
+    i = header.index('agent')
+    names = [r[i].strip() if i < len(r) else '' for r in body]
+    held = list(dict.fromkeys(names))
+    listing = ', '.join(repr(n) for n in held[:10]) + (', ...' if len(held) > 10 else '')
+    if agent is None:
+        if len(held) == 1:
+            return body
+        raise TraceError(f'{path}: holds {len(held)} agents ({listing}): pass '
+                         f'--agent NAME to choose one')
+    rows = [r for r, n in zip(body, names) if n == agent]
+    if len(rows) < 2:
+        raise TraceError(f'{path}: agent {agent!r}: {len(rows)} row(s); the file '
+                         f'holds {len(held)} agent(s): {listing}')
+    return rows
+
+
+def read_trace_csv(path, agent=None):
     """
     Read and validate a trace CSV.
+
+    A file with an ``agent`` column (``gps_error simulate`` writes one) holds
+    several agents' traces; ``agent`` picks one (needed when there are
+    several).
 
     Raises
     ------
@@ -95,6 +119,11 @@ def read_trace_csv(path):
     """
     path = Path(path)
     header, body = _header_and_rows(path)
+    if 'agent' in header:
+        body = _agent_rows(path, header, body, agent)
+    elif agent is not None:
+        raise TraceError(f'{path}: no agent column, so no agent {agent!r}: '
+                         f'found columns {header}')
     cols = {c: i for i, c in enumerate(header)}
     data = {name: _column(path, body, cols[name], name)
             for name in REQUIRED + OPTIONAL if name in cols}
@@ -103,8 +132,8 @@ def read_trace_csv(path):
     if np.any(step <= 0):
         r = int(np.flatnonzero(step <= 0)[0]) + 3
         kind = 'duplicate' if step[r - 3] == 0 else 'decreasing'
-        raise TraceError(f'{path}: line {r}: {kind} time t={t[r - 2]!r} after '
-                         f'{t[r - 3]!r}: expected strictly increasing t')
+        raise TraceError(f'{path}: line {r}: {kind} time t={float(t[r - 2])!r} after '
+                         f'{float(t[r - 3])!r}: expected strictly increasing t')
     for lat_col, lon_col in (('lat', 'lon'), ('truth_lat', 'truth_lon')):
         bad = np.flatnonzero((np.abs(data[lat_col]) > 90)
                              | (np.abs(data[lon_col]) > 180))

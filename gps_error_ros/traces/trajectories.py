@@ -3,7 +3,8 @@ Trajectory files in and out: SUMO FCD output and trace CSV, streamed.
 
 SUMO's ``--fcd-output`` is read with ``iterparse`` one ``<timestep>`` at a
 time, so a large file never has to fit in memory. Positions are lon/lat when
-SUMO wrote them with ``--fcd-output.geo``; otherwise x/y metres of the
+SUMO wrote them with ``--fcd-output.geo`` (which its options comment at the
+top of the file says: :func:`fcd_coordinates`); otherwise x/y metres of the
 network, which ``--net NET.xml`` georeferences through its ``<location>``
 element (``netOffset`` and ``projParameter``). A network without a
 projection (``projParameter="!"``) is a flat metric plane: errors are added
@@ -12,6 +13,7 @@ to x (east) and y (north) directly.
 
 import csv
 from pathlib import Path
+import re
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -62,6 +64,45 @@ class NetProjection:
         """Return network x/y of lon, lat."""
         px, py = self._tf.transform(lon, lat, direction='INVERSE')
         return np.asarray(px) + self.offset[0], np.asarray(py) + self.offset[1]
+
+
+_SUMO_HEADER = re.compile(r'<!--(.*?)-->', re.S)
+_GEO_OPTION = re.compile(r'<fcd-output\.geo\s+value="(true|1|yes|on)"', re.I)
+
+
+def fcd_coordinates(path, head_bytes=1 << 16):
+    """
+    Return 'lonlat' or 'xy' as SUMO's options comment says, or None.
+
+    SUMO starts its outputs with a comment naming itself and holding the
+    non-default options of the run as a ``<configuration>``; with
+    ``--fcd-output.geo`` it lists ``<fcd-output.geo value="true"/>``. A file
+    without that comment (written by hand or another tool) gives None.
+    """
+    try:
+        with open(path, 'rb') as f:
+            head = f.read(head_bytes).decode('utf-8', errors='replace')
+    except OSError as exc:
+        raise TrajectoryError(f'{path}: cannot open: {exc}') from None
+    head = head.split('<fcd-export', 1)[0]
+    for comment in _SUMO_HEADER.findall(head):
+        if 'SUMO' in comment and '<configuration' in comment:
+            return 'lonlat' if _GEO_OPTION.search(comment) else 'xy'
+    return None
+
+
+def check_fcd_root(path):
+    """Raise TrajectoryError unless the file's root element is <fcd-export>."""
+    try:
+        with open(path, 'rb') as f:
+            _, root = next(ET.iterparse(f, events=('start',)))
+    except OSError as exc:
+        raise TrajectoryError(f'{path}: cannot open: {exc}') from None
+    except (ET.ParseError, StopIteration) as exc:
+        raise TrajectoryError(f'{path}: malformed XML: {exc}') from None
+    if root.tag != 'fcd-export':
+        raise TrajectoryError(f'{path}: root element <{root.tag}>: expected '
+                              f'<fcd-export> (SUMO --fcd-output)')
 
 
 def iter_fcd(path, progress=None):

@@ -68,7 +68,7 @@ def test_commands_without_ros(tmp_path):
     r = run('synth', 'multipath', '-o', str(walk), '--seed', '2', '--duration', '1200')
     assert r.returncode == 0, r.stderr
     r = run('diagnose', str(walk), '--json', str(tmp_path / 'd.json'),
-            '--profile-out', str(tmp_path / 'x.yaml'), '--sims', '10')
+            '--profile-out', str(tmp_path / 'x.yaml'), '--sims', '20')
     assert r.returncode == 0, r.stderr
     r = run('simulate', '--profile', str(tmp_path / 'x.yaml'), '--seed', '1',
             '--agents', '2', '--duration', '10', '--out', str(tmp_path / 'x.npz'))

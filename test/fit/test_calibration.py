@@ -104,3 +104,13 @@ def test_bom_and_crlf_are_accepted(tmp_path):
                   '0,1,2,3,4,\r\n1,1,2,3,4,5\r\n'.encode('utf-8'))
     tr = read_trace_csv(f)
     assert len(tr) == 2 and np.isnan(tr.extra['alt'][0])
+
+
+def test_damage_note_names_lost_steps_and_truth_gaps():
+    from gps_error_ros.fit.calibration import damage_note
+    whole, _ = synthetic_trace(1000)
+    assert damage_note(errors_on_grid(whole), 1000, 0) is None
+    holed, _ = synthetic_trace(1000, drop=range(100, 1000, 20))     # 5 % lost
+    note = damage_note(errors_on_grid(holed), 955, 0)
+    assert '45 of 1000 steps missing' in note and 'slower' in note
+    assert 'gaps of the truth' in damage_note(errors_on_grid(whole), 1000, 30)

@@ -152,3 +152,33 @@ def test_bag_replayed_on_clock_gives_the_offline_fit(tmp_path):
     for ax in ('north', 'east'):
         np.testing.assert_allclose(b.axes[ax].phi, a.axes[ax].phi, atol=1e-9)
         assert b.axes[ax].sigma_w == pytest.approx(a.axes[ax].sigma_w, abs=1e-9)
+
+
+def test_lost_messages_are_reported_not_fitted_silently(tmp_path):
+    """A stream with 5 % of its fixes missing: the fit says the data look damaged."""
+    from gps_error_ros.ros.bag_play import play
+    from bag_helpers import write_walk_bag
+
+    n = 600
+    model = ARErrorModel(AxisParams(0.2, (0.9,), 0.5), AxisParams(0.0, (0.7,), 0.6))
+    err = model.simulate(streams.agent_key(8), n)[:, 0]
+    keep = np.arange(n) % 20 != 7
+    bag = tmp_path / 'holed'
+    write_walk_bag(bag, 'mcap', (40.0, -74.0, 0.0), err[keep], 500.0 + np.arange(n)[keep],
+                   truth_rate=2.0)
+    ns = unique_ns()
+    out = tmp_path / 'holed.yaml'
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+                        '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={out}',
+                        '-r', f'{ns}/pose:=/truth', '-r', f'{ns}/fix:=/fix'],
+                       name='gps_calibration_node')
+    peer = Peer()
+    try:
+        play(bag, rate=100.0, wait_for_subscribers=1, node=peer.node)
+        peer.spin_for(1.0)
+        rc, log = node.stop()
+    finally:
+        node.stop()
+        peer.destroy()
+    assert rc == 0, log
+    assert out.exists() and 'look damaged' in log and '30 of 600 steps missing' in log, log

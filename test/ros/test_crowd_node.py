@@ -73,6 +73,9 @@ def test_crowd_sharded_over_two_processes_gives_identical_fixes():
         for node in nodes:
             rc, out = node.stop()
             assert rc == 0, out
+        # the start-up line names every profile and how many agents it serves
+        log = nodes[0].stop()[1]
+        assert 'profile DS1 (3 agents)' in log and 'profile DS5 (3 agents)' in log, log
     finally:
         for node in nodes:
             node.stop()

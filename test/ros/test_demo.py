@@ -4,6 +4,7 @@ import json
 import subprocess
 import sys
 
+import matplotlib.pyplot as plt
 import pytest
 
 from gps_error_ros.traces.bag_io import read_messages
@@ -21,8 +22,20 @@ def test_short_demo(tmp_path):
     summary = json.loads((tmp_path / 'summary.json').read_text())
     assert summary['fixes'] == 361 and summary['gaps'] == 0
     assert summary['node_exit_code'] == 0
-    png = (tmp_path / 'demo.png').read_bytes()
-    assert png[:8] == b'\x89PNG\r\n\x1a\n' and len(png) > 50_000
+    img = plt.imread(tmp_path / 'demo.png')
+    assert img.shape[:2] == (810, 1260)                  # 14 x 9 in at 90 dpi
+    w = img.shape[1] // 3
+    for panel in (img[:, :w], img[:405, w:2 * w], img[405:, 2 * w:]):
+        assert (panel[..., :3].min(axis=-1) < 0.6).mean() > 0.002   # drawn on
+    datum = summary['datum']
+    assert f'datum {datum}' in out.stdout
+    # the printed datum is all it takes to calibrate the demo's own bag
+    cal = subprocess.run(
+        [sys.executable, '-m', 'gps_error_ros.cli', 'calibrate', str(tmp_path / 'demo_bag'),
+         '--datum', ','.join(map(str, datum)), '-o', str(tmp_path / 'demo.yaml')],
+        capture_output=True, text=True, timeout=120)
+    assert cal.returncode == 0, cal.stderr
+    assert '361 of 361 fixes paired' in cal.stdout
     assert (tmp_path / 'demo_bag' / 'metadata.yaml').exists()
     assert list((tmp_path / 'demo_bag').glob('*.mcap'))
     msgs = read_messages(tmp_path / 'demo_bag', ['/pose', '/fix'])

@@ -7,7 +7,8 @@ from rclpy.serialization import serialize_message
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import NavSatFix
 
-from ros_harness import DATUM_ARG, NodeProcess, NS, Peer, pose_msg, stamp_ns, unique_ns
+from ros_harness import (DATUM_ARG, NodeProcess, NS, Peer, pose_msg, stamp_ns, start,
+                         unique_ns)
 
 pytestmark = pytest.mark.integration
 T0 = 5000
@@ -77,3 +78,25 @@ def test_bad_poses_and_clock_reset(crowd):
     assert 'went backwards' in out
     if crowd:     # parsed by the node; rclpy never hands a single agent truncated ones
         assert 'dropped 2 truth message(s) that could not be parsed' in out
+
+
+def test_clock_ahead_of_the_poses_is_named_with_the_parameter_to_raise():
+    ns = unique_ns()
+    node = start(ns, DATUM_ARG, 'seed:=1')
+    peer = Peer()
+    try:
+        pub = peer.publisher(PoseStamped, f'{ns}/pose')
+        fixes = peer.collect(NavSatFix, f'{ns}/fix')
+        peer.wait_connected(pub, f'{ns}/fix', node)
+        for k in range(T0, T0 + 12):
+            peer.set_clock(k * NS)                          # the clock leads
+            pub.publish(pose_msg((k - 3) * NS, east=float(k)))   # by 3 s
+            peer.spin_for(0.05)
+        peer.spin_for(0.5)
+        rc, out = node.stop()
+    finally:
+        node.stop()
+        peer.destroy()
+    assert rc == 0, out
+    assert 'raise max_pose_age' in out, out
+    assert len(fixes) < 12

@@ -159,3 +159,26 @@ def test_batch_add_keeps_order_per_agent():
     # a: 5 then 6 kept, duplicate 6 dropped; b: 7 kept, then 3 out of order
     assert list(kept) == [True, True, True, False, False]
     assert eng.stats.dropped_out_of_order == 2
+
+
+def test_truth_behind_the_clock_is_counted_as_late():
+    """A clock 3 s ahead of its poses: steps are skipped, and that is noticed."""
+    eng = engine(max_pose_age=1.0)
+    eng.add_truth(0, 9 * NS, LAT, LON, 0.0)
+    fixes = []
+    for k in range(10, 30):
+        fixes += eng.on_clock(k * NS)
+        eng.add_truth(0, (k - 3) * NS, LAT, LON, 0.0)     # truth 3 s behind
+    assert eng.stats.skipped_no_truth > 0
+    assert eng.stats.late_truth > 0
+    ok = engine(max_pose_age=4.0)                          # the advice works
+    ok.add_truth(0, 9 * NS, LAT, LON, 0.0)
+    for k in range(10, 30):
+        ok.on_clock(k * NS)
+        ok.add_truth(0, (k - 3) * NS, LAT, LON, 0.0)
+    assert ok.stats.skipped_no_truth == 0 and ok.stats.late_truth == 0
+    quiet = engine(max_pose_age=1.0)                       # truth that stops is not late
+    quiet.add_truth(0, 9 * NS, LAT, LON, 0.0)
+    for k in range(10, 30):
+        quiet.on_clock(k * NS)
+    assert quiet.stats.skipped_no_truth > 0 and quiet.stats.late_truth == 0

@@ -22,10 +22,19 @@ def presence(i, t):
     return 3 * i <= t <= 40 + 5 * i
 
 
-def write_fcd(path, positions):
+def sumo_comment(geo):
+    """Return the options comment SUMO writes at the top of its outputs."""
+    option = '        <fcd-output.geo value="true"/>\n' if geo else ''
+    return ('<!-- generated on 2026-11-22 10:00:00 by Eclipse SUMO sumo Version 1.28.0\n'
+            '<configuration xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">\n'
+            '    <output>\n        <fcd-output value="fcd.xml"/>\n' + option +
+            '    </output>\n</configuration>\n-->\n\n')
+
+
+def write_fcd(path, positions, header=''):
     """positions(i, t) -> (x, y); 6 persons, t = 10..70 s, plus one vehicle."""
     with open(path, 'w') as f:
-        f.write('<?xml version="1.0" encoding="UTF-8"?>\n<fcd-export>\n')
+        f.write('<?xml version="1.0" encoding="UTF-8"?>\n' + header + '<fcd-export>\n')
         for t in range(10, 71):
             f.write(f'  <timestep time="{t:.2f}">\n')
             x, y = positions(99, t)
@@ -81,7 +90,7 @@ def test_fcd_errors_are_the_agents_streams(tmp_path, kind):
         net.write_text('<net><location netOffset="0.00,0.00" convBoundary="0,0,9,9" '
                        'origBoundary="0,0,9,9" projParameter="!"/></net>')
     src, dst = tmp_path / 'fcd.xml', tmp_path / 'noisy.xml'
-    write_fcd(src, positions)
+    write_fcd(src, positions, sumo_comment(geo=kind == 'geo'))
     res = simulate_fcd(src, dst, MODEL, 1.0, 5, net)
     assert res['timesteps'] == 61 and res['agents'] == 7
     a, b = read_fcd(src), read_fcd(dst)
@@ -108,15 +117,39 @@ def test_fcd_bad_input(tmp_path):
     bad.write_text('<routes><vehicle id="x"/></routes>')
     with pytest.raises(TrajectoryError, match='expected <fcd-export>'):
         simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1)
-    write_fcd(bad, lambda i, t: (1000.0 + t, 2000.0))
+    write_fcd(bad, lambda i, t: (1000.0 + t, 2000.0), sumo_comment(geo=False))
     with pytest.raises(TrajectoryError, match='--net'):
         simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1)
     bad.write_text('<fcd-export><timestep time="2"></timestep>'
                    '<timestep time="1"></timestep></fcd-export>')
     with pytest.raises(TrajectoryError, match='increasing'):
-        simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1)
+        simulate_fcd(bad, tmp_path / 'o.xml', MODEL, 1.0, 1, coordinates='lonlat')
     assert cli(['simulate', '--seed', '1', '--trajectories', str(bad),
-                '--out', str(tmp_path / 'o.xml')]) == 2
+                '--out', str(tmp_path / 'o.xml'), '--coordinates', 'lonlat']) == 2
+    assert list(tmp_path.iterdir()) == [bad]         # no partial output, ever
+
+
+def test_fcd_coordinates_are_read_not_guessed(tmp_path):
+    """A small planar net (x, y inside lon/lat ranges) is never taken for degrees."""
+    def small(i, t):
+        return 50.3 + t, 20.1 + i
+    src, out = tmp_path / 'fcd.xml', tmp_path / 'o.xml'
+    write_fcd(src, small, sumo_comment(geo=False))
+    with pytest.raises(TrajectoryError, match='x/y metres.*--net'):
+        simulate_fcd(src, out, MODEL, 1.0, 1)
+    assert not out.exists()
+    write_fcd(src, small)                               # hand-written: no comment
+    with pytest.raises(TrajectoryError, match='--coordinates'):
+        simulate_fcd(src, out, MODEL, 1.0, 1)
+    flat = tmp_path / 'flat.net.xml'
+    flat.write_text('<net><location netOffset="0.00,0.00" convBoundary="0,0,9,9" '
+                    'origBoundary="0,0,9,9" projParameter="!"/></net>')
+    simulate_fcd(src, out, MODEL, 1.0, 1, flat, coordinates='xy')
+    moved = read_fcd(out)
+    x, y, _, _ = moved['ped0', 20.0]
+    assert abs(x - 60.3) < 50 and abs(y - 20.1) < 50      # metres, not degrees
+    write_fcd(src, lambda i, t: (LON0, LAT0), sumo_comment(geo=True))
+    assert simulate_fcd(src, out, MODEL, 1.0, 1)['positions'] > 0
 
 
 def test_csv_round_trip_through_calibrate(tmp_path):
@@ -148,7 +181,7 @@ def test_npz_matches_library_and_streams(tmp_path):
 def test_fcd_summary_counts_every_agent_seen(tmp_path):
     """An agent gone for longer than the crowd remembers is still counted."""
     src = tmp_path / 'fcd.xml'
-    src.write_text('<fcd-export>\n'
+    src.write_text(sumo_comment(geo=True) + '<fcd-export>\n'
                    '<timestep time="0.00"><person id="a" x="-73.99" y="40.75"/>'
                    '<person id="b" x="-73.99" y="40.75"/></timestep>\n'
                    '<timestep time="960.00"><person id="c" x="-73.99" y="40.75"/>'

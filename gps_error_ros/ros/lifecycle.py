@@ -1,0 +1,108 @@
+"""
+The one ``main()`` of the nodes: start, spin, and stop cleanly every time.
+
+Exit codes: 0 after Ctrl-C, SIGTERM or an external shutdown (the node's
+shutdown work done first); 2 for a bad parameter or a command line rcl
+cannot parse, with a one-line message naming it.
+"""
+
+import re
+import signal
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+
+from gps_error_ros.ros.parameters import ConfigError
+
+
+def command_line_problem(exc):
+    """Return rcl's complaint about the command line as one readable line."""
+    text = str(exc).replace('failed to initialize rcl: ', '')
+    text = re.sub(r', at /\S+:\d+', '', text).strip()
+    if 'Sequence should be of same type' in text:
+        text += (' (a list holds one type: write every number of a list with a '
+                 'decimal point, e.g. [40.75, -73.99, 0.0])')
+    return text
+
+
+def wants_help(args=None):
+    """Return True when ``--help`` or ``-h`` comes before any ROS arguments."""
+    argv = sys.argv[1:] if args is None else list(args)
+    if '--ros-args' in argv:
+        argv = argv[:argv.index('--ros-args')]
+    return '--help' in argv or '-h' in argv
+
+
+def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
+    """
+    Run the node that ``make_node()`` builds until shutdown; return the exit code.
+
+    With ``--help`` (before ``--ros-args``) print ``help_text`` and exit 0
+    without starting ROS.
+
+    ``at_shutdown(node)`` runs before the node is destroyed and returns a
+    line to log (or None); the line is logged after the node is gone, so that
+    no log message goes to a ``/rosout`` whose context is already shut down.
+    """
+    if help_text is not None and wants_help(args):
+        print(help_text)
+        return 0
+    try:
+        rclpy.init(args=args)
+    except RuntimeError as exc:          # rcl's parser refused the arguments
+        print(f'{name}: cannot parse the command line: '
+              f'{command_line_problem(exc)}', file=sys.stderr)
+        return 2
+    logger = rclpy.logging.get_logger(name)
+    node, code, last_words = None, 0, None
+    try:
+        node = make_node()
+        rclpy.spin(node)
+    except ConfigError as exc:
+        logger.fatal(str(exc))
+        code = 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except RuntimeError:
+        # A signal can shut the context down while the executor builds its
+        # wait set (rcl: "the given context is not valid"): that is the
+        # shutdown asked for, not a failure. Anything else is re-raised.
+        if rclpy.ok():
+            raise
+    finally:
+        # Shutting down: a second Ctrl-C or SIGTERM must not cut the writing.
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+        if node is not None:
+            if at_shutdown is not None:
+                last_words = _run_once_through(at_shutdown, node)
+            node.destroy_node()
+        _shutdown_context()
+    if last_words:
+        logger.info(last_words)
+    return code
+
+
+def _run_once_through(work, node):
+    """
+    Return ``work(node)``, run again if the stopping signal interrupts it.
+
+    The signal that ends spinning reaches Python's handler a moment after
+    rclpy's: its KeyboardInterrupt can land in the shutdown work itself. No
+    further signal can come (they are ignored by then), so a second run
+    completes.
+    """
+    try:
+        return work(node)
+    except KeyboardInterrupt:
+        return work(node)
+
+
+def _shutdown_context():
+    """Shut the context down unless a signal handler already did (a race)."""
+    try:
+        rclpy.try_shutdown()
+    except RuntimeError:
+        if rclpy.ok():
+            raise

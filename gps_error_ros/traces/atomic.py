@@ -1,0 +1,23 @@
+"""Outputs that appear whole or not at all: written aside, then renamed."""
+
+from contextlib import contextmanager
+import os
+from pathlib import Path
+
+
+@contextmanager
+def atomic_output(path):
+    """
+    Yield a temporary path beside ``path``; rename it to ``path`` on success.
+
+    On any error (or Ctrl-C) the temporary file is removed and ``path`` is
+    left as it was: a failed run leaves no partial output behind.
+    """
+    path = Path(path)
+    tmp = path.with_name(f'.{path.name}.partial-{os.getpid()}')
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()

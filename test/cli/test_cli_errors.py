@@ -1,0 +1,105 @@
+"""Bad command lines and inputs: refused at parse time, naming what was wrong."""
+
+import pytest
+
+from gps_error_ros.cli import main as cli
+from gps_error_ros.sim.synthetic import synthetic_trace
+from gps_error_ros.traces.trace_io import read_trace_csv, TraceError, write_trace_csv
+
+
+@pytest.mark.parametrize('argv, option', [
+    (['validate', 'DS5', 'x.csv', '--out', 'v', '--sims', '0'], '--sims'),
+    (['validate', 'DS5', 'x.csv', '--out', 'v', '--sims', '1'], '--sims'),
+    (['validate', 'DS5', 'x.csv', '--out', 'v', '--max-lag', '0'], '--max-lag'),
+    (['diagnose', 'x.csv', '--sims', '0'], '--sims'),
+    (['calibrate', 'x.csv', '-o', 'p.yaml', '--order', '17'], '--order'),
+    (['calibrate', 'x.csv', '-o', 'p.yaml', '--max-order', '0'], '--max-order'),
+    (['calibrate', 'x.csv', '-o', 'p.yaml', '--max-truth-gap', '-1'], '--max-truth-gap'),
+    (['simulate', '--seed', '1', '--agents', '0', '--duration', '5', '--out', 'e.npz'],
+     '--agents'),
+    (['simulate', '--seed', '1', '--agents', '3', '--duration', '0', '--out', 'e.npz'],
+     '--duration'),
+    (['simulate', '--seed', '-2', '--agents', '3', '--duration', '5', '--out', 'e.npz'],
+     '--seed'),
+    (['synth', 'none', '-o', 'w.csv', '--duration', '10'], '--duration'),
+])
+def test_numeric_options_are_range_checked_at_parse_time(argv, option, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f'argument {option}' in err and 'expected' in err, err
+
+
+def test_mode_and_output_errors_name_the_option(tmp_path, capsys):
+    assert cli(['simulate', '--seed', '1', '--agents', '3', '--out',
+                str(tmp_path / 'e.npz')]) == 2
+    assert 'expected --trajectories INPUT, or --agents N and --duration S' in \
+        capsys.readouterr().err
+    assert cli(['simulate', '--seed', '1', '--agents', '3', '--duration', '5',
+                '--trajectories', 'x.csv', '--out', str(tmp_path / 'e.npz')]) == 2
+    assert 'two modes' in capsys.readouterr().err
+    walk = write_trace_csv(synthetic_trace('none', 1, 600), tmp_path / 'w.csv')
+    assert cli(['calibrate', str(walk), '-o', str(tmp_path / 'no' / 'p.yaml')]) == 2
+    assert 'does not exist' in capsys.readouterr().err
+    assert cli(['calibrate', str(tmp_path), '-o', str(tmp_path / 'p.yaml')]) == 2
+    assert 'not a rosbag2 (no metadata.yaml' in capsys.readouterr().err
+
+
+def test_seed_minus_one_draws_a_seed_and_says_which(tmp_path, capsys):
+    assert cli(['simulate', '--seed', '-1', '--agents', '2', '--duration', '3',
+                '--out', str(tmp_path / 'e.npz')]) == 0
+    assert 'no seed given: using seed' in capsys.readouterr().out
+
+
+def test_simulated_multi_agent_trace_calibrates_per_agent(tmp_path, capsys):
+    truth = tmp_path / 'truth.csv'
+    lines = ['t,agent,truth_lat,truth_lon']
+    for k in range(700):
+        for name in ('alice', 'bob'):
+            lines.append(f'{k},{name},40.75,-73.99')
+    truth.write_text('\n'.join(lines) + '\n')
+    noisy = tmp_path / 'noisy.csv'
+    assert cli(['simulate', '--profile', 'DS2', '--seed', '4', '--trajectories',
+                str(truth), '--out', str(noisy)]) == 0
+    with pytest.raises(TraceError, match="2 agents \\('alice', 'bob'\\).*--agent"):
+        read_trace_csv(noisy)
+    assert cli(['calibrate', str(noisy), '-o', str(tmp_path / 'p.yaml')]) == 2
+    assert '--agent NAME' in capsys.readouterr().err
+    assert cli(['calibrate', str(noisy), '--agent', 'bob', '-o',
+                str(tmp_path / 'bob.yaml')]) == 0
+    assert "of agent 'bob'" in capsys.readouterr().out
+    assert len(read_trace_csv(noisy, 'alice')) == 700
+    with pytest.raises(TraceError, match="agent 'carol': 0 row"):
+        read_trace_csv(noisy, 'carol')
+
+
+def test_calibrate_remarks_when_the_pacf_hits_the_largest_order(tmp_path, capsys):
+    walk = write_trace_csv(synthetic_trace('none', 2, 900), tmp_path / 'w.csv')
+    assert cli(['calibrate', str(walk), '-o', str(tmp_path / 'p.yaml'),
+                '--max-order', '1']) == 0
+    out = capsys.readouterr().out
+    assert 'note: the north PACF is significant up to the largest order allowed' in out
+    assert cli(['calibrate', str(walk), '-o', str(tmp_path / 'p.yaml')]) == 0
+    assert 'note:' not in capsys.readouterr().out
+
+
+def test_diagnose_remarks_when_the_improvement_may_be_nothing(tmp_path, capsys):
+    """A motion lag's held-out gain is small: its interval spans zero here."""
+    walk = write_trace_csv(synthetic_trace('receiver_latency', 1, 3600), tmp_path / 'w.csv')
+    assert cli(['diagnose', str(walk), '--sims', '20']) == 0
+    out = capsys.readouterr().out
+    assert 'effects: motion_lag' in out
+    assert 'interval of the improvement spans zero' in out
+
+
+def test_messages_show_plain_numbers_and_the_profiles_that_have_fits(tmp_path, capsys):
+    bad = tmp_path / 'dup.csv'
+    bad.write_text('t,lat,lon,truth_lat,truth_lon\n1,40,-73,40,-73\n1,40,-73,40,-73\n')
+    assert cli(['calibrate', str(bad), '-o', str(tmp_path / 'p.yaml')]) == 2
+    err = capsys.readouterr().err
+    assert 'duplicate time t=1.0 after 1.0' in err and 'np.float64' not in err
+    assert cli(['validate', 'DS9', str(bad), '--out', str(tmp_path / 'v')]) == 2
+    err = capsys.readouterr().err
+    assert 'expected one of DS1, DS2, DS5, DS7 (or DS3, DS4, DS6, which have no ' \
+        'published fit)' in err

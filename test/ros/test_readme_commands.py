@@ -1,0 +1,61 @@
+"""
+Every command block of the README that starts a node runs as written.
+
+The blocks are read from README.md itself, so the README cannot drift from
+what the node accepts. ``ros2 run gps_error_ros X`` (ros2cli is not in the
+PyPI install) becomes the installed console script X; each run gets a
+namespace of its own and is stopped with Ctrl-C after it is up.
+"""
+
+from pathlib import Path
+import re
+import shlex
+import time
+
+import pytest
+
+from ros_harness import NodeProcess, unique_ns
+
+README = Path(__file__).resolve().parents[2] / 'README.md'
+NODES = ('gps_error_node', 'gps_calibration_node')
+
+
+def node_commands():
+    """Return the README's node commands as argv lists (continuations joined)."""
+    blocks = re.findall(r'```[a-z]*\n(.*?)```', README.read_text(), re.S)
+    out = []
+    for block in blocks:
+        text = block.replace('\\\n', ' ')
+        for line in text.splitlines():
+            if not any(n in line for n in NODES):
+                continue
+            argv = shlex.split(line, comments=True)
+            if argv[:3] == ['ros2', 'run', 'gps_error_ros']:
+                argv = argv[3:]
+            if argv and Path(argv[0]).name in NODES:
+                out.append(argv)
+    return out
+
+
+def test_the_readme_has_node_commands():
+    names = [Path(a[0]).name for a in node_commands()]
+    assert names.count('gps_error_node') >= 3, names
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize('argv', node_commands(), ids=lambda a: ' '.join(a)[:60])
+def test_readme_node_command_runs_as_written(argv):
+    args = list(argv[1:])
+    ns = unique_ns()
+    if '--ros-args' in args:
+        args += ['-r', f'__ns:={ns}']
+    else:
+        args += ['--ros-args', '-r', f'__ns:={ns}']
+    node = NodeProcess(args, name=Path(argv[0]).name)
+    deadline = time.monotonic() + 8.0
+    while time.monotonic() < deadline and node.proc.poll() is None:
+        time.sleep(0.2)
+    assert node.proc.poll() is None, node.stop()[1]     # still running: it started
+    rc, log = node.stop()
+    assert rc == 0 and 'Traceback' not in log, log
+    assert 'profile' in log or 'calibrating from' in log, log
