@@ -21,7 +21,8 @@ import numpy as np
 from scipy import optimize, signal
 
 from gps_error_ros.diagnose.common import LOG2PI
-from gps_error_ros.diagnose.fidelity import fidelity, fidelity_of
+from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, part_steps,
+                                             simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
 
@@ -106,49 +107,69 @@ class Arma11:
         return np.concatenate(out)
 
     def simulate(self, part, sims, rng, burn=500):
-        """Return ``sims`` traces on ``part``'s segments (stationary start)."""
+        """Return ``sims`` traces on ``part``'s grid, gaps kept (stationary start)."""
+        steps = part_steps(part)
+        n = int(steps[-1][-1]) + 1 + burn
         out = []
         for _ in range(sims):
-            trace = []
-            for e in part.err:
-                n = len(e) + burn
-                cols = []
-                for mu, phi, theta, var in self.params:
-                    w = rng.standard_normal(n) * math.sqrt(var)
-                    cols.append(mu + signal.lfilter([1.0, theta], [1.0, -phi], w)[burn:])
-                trace.append(np.stack(cols, axis=1))
-            out.append(trace)
+            cols = []
+            for mu, phi, theta, var in self.params:
+                w = rng.standard_normal(n) * math.sqrt(var)
+                cols.append(mu + signal.lfilter([1.0, theta], [1.0, -phi], w)[burn:])
+            x = np.stack(cols, axis=1)
+            out.append([x[s] for s in steps])
         return out
+
+
+#: class -> its name in ``gps_error compare``'s JSON
+KEYS = {'white noise + bias': 'white_bias', 'AR(1)': 'ar1', 'ARMA(1,1)': 'arma11',
+        'AR(3), paper': 'ar3_paper', 'AR(p), PACF': 'ar_p', 'extended': 'extended'}
+
+
+def _classes(diag, sims, seed):
+    """Return {class: (held-out log densities, simulated traces)}, same samples."""
+    train, test, truth = diag.split.train, diag.split.test, diag.split.truth
+    m0 = condition_count(diag.base.orders)
+    rng = np.random.default_rng(seed)
+    wb = WhiteBias().fit(train)
+    arma = Arma11().fit(train, m0)
+    out = {'white noise + bias': (wb.logpdf(test, m0), wb.simulate(test, sims, rng)),
+           'ARMA(1,1)': (arma.logpdf(test, m0), arma.simulate(test, sims, rng))}
+    for label, model in (('AR(1)', fit_model(train, (1, 1), (), truth)),
+                         ('AR(3), paper', fit_model(train, (3, 3), (), truth)),
+                         ('AR(p), PACF', diag.base),
+                         ('extended', diag.extended)):
+        out[label] = (model.score(test, truth, m0)[0],
+                      simulate_part(model, test, truth, sims, seed))
+    n = {len(v[0]) for v in out.values()}
+    if len(n) != 1:
+        raise AssertionError(f'models scored on different samples: {n}')
+    return {k: out[k] for k in CLASSES}
 
 
 def compare(diag, sims=100, seed=0):
     """
     Fit every class on the diagnosis's training part; score on its test part.
 
-    Returns a dict: class -> measures (``heldout_nll_per_sample`` and the
-    fidelity measures), all on the same scored samples.
+    Returns a dict: class -> ``heldout_nll_per_sample``, the summary
+    fidelity measures of ``diagnose`` and ``calibrated`` (the measures of
+    :func:`~.fidelity.calibrated_fidelity`), all on the same samples.
     """
-    train, test, truth = diag.split.train, diag.split.test, diag.split.truth
-    orders = diag.base.orders
-    m0 = condition_count(orders)
-    rng = np.random.default_rng(seed)
-    wb = WhiteBias().fit(train)
-    arma = Arma11().fit(train, m0)
-    lls = {'white noise + bias': wb.logpdf(test, m0),
-           'ARMA(1,1)': arma.logpdf(test, m0)}
-    sims_of = {'white noise + bias': wb.simulate(test, sims, rng),
-               'ARMA(1,1)': arma.simulate(test, sims, rng)}
+    test = diag.split.test
     out = {}
-    for label, model in (('AR(1)', fit_model(train, (1, 1), (), truth)),
-                         ('AR(3), paper', fit_model(train, (3, 3), (), truth)),
-                         ('AR(p), PACF', diag.base),
-                         ('extended', diag.extended)):
-        lls[label] = model.score(test, truth, m0)[0]
-        out[label] = fidelity(model, test, truth, sims, seed)
-    for label, traces in sims_of.items():
-        out[label] = fidelity_of(test, traces)
-    n = {len(v) for v in lls.values()}
-    if len(n) != 1:
-        raise AssertionError(f'models scored on different samples: {n}')
-    return {k: {'heldout_nll_per_sample': float(-lls[k].mean()), **out[k]}
-            for k in CLASSES}
+    for label, (ll, traces) in _classes(diag, sims, seed).items():
+        out[label] = {'heldout_nll_per_sample': float(-ll.mean()),
+                      **fidelity_of(test, traces),
+                      'calibrated': calibrated_fidelity(test, traces)}
+    return out
+
+
+def compare_json(diag, compared):
+    """Return ``gps_error compare``'s JSON document of a :func:`compare` result."""
+    s = diag.summary
+    return {'input': s['input'], 'train_samples': s['train_samples'],
+            'test_samples': s['test_samples'],
+            'classes': {KEYS[k]: {'heldout_nll_per_sample': v['heldout_nll_per_sample'],
+                                  'fidelity': {key: v['calibrated'][key] for key in
+                                               ('inside_95', 'measures')}}
+                        for k, v in compared.items()}}

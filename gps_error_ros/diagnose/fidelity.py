@@ -35,19 +35,32 @@ def measures(err_segments, max_lag=FIDELITY_MAX_LAG):
             'q': np.quantile(h, QUANTILES)}
 
 
+def part_steps(part):
+    """
+    Return each segment's steps on the 1 Hz grid, from the part's first sample.
+
+    Within a segment samples are consecutive steps; the gaps between
+    segments keep their measured length, so a simulation sampled at these
+    steps has the data's gaps (a persistent process is not restarted at
+    every gap).
+    """
+    t0 = part.t[0][0]
+    return [int(round(t[0] - t0)) + np.arange(len(t)) for t in part.t]
+
+
 def simulate_part(model, part, truth, sims, seed):
-    """Return ``sims`` simulated error traces along ``part``'s truth."""
+    """
+    Return ``sims`` simulated error traces along ``part``'s truth and grid.
+
+    One continuous run per trace over the part's span, sampled at its steps
+    (:func:`part_steps`); a motion lag adds the offsets of the truth itself.
+    """
     sim = model.simulator()
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
+    steps = part_steps(part)
+    x = sim.simulate(keys, int(steps[-1][-1]) + 1)            # (span, sims, 2)
     offs = motion_offsets(part, truth, model.mean.lag_s)
-    out = [[] for _ in range(sims)]
-    start = 0
-    for e, o in zip(part.err, offs):
-        x = sim.simulate(keys, len(e), start=start)          # (n, sims, 2)
-        start += len(e) + 1000
-        for i in range(sims):
-            out[i].append(x[:, i] + o)
-    return out
+    return [[x[s, i] + o for s, o in zip(steps, offs)] for i in range(sims)]
 
 
 def fidelity(model, part, truth, sims=100, seed=0, max_lag=FIDELITY_MAX_LAG):
@@ -99,3 +112,53 @@ def block_bootstrap_mean(x, seed=0, block=30, reps=2000):
     means = x[idx].mean(axis=1)
     lo, hi = np.quantile(means, [0.025, 0.975])
     return float(x.mean()), float(lo), float(hi)
+
+
+#: Horizontal-error quantiles of the calibrated measures.
+CALIBRATED_QUANTILES = (0.5, 0.68, 0.95, 0.99)
+
+
+def measure_vector(err_segments, max_lag=FIDELITY_MAX_LAG):
+    """
+    Return the calibrated fidelity measures of one error trace, by name.
+
+    The autocorrelation per axis at lags 1..``max_lag``, the lag-0
+    north-east correlation, the SD per axis and the horizontal-error
+    quantiles (50, 68, 95, 99 %).
+    """
+    x = np.concatenate(err_segments)
+    acf = acf_by_axis(err_segments, max_lag)
+    out = {}
+    for a, ax in enumerate(('north', 'east')):
+        for k in range(max_lag):
+            out[f'acf_{ax}_lag{k + 1:02d}'] = float(acf[k, a])
+    out['ne_correlation'] = float(np.corrcoef(x.T)[0, 1])
+    out['sd_north'], out['sd_east'] = (float(v) for v in x.std(axis=0))
+    h = np.hypot(x[:, 0], x[:, 1])
+    for p, v in zip(CALIBRATED_QUANTILES, np.quantile(h, CALIBRATED_QUANTILES)):
+        out[f'horizontal_q{int(round(100 * p))}'] = float(v)
+    return out
+
+
+def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG):
+    """
+    Return whether the held-out ``part`` is a plausible draw of the simulations.
+
+    For every measure of :func:`measure_vector`: the measured value, the
+    simulated median and central 95 % range, and the measured value's
+    percentile among the simulated ones (ties count half). ``inside_95`` is
+    the share of measures inside their central 95 % range: near 0.95 for a
+    calibrated simulator.
+    """
+    measured = measure_vector(part.err, max_lag)
+    sims = [measure_vector(s, max_lag) for s in simulated]
+    out, inside = {}, []
+    for name, value in measured.items():
+        v = np.array([m[name] for m in sims])
+        lo, mid, hi = np.quantile(v, [0.025, 0.5, 0.975])
+        pct = 100.0 * (np.sum(v < value) + 0.5 * np.sum(v == value)) / v.size
+        out[name] = {'measured': value, 'sim_median': float(mid), 'sim_lo': float(lo),
+                     'sim_hi': float(hi), 'percentile': float(pct)}
+        inside.append(lo <= value <= hi)
+    return {'inside_95': float(np.mean(inside)), 'sims': len(simulated),
+            'measures': out}
