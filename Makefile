@@ -23,9 +23,11 @@ DATA ?= ../shared/data
 
 setup: $(STAMP)
 
-$(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt setup.py setup.cfg package.xml
+$(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
+		setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
-	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt
+	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
+		-r requirements-import.txt
 	$(PIP) --no-deps -e .
 	touch $@
 

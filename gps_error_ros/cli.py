@@ -22,12 +22,13 @@ from gps_error_ros.model.ar_model import MAX_ORDER
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
 from gps_error_ros.traces.bag_io import BagError
+from gps_error_ros.traces.nmea import NmeaError
 from gps_error_ros.traces.loading import load_trace, parse_datum
 from gps_error_ros.traces.pairing import PairingError
 from gps_error_ros.traces.trace_io import TraceError
 
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
-          ValueError, OSError)     # DiagnosisError is a ValueError
+          NmeaError, ValueError, OSError)     # DiagnosisError is a ValueError
 
 
 def number(kind, lo=None, hi=None, lo_open=False):
@@ -215,6 +216,28 @@ def _add_compare(sub):
                    help='seed of the simulations')
 
 
+def _add_import(sub):
+    m = sub.add_parser(
+        'import', help='turn a recording and its truth into a trace CSV',
+        description='Read a recording in a format phones and receivers write '
+                    '(nmea: NMEA 0183 GGA + RMC, checksums checked, talker IDs '
+                    'GP/GN/GL/...; needs pynmea2: pip install '
+                    '"gps_error_ros[import]") and pair it with its truth: a '
+                    'reference receiver\'s NMEA, interpolated linearly in time '
+                    'to the fixes\' stamps, or a fixed point LAT,LON[,ALT] for a '
+                    'static receiver. Writes the trace CSV (with alt, truth_alt, '
+                    'speed, bearing, hdop, truth_speed, truth_bearing) that '
+                    'calibrate, validate, diagnose and compare read.')
+    m.add_argument('format', choices=('nmea',), help='the recording\'s format')
+    m.add_argument('input', help='the recording (e.g. the phone\'s NMEA log)')
+    m.add_argument('--truth', required=True,
+                   help='truth: a reference receiver\'s NMEA file, or LAT,LON[,ALT]')
+    m.add_argument('-o', '--output', required=True, help='trace CSV to write')
+    m.add_argument('--max-truth-gap', type=number(float, 0.0, lo_open=True), default=None,
+                   help='longest truth interval (s) bridged by interpolation '
+                        '(default 3 x the median, >= 1.5 s)')
+
+
 def _add_synth(sub):
     y = sub.add_parser(
         'synth', help='write a synthetic walk with an undeclared effect',
@@ -236,7 +259,7 @@ def _parser():
         description='Smartphone GPS error model tools (no ROS needed).')
     sub = p.add_subparsers(dest='command', required=True)
     for add in (_add_calibrate, _add_validate, _add_simulate, _add_diagnose,
-                _add_compare, _add_synth):
+                _add_compare, _add_import, _add_synth):
         add(sub)
     return p
 
@@ -421,6 +444,20 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_import(args):
+    """Run ``gps_error import``; return the exit code."""
+    from gps_error_ros.traces.importing import import_nmea
+    from gps_error_ros.traces.trace_io import write_trace_csv
+
+    _check_output_dir(args.output, '-o')
+    trace, notes = import_nmea(args.input, args.truth, args.max_truth_gap)
+    for line in notes:
+        print(line)
+    write_trace_csv(trace, args.output)
+    print(f'wrote {args.output}: {len(trace)} rows')
+    return 0
+
+
 def cmd_synth(args):
     """Run ``gps_error synth``; return the exit code."""
     from gps_error_ros.sim.synthetic import synthetic_trace
@@ -440,7 +477,7 @@ def main(argv=None):
     try:
         return {'calibrate': cmd_calibrate, 'validate': cmd_validate,
                 'simulate': cmd_simulate, 'diagnose': cmd_diagnose,
-                'compare': cmd_compare,
+                'compare': cmd_compare, 'import': cmd_import,
                 'synth': cmd_synth}[args.command](args)
     except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)

@@ -28,6 +28,7 @@ class PairingStats:
     paired: int
     outside_truth: int
     in_truth_gap: int
+    used: np.ndarray = None      # which input fixes were paired (bool)
 
     def describe(self):
         """Return a one-line account for people."""
@@ -104,7 +105,7 @@ def pair(fix_t, fix_lat, fix_lon, truth_t, truth_lat, truth_lon,
     lat = truth_lat[hi - 1] + w * (truth_lat[hi] - truth_lat[hi - 1])
     lon = truth_lon[hi - 1] + w * (truth_lon[hi] - truth_lon[hi - 1])
     stats = PairingStats(int(fix_t.size), int(use.sum()), int((~inside).sum()),
-                         int((inside & ~ok_gap).sum()))
+                         int((inside & ~ok_gap).sum()), use)
     if not use.any():
         raise PairingError(f'{name}: no fix could be paired: {stats.describe()}')
     trace = Trace(name, fix_t[use] - fix_t[use][0], np.asarray(fix_lat)[use],

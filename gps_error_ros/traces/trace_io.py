@@ -3,8 +3,9 @@ Read measured traces: the canonical trace CSV of ``shared/data/README.md``.
 
 One header line, comma-separated, one row per fix sorted by ``t`` (seconds):
 ``t, lat, lon, truth_lat, truth_lon`` are required; ``alt``, ``truth_alt``,
-``speed``, ``accuracy``, ``nsat`` and ``mean_cn0`` are optional (cells may be
-empty), and so is ``agent`` (text: the file then holds several agents' traces,
+``speed``, ``accuracy``, ``nsat``, ``mean_cn0``, ``bearing``, ``hdop``,
+``truth_speed`` and ``truth_bearing`` are optional (cells may be empty), and so
+is ``agent`` (text: the file then holds several agents' traces,
 one chosen by name). Other columns are ignored. A UTF-8 byte-order mark and
 Windows line endings are accepted.
 """
@@ -16,8 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from gps_error_ros.traces.atomic import atomic_output
+
 REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
-OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0')
+OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0', 'bearing',
+            'hdop', 'truth_speed', 'truth_bearing')
 
 
 class TraceError(ValueError):
@@ -155,6 +159,12 @@ def write_trace_csv(trace, path, agent=None):
     optional value as an empty cell. Returns ``path``.
     """
     path = Path(path)
+    with atomic_output(path) as tmp:
+        _write_rows(trace, tmp, agent)
+    return path
+
+
+def _write_rows(trace, path, agent):
     cols = ['t'] + (['agent'] if agent is not None else []) + \
         ['lat', 'lon', 'truth_lat', 'truth_lon'] + list(trace.extra)
     data = [trace.t, trace.lat, trace.lon, trace.truth_lat, trace.truth_lon] + \
@@ -167,7 +177,6 @@ def write_trace_csv(trace, path, agent=None):
             if name is not None:
                 cells.insert(1, _csv_cell(name))
             f.write(','.join(cells) + '\n')
-    return path
 
 
 def _csv_cell(text):

@@ -1,0 +1,82 @@
+"""
+``gps_error import``: recordings in the formats phones and receivers write.
+
+A recording (FORMAT ``nmea`` for now) and its truth become a canonical trace
+CSV that ``calibrate``, ``validate``, ``diagnose`` and ``compare`` read. The
+truth is a second recording (a reference receiver's NMEA: SPAN-like) or a
+fixed point ``LAT,LON[,ALT]`` for a static receiver. Fixes are paired with
+the truth interpolated linearly in time to their stamps, never across a
+truth gap (:mod:`.pairing`); the truth's speed and course come from the
+chord of its positions 0.5 s before and after each fix (empty below
+0.2 m/s, where a course means nothing). A course reported at exactly zero
+speed is a placeholder and is left out.
+"""
+
+import datetime as dt
+import math
+
+import numpy as np
+
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.traces.nmea import read_nmea
+from gps_error_ros.traces.pairing import pair
+from gps_error_ros.traces.trace_io import Trace
+
+FORMATS = ('nmea',)
+#: Below this truth speed (m/s) the truth course is left empty.
+MIN_COURSE_SPEED = 0.2
+
+
+def parse_point(text):
+    """Return (lat, lon, alt) of 'LAT,LON[,ALT]', or None if ``text`` is not one."""
+    try:
+        v = [float(x) for x in str(text).split(',')]
+    except ValueError:
+        return None
+    if len(v) not in (2, 3) or abs(v[0]) > 90 or abs(v[1]) > 180:
+        return None
+    return tuple(v + [math.nan] * (3 - len(v)))
+
+
+def _truth(spec, fixes):
+    """Return the truth as (t, lat, lon, alt) arrays, and a line for people."""
+    point = parse_point(spec)
+    if point is not None:
+        t = np.array([fixes.t[0] - 1.0, fixes.t[-1] + 1.0])
+        return (t, np.full(2, point[0]), np.full(2, point[1]), np.full(2, point[2]),
+                f'truth: the fixed point {point[0]}, {point[1]}')
+    first = dt.datetime.fromtimestamp(fixes.t[0], dt.timezone.utc).date()
+    ref = read_nmea(spec, date=first)
+    return ref.t, ref.lat, ref.lon, ref.alt, f'truth {spec}: {ref.describe()}'
+
+
+def _chord(t, lat, lon, at, half=0.5):
+    """Return speed (m/s) and course (deg) of the truth's chord around ``at``."""
+    la0, lo0 = np.interp(at - half, t, lat), np.interp(at - half, t, lon)
+    la1, lo1 = np.interp(at + half, t, lat), np.interp(at + half, t, lon)
+    north, east = difference(la1, lo1, la0, lo0)
+    speed = np.hypot(north, east) / (2 * half)
+    course = np.degrees(np.arctan2(east, north)) % 360.0
+    course[speed < MIN_COURSE_SPEED] = np.nan
+    inside = (at - half >= t[0]) & (at + half <= t[-1])
+    speed[~inside], course[~inside] = np.nan, np.nan
+    return speed, course
+
+
+def import_nmea(path, truth, max_truth_gap=None):
+    """Return (Trace, notes) of an NMEA recording against its truth."""
+    fixes = read_nmea(path)
+    tt, tlat, tlon, talt, note = _truth(truth, fixes)
+    trace, stats = pair(fixes.t, fixes.lat, fixes.lon, tt, tlat, tlon,
+                        max_truth_gap, str(path))
+    used = stats.used
+    at = fixes.t[used]
+    course = fixes.course[used].copy()
+    speed = fixes.speed[used]
+    course[speed == 0.0] = np.nan            # a placeholder, not a heading
+    extra = {'alt': fixes.alt[used], 'truth_alt': np.interp(at, tt, talt),
+             'speed': speed, 'bearing': course, 'hdop': fixes.hdop[used]}
+    extra['truth_speed'], extra['truth_bearing'] = _chord(tt, tlat, tlon, at)
+    trace = Trace(trace.name, trace.t, trace.lat, trace.lon, trace.truth_lat,
+                  trace.truth_lon, extra)
+    return trace, [f'{path}: {fixes.describe()}', note, stats.describe()]
