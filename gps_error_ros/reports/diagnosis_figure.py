@@ -68,8 +68,8 @@ def _scatter_panel(a, v):
     rho = np.corrcoef(r0.T)[0, 1]
     law = v.diag.extended.law.cov
     fitted = law[0, 1] / np.sqrt(law[0, 0] * law[1, 1])
-    a.set(title=f'north-east innovations: sample correlation {rho:.3f}, '
-                f'fitted innovation_corr {fitted:.3f}',
+    a.set(title=f'north-east innovations: sample correlation {rho:.3f}\n'
+                f'(base model); fitted innovation_corr {fitted:.3f} (extended)',
           xlabel='east innovation (m)', ylabel='north innovation (m)')
     a.set_aspect('equal', 'datalim')
     a.legend(fontsize=8)

@@ -57,3 +57,22 @@ def test_cli_writes_png_and_json(tmp_path):
                         str(csv), '--out', str(tmp_path / 'v')],
                        capture_output=True, text=True)
     assert r.returncode == 2 and 'no published fit' in r.stderr
+
+
+def test_the_map_zooms_to_the_size_of_the_errors():
+    from gps_error_ros.reports.validation_figure import map_window_of
+    trace, _ = synthetic_trace(400, seed=5)               # a static receiver
+    res = validate(TRUE, trace, sims=20)
+    win, _ = map_window_of(res, 180)
+    assert win.stop - win.start == 181                    # all near: the full window
+    # a walk at 1.4 m/s with these ~1 m errors: the window holds the samples
+    # within 10 SDs of the middle one, not 180 s of road
+    from gps_error_ros.model.geodesy import offset
+    walk = trace.__class__(trace.name, trace.t, *offset(trace.lat, trace.lon,
+                                                        1.4 * trace.t, 0.0 * trace.t),
+                           *offset(trace.truth_lat, trace.truth_lon, 1.4 * trace.t,
+                                   0.0 * trace.t))
+    res = validate(TRUE, walk, sims=20)
+    win, _ = map_window_of(res, 180)
+    radius = 10 * res.measured.std(axis=0).max()
+    assert win.stop - win.start <= 2 * radius / 1.4 + 2
