@@ -22,13 +22,14 @@ from gps_error_ros.model.ar_model import MAX_ORDER
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
 from gps_error_ros.traces.bag_io import BagError
+from gps_error_ros.traces.gnsslogger import GnssLoggerError
 from gps_error_ros.traces.nmea import NmeaError
 from gps_error_ros.traces.loading import load_trace, parse_datum
 from gps_error_ros.traces.pairing import PairingError
 from gps_error_ros.traces.trace_io import TraceError
 
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
-          NmeaError, ValueError, OSError)     # DiagnosisError is a ValueError
+          NmeaError, GnssLoggerError, ValueError, OSError)     # DiagnosisError is a ValueError
 
 
 def number(kind, lo=None, hi=None, lo_open=False):
@@ -222,17 +223,22 @@ def _add_import(sub):
         description='Read a recording in a format phones and receivers write '
                     '(nmea: NMEA 0183 GGA + RMC, checksums checked, talker IDs '
                     'GP/GN/GL/...; needs pynmea2: pip install '
-                    '"gps_error_ros[import]") and pair it with its truth: a '
+                    '"gps_error_ros[import]"; gnsslogger: an Android GnssLogger '
+                    'log\'s Fix records, either layout, by its own header) and '
+                    'pair it with its truth: a '
                     'reference receiver\'s NMEA, interpolated linearly in time '
                     'to the fixes\' stamps, or a fixed point LAT,LON[,ALT] for a '
                     'static receiver. Writes the trace CSV (with alt, truth_alt, '
                     'speed, bearing, hdop, truth_speed, truth_bearing) that '
                     'calibrate, validate, diagnose and compare read.')
-    m.add_argument('format', choices=('nmea',), help='the recording\'s format')
+    m.add_argument('format', choices=('nmea', 'gnsslogger'),
+                   help='the recording\'s format')
     m.add_argument('input', help='the recording (e.g. the phone\'s NMEA log)')
     m.add_argument('--truth', required=True,
                    help='truth: a reference receiver\'s NMEA file, or LAT,LON[,ALT]')
     m.add_argument('-o', '--output', required=True, help='trace CSV to write')
+    m.add_argument('--provider', default='gps',
+                   help='gnsslogger: the Fix provider to keep (default gps)')
     m.add_argument('--max-truth-gap', type=number(float, 0.0, lo_open=True), default=None,
                    help='longest truth interval (s) bridged by interpolation '
                         '(default 3 x the median, >= 1.5 s)')
@@ -446,11 +452,12 @@ def cmd_compare(args):
 
 def cmd_import(args):
     """Run ``gps_error import``; return the exit code."""
-    from gps_error_ros.traces.importing import import_nmea
+    from gps_error_ros.traces.importing import import_recording
     from gps_error_ros.traces.trace_io import write_trace_csv
 
     _check_output_dir(args.output, '-o')
-    trace, notes = import_nmea(args.input, args.truth, args.max_truth_gap)
+    trace, notes = import_recording(args.format, args.input, args.truth,
+                                    args.max_truth_gap, args.provider)
     for line in notes:
         print(line)
     write_trace_csv(trace, args.output)

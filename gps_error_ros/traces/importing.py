@@ -1,15 +1,15 @@
 """
 ``gps_error import``: recordings in the formats phones and receivers write.
 
-A recording (FORMAT ``nmea`` for now) and its truth become a canonical trace
-CSV that ``calibrate``, ``validate``, ``diagnose`` and ``compare`` read. The
-truth is a second recording (a reference receiver's NMEA: SPAN-like) or a
-fixed point ``LAT,LON[,ALT]`` for a static receiver. Fixes are paired with
+A recording (FORMAT ``nmea``: :mod:`.nmea`; ``gnsslogger``:
+:mod:`.gnsslogger`) and its truth become a canonical trace CSV that
+``calibrate``, ``validate``, ``diagnose`` and ``compare`` read. The truth
+is a second recording (a reference receiver's NMEA: SPAN-like) or a fixed
+point ``LAT,LON[,ALT]`` for a static receiver. Fixes are paired with
 the truth interpolated linearly in time to their stamps, never across a
 truth gap (:mod:`.pairing`); the truth's speed and course come from the
 chord of its positions 0.5 s before and after each fix (empty below
-0.2 m/s, where a course means nothing). A course reported at exactly zero
-speed is a placeholder and is left out.
+0.2 m/s, where a course means nothing).
 """
 
 import datetime as dt
@@ -18,11 +18,12 @@ import math
 import numpy as np
 
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.traces.gnsslogger import read_gnsslogger
 from gps_error_ros.traces.nmea import read_nmea
 from gps_error_ros.traces.pairing import pair
 from gps_error_ros.traces.trace_io import Trace
 
-FORMATS = ('nmea',)
+FORMATS = ('nmea', 'gnsslogger')
 #: Below this truth speed (m/s) the truth course is left empty.
 MIN_COURSE_SPEED = 0.2
 
@@ -63,20 +64,31 @@ def _chord(t, lat, lon, at, half=0.5):
     return speed, course
 
 
-def import_nmea(path, truth, max_truth_gap=None):
-    """Return (Trace, notes) of an NMEA recording against its truth."""
-    fixes = read_nmea(path)
+def read_recording(fmt, path, provider='gps'):
+    """Return the :class:`~.recording.Recording` of a recording in ``fmt``."""
+    if fmt == 'nmea':
+        return read_nmea(path)
+    if fmt == 'gnsslogger':
+        return read_gnsslogger(path, provider)
+    raise ValueError(f'format {fmt!r}: expected one of {list(FORMATS)}')
+
+
+def import_recording(fmt, path, truth, max_truth_gap=None, provider='gps'):
+    """Return (Trace, notes) of a recording in ``fmt`` against its truth."""
+    fixes = read_recording(fmt, path, provider)
     tt, tlat, tlon, talt, note = _truth(truth, fixes)
     trace, stats = pair(fixes.t, fixes.lat, fixes.lon, tt, tlat, tlon,
                         max_truth_gap, str(path))
     used = stats.used
     at = fixes.t[used]
-    course = fixes.course[used].copy()
-    speed = fixes.speed[used]
-    course[speed == 0.0] = np.nan            # a placeholder, not a heading
-    extra = {'alt': fixes.alt[used], 'truth_alt': np.interp(at, tt, talt),
-             'speed': speed, 'bearing': course, 'hdop': fixes.hdop[used]}
+    extra = {'alt': fixes.alt[used], 'truth_alt': np.interp(at, tt, talt)}
+    extra.update({k: v[used] for k, v in fixes.extra.items()})
     extra['truth_speed'], extra['truth_bearing'] = _chord(tt, tlat, tlon, at)
     trace = Trace(trace.name, trace.t, trace.lat, trace.lon, trace.truth_lat,
                   trace.truth_lon, extra)
     return trace, [f'{path}: {fixes.describe()}', note, stats.describe()]
+
+
+def import_nmea(path, truth, max_truth_gap=None):
+    """Return (Trace, notes) of an NMEA recording against its truth."""
+    return import_recording('nmea', path, truth, max_truth_gap)

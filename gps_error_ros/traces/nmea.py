@@ -14,37 +14,19 @@ that goes backwards without a new date moves to the next day (midnight).
 Epochs without a GGA position, or with fix quality 0 (no fix), are left out.
 """
 
-from dataclasses import dataclass, field
 import datetime as dt
 import math
 from pathlib import Path
 
 import numpy as np
 
+from gps_error_ros.traces.recording import Recording
+
 KNOT = 0.514444                 # m/s per knot (as the data's README uses)
 
 
 class NmeaError(ValueError):
     """An NMEA file that cannot give fixes (unreadable, nothing usable)."""
-
-
-@dataclass
-class NmeaFixes:
-    """The usable epochs of an NMEA file, as arrays, and what was skipped."""
-
-    t: np.ndarray               # UTC, s since 1970
-    lat: np.ndarray
-    lon: np.ndarray
-    alt: np.ndarray             # ellipsoidal height, m (NaN where unknown)
-    speed: np.ndarray           # m/s (NaN without RMC)
-    course: np.ndarray          # deg from north (NaN where empty)
-    hdop: np.ndarray
-    skipped: dict = field(default_factory=dict)
-
-    def describe(self):
-        """Return a line for people: epochs kept and sentences skipped."""
-        sk = ', '.join(f'{v} {k}' for k, v in self.skipped.items() if v)
-        return f'{self.t.size} epochs' + (f' ({sk} skipped)' if sk else '')
 
 
 def _pynmea2():
@@ -85,7 +67,11 @@ def _sentences(path, pynmea2, skipped):
 
 def read_nmea(path, date=None):
     """
-    Return the :class:`NmeaFixes` of an NMEA file (see the module doc).
+    Return the :class:`~.recording.Recording` of an NMEA file (module doc).
+
+    Its ``extra`` holds ``speed`` (m/s), ``bearing`` (the RMC course; left
+    out where the speed is exactly zero, where receivers write a placeholder)
+    and ``hdop``.
 
     ``date`` (a ``datetime.date``) is the UTC date of the first epoch when the
     file has no RMC with a valid checksum to give one (a reference receiver's
@@ -123,8 +109,10 @@ def read_nmea(path, date=None):
     if not rows:
         raise NmeaError(f'{path}: no usable GGA fix in the file; skipped {skipped}')
     a = np.array(sorted(rows, key=lambda r: r[0]), dtype=float)
-    return NmeaFixes(a[:, 0], a[:, 1], a[:, 2], a[:, 3], a[:, 4], a[:, 5], a[:, 6],
-                     skipped)
+    course = a[:, 5].copy()
+    course[a[:, 4] == 0.0] = np.nan             # a placeholder, not a heading
+    return Recording(a[:, 0], a[:, 1], a[:, 2], a[:, 3],
+                     {'speed': a[:, 4], 'bearing': course, 'hdop': a[:, 6]}, skipped)
 
 
 def _add(epoch, msg, skipped):
