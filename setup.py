@@ -20,8 +20,8 @@ setup(
     # packages come from the ROS install (or requirements-ros.txt).
     install_requires=['setuptools', 'numpy', 'scipy', 'pyproj', 'PyYAML',
                       'matplotlib', 'rosbags'],
-    # gps_error import: recordings in (NMEA); an extra, not a core need.
-    extras_require={'import': ['pynmea2']},
+    # gps_error import: recordings in (NMEA, GPX); an extra, not a core need.
+    extras_require={'import': ['pynmea2', 'gpxpy']},
     zip_safe=True,
     maintainer='gps_error_ros maintainers',
     maintainer_email='maintainers@gps-error-ros.invalid',

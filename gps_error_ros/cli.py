@@ -23,13 +23,15 @@ from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
 from gps_error_ros.traces.bag_io import BagError
 from gps_error_ros.traces.gnsslogger import GnssLoggerError
+from gps_error_ros.traces.gpx import GpxError
 from gps_error_ros.traces.nmea import NmeaError
 from gps_error_ros.traces.loading import load_trace, parse_datum
 from gps_error_ros.traces.pairing import PairingError
 from gps_error_ros.traces.trace_io import TraceError
 
+# DiagnosisError is a ValueError
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
-          NmeaError, GnssLoggerError, ValueError, OSError)     # DiagnosisError is a ValueError
+          NmeaError, GnssLoggerError, GpxError, ValueError, OSError)
 
 
 def number(kind, lo=None, hi=None, lo_open=False):
@@ -224,18 +226,20 @@ def _add_import(sub):
                     '(nmea: NMEA 0183 GGA + RMC, checksums checked, talker IDs '
                     'GP/GN/GL/...; needs pynmea2: pip install '
                     '"gps_error_ros[import]"; gnsslogger: an Android GnssLogger '
-                    'log\'s Fix records, either layout, by its own header) and '
-                    'pair it with its truth: a '
-                    'reference receiver\'s NMEA, interpolated linearly in time '
-                    'to the fixes\' stamps, or a fixed point LAT,LON[,ALT] for a '
+                    'log\'s Fix records, either layout, by its own header; gpx: '
+                    'track points, needs gpxpy) and pair it with its truth: a '
+                    'reference receiver\'s NMEA or a GPX track (*.gpx), '
+                    'interpolated linearly in time to the fixes\' stamps, or a '
+                    'fixed point LAT,LON[,ALT] for a '
                     'static receiver. Writes the trace CSV (with alt, truth_alt, '
                     'speed, bearing, hdop, truth_speed, truth_bearing) that '
                     'calibrate, validate, diagnose and compare read.')
-    m.add_argument('format', choices=('nmea', 'gnsslogger'),
+    m.add_argument('format', choices=('nmea', 'gnsslogger', 'gpx'),
                    help='the recording\'s format')
     m.add_argument('input', help='the recording (e.g. the phone\'s NMEA log)')
     m.add_argument('--truth', required=True,
-                   help='truth: a reference receiver\'s NMEA file, or LAT,LON[,ALT]')
+                   help='truth: a reference receiver\'s NMEA file, a GPX track '
+                        '(*.gpx), or LAT,LON[,ALT]')
     m.add_argument('-o', '--output', required=True, help='trace CSV to write')
     m.add_argument('--provider', default='gps',
                    help='gnsslogger: the Fix provider to keep (default gps)')

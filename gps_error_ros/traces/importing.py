@@ -2,10 +2,11 @@
 ``gps_error import``: recordings in the formats phones and receivers write.
 
 A recording (FORMAT ``nmea``: :mod:`.nmea`; ``gnsslogger``:
-:mod:`.gnsslogger`) and its truth become a canonical trace CSV that
-``calibrate``, ``validate``, ``diagnose`` and ``compare`` read. The truth
-is a second recording (a reference receiver's NMEA: SPAN-like) or a fixed
-point ``LAT,LON[,ALT]`` for a static receiver. Fixes are paired with
+:mod:`.gnsslogger`; ``gpx``: :mod:`.gpx`) and its truth become a canonical
+trace CSV that ``calibrate``, ``validate``, ``diagnose`` and ``compare``
+read. The truth is a second recording (a reference receiver's NMEA, a GPX
+track: by the file's suffix ``.gpx``, otherwise NMEA) or a fixed point
+``LAT,LON[,ALT]`` for a static receiver. Fixes are paired with
 the truth interpolated linearly in time to their stamps, never across a
 truth gap (:mod:`.pairing`); the truth's speed and course come from the
 chord of its positions 0.5 s before and after each fix (empty below
@@ -19,11 +20,12 @@ import numpy as np
 
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.gnsslogger import read_gnsslogger
+from gps_error_ros.traces.gpx import read_gpx
 from gps_error_ros.traces.nmea import read_nmea
 from gps_error_ros.traces.pairing import pair
 from gps_error_ros.traces.trace_io import Trace
 
-FORMATS = ('nmea', 'gnsslogger')
+FORMATS = ('nmea', 'gnsslogger', 'gpx')
 #: Below this truth speed (m/s) the truth course is left empty.
 MIN_COURSE_SPEED = 0.2
 
@@ -46,8 +48,11 @@ def _truth(spec, fixes):
         t = np.array([fixes.t[0] - 1.0, fixes.t[-1] + 1.0])
         return (t, np.full(2, point[0]), np.full(2, point[1]), np.full(2, point[2]),
                 f'truth: the fixed point {point[0]}, {point[1]}')
-    first = dt.datetime.fromtimestamp(fixes.t[0], dt.timezone.utc).date()
-    ref = read_nmea(spec, date=first)
+    if str(spec).lower().endswith('.gpx'):
+        ref = read_gpx(spec)
+    else:
+        first = dt.datetime.fromtimestamp(fixes.t[0], dt.timezone.utc).date()
+        ref = read_nmea(spec, date=first)
     return ref.t, ref.lat, ref.lon, ref.alt, f'truth {spec}: {ref.describe()}'
 
 
@@ -70,6 +75,8 @@ def read_recording(fmt, path, provider='gps'):
         return read_nmea(path)
     if fmt == 'gnsslogger':
         return read_gnsslogger(path, provider)
+    if fmt == 'gpx':
+        return read_gpx(path)
     raise ValueError(f'format {fmt!r}: expected one of {list(FORMATS)}')
 
 
