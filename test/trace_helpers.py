@@ -27,3 +27,14 @@ def synthetic_trace(n, seed=1, drop=()):
 def write_csv(path, trace):
     """Write ``trace`` as a trace CSV (the package's one writer)."""
     return write_trace_csv(trace, path)
+
+
+def gpx_file(path, points, extra=''):
+    """Write a GPX 1.0 track of (iso time, lat, lon, ele) points."""
+    body = ''.join(f'<trkpt lat="{la}" lon="{lo}"><ele>{el}</ele>'
+                   + (f'<time>{t}</time>' if t else '') + f'{extra}</trkpt>'
+                   for t, la, lo, el in points)
+    path.write_text('<?xml version="1.0"?><gpx version="1.0" creator="test" '
+                    'xmlns="http://www.topografix.com/GPX/1/0"><trk><trkseg>'
+                    f'{body}</trkseg></trk></gpx>')
+    return path

@@ -5,8 +5,9 @@ A recording (FORMAT ``nmea``: :mod:`.nmea`; ``gnsslogger``:
 :mod:`.gnsslogger`; ``gpx``: :mod:`.gpx`) and its truth become a canonical
 trace CSV that ``calibrate``, ``validate``, ``diagnose`` and ``compare``
 read. The truth is a second recording (a reference receiver's NMEA, a GPX
-track: by the file's suffix ``.gpx``, otherwise NMEA) or a fixed point
-``LAT,LON[,ALT]`` for a static receiver. Fixes are paired with
+track: by the file's suffix ``.gpx``, otherwise NMEA), a fixed point
+``LAT,LON[,ALT]`` for a static receiver, or landmarks and the times they
+were passed (:mod:`.landmarks`, the reference paper's method). Fixes are paired with
 the truth interpolated linearly in time to their stamps, never across a
 truth gap (:mod:`.pairing`); the truth's speed and course come from the
 chord of its positions 0.5 s before and after each fix (empty below
@@ -21,6 +22,7 @@ import numpy as np
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.gnsslogger import read_gnsslogger
 from gps_error_ros.traces.gpx import read_gpx
+from gps_error_ros.traces.landmarks import landmark_truth
 from gps_error_ros.traces.nmea import read_nmea
 from gps_error_ros.traces.pairing import pair
 from gps_error_ros.traces.trace_io import Trace
@@ -43,6 +45,10 @@ def parse_point(text):
 
 def _truth(spec, fixes):
     """Return the truth as (t, lat, lon, alt) arrays, and a line for people."""
+    if isinstance(spec, tuple):                      # (landmarks CSV, passes CSV)
+        t, lat, lon, alt = landmark_truth(*spec)
+        return t, lat, lon, alt, (f'truth: {t.size} passes of the landmarks in '
+                                  f'{spec[0]}, constant speed in between')
     point = parse_point(spec)
     if point is not None:
         t = np.array([fixes.t[0] - 1.0, fixes.t[-1] + 1.0])
@@ -84,6 +90,8 @@ def import_recording(fmt, path, truth, max_truth_gap=None, provider='gps'):
     """Return (Trace, notes) of a recording in ``fmt`` against its truth."""
     fixes = read_recording(fmt, path, provider)
     tt, tlat, tlon, talt, note = _truth(truth, fixes)
+    if isinstance(truth, tuple) and max_truth_gap is None:
+        max_truth_gap = math.inf     # the method bridges from one pass to the next
     trace, stats = pair(fixes.t, fixes.lat, fixes.lon, tt, tlat, tlon,
                         max_truth_gap, str(path))
     used = stats.used

@@ -7,17 +7,7 @@ from gps_error_ros.cli import main as cli
 from gps_error_ros.traces.gpx import GpxError, read_gpx
 from gps_error_ros.traces.importing import import_recording
 from gps_error_ros.traces.trace_io import read_trace_csv
-
-
-def gpx_file(path, points, extra=''):
-    """Write a GPX 1.0 track of (iso time, lat, lon, ele) points."""
-    body = ''.join(f'<trkpt lat="{la}" lon="{lo}"><ele>{el}</ele>'
-                   + (f'<time>{t}</time>' if t else '') + f'{extra}</trkpt>'
-                   for t, la, lo, el in points)
-    path.write_text('<?xml version="1.0"?><gpx version="1.0" creator="test" '
-                    'xmlns="http://www.topografix.com/GPX/1/0"><trk><trkseg>'
-                    f'{body}</trkseg></trk></gpx>')
-    return path
+from trace_helpers import gpx_file
 
 
 def stamp(k):

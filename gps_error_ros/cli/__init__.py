@@ -1,0 +1,268 @@
+"""
+``gps_error``: the command-line tools that need no ROS.
+
+``gps_error calibrate INPUT -o PROFILE.yaml`` fits a profile from a trace CSV
+or a rosbag2; ``gps_error validate PROFILE INPUT --out DIR`` cross-validates a
+profile against a measured trace; ``gps_error simulate`` adds errors to SUMO
+FCD or CSV trajectories, or writes raw error series; ``gps_error diagnose
+INPUT`` finds the structure the AR model misses and fits the extended model;
+``gps_error compare INPUT`` judges every model class as a simulator of the
+held-out data; ``gps_error synth SCENARIO -o WALK.csv`` writes a synthetic
+walk.
+"""
+
+import secrets
+from pathlib import Path
+import sys
+
+from gps_error_ros.cli.parser import build_parser
+from gps_error_ros.fit.calibration import calibrate, CalibrationError
+from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
+    write_profile
+from gps_error_ros.traces.bag_io import BagError
+from gps_error_ros.traces.gnsslogger import GnssLoggerError
+from gps_error_ros.traces.gpx import GpxError
+from gps_error_ros.traces.landmarks import LandmarkError
+from gps_error_ros.traces.nmea import NmeaError
+from gps_error_ros.traces.loading import load_trace, parse_datum
+from gps_error_ros.traces.pairing import PairingError
+from gps_error_ros.traces.trace_io import TraceError
+
+# DiagnosisError is a ValueError
+ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
+          NmeaError, GnssLoggerError, GpxError, LandmarkError, ValueError, OSError)
+
+
+def _load_input(args):
+    """Load INPUT with the options of _add_input_options; print how it went."""
+    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
+                              parse_datum(args.datum), args.max_truth_gap, args.agent)
+    for line in notes:
+        print(line)
+    return trace
+
+
+def cmd_simulate(args):
+    """Run ``gps_error simulate``; return the exit code."""
+    from gps_error_ros.sim import simulate as batch
+    from gps_error_ros.model.profiles import load_profile
+
+    if args.trajectories and (args.agents is not None or args.duration is not None):
+        raise ValueError('--trajectories and --agents/--duration are two modes: '
+                         'give one of them')
+    if not args.trajectories and (args.agents is None or args.duration is None):
+        raise ValueError('expected --trajectories INPUT, or --agents N and '
+                         '--duration S')
+    _check_output_dir(args.out, '--out')
+    profile = load_profile(args.profile)
+    model = profile.model()
+    if args.seed == -1:
+        args.seed = secrets.randbits(63)
+        print(f'no seed given: using seed {args.seed}')
+    if args.trajectories:
+        src = Path(args.trajectories)
+        if src.suffix.lower() == '.csv':
+            res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed)
+        else:
+            res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
+                                     args.seed, args.net, args.coordinates)
+    else:
+        res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
+                                 args.agents, args.duration, args.start)
+    print(', '.join(f'{v} {k}' for k, v in res.items()) + f'; wrote {args.out}')
+    return 0
+
+
+def _check_output_dir(path, option):
+    """Refuse an output whose directory does not exist, before any work."""
+    parent = Path(path).expanduser().resolve().parent
+    if not parent.is_dir():
+        raise ValueError(f'{option} {path}: directory {parent} does not exist')
+
+
+def _part(text):
+    try:
+        lo, hi = (float(v) for v in text.split(','))
+    except ValueError:
+        raise ValueError(f'--part {text!r}: expected START,END fractions') from None
+    if not 0.0 <= lo < hi <= 1.0:
+        raise ValueError(f'--part {text!r}: expected 0 <= START < END <= 1')
+    return lo, hi
+
+
+def cmd_validate(args):
+    """Run ``gps_error validate``; return the exit code."""
+    from gps_error_ros.model.profiles import load_profile
+    from gps_error_ros.reports.jsonfile import write_json
+    from gps_error_ros.fit.validation import slice_trace, validate
+    from gps_error_ros.reports.validation_figure import validation_figure
+
+    lo, hi = _part(args.part)
+    model = load_profile(args.profile).model()
+    trace = slice_trace(_load_input(args), lo, hi)
+    res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
+                   seed=args.seed)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = res.summary()
+    summary.update({'profile': args.profile, 'part': [lo, hi]})
+    write_json(out / 'validation.json', summary)
+    validation_figure(res, out / 'validation.png',
+                      f'{args.profile} against {trace.name} '
+                      f'(part {lo:g}-{hi:g}, {res.samples} samples)')
+    for ax in ('north', 'east'):
+        d = summary[ax]
+        print(f'  {ax}: autocorrelation inside the envelope at '
+              f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
+              f'{summary["max_lag"]}; quantiles inside at '
+              f'{100 * d["quantiles_inside_envelope"]:.0f} %')
+    print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
+    return 0
+
+
+def cmd_calibrate(args):
+    """Run ``gps_error calibrate``; return the exit code."""
+    _check_output_dir(args.output, '-o')
+    trace = _load_input(args)
+    result = calibrate(trace, order=args.order, max_order=args.max_order)
+    out = Path(args.output)
+    profile = result.profile_dict(args.name or out.stem)
+    write_profile(out, profile)
+    load_profile_file(out)          # what we write must load as it is
+    g = result.grid
+    print(f'{trace.name}: {g.n} samples in {len(g.segments)} segment(s), '
+          f'{g.span_s:.0f} s')
+
+    for ax, fit in (('north', result.north), ('east', result.east)):
+        p = fit.params
+        print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
+              f'{fit.bic_order}) delta={p.delta:.4f} '
+              f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}')
+        if not fit.fixed_order and fit.pacf_order == args.max_order:
+            print(f'  note: the {ax} PACF is significant up to the largest order '
+                  f'allowed (--max-order {args.max_order}); a larger --max-order '
+                  f'may choose more')
+    print(f'wrote {out}')
+    return 0
+
+
+def cmd_diagnose(args):
+    """Run ``gps_error diagnose``; return the exit code."""
+    from gps_error_ros.diagnose import diagnose, extended_profile
+    from gps_error_ros.reports.jsonfile import write_json
+
+    for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
+        if path:
+            _check_output_dir(path, option)
+    trace = _load_input(args)
+    diag = diagnose(trace, sims=args.sims, seed=args.seed)
+    s = diag.summary
+    print(f'{trace.name}: {s["samples"]} samples, {s["train_samples"]} train / '
+          f'{s["test_samples"]} held out ({s["split"]["rule"]})')
+    print(f'  base: AR orders north {s["base"]["order"]["north"]}, east '
+          f'{s["base"]["order"]["east"]}')
+    for name, t in s['tests'].items():
+        flag = 'REJECTED' if t['rejected'] else 'ok'
+        print(f'  test {name:24s} p={t["p_value"]:.3g} (Holm {t["holm_adjusted_p"]:.3g}) '
+              f'{flag}')
+    print('  effects: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
+    print('  unexplained: ' + ('; '.join(u['structure'] for u in s['unexplained'])
+                               or 'none'))
+    imp = s['improvement']
+    print(f'  held-out NLL per sample: before {s["error_before"]["heldout_nll_per_sample"]:.4f}, '
+          f'after {s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
+          f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
+          f'{imp["ci95"][1]:.4f})')
+    if s['effects'] and imp['ci95'][0] <= 0.0 <= imp['ci95'][1]:
+        print('  note: the 95 % interval of the improvement spans zero: the held-out '
+              'part does not show that the extended model predicts better')
+    if args.json_out:
+        write_json(Path(args.json_out), s)
+        print(f'wrote {args.json_out}')
+    if args.report:
+        from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
+        out = Path(args.report)
+        out.mkdir(parents=True, exist_ok=True)
+        diagnosis_figure(diag, out / 'diagnosis.png', trace.name)
+        print(f'wrote {out / "diagnosis.png"}')
+    if args.profile_out:
+        out = Path(args.profile_out)
+        write_profile(out, extended_profile(diag, out.stem, trace.name), 'diagnose')
+        load_profile_file(out)          # what we write must load as it is
+        print(f'wrote {out}')
+    return 0
+
+
+def cmd_compare(args):
+    """Run ``gps_error compare``; return the exit code."""
+    from gps_error_ros.diagnose import diagnose
+    from gps_error_ros.diagnose.baselines import compare, compare_json
+    from gps_error_ros.reports.jsonfile import write_json
+
+    if args.json_out:
+        _check_output_dir(args.json_out, '--json')
+    trace = _load_input(args)
+    diag = diagnose(trace, sims=args.sims, seed=args.seed)
+    doc = compare_json(diag, compare(diag, sims=args.sims, seed=args.seed))
+    print(f'{trace.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
+          f'out; {args.sims} simulated traces per class')
+    print(f'  {"class":12} {"held-out NLL":>13} {"inside_95":>10}')
+    for name, c in doc['classes'].items():
+        print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} '
+              f'{c["fidelity"]["inside_95"]:10.2f}')
+    if args.json_out:
+        write_json(Path(args.json_out), doc)
+        print(f'wrote {args.json_out}')
+    if args.report:
+        from gps_error_ros.reports.compare_figure import compare_figure
+        out = Path(args.report)
+        out.mkdir(parents=True, exist_ok=True)
+        compare_figure(doc, out / 'compare.png')
+        print(f'wrote {out / "compare.png"}')
+    return 0
+
+
+def cmd_import(args):
+    """Run ``gps_error import``; return the exit code."""
+    from gps_error_ros.traces.importing import import_recording
+    from gps_error_ros.traces.trace_io import write_trace_csv
+
+    _check_output_dir(args.output, '-o')
+    landmarks = args.landmarks is not None or args.passes is not None
+    if landmarks == (args.truth is not None) or \
+            (landmarks and (args.landmarks is None or args.passes is None)):
+        raise ValueError('expected --truth TRUTH, or --landmarks FILE and --passes FILE')
+    truth = (args.landmarks, args.passes) if landmarks else args.truth
+    trace, notes = import_recording(args.format, args.input, truth,
+                                    args.max_truth_gap, args.provider)
+    for line in notes:
+        print(line)
+    write_trace_csv(trace, args.output)
+    print(f'wrote {args.output}: {len(trace)} rows')
+    return 0
+
+
+def cmd_synth(args):
+    """Run ``gps_error synth``; return the exit code."""
+    from gps_error_ros.sim.synthetic import synthetic_trace
+    from gps_error_ros.traces.trace_io import write_trace_csv
+
+    _check_output_dir(args.output, '-o')
+    trace = synthetic_trace(args.scenario, args.seed, args.duration)
+    write_trace_csv(trace, args.output)
+    print(f'wrote {args.output}: {len(trace)} fixes, scenario {args.scenario}, '
+          f'seed {args.seed}')
+    return 0
+
+
+def main(argv=None):
+    """Entry point of ``gps_error``."""
+    args = build_parser().parse_args(argv)
+    try:
+        return {'calibrate': cmd_calibrate, 'validate': cmd_validate,
+                'simulate': cmd_simulate, 'diagnose': cmd_diagnose,
+                'compare': cmd_compare, 'import': cmd_import,
+                'synth': cmd_synth}[args.command](args)
+    except ERRORS as exc:
+        print(f'gps_error {args.command}: {exc}', file=sys.stderr)
+        return 2
