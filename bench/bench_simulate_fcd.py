@@ -72,8 +72,11 @@ def main():
         t_parse = time.perf_counter() - t0
         exe = Path(sys.executable).with_name('gps_error')
         t0 = time.perf_counter()
+        # the file is written here, not by SUMO: it has no options comment
+        # saying lon/lat, so the command is told
         subprocess.run([str(exe), 'simulate', '--profile', 'DS5', '--seed', '1',
-                        '--trajectories', str(src), '--out', str(dst)], check=True)
+                        '--trajectories', str(src), '--out', str(dst),
+                        '--coordinates', 'lonlat'], check=True)
         t_sim = time.perf_counter() - t0
         peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
         row = {'persons': args.persons, 'seconds': args.seconds,
