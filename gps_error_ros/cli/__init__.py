@@ -234,7 +234,7 @@ def cmd_import(args):
         raise ValueError('expected --truth TRUTH, or --landmarks FILE and --passes FILE')
     truth = (args.landmarks, args.passes) if landmarks else args.truth
     trace, notes = import_recording(args.format, args.input, truth,
-                                    args.max_truth_gap, args.provider)
+                                    args.max_truth_gap, args.provider, args.truth_date)
     for line in notes:
         print(line)
     write_trace_csv(trace, args.output)

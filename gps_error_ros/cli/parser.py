@@ -31,6 +31,15 @@ def number(kind, lo=None, hi=None, lo_open=False):
     return parse
 
 
+def _date(text):
+    """Return a ``datetime.date`` of 'YYYY-MM-DD' (an argparse type)."""
+    import datetime as dt
+    try:
+        return dt.date.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r}: expected YYYY-MM-DD') from None
+
+
 #: Simulated traces an envelope needs: its 2.5 and 97.5 % points must be
 #: estimable (with fewer, the central 95 % range is the sample's extremes).
 MIN_SIMS = 20
@@ -210,6 +219,9 @@ def _add_import(sub):
                    help='a CSV of the times the landmarks were passed (time: UTC '
                         's or ISO 8601, landmark); constant speed in between')
     m.add_argument('-o', '--output', required=True, help='trace CSV to write')
+    m.add_argument('--truth-date', type=_date, default=None,
+                   help='UTC date (YYYY-MM-DD) of an NMEA truth whose RMC sentences '
+                        'give none (default: the first fix\'s date)')
     m.add_argument('--provider', default='gps',
                    help='gnsslogger: the Fix provider to keep (default gps)')
     m.add_argument('--max-truth-gap', type=number(float, 0.0, lo_open=True), default=None,

@@ -43,8 +43,13 @@ def parse_point(text):
     return tuple(v + [math.nan] * (3 - len(v)))
 
 
-def _truth(spec, fixes):
-    """Return the truth as (t, lat, lon, alt) arrays, and a line for people."""
+def _truth(spec, fixes, truth_date=None):
+    """
+    Return the truth as (t, lat, lon, alt) arrays, and a line for people.
+
+    An NMEA truth without a valid RMC takes ``truth_date`` (a
+    ``datetime.date``) or, by default, the UTC date of the first fix.
+    """
     if isinstance(spec, tuple):                      # (landmarks CSV, passes CSV)
         t, lat, lon, alt = landmark_truth(*spec)
         return t, lat, lon, alt, (f'truth: {t.size} passes of the landmarks in '
@@ -57,7 +62,7 @@ def _truth(spec, fixes):
     if str(spec).lower().endswith('.gpx'):
         ref = read_gpx(spec)
     else:
-        first = dt.datetime.fromtimestamp(fixes.t[0], dt.timezone.utc).date()
+        first = truth_date or dt.datetime.fromtimestamp(fixes.t[0], dt.timezone.utc).date()
         ref = read_nmea(spec, date=first)
     return ref.t, ref.lat, ref.lon, ref.alt, f'truth {spec}: {ref.describe()}'
 
@@ -86,10 +91,11 @@ def read_recording(fmt, path, provider='gps'):
     raise ValueError(f'format {fmt!r}: expected one of {list(FORMATS)}')
 
 
-def import_recording(fmt, path, truth, max_truth_gap=None, provider='gps'):
+def import_recording(fmt, path, truth, max_truth_gap=None, provider='gps',
+                     truth_date=None):
     """Return (Trace, notes) of a recording in ``fmt`` against its truth."""
     fixes = read_recording(fmt, path, provider)
-    tt, tlat, tlon, talt, note = _truth(truth, fixes)
+    tt, tlat, tlon, talt, note = _truth(truth, fixes, truth_date)
     if isinstance(truth, tuple) and max_truth_gap is None:
         max_truth_gap = math.inf     # the method bridges from one pass to the next
     trace, stats = pair(fixes.t, fixes.lat, fixes.lon, tt, tlat, tlon,

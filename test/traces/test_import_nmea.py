@@ -104,3 +104,20 @@ def test_bad_recordings_are_clear_errors(tmp_path, capsys):
                 '-o', str(out)]) == 2
     assert 'checksum' in capsys.readouterr().err or not out.exists()
     assert not out.exists()
+
+
+def test_a_truth_without_dates_takes_the_given_one(tmp_path, capsys):
+    """The SPAN file's RMC all fail their checksums: the date comes from elsewhere."""
+    span = RAW / 'SPAN_Pixel4_10Hz.nmea'
+    phone = RAW / 'Pixel4_chipset.nmea'
+    out = tmp_path / 'o.csv'
+    assert cli(['import', 'nmea', str(phone), '--truth', str(span), '--truth-date',
+                '2020-05-14', '-o', str(out)]) == 0
+    assert '1737 of 1737 fixes paired' in capsys.readouterr().out
+    assert cli(['import', 'nmea', str(phone), '--truth', str(span), '--truth-date',
+                '2020-05-15', '-o', str(out)]) == 2          # a day off: no overlap
+    assert 'do not overlap the truth' in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli(['import', 'nmea', str(phone), '--truth', str(span), '--truth-date', 'May',
+             '-o', str(out)])
+    assert "'May': expected YYYY-MM-DD" in capsys.readouterr().err
