@@ -15,6 +15,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         (os.path.join('share', package_name, 'config', 'profiles'),
             sorted(glob('config/profiles/*.yaml'))),
+        (os.path.join('share', package_name, 'config'), sorted(glob('config/*.yaml'))),
     ],
     # The core and the `gps_error` command need no ROS: rclpy and the message
     # packages come from the ROS install (or requirements-ros.txt).

@@ -1,17 +1,18 @@
 """
-Rewrite the parameter tables in README.md from the nodes' parameter table.
+Rewrite the README's parameter tables and config/<node>.yaml from the table.
 
 Run ``python tools/readme_parameters.py`` after changing
 ``gps_error_ros/ros/parameters.py``; ``test/ros/test_parameters_doc.py``
-fails while the README and the table disagree. Each table sits between
-``<!-- parameters:NODE -->`` and ``<!-- /parameters:NODE -->``.
+fails while the README or the parameters files and the table disagree. Each
+README table sits between ``<!-- parameters:NODE -->`` and
+``<!-- /parameters:NODE -->``.
 """
 
 from pathlib import Path
 import re
 import sys
 
-from gps_error_ros.ros.parameters import markdown_table, README_TABLES
+from gps_error_ros.ros.parameters import markdown_table, params_file, README_TABLES
 
 README = Path(__file__).resolve().parents[1] / 'README.md'
 
@@ -29,9 +30,13 @@ def render(text):
 
 
 def main():
-    """Rewrite README.md in place; exit 0."""
+    """Rewrite README.md in place and the parameters files; exit 0."""
     README.write_text(render(README.read_text()))
     print(f'wrote {README}')
+    for node, specs in README_TABLES.items():
+        path = README.parent / 'config' / f'{node}.yaml'
+        path.write_text(params_file(node, specs))
+        print(f'wrote {path}')
     return 0
 
 

@@ -349,3 +349,43 @@ def help_text(node, summary, specs, topics, example):
         lines.append(f'  {direction:4} {topic:24} {msg_type}  {note}')
     lines += ['', 'example:', f'  {example}', '']
     return '\n'.join(lines)
+
+
+def _yaml_value(spec):
+    v = spec.default
+    if isinstance(v, str):
+        plain = v and all(c.isalnum() or c in '_./-' for c in v)
+        return v if plain else '"' + v.replace('"', '\\"') + '"'
+    return repr(v)
+
+
+def params_file(node, specs):
+    """
+    Return a ROS 2 parameters file of ``node``: every parameter at its default.
+
+    Each parameter comes with its description as a comment; those without a
+    default (``datum``, the agent lists) are written commented out, with an
+    example. ``tools/readme_parameters.py`` writes ``config/<node>.yaml`` from
+    this, and a test checks the files agree with the table.
+    """
+    examples = {'datum': '[40.75057, -73.99065, -23.0]',
+                'agents': '["ped1", "ped2", "ped3"]',
+                'agent_profiles': '["DS2", "DS5", "DS7"]'}
+    lines = [f'# {node}: every parameter at its default (generated from the node\'s',
+             '# parameter table by tools/readme_parameters.py; do not edit by hand).',
+             f'# Use: {node} --ros-args --params-file config/{node}.yaml',
+             '/**:', '  ros__parameters:']
+    for s in specs:
+        text = s.description + (f' One of: {", ".join(s.choices)}.' if s.choices else '')
+        words, line = text.split(), '    #'
+        for w in words:
+            if len(line) + len(w) > 88:
+                lines.append(line)
+                line = '    #'
+            line += ' ' + w
+        lines.append(line)
+        if s.default is None:
+            lines.append(f'    # {s.name}: {examples.get(s.name, "")}')
+        else:
+            lines.append(f'    {s.name}: {_yaml_value(s)}')
+    return '\n'.join(lines) + '\n'

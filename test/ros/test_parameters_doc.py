@@ -2,13 +2,16 @@
 
 from pathlib import Path
 import re
+import time
 
 from rcl_interfaces.msg import ParameterType
 
 from gps_error_ros.ros.parameters import (ERROR_NODE_PARAMS, markdown_table,
-                                          README_TABLES)
+                                          params_file, README_TABLES)
+from ros_harness import NodeProcess, unique_ns
 
-README = Path(__file__).resolve().parents[2] / 'README.md'
+ROOT = Path(__file__).resolve().parents[2]
+README = ROOT / 'README.md'
 
 
 def test_readme_tables_match_the_parameter_table():
@@ -29,3 +32,22 @@ def test_table_rows_carry_each_descriptor():
         assert ('| yes |' in row) == spec.read_only
         if spec.type == ParameterType.PARAMETER_DOUBLE and spec.low is not None:
             assert f'{spec.low:g} to {spec.high:g}' in row
+
+
+def test_parameters_files_are_the_table_and_start_the_nodes(tmp_path):
+    for node, specs in README_TABLES.items():
+        path = ROOT / 'config' / f'{node}.yaml'
+        assert path.read_text() == params_file(node, specs), \
+            f'{path} is stale: run python tools/readme_parameters.py'
+    runs = [('gps_error_node', ['-p', 'datum:=[40.75, -73.99, 0.0]'], 'fixes at 1.0 Hz'),
+            ('gps_calibration_node', ['-p', 'datum:=[40.75, -73.99, 0.0]',
+                                      '-p', f'output:={tmp_path / "p.yaml"}'],
+             'calibrating from')]
+    for node, extra, started in runs:
+        proc = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}', '--params-file',
+                            str(ROOT / 'config' / f'{node}.yaml')] + extra, name=node)
+        deadline = time.monotonic() + 8.0
+        while time.monotonic() < deadline and proc.proc.poll() is None:
+            time.sleep(0.2)
+        rc, log = proc.stop()
+        assert rc == 0 and started in log and 'unknown parameter' not in log, log
