@@ -213,3 +213,18 @@ def errors(fixes, truth_lat, truth_lon):
     lat = np.array([f.latitude for f in fixes])
     lon = np.array([f.longitude for f in fixes])
     return np.stack(difference(lat, lon, truth_lat, truth_lon), axis=1)
+
+
+def replay_calibration_node(ns, out, *params):
+    """
+    Start the calibration node on /clock for a bag replayed by ``bag_play``.
+
+    Pose truth about the datum [40.0, -74.0, 0.0] on /truth, fixes on /fix
+    (the topics of ``bag_helpers.write_walk_bag``), the profile to ``out``.
+    """
+    args = ['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+            '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={out}',
+            '-r', f'{ns}/pose:=/truth', '-r', f'{ns}/fix:=/fix']
+    for p in params:
+        args += ['-p', p]
+    return NodeProcess(args, name='gps_calibration_node')

@@ -82,7 +82,8 @@ def run(data_dir, out_dir, sims=SIMS):
             continue
         rec['summary'] = diag.to_dict()
         rec['classes'] = compare(diag, sims=sims)
-        compare_figure(compare_json(diag, rec['classes']), sub / f'{stem}.compare.png')
+        compare_figure(compare_json(csv_path.name, diag.split, rec['classes']),
+                       sub / f'{stem}.compare.png')
         (sub / f'{stem}.json').write_text(json.dumps(
             {'diagnosis': rec['summary'], 'classes': rec['classes']}, indent=1))
         diagnosis_figure(diag, sub / f'{stem}.png', csv_path.name)

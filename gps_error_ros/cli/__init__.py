@@ -149,7 +149,7 @@ def cmd_calibrate(args):
 def cmd_diagnose(args):
     """Run ``gps_error diagnose``; return the exit code."""
     from gps_error_ros.diagnose import diagnose, extended_profile
-    from gps_error_ros.reports.jsonfile import write_json
+    from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
 
     for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
         if path:
@@ -176,15 +176,8 @@ def cmd_diagnose(args):
     if s['effects'] and imp['ci95'][0] <= 0.0 <= imp['ci95'][1]:
         print('  note: the 95 % interval of the improvement spans zero: the held-out '
               'part does not show that the extended model predicts better')
-    if args.json_out:
-        write_json(Path(args.json_out), s)
-        print(f'wrote {args.json_out}')
-    if args.report:
-        from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
-        out = Path(args.report)
-        out.mkdir(parents=True, exist_ok=True)
-        diagnosis_figure(diag, out / 'diagnosis.png', trace.name)
-        print(f'wrote {out / "diagnosis.png"}')
+    _write_results(args, diag.to_dict(), 'diagnosis.png',
+                   lambda path: diagnosis_figure(diag, path, trace.name))
     if args.profile_out:
         out = Path(args.profile_out)
         write_profile(out, extended_profile(diag, out.stem, trace.name), 'diagnose')
@@ -193,32 +186,38 @@ def cmd_diagnose(args):
     return 0
 
 
+def _write_results(args, doc, figure_name, draw):
+    """Write ``doc`` to ``--json`` and ``draw(path)`` into ``--report``, if asked."""
+    from gps_error_ros.reports.jsonfile import write_json
+    if args.json_out:
+        write_json(Path(args.json_out), doc)
+        print(f'wrote {args.json_out}')
+    if args.report:
+        out = Path(args.report)
+        out.mkdir(parents=True, exist_ok=True)
+        draw(out / figure_name)
+        print(f'wrote {out / figure_name}')
+
+
 def cmd_compare(args):
     """Run ``gps_error compare``; return the exit code."""
-    from gps_error_ros.diagnose import diagnose
     from gps_error_ros.diagnose.baselines import compare, compare_json
-    from gps_error_ros.reports.jsonfile import write_json
+    from gps_error_ros.diagnose.pipeline import fit_models
+    from gps_error_ros.reports.compare_figure import compare_figure
 
     if args.json_out:
         _check_output_dir(args.json_out, '--json')
     trace = _load_input(args)
-    diag = diagnose(trace, sims=args.sims, seed=args.seed)
-    doc = compare_json(diag, compare(diag, sims=args.sims, seed=args.seed))
+    fitted = fit_models(trace)      # the held-out simulation is compare's own
+    doc = compare_json(trace.name, fitted.split,
+                       compare(fitted, sims=args.sims, seed=args.seed))
     print(f'{trace.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
           f'out; {args.sims} simulated traces per class')
     print(f'  {"class":12} {"held-out NLL":>13} {"inside_95":>10}')
     for name, c in doc['classes'].items():
         print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} '
               f'{c["fidelity"]["inside_95"]:10.2f}')
-    if args.json_out:
-        write_json(Path(args.json_out), doc)
-        print(f'wrote {args.json_out}')
-    if args.report:
-        from gps_error_ros.reports.compare_figure import compare_figure
-        out = Path(args.report)
-        out.mkdir(parents=True, exist_ok=True)
-        compare_figure(doc, out / 'compare.png')
-        print(f'wrote {out / "compare.png"}')
+    _write_results(args, doc, 'compare.png', lambda path: compare_figure(doc, path))
     return 0
 
 

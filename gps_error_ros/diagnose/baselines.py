@@ -127,7 +127,13 @@ KEYS = {'white noise + bias': 'white_bias', 'AR(1)': 'ar1', 'ARMA(1,1)': 'arma11
 
 
 def _classes(diag, sims, seed):
-    """Return {class: (held-out log densities, simulated traces)}, same samples."""
+    """
+    Return {class: (held-out log densities, simulated traces)}, same samples.
+
+    ``diag`` is anything with the ``split``, ``base`` and ``extended`` of a
+    diagnosis: a :class:`~.pipeline.Diagnosis` or the cheaper
+    :class:`~.pipeline.FittedModels`.
+    """
     train, test, truth = diag.split.train, diag.split.test, diag.split.truth
     m0 = condition_count(diag.base.orders)
     rng = np.random.default_rng(seed)
@@ -164,11 +170,10 @@ def compare(diag, sims=100, seed=0):
     return out
 
 
-def compare_json(diag, compared):
+def compare_json(name, split, compared):
     """Return ``gps_error compare``'s JSON document of a :func:`compare` result."""
-    s = diag.summary
-    return {'input': s['input'], 'train_samples': s['train_samples'],
-            'test_samples': s['test_samples'],
+    return {'input': name, 'train_samples': split.train.n,
+            'test_samples': split.test.n,
             'classes': {KEYS[k]: {'heldout_nll_per_sample': v['heldout_nll_per_sample'],
                                   'fidelity': {key: v['calibrated'][key] for key in
                                                ('inside_95', 'measures')}}

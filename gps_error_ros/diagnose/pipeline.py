@@ -98,6 +98,7 @@ class FamilyResult:
     reject: dict
     adjusted: dict
     lag_s: float = None    # the lag removed before the law's tests, if any
+    base_residuals: tuple = ()      # (r, seg) of the base model on the training part
 
 
 @dataclass
@@ -150,6 +151,7 @@ def run_family(split, base, alpha=ALPHA):
     """
     motion = _motion_family(split, base)
     _, r_law, d_law, _ = base.score(split.train, split.truth)
+    base_residuals = (r_law, d_law.seg)
     lag_s = None
     if motion['p_value'] <= alpha / N_TESTS:
         lagged = fit_model(split.train, base.orders, ('motion_lag',), split.truth)
@@ -161,7 +163,7 @@ def run_family(split, base, alpha=ALPHA):
     for k in tests:
         tests[k]['holm_adjusted_p'] = adjusted[k]
         tests[k]['rejected'] = reject[k]
-    return FamilyResult(tests, reject, adjusted, lag_s)
+    return FamilyResult(tests, reject, adjusted, lag_s, base_residuals)
 
 
 def _pick(test):
@@ -310,17 +312,36 @@ def heldout_measures(split, base, extended, sims, seed, name):
     return before, after, improvement, int(len(ll_b))
 
 
-def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
-    """Run the whole procedure on a trace; return a :class:`Diagnosis`."""
+@dataclass
+class FittedModels:
+    """Steps 1-5: the split, the base model, its tests, the extended model."""
+
+    name: str
+    split: Split
+    base: FittedModel
+    family: FamilyResult
+    attribution: Attribution
+    extended: FittedModel
+
+
+def fit_models(trace, alpha=ALPHA):
+    """Run steps 1-5 (no held-out simulation); return :class:`FittedModels`."""
     split = split_step(trace)
     base = fit_base(split)
     family = run_family(split, base, alpha)
     att = attribute(split, base, family)
-    extended = fit_extended(split, base, att)
+    return FittedModels(trace.name, split, base, family, att,
+                        fit_extended(split, base, att))
+
+
+def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
+    """Run the whole procedure on a trace; return a :class:`Diagnosis`."""
+    fitted = fit_models(trace, alpha)
+    split, base, family = fitted.split, fitted.base, fitted.family
+    att, extended = fitted.attribution, fitted.extended
     retests, ext_residuals = retest_extended(split, extended, att, alpha)
     before, after, improvement, scored = heldout_measures(
         split, base, extended, sims, seed, trace.name)
-    _, r0, d0, _ = base.score(split.train, split.truth)
     summary = {
         'input': trace.name, 'samples': split.train.n + split.test.n,
         'train_samples': split.train.n, 'test_samples': split.test.n,
@@ -342,7 +363,7 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
         'improvement': improvement,
     }
     return Diagnosis(summary, base, extended,
-                     {'base': (r0, d0.seg), 'extended': ext_residuals}, split)
+                     {'base': family.base_residuals, 'extended': ext_residuals}, split)
 
 
 RETEST_LABEL = {

@@ -30,6 +30,7 @@ import re
 import yaml
 
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
+from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
 
 SCHEMA_VERSION = 1
@@ -322,14 +323,8 @@ def write_profile(path, profile, tool='calibrate'):
     Written beside ``path`` and renamed when complete, so that a failure
     never leaves a truncated profile behind.
     """
-    path = Path(path)
-    tmp = path.with_name(f'.{path.name}.partial-{os.getpid()}')
-    try:
+    with atomic_output(path) as tmp:
         with open(tmp, 'w', encoding='utf-8') as f:
             f.write(f'# Written by gps_error {tool}.\n')
             yaml.safe_dump(profile, f, sort_keys=False, default_flow_style=None,
                            width=100)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()

@@ -26,7 +26,7 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.model.effects import LagBuffer
-from gps_error_ros.traces.atomic import atomic_output
+from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gps_error_ros.traces.atomic import atomic_output
+from gps_error_ros.model.atomic import atomic_output
 
 REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
 OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0', 'bearing',

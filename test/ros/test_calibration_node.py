@@ -13,7 +13,7 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.geodesy import offset
 from gps_error_ros.model.profiles import load_profile_file
-from ros_harness import NodeProcess, Peer, stamp, unique_ns
+from ros_harness import NodeProcess, Peer, replay_calibration_node, stamp, unique_ns
 
 pytestmark = pytest.mark.integration
 LAT, LON = 48.137, 11.575
@@ -133,10 +133,7 @@ def test_bag_replayed_on_clock_gives_the_offline_fit(tmp_path):
 
     ns = unique_ns()
     live = tmp_path / 'live.yaml'
-    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
-                        '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={live}',
-                        '-p', 'name:=x', '-r', f'{ns}/pose:=/truth',
-                        '-r', f'{ns}/fix:=/fix'], name='gps_calibration_node')
+    node = replay_calibration_node(ns, live, 'name:=x')
     peer = Peer()
     try:
         played = play(bag, rate=100.0, wait_for_subscribers=1, node=peer.node)
@@ -168,10 +165,7 @@ def test_lost_messages_are_reported_not_fitted_silently(tmp_path):
                    truth_rate=2.0)
     ns = unique_ns()
     out = tmp_path / 'holed.yaml'
-    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
-                        '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={out}',
-                        '-r', f'{ns}/pose:=/truth', '-r', f'{ns}/fix:=/fix'],
-                       name='gps_calibration_node')
+    node = replay_calibration_node(ns, out)
     peer = Peer()
     try:
         play(bag, rate=100.0, wait_for_subscribers=1, node=peer.node)

@@ -16,18 +16,10 @@ from bag_helpers import write_walk_bag
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.ros.bag_play import play
-from ros_harness import DATUM_ARG, NodeProcess, Peer, start, unique_ns
+from ros_harness import DATUM_ARG, Peer, replay_calibration_node, start, unique_ns
 
 pytestmark = pytest.mark.integration
 NOISE = ('Traceback', 'RCLError', 'Failed to publish log message to rosout')
-
-
-def calibration_node(ns, out):
-    """Start the calibration node on /clock, its inputs remapped to /truth, /fix."""
-    return NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
-                        '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={out}',
-                        '-r', f'{ns}/pose:=/truth', '-r', f'{ns}/fix:=/fix'],
-                       name='gps_calibration_node')
 
 
 def wait_up(peer, name, ns, timeout=20):
@@ -78,7 +70,7 @@ def bag(tmp_path_factory):
 def test_calibration_node_without_data(tmp_path, run):
     out = tmp_path / 'nothing.yaml'
     ns = unique_ns()
-    node = calibration_node(ns, out)
+    node = replay_calibration_node(ns, out)
     peer = Peer()
     try:
         assert wait_up(peer, 'gps_calibration_node', ns)
@@ -93,7 +85,7 @@ def test_calibration_node_without_data(tmp_path, run):
 @pytest.mark.parametrize('run', range(3))
 def test_calibration_node_after_a_replay(tmp_path, bag, run):
     out = tmp_path / 'replayed.yaml'
-    node = calibration_node(unique_ns(), out)
+    node = replay_calibration_node(unique_ns(), out)
     peer = Peer()
     try:
         play(bag, rate=50.0, wait_for_subscribers=1, node=peer.node)
@@ -111,7 +103,7 @@ def test_calibration_node_after_a_replay(tmp_path, bag, run):
 def test_calibration_node_during_a_replay(tmp_path, bag, run):
     out = tmp_path / 'cut.yaml'
     ns = unique_ns()
-    node = calibration_node(ns, out)
+    node = replay_calibration_node(ns, out)
     peer = Peer()
     timer = threading.Timer(1.0 + 0.5 * run, node.proc.send_signal, (signal.SIGINT,))
     try:

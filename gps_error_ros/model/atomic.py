@@ -1,4 +1,9 @@
-"""Outputs that appear whole or not at all: written aside, then renamed."""
+"""
+Outputs that appear whole or not at all: written aside, then renamed.
+
+At the bottom of the house because every wing writes files this way, the
+profile writer of :mod:`.profiles` included.
+"""
 
 from contextlib import contextmanager
 import os
