@@ -43,6 +43,12 @@ Timing rules
 * The clock going backwards resets the engine: pending steps and truth
   history are discarded and the model restarts from its stationary law at the
   new instant.
+* Agents may come and go (:meth:`FixEngine.attach`, :meth:`FixEngine.detach`;
+  the node's ``agent_pattern``). Every agent's model counts from the
+  engine's first model step (the *start*): one attached later is caught up
+  from the start on its own stream, so its errors are the same whenever it
+  was attached, and the same as in a run that served it from the start.
+  Steps already waiting for truth when it is attached are served for it too.
 
 """
 
@@ -105,11 +111,18 @@ class _TruthRing:
         """Return the newest sample's coordinates for ``rows``."""
         return self.coord[rows, (self.head[rows] - 1) % self.size]
 
-    def clear(self):
-        """Forget every sample."""
-        self.stamp[:] = -1
-        self.newest[:] = -1
-        self.head[:] = 0
+    def clear(self, rows=slice(None)):
+        """Forget every sample (of ``rows``: all by default)."""
+        self.stamp[rows] = -1
+        self.newest[rows] = -1
+        self.head[rows] = 0
+
+    def grow(self, n):
+        """Add ``n`` empty rows."""
+        self.stamp = np.concatenate([self.stamp, np.full((n, self.size), -1, np.int64)])
+        self.coord = np.concatenate([self.coord, np.zeros((n, self.size, 3))])
+        self.head = np.concatenate([self.head, np.zeros(n, np.int64)])
+        self.newest = np.concatenate([self.newest, np.full(n, -1, np.int64)])
 
     def interpolate(self, rows, t_ns, max_gap_ns):
         """
@@ -156,11 +169,13 @@ class FixEngine:
     max_pending : int
         Output steps that may wait for truth at once; older ones are
         resolved (held or skipped) early when more arrive.
+    active : bool
+        False: every slot starts free (agents come with :meth:`attach`).
 
     """
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
-                 history=64, max_pending=1000):
+                 history=64, max_pending=1000, active=True):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -184,12 +199,14 @@ class FixEngine:
         # per agent: the first step skipped for want of truth since truth was
         # last found late (-1: none)
         self.last_skipped = np.full(self.n, -1, dtype=np.int64)
+        self.active = np.full(self.n, bool(active))
         self.stats = EngineStats()
         self._reset_time()
 
     def _reset_time(self):
         self.state = None
         self.model_index = None
+        self.start_index = None
         self.last_step = None
         self.last_now = None
         self.pending = deque()
@@ -258,6 +275,62 @@ class FixEngine:
         self.stats.dropped_out_of_order += int((~kept).sum())
         return kept
 
+    # --- agents that come and go ---------------------------------------
+
+    def grow(self, n):
+        """Add ``n`` free slots (inactive until attached)."""
+        self.keys = np.concatenate([self.keys, np.zeros(n, dtype=np.uint64)])
+        self.active = np.concatenate([self.active, np.zeros(n, dtype=bool)])
+        self.last_skipped = np.concatenate([self.last_skipped, np.full(n, -1, np.int64)])
+        self.truth.grow(n)
+        if self.state is not None:
+            self.state = np.concatenate([self.state, self.model.empty_state(n)])
+        for entry in self.pending:
+            entry[2] = np.concatenate([entry[2], np.zeros((n, 2))])
+            entry[3] = np.concatenate([entry[3], np.ones(n, dtype=bool)])
+        self.n += n
+
+    def attach(self, slots, keys):
+        """
+        Give free ``slots`` to agents with stream ``keys``.
+
+        Each agent's model state is caught up from the start on its own
+        stream, and the steps now waiting for truth get its errors, so that
+        what it is served does not depend on when it was attached.
+        """
+        slots = np.asarray(slots, dtype=np.int64)
+        keys = np.asarray(keys, dtype=np.uint64)
+        if self.active[slots].any():
+            raise ValueError(f'slots {slots[self.active[slots]].tolist()} are taken')
+        self.keys[slots] = keys
+        self.active[slots] = True
+        self.truth.clear(slots)
+        self.last_skipped[slots] = -1
+        if self.state is None or not slots.size:
+            return
+        marks = [entry[1] for entry in self.pending]
+        m = marks[0] if marks else self.model_index
+        state = self.model.state_after(keys, self.start_index, m)
+        for entry in self.pending:
+            while m < entry[1]:
+                m += 1
+                self.model.advance(state, keys, m)
+            entry[2][slots] = self.model.errors(state)
+            entry[3][slots] = False
+        while m < self.model_index:
+            m += 1
+            self.model.advance(state, keys, m)
+        self.state[slots] = state
+
+    def detach(self, slots):
+        """Free ``slots``: no more fixes for them, their truth forgotten."""
+        slots = np.asarray(slots, dtype=np.int64)
+        self.active[slots] = False
+        self.truth.clear(slots)
+        self.last_skipped[slots] = -1
+        for entry in self.pending:
+            entry[3][slots] = True
+
     def on_clock(self, now_ns):
         """
         Advance to clock time ``now_ns``; return the fixes now ready.
@@ -287,13 +360,13 @@ class FixEngine:
         m = t_ns // self.model_period_ns
         if self.state is None:
             self.state = self.model.initial_state(self.keys, m)
-            self.model_index = m
+            self.model_index = self.start_index = m
         while self.model_index < m:
             self.model_index += 1
             self.model.advance(self.state, self.keys, self.model_index)
         self.stats.steps += 1
-        self.pending.append(
-            (t_ns, self.model.errors(self.state), np.zeros(self.n, dtype=bool)))
+        # [instant, model step, errors, done]: free slots are done already
+        self.pending.append([t_ns, m, self.model.errors(self.state), ~self.active])
 
     def resolve(self, now_ns):
         """Return fixes for pending steps whose truth is now known."""
@@ -302,18 +375,21 @@ class FixEngine:
             out.extend(self._resolve_entry(self.pending[0], force=True))
             self.pending.popleft()
             self.stats.pending_overflow += 1
-        while self.pending:
-            entry = self.pending[0]
+        # Every waiting step is looked at, oldest first, not only up to the
+        # first one still waiting for some agent: one agent whose truth is
+        # late must not hold back the others' fixes (it did, by max_pose_age,
+        # until the agents that come and go showed it). An agent's fixes
+        # still come in step order: truth that makes a later step ready for
+        # it makes every earlier step of it ready too, and those come first.
+        for entry in self.pending:
             expired = now_ns >= entry[0] + self.max_pose_age_ns
             out.extend(self._resolve_entry(entry, force=expired))
-            if expired or entry[2].all():
-                self.pending.popleft()
-            else:
-                break
+        while self.pending and self.pending[0][3].all():
+            self.pending.popleft()
         return out
 
     def _resolve_entry(self, entry, force):
-        t_ns, err, done = entry
+        t_ns, _, err, done = entry
         newest = self.truth.newest
         ready = ~done & (newest >= t_ns)
         fixes = []

@@ -1,0 +1,110 @@
+"""The fix engine with agents that come and go (attach, detach, grow)."""
+
+import numpy as np
+import pytest
+
+from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import AxisParams
+from gps_error_ros.model.effects import build_model, effects_from_dict
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.sim.engine import FixEngine, NS
+
+LAT, LON = 40.75, -73.99
+AR = load_profile('DS1').model()
+EXTENDED = build_model(
+    AxisParams(0.1, (0.9, -0.1), 1.0), AxisParams(-0.05, (0.7,), 0.8),
+    effects_from_dict({'heavy_tails': {'dof': 5.0},
+                       'variance_regimes': {'scales': [1.0, 2.5],
+                                            'transition': [[0.97, 0.03], [0.06, 0.94]]}}))
+START = 100      # the engine's first clock step
+
+
+def errors_by_step(fixes, slot):
+    """Return {step: (north, east)} of ``slot``'s fixes."""
+    out = {}
+    for f in fixes:
+        for i, lat, lon in zip(f.agents, f.lat, f.lon):
+            if i == slot:
+                n, e = difference(lat, lon, LAT, LON)
+                out[f.stamp_ns // NS] = (float(n), float(e))
+    return out
+
+
+@pytest.mark.parametrize('model', [AR, EXTENDED], ids=['ar', 'extended'])
+def test_an_agent_attached_late_gets_its_stream_from_the_start(model):
+    key = streams.agent_key(5, 'ped7')
+    eng = FixEngine(model, np.zeros(3, dtype=np.uint64), active=False)
+    eng.attach([0], [streams.agent_key(5, 'ped0')])
+    out = []
+    for k in range(START, START + 60):
+        if k == START + 30:
+            # attached while step k - 1 still waits for ped0's truth: it is
+            # served for ped7 too
+            assert [entry[1] for entry in eng.pending] == [k - 1]
+            eng.attach([1], [key])
+            eng.add_truth(1, (k - 2) * NS, LAT, LON, 0.0)
+        if k >= START + 30:
+            eng.add_truth(1, k * NS, LAT, LON, 0.0)
+        out += eng.on_clock(k * NS)
+        eng.add_truth(0, k * NS, LAT, LON, 0.0)    # ped0's truth after the tick
+    got = errors_by_step(out, 1)
+    expected = model.simulate(key, 60, start=START)[:, 0]
+    steps = sorted(got)
+    assert steps == list(range(START + 29, START + 60))
+    np.testing.assert_allclose([got[k] for k in steps], expected[29:], atol=1e-6)
+    assert errors_by_step(out, 2) == {}          # a free slot is never served
+    assert eng.stats.skipped_no_truth == 0       # nor counted as skipped
+    ped0 = errors_by_step(out, 0)
+    assert sorted(ped0) == list(range(START, START + 59))
+
+
+def test_detach_reattach_and_grow_keep_every_agent_on_its_stream():
+    keys = [streams.agent_key(5, n) for n in ('a', 'b', 'c')]
+    eng = FixEngine(EXTENDED, keys[:1])
+    out = []
+    for k in range(START, START + 80):
+        if k == START + 10:
+            eng.grow(3)
+            eng.attach([1, 2], keys[1:])
+        if k == START + 40:
+            eng.detach([1])
+        if k == START + 50:
+            eng.attach([1], [keys[1]])               # 'b' comes back
+        if k == START + 60:
+            eng.detach([2])
+            eng.attach([2], [keys[0] ^ np.uint64(1)])   # the slot reused by another
+        for slot in np.flatnonzero(eng.active):
+            eng.add_truth(slot, k * NS, LAT, LON, 0.0)
+        out += eng.on_clock(k * NS)
+    expected = EXTENDED.simulate(np.array(keys, dtype=np.uint64), 80, start=START)
+    for slot, name_index, served in ((0, 0, range(START, START + 80)),
+                                     (1, 1, [*range(START + 10, START + 40),
+                                             *range(START + 50, START + 80)]),
+                                     (2, 2, range(START + 10, START + 60))):
+        got = errors_by_step(out, slot)
+        if slot == 2:
+            got = {k: v for k, v in got.items() if k < START + 60}
+        assert sorted(got) == list(served), slot
+        np.testing.assert_allclose([got[k] for k in served],
+                                   expected[np.array(served) - START, name_index],
+                                   atol=1e-6)
+    assert errors_by_step(out, 3) == {}
+    assert eng.stats.skipped_no_truth == 0
+
+
+def test_attaching_a_taken_slot_is_refused():
+    eng = FixEngine(AR, [streams.agent_key(1, 'x')])
+    with pytest.raises(ValueError, match='taken'):
+        eng.attach([0], [streams.agent_key(1, 'y')])
+
+
+def test_an_agent_without_truth_does_not_hold_back_the_others():
+    keys = [streams.agent_key(5, n) for n in ('quiet', 'busy')]
+    eng = FixEngine(AR, keys, max_pose_age=3.0)
+    for k in range(START, START + 10):
+        eng.add_truth(1, k * NS, LAT, LON, 0.0)      # only 'busy' has truth
+        got = eng.on_clock(k * NS)
+        # busy's fix of step k comes at step k, not max_pose_age later
+        assert [(f.stamp_ns // NS, list(f.agents)) for f in got] == [(k, [1])]
+    assert len(eng.pending) == 3      # quiet's steps wait until 3 s after them
