@@ -49,14 +49,17 @@ bench: setup
 	$(PY) bench/bench_node.py --json bench_output/node.json
 	$(PY) bench/bench_simulate_fcd.py --json bench_output/simulate_fcd.json
 
-# Soak (not part of make test, which runs a 12-minute version): 24 simulated
-# hours for 100 agents, then one simulated hour for 1,000 agents, as fast as
-# the node keeps up. About 26 minutes on a 2-core machine (1064 s + 499 s).
+# Soak (not part of make test, which runs 12- and 10-minute versions): 24
+# simulated hours for 100 agents, then one simulated hour for 1,000 agents, as
+# fast as the node keeps up; then 2 simulated hours of churn with agent_pattern
+# (about 50 agents at a time, each living 1-10 minutes, one in five coming
+# back). About 35 minutes on a 2-core machine (1064 s + 499 s + 480 s).
 soak: setup
 	mkdir -p bench_output
 	$(PY) bench/soak.py --agents 100 --hours 24 --json bench_output/soak100.json
 	$(PY) bench/soak.py --agents 1000 --hours 1 --sample-s 600 --window-s 900 \
 		--json bench_output/soak1000.json
+	$(PY) bench/soak_churn.py --concurrent 50 --hours 2 --json bench_output/soak_churn.json
 
 # Blind diagnosis of synthetic walks: 100 seeds per effect-free scenario
 # (false alarms against a binomial bound) and 20 per effect (attribution

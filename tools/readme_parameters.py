@@ -1,11 +1,12 @@
 """
-Rewrite the README's parameter tables and config/<node>.yaml from the table.
+Rewrite the README's parameter and topic tables and config/<node>.yaml.
 
 Run ``python tools/readme_parameters.py`` after changing
-``gps_error_ros/ros/parameters.py``; ``test/ros/test_parameters_doc.py``
-fails while the README or the parameters files and the table disagree. Each
-README table sits between ``<!-- parameters:NODE -->`` and
-``<!-- /parameters:NODE -->``.
+``gps_error_ros/ros/parameters.py`` or ``gps_error_ros/ros/topics.py``;
+``test/ros/test_parameters_doc.py`` fails while the README or the parameters
+files and the tables disagree. Each README table sits between
+``<!-- parameters:NODE -->`` and ``<!-- /parameters:NODE -->`` (topics:
+``<!-- topics:NODE -->``).
 """
 
 from pathlib import Path
@@ -13,6 +14,7 @@ import re
 import sys
 
 from gps_error_ros.ros.parameters import markdown_table, params_file, README_TABLES
+from gps_error_ros.ros.topics import markdown_topics
 
 README = Path(__file__).resolve().parents[1] / 'README.md'
 
@@ -20,12 +22,13 @@ README = Path(__file__).resolve().parents[1] / 'README.md'
 def render(text):
     """Return ``text`` with every marked table regenerated."""
     for node, specs in README_TABLES.items():
-        pattern = re.compile(rf'(<!-- parameters:{node} -->\n).*?(<!-- /parameters:{node} -->)',
-                             re.S)
-        if not pattern.search(text):
-            raise SystemExit(f'README.md: no <!-- parameters:{node} --> block')
-        text = pattern.sub(lambda m: m.group(1) + markdown_table(specs) + m.group(2),
-                           text)
+        for kind, table in (('parameters', markdown_table(specs)),
+                            ('topics', markdown_topics(node))):
+            pattern = re.compile(rf'(<!-- {kind}:{node} -->\n).*?(<!-- /{kind}:{node} -->)',
+                                 re.S)
+            if not pattern.search(text):
+                raise SystemExit(f'README.md: no <!-- {kind}:{node} --> block')
+            text = pattern.sub(lambda m, t=table: m.group(1) + t + m.group(2), text)
     return text
 
 

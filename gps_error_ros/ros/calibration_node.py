@@ -25,15 +25,10 @@ from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.validity import fix_problem, STATUS_NO_FIX
 from gps_error_ros.ros import conversions
 from gps_error_ros.ros.lifecycle import run_node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-
+from gps_error_ros.ros.diagnostics import DiagnosticsPublisher, OK, Report, WARN
 from gps_error_ros.ros.parameters import (
     CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, help_text, WARN_PERIOD_S)
-
-# Best effort (so sensor drivers' best-effort publishers match) with a deep
-# history: a recording replayed fast must not overwrite what is not yet read.
-INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
-                       reliability=ReliabilityPolicy.BEST_EFFORT)
+from gps_error_ros.ros.topics import CALIBRATION_INPUT_QOS as INPUT_QOS, help_rows
 
 
 class GpsCalibrationNode(Node):
@@ -55,10 +50,13 @@ class GpsCalibrationNode(Node):
         self.fixes = []      # (t, lat, lon, status)
         self.truth = []      # (t, lat, lon)
         self.skipped = {'no_fix': 0, 'invalid': 0, 'out_of_order': 0}
+        self.truth_dropped = 0
+        self.last_fit = None        # (success, message) of the latest fit
         topic, msg_type = conversions.TRUTH_INPUTS[cfg['input_type']]
         self.create_subscription(NavSatFix, 'fix', self._on_fix, INPUT_QOS)
         self.create_subscription(msg_type, topic, self._on_truth, INPUT_QOS)
         self.create_service(Trigger, '~/calibrate', self._on_calibrate)
+        self.diagnostics = DiagnosticsPublisher(self, 'calibration', self._report)
         self.get_logger().info(
             f'calibrating from {self.resolve_topic_name("fix")} against '
             f'{self.resolve_topic_name(topic)}; output {self.output}')
@@ -93,10 +91,12 @@ class GpsCalibrationNode(Node):
                 e, n, u = conversions.pose_position(pose)
                 lat, lon, _ = self.frame.to_geodetic(e, n, u)
         except ValueError as exc:
+            self.truth_dropped += 1
             self.get_logger().warning(f'dropped a truth message: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
             return
         if self.truth and t <= self.truth[-1][0]:
+            self.truth_dropped += 1
             self.get_logger().warning(
                 'dropped a truth message stamped at or before the previous one',
                 throttle_duration_sec=WARN_PERIOD_S)
@@ -108,6 +108,23 @@ class GpsCalibrationNode(Node):
     def _on_calibrate(self, request, response):
         response.success, response.message = self.calibrate()
         return response
+
+    def _report(self):
+        """Return the /diagnostics status: what was received, the latest fit."""
+        values = {'fixes received': len(self.fixes), 'truth received': len(self.truth),
+                  'truth dropped': self.truth_dropped, 'output': str(self.output)}
+        values.update({f'fixes skipped ({k.replace("_", " ")})': v
+                       for k, v in self.skipped.items()})
+        if self.last_fit is not None:
+            values['latest fit'] = ('wrote the profile: ' if self.last_fit[0]
+                                    else 'refused: ') + self.last_fit[1]
+        if not self.fixes or not self.truth:
+            return Report(WARN, f'waiting for data: {len(self.fixes)} fixes, '
+                          f'{len(self.truth)} truth messages', values)
+        message = f'{len(self.fixes)} fixes and {len(self.truth)} truth messages held'
+        if self.last_fit is not None and not self.last_fit[0]:
+            return Report(WARN, message + '; the latest fit was refused', values)
+        return Report(OK, message, values)
 
     def _sibling(self, suffix):
         return self.output.with_name(self.output.stem + suffix)
@@ -124,6 +141,11 @@ class GpsCalibrationNode(Node):
             w.writerows((repr(t), repr(a), repr(o)) for t, a, o in self.truth)
 
     def calibrate(self):
+        """Pair, fit and write; return (success, message), kept for /diagnostics."""
+        self.last_fit = self._calibrate()
+        return self.last_fit
+
+    def _calibrate(self):
         """
         Pair, fit and write; return (success, message).
 
@@ -194,11 +216,7 @@ HELP = help_text(
     'measured fixes and ground truth in; on ~/calibrate and at shutdown, a '
     'profile fitted to their errors (and the raw data as CSV) out.',
     CALIBRATION_NODE_PARAMS,
-    [('in', 'fix', 'sensor_msgs/NavSatFix', 'the measured fixes (best effort)'),
-     ('in', 'pose', 'geometry_msgs/PoseStamped', 'truth, input_type pose'),
-     ('in', 'odom', 'nav_msgs/Odometry', 'truth, input_type odometry'),
-     ('in', 'fix_truth', 'sensor_msgs/NavSatFix', 'truth, input_type navsatfix'),
-     ('srv', '~/calibrate', 'std_srvs/Trigger', 'fit and write now')],
+    help_rows('gps_calibration_node'),
     'gps_calibration_node --ros-args -p input_type:=navsatfix '
     '-p output:=my_phone.yaml -r fix:=/phone/fix -r fix_truth:=/span/fix')
 

@@ -19,9 +19,9 @@ import secrets
 import time
 
 import numpy as np
+from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import (HistoryPolicy, QoSProfile, ReliabilityPolicy)
 from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
@@ -30,24 +30,20 @@ from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.ros import cdr
 from gps_error_ros.ros import conversions
+from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
+from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR, OK,
+                                           Report, WARN)
 from gps_error_ros.ros.lifecycle import run_node
+from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
 from gps_error_ros.traces.validity import usable_fix, usable_pose
 from gps_error_ros.ros.parameters import (
     ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
     WARN_PERIOD_S)
 
-# Sensor-data QoS (best effort, volatile) with a deeper history than the
-# stock profile's 5, so a burst of truth messages is buffered, not dropped.
-TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
-                       reliability=ReliabilityPolicy.BEST_EFFORT)
-# Reliable (the default), with a history long enough that a fix lost in a
-# burst can still be repaired (Fast DDS re-sends after ~3 s; a crowd run
-# faster than real time publishes many steps in that time, and depth 10 let 16
-# of 3.6 M fixes go). Best effort on request (parameter fix_reliability).
-FIX_QOS = {
-    name: QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=policy)
-    for name, policy in (('reliable', ReliabilityPolicy.RELIABLE),
-                         ('best_effort', ReliabilityPolicy.BEST_EFFORT))}
+#: Wall seconds between two looks at the graph for agent_pattern.
+WATCH_PERIOD_S = 1.0
+#: Slots an agent_pattern node starts with (doubled whenever they run out).
+FIRST_SLOTS = 16
 # A crowd's best-effort fixes go out in bursts this size, this far apart: Fast
 # DDS's shared-memory queue of a subscribing process holds 512 messages, and
 # an unspaced burst of 1,000 lost about 1 % of them.
@@ -69,7 +65,7 @@ class ProfileGroup:
 AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
 
 
-class GpsErrorNode(Node):
+class GpsErrorNode(PatternAgents, Node):
     """The error node, for one agent or a crowd (see the module docstring)."""
 
     polled = False
@@ -83,28 +79,44 @@ class GpsErrorNode(Node):
         self.max_pose_age = cfg['max_pose_age']
         self.late_reported = 0
         self.input_type = cfg['input_type']
-        self.agents = self._agent_names(cfg['agents'])
-        profiles = self._agent_profile_specs(cfg)
+        self.fix_reliability = cfg['fix_reliability']
+        pattern = self._agent_pattern(cfg)
+        if pattern is None:
+            self.agents = self._agent_names(cfg['agents'])
+            profiles = self._agent_profile_specs(cfg)
+        else:
+            self.agents = [None] * FIRST_SLOTS     # free slots: agents come later
+            profiles = [cfg['profile']] * FIRST_SLOTS
         seed = cfg['seed']
         if seed < 0:
             seed = secrets.randbits(63)
             self.get_logger().info(f'no seed given: using seed {seed}')
         self.seed = seed
-        self._build_groups(cfg, profiles)
+        self._build_groups(cfg, profiles, active=pattern is None)
         # the datum is checked after the profiles: a bad profile is named first
         self.frame = None
         if self.input_type != 'navsatfix':
             self.frame = datum_frame(cfg['datum'], self.input_type)
-        self.polled = len(self.agents) > 1 or self.agents != ['']
-        self._create_topics(cfg['fix_reliability'])
+        self.polled = pattern is not None or len(self.agents) > 1 or self.agents != ['']
+        self._create_topics()
         self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
+        self.refused = 0                    # non-finite fixes not published
+        self.invalid_truth = 0              # truth messages that could not be used
         self._templates()
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.watcher = None
+        if pattern is not None:
+            self.watcher = AgentWatcher(self, pattern, cfg['agent_timeout'])
+            self.watch_timer = self.create_timer(WATCH_PERIOD_S, self.watcher.scan,
+                                                 clock=steady)
+        self.counters = Counters()
+        self.diagnostics = DiagnosticsPublisher(self, 'fixes', self._report)
         self.add_on_set_parameters_callback(self._check_new_parameters)
         self.add_post_set_parameters_callback(self._apply_new_parameters)
         self._log_start(cfg, profiles)
 
-    def _build_groups(self, cfg, profiles):
+    def _build_groups(self, cfg, profiles, active=True):
         """Make one engine per distinct profile, each over its own agents."""
         self.groups = []
         self.slot = [None] * len(self.agents)     # agent -> (group, local index)
@@ -116,10 +128,11 @@ class GpsErrorNode(Node):
                 name = 'agent_profiles' if cfg['agent_profiles'] else 'profile'
                 raise ConfigError(f'parameter {name!r} ({spec!r}): {exc}') from None
             members = [i for i, p in enumerate(profiles) if p == spec]
-            keys = [agent_key(self.seed, self.agents[i]) for i in members]
+            keys = [agent_key(self.seed, self.agents[i]) if active else 0
+                    for i in members]
             engine = FixEngine(model, keys, rate=cfg['rate'],
                                model_rate=profile.rate_hz,
-                               max_pose_age=cfg['max_pose_age'])
+                               max_pose_age=cfg['max_pose_age'], active=active)
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
@@ -130,34 +143,41 @@ class GpsErrorNode(Node):
         self.slot_group = np.array([g for g, _ in self.slot])
         self.slot_local = np.array([local for _, local in self.slot])
 
-    def _create_topics(self, reliability):
+    def _create_topics(self):
         """Create each agent's truth subscription and fix publisher."""
-        topic, msg_type = conversions.TRUTH_INPUTS[self.input_type]
+        topic = conversions.TRUTH_INPUTS[self.input_type][0]
         # rclpy gives every publisher and subscription QoS-event handlers (to
         # log incompatible QoS); each is a waitable the executor re-adds to its
         # wait set on every wake, which with thousands of topics costs most of
         # a core. A crowd goes without them.
-        sub_events = SubscriptionEventCallbacks(use_default_callbacks=not self.polled)
-        pub_events = PublisherEventCallbacks(use_default_callbacks=not self.polled)
-        self.subs, self.pubs = [], []
+        self.sub_events = SubscriptionEventCallbacks(use_default_callbacks=not self.polled)
+        self.pub_events = PublisherEventCallbacks(use_default_callbacks=not self.polled)
+        n = len(self.agents)
+        self.subs, self.pubs = [None] * n, [None] * n
+        self.sub_handles, self.pub_handles = [None] * n, [None] * n
         for i, name in enumerate(self.agents):
-            prefix = f'{name}/' if name else ''
-            self.subs.append(self.create_subscription(
-                msg_type, prefix + topic, partial(self._on_truth, i), TRUTH_QOS,
-                raw=self.polled, event_callbacks=sub_events))
-            self.pubs.append(self.create_publisher(
-                NavSatFix, prefix + 'fix', FIX_QOS[reliability],
-                event_callbacks=pub_events))
-        self.sub_handles = [(s.handle, s.msg_type) for s in self.subs]
+            if name is not None:
+                prefix = f'{name}/' if name else ''
+                self._open(i, prefix + topic, prefix + 'fix')
+        self.fix_burst = FIX_BURST if self.fix_reliability == 'best_effort' else None
+
+    def _open(self, i, truth_topic, fix_topic):
+        """Create agent ``i``'s truth subscription and fix publisher."""
+        msg_type = conversions.TRUTH_INPUTS[self.input_type][1]
+        sub = self.create_subscription(
+            msg_type, truth_topic, partial(self._on_truth, i), TRUTH_QOS,
+            raw=self.polled, event_callbacks=self.sub_events)
         if self.polled:
             # A crowd's truth subscriptions are taken off the node's list that
             # executors wait on: the node drains them itself once per step, and
             # an executor would pass over all of them on every wake (about 1 %
             # of a core at 1,000 agents). destroy_node destroys them.
-            mine = set(map(id, self.subs))
-            self._subscriptions[:] = [s for s in self._subscriptions if id(s) not in mine]
-        self.pub_handles = [p.handle for p in self.pubs]
-        self.fix_burst = FIX_BURST if reliability == 'best_effort' else len(self.agents)
+            self._subscriptions.remove(sub)
+        pub = self.create_publisher(NavSatFix, fix_topic, FIX_QOS[self.fix_reliability],
+                                    event_callbacks=self.pub_events)
+        self.subs[i], self.pubs[i] = sub, pub
+        self.sub_handles[i] = (sub.handle, sub.msg_type)
+        self.pub_handles[i] = pub.handle
 
     def _log_start(self, cfg, profiles):
         """Log what the node serves: each profile, its agents and its SD."""
@@ -177,7 +197,8 @@ class GpsErrorNode(Node):
         """Destroy the node, the truth subscriptions it drains itself included."""
         if self.polled:
             for sub in self.subs:
-                sub.destroy()
+                if sub is not None:
+                    sub.destroy()
         super().destroy_node()
 
     def _agent_names(self, names):
@@ -221,6 +242,7 @@ class GpsErrorNode(Node):
                 if not all(map(math.isfinite, (lat, lon, alt))):
                     raise ValueError('position outside the datum frame\'s range')
         except ValueError as exc:
+            self.invalid_truth += 1
             self.get_logger().warning(f'dropped a truth message: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
             return False
@@ -255,7 +277,10 @@ class GpsErrorNode(Node):
         # The handles are used directly: this node owns the subscriptions and
         # never destroys them while draining (rclpy's context-manager guard
         # and Publisher.publish's type checks cost ~1-3 us per message).
-        for i, (handle, msg_type) in enumerate(self.sub_handles):
+        for i, handles in enumerate(self.sub_handles):
+            if handles is None:
+                continue
+            handle, msg_type = handles
             taken = handle.take_message(msg_type, True)
             while taken is not None:
                 raws.append(taken[0])
@@ -265,6 +290,7 @@ class GpsErrorNode(Node):
             return
         stamps, values, parsed = cdr.parse_batch(self.input_type, raws)
         if not parsed.all():
+            self.invalid_truth += int((~parsed).sum())
             self.get_logger().warning(
                 f'dropped {int((~parsed).sum())} truth message(s) that could not be '
                 f'parsed', throttle_duration_sec=WARN_PERIOD_S)
@@ -281,6 +307,7 @@ class GpsErrorNode(Node):
             coords = np.stack([lat, lon, alt], axis=1)
             ok &= np.isfinite(coords).all(axis=1)
         if not ok[parsed].all():
+            self.invalid_truth += int((~ok[parsed]).sum())
             self.get_logger().warning(
                 f'dropped {int((~ok[parsed]).sum())} truth message(s) with non-finite '
                 f'or invalid values', throttle_duration_sec=WARN_PERIOD_S)
@@ -338,6 +365,44 @@ class GpsErrorNode(Node):
                 f'wall time per '
                 f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
+    def _report(self):
+        """Return the /diagnostics status: what was published and skipped."""
+        stats = [g.engine.stats for g in self.groups]
+        total = {
+            'fixes published': sum(s.fixes for s in stats) - self.refused,
+            'steps skipped without truth': sum(s.skipped_no_truth for s in stats),
+            'truth dropped (out of order)': sum(s.dropped_out_of_order for s in stats),
+            'truth dropped (stamped in the future)': sum(s.dropped_future for s in stats),
+            'truth dropped (invalid)': self.invalid_truth,
+            'truth came after its step was skipped': sum(s.late_truth for s in stats),
+            'clock resets': sum(s.resets for s in stats),
+            'non-finite fixes refused': self.refused,
+        }
+        recent = {k: self.counters.delta(k, v) for k, v in total.items()}
+        served = sum(a is not None for a in self.agents)
+        values = {'profile': ', '.join(g.profile for g in self.groups), 'seed': self.seed,
+                  'agents served': served}
+        if self.watcher is not None:
+            values.update({'agent_pattern': self.watcher.pattern.text,
+                           'agents stale': self.watcher.stale,
+                           'agents released': self.watcher.released})
+        values.update(total)
+        ticks, spent, worst = self.tick_time
+        values['ROS time (s)'] = self._now_ns() / 1e9
+        values['timer ticks'] = ticks
+        values['wall time per tick, mean (ms)'] = 1e3 * spent / ticks if ticks else 0.0
+        values['wall time per tick, max (ms)'] = 1e3 * worst
+        level, message = OK, (f'{served} agent(s) served, {recent["fixes published"]} '
+                              f'fix(es) since the last report')
+        trouble = [f'{recent[k]} {k}' for k in recent
+                   if recent[k] and k != 'fixes published']
+        if self.watcher is not None and self.watcher.stale:
+            trouble.append(f'{self.watcher.stale} agent(s) stale')
+        if trouble:
+            level = ERROR if recent['non-finite fixes refused'] else WARN
+            message += '; ' + ', '.join(trouble)
+        return Report(level, message, values)
+
     def _publish(self, g, fixes):
         group = self.groups[g]
         members = group.members
@@ -345,22 +410,25 @@ class GpsErrorNode(Node):
             for fix in fixes:
                 good = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
                 if not good.all():
+                    self.refused += int((~good).sum())
                     self.get_logger().error('refused to publish a non-finite fix',
                                             throttle_duration_sec=WARN_PERIOD_S)
                 raws = self.fix_templates[g].render(
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
                 handles = [self.pub_handles[i] for i in members[fix.agents[good]]]
-                for start in range(0, len(raws), self.fix_burst):
+                burst = self.fix_burst or max(len(raws), 1)
+                for start in range(0, len(raws), burst):
                     if start:
                         time.sleep(FIX_BURST_PAUSE_S)
-                    for handle, raw in zip(handles[start:start + self.fix_burst],
-                                           raws[start:start + self.fix_burst]):
+                    for handle, raw in zip(handles[start:start + burst],
+                                           raws[start:start + burst]):
                         handle.publish_raw(raw)
             return
         for fix in fixes:
             for local, lat, lon, alt in zip(fix.agents, fix.lat, fix.lon, fix.alt):
                 if not (math.isfinite(lat) and math.isfinite(lon)
                         and math.isfinite(alt)):
+                    self.refused += 1
                     self.get_logger().error('refused to publish a non-finite fix',
                                             throttle_duration_sec=WARN_PERIOD_S)
                     continue
@@ -402,12 +470,7 @@ HELP = help_text(
     'ground-truth poses in, smartphone-like sensor_msgs/NavSatFix out (the AR '
     'error model of a profile, stepped on the ROS clock).',
     ERROR_NODE_PARAMS,
-    [('in', 'pose', 'geometry_msgs/PoseStamped', 'input_type pose (sensor-data QoS)'),
-     ('in', 'odom', 'nav_msgs/Odometry', 'input_type odometry'),
-     ('in', 'fix_truth', 'sensor_msgs/NavSatFix', 'input_type navsatfix'),
-     ('out', 'fix', 'sensor_msgs/NavSatFix', 'one per step of rate (fix_reliability)'),
-     ('in', '/clock', 'rosgraph_msgs/Clock', 'with use_sim_time:=true'),
-     ('', 'A/pose -> A/fix', '', 'per agent A, with agents:=[...]')],
+    help_rows('gps_error_node'),
     'gps_error_node --ros-args -p profile:=DS5 -p datum:="[40.75, -73.99, 0.0]" '
     '-p seed:=42 -r pose:=/ped1/pose -r fix:=/ped1/fix')
 

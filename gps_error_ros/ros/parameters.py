@@ -114,6 +114,17 @@ ERROR_NODE_PARAMS = (
     ParamSpec('agent_profiles', None, ParameterType.PARAMETER_STRING_ARRAY,
               'Optional profile per agent, aligned with agents (default: '
               'profile for all).'),
+    ParamSpec('agent_pattern', '', ParameterType.PARAMETER_STRING,
+              'Serve agents as their truth topics appear: a topic name with one '
+              '* for a whole name segment, e.g. /peds/*/pose; the segment is the '
+              'agent\'s name, and its fixes go on the topic with the last segment '
+              'replaced by fix (/peds/ped1/fix). A relative pattern is taken in '
+              'the node\'s namespace. Not with agents. Empty: off.'),
+    ParamSpec('agent_timeout', 10.0, ParameterType.PARAMETER_DOUBLE,
+              'With agent_pattern: seconds of the ROS clock without truth after '
+              'which an agent is stale; a stale agent whose topic has no publisher '
+              'left is dropped (subscription, publisher and state released). One '
+              'that comes back continues on its stream.', low=0.1, high=86400.0),
 )
 
 
@@ -291,7 +302,7 @@ def _default_text(spec):
     if spec.default is None:
         return '`[]`' if spec.type == ParameterType.PARAMETER_STRING_ARRAY else '(none)'
     if isinstance(spec.default, str):
-        return f'`{spec.default}`'
+        return f'`{spec.default}`' if spec.default else "`''`"
     return f'`{spec.default!r}`'
 
 
@@ -369,6 +380,7 @@ def params_file(node, specs):
     this, and a test checks the files agree with the table.
     """
     examples = {'datum': '[40.75057, -73.99065, -23.0]',
+                'agent_pattern': '/peds/*/pose',
                 'agents': '["ped1", "ped2", "ped3"]',
                 'agent_profiles': '["DS2", "DS5", "DS7"]'}
     lines = [f'# {node}: every parameter at its default (generated from the node\'s',

@@ -8,6 +8,7 @@ from rcl_interfaces.msg import ParameterType
 
 from gps_error_ros.ros.parameters import (ERROR_NODE_PARAMS, markdown_table,
                                           params_file, README_TABLES)
+from gps_error_ros.ros.topics import markdown_topics
 from ros_harness import NodeProcess, unique_ns
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -22,6 +23,10 @@ def test_readme_tables_match_the_parameter_table():
         assert m, f'README.md has no table for {node}'
         assert m.group(1) == markdown_table(specs), \
             f'README.md: the {node} table is stale: run python tools/readme_parameters.py'
+        m = re.search(rf'<!-- topics:{node} -->\n(.*?)<!-- /topics:{node} -->', text, re.S)
+        assert m, f'README.md has no topic table for {node}'
+        assert m.group(1) == markdown_topics(node), \
+            f'README.md: the {node} topic table is stale: run python tools/readme_parameters.py'
 
 
 def test_table_rows_carry_each_descriptor():

@@ -1,0 +1,335 @@
+"""
+Soak with churn: an ``agent_pattern`` node serving agents that come and go.
+
+The driver (this process) keeps about ``--concurrent`` agents alive on
+``/<ns>/peds/<name>/pose``. Each lives a random span of simulated seconds
+(uniform in ``--life-s``), then destroys its pose publisher and its fix
+subscription; a new agent takes its place, and one departure in
+``--return-every`` comes back later under its old name. An agent sends
+poses only once the node has subscribed to it (discovery is not what is
+measured). One pose per agent per simulated second, then the clock tick; the
+driver waits for the previous step's fixes of the agents that sent, at most
+``--max-speed`` times real time. Checked at the end, and the run fails
+otherwise:
+
+* every pose an agent sent got exactly one fix (the step of the last pose
+  before a departure excepted: the node may release the agent first);
+* every fix's error is the agent's stream: ``gps_error simulate``'s value
+  for (seed, name, step), from the node's first step, to 1e-6 m (all agents
+  up to ``--check-agents``, returners included);
+* the node's resident memory, sampled every ``--sample-s`` simulated
+  seconds, stays flat after the warm-up (growth at most ``--rss-growth-mb``);
+* what the node serves follows the agents present, not all that ever came:
+  the largest ``agents served`` of its ``/diagnostics`` stays under twice
+  ``--concurrent``, and it released at least all but ``2 x --concurrent`` of
+  the departures.
+"""
+
+import argparse
+import json
+import os
+from pathlib import Path
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from soak import rss_mb
+
+NS = 1_000_000_000
+T0 = 1000
+
+
+class Agent:
+    """The driver's side of one agent's life."""
+
+    def __init__(self, drv, ns, name, born, life):
+        from geometry_msgs.msg import PoseStamped
+        from rclpy.qos import QoSProfile
+        from sensor_msgs.msg import NavSatFix
+        self.name, self.born, self.dies = name, born, born + life
+        self.pub = drv.create_publisher(PoseStamped, f'{ns}/peds/{name}/pose',
+                                        QoSProfile(depth=10))
+        self.sub = drv.create_subscription(NavSatFix, f'{ns}/peds/{name}/fix',
+                                           lambda m: None, QoSProfile(depth=100), raw=True)
+        self.ready = False
+        self.sent = []
+
+    def close(self, drv):
+        drv.destroy_publisher(self.pub)
+        drv.destroy_subscription(self.sub)
+
+
+class Driver:
+    """The driver's bookkeeping: agents alive, departed, what each sent and got."""
+
+    def __init__(self, drv, ns, rng, life_s, return_every):
+        self.drv, self.ns, self.rng = drv, ns, rng
+        self.life_s, self.return_every = life_s, return_every
+        self.alive, self.gone = {}, []
+        self.sent = {}           # name -> steps whose pose was sent, every life
+        self.last = set()        # (name, step) of the last pose before a departure
+        self.fixes = {}          # name -> {step: (lat, lon)}
+        self.dup = 0
+        self.count = 0
+        self.returns = 0
+        self.returned = set()
+        self.lives = {}          # name -> [(first step, last step)] of each life
+        self.unseen = 0          # poses sent before the node had matched them
+
+    def born(self, k):
+        """Start a new agent (or bring a departed one back) at step ``k``."""
+        back = [n for n in self.gone[-self.return_every:] if n not in self.alive]
+        if self.gone and len(self.gone) % self.return_every == 0 and back:
+            name = back[0]
+            self.returns += 1
+            self.returned.add(name)
+        else:
+            name = f'p{self.count}'
+            self.count += 1
+        life = int(self.rng.integers(*self.life_s))
+        self.alive[name] = Agent(self.drv, self.ns, name, k, life)
+
+    def depart(self, k):
+        """End the agents whose life is over at ``k``; each is replaced."""
+        for name in [n for n, a in self.alive.items() if a.dies <= k]:
+            agent = self.alive.pop(name)
+            self.drain(agent)
+            agent.close(self.drv)
+            if agent.sent:
+                self.last.add((name, agent.sent[-1]))
+                self.lives.setdefault(name, []).append((agent.sent[0], agent.sent[-1]))
+            self.gone.append(name)
+            self.born(k)
+
+    def drain(self, agent):
+        """Take every fix waiting for ``agent``."""
+        from gps_error_ros.ros.cdr import navsatfix
+        box = self.fixes.setdefault(agent.name, {})
+        while True:
+            taken = agent.sub.handle.take_message(agent.sub.msg_type, True)
+            if taken is None:
+                return
+            stamp, _, lat, lon, _ = navsatfix(taken[0])
+            step = stamp // NS
+            self.dup += step in box
+            box[step] = (lat, lon)
+
+    def send(self, k, pose_msg):
+        """Publish step ``k``'s pose of every agent the node has subscribed to."""
+        for agent in self.alive.values():
+            if not agent.ready:
+                agent.ready = agent.pub.get_subscription_count() > 0 and \
+                    agent.sub.get_publisher_count() > 0
+            if agent.ready:
+                agent.pub.publish(pose_msg)
+                agent.sent.append(k)
+                self.sent.setdefault(agent.name, []).append(k)
+
+    def wait_for(self, step, timeout_s=10.0):
+        """
+        Wait for ``step``'s fix of every agent alive that sent it and is flowing.
+
+        An agent flows once its first fix has come: the node's subscription
+        can match the agent's publisher a moment after the agent's side saw
+        it, and poses sent in between are lost (volatile QoS) before the
+        node has seen the agent at all.
+        """
+        end = time.monotonic() + timeout_s
+        for a in self.alive.values():
+            self.drain(a)
+        waiting = [a for a in self.alive.values() if step in a.sent[-2:]
+                   and any(k >= a.sent[0] for k in self.fixes[a.name])]
+        while waiting and time.monotonic() < end:
+            for a in waiting:
+                self.drain(a)
+            waiting = [a for a in waiting if step not in self.fixes[a.name]]
+            if waiting:
+                time.sleep(0.0005)
+
+
+def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmup_s=900,
+        rss_growth_mb=20.0, check_agents=300, seed=11, profile='DS1', max_speed=15.0):
+    """Run the churn soak; return the result dictionary (see the module docstring)."""
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+    from rosgraph_msgs.msg import Clock
+
+    from gps_error_ros.ros.conversions import to_stamp
+
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    lat0, lon0 = 40.75, -73.99
+    ns = f'/churn{os.getpid()}'
+    status = {'served_max': 0, 'released': 0}
+    with tempfile.TemporaryDirectory() as work:
+        params = Path(work, 'p.yaml')
+        params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
+                          f'    datum: [{lat0}, {lon0}, 0.0]\n    seed: {seed}\n'
+                          f'    profile: {profile}\n    max_pose_age: 3.0\n'
+                          f'    agent_pattern: {ns}/peds/*/pose\n    agent_timeout: 5.0\n')
+        exe = Path(sys.executable).with_name('gps_error_node')
+        node = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
+                                 '--params-file', str(params)],
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        rclpy.init()
+        drv = Node('churn_driver')
+
+        def on_status(msg):
+            for st in msg.status:
+                if st.hardware_id == f'{ns}/gps_error_node':
+                    v = {kv.key: kv.value for kv in st.values}
+                    status['served_max'] = max(status['served_max'], int(v['agents served']))
+                    status['released'] = int(v.get('agents released', 0))
+        drv.create_subscription(DiagnosticArray, '/diagnostics', on_status, QoSProfile(depth=10))
+        clock = drv.create_publisher(Clock, '/clock', QoSProfile(depth=10))
+        crowd = Driver(drv, ns, np.random.default_rng(seed), life_s, return_every)
+        rss = []
+        try:
+            deadline = time.monotonic() + 60
+            while not any(e.node_namespace == ns
+                          for e in drv.get_subscriptions_info_by_topic('/clock')):
+                if time.monotonic() > deadline or node.poll() is not None:
+                    raise RuntimeError('the node did not come up')
+                rclpy.spin_once(drv, timeout_sec=0.1)
+            time.sleep(0.5)
+            clock.publish(Clock(clock=to_stamp(T0 * NS)))   # the node's first step
+            time.sleep(1.0)
+            msg = PoseStamped()
+            msg.pose.orientation.w = 1.0
+            for _ in range(concurrent):
+                crowd.born(T0)
+            wall0 = time.monotonic()
+            for k in range(T0 + 1, T0 + sim_s + 1):
+                crowd.depart(k)
+                msg.header.stamp = to_stamp(k * NS)
+                crowd.send(k, msg)
+                clock.publish(Clock(clock=to_stamp(k * NS)))
+                crowd.wait_for(k - 1)
+                rclpy.spin_once(drv, timeout_sec=0)
+                ahead = (k - T0) / max_speed - (time.monotonic() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+                if (k - T0) % sample_s == 0 and k - T0 >= warmup_s:
+                    rss.append(rss_mb(node.pid))
+            wall = time.monotonic() - wall0
+            for agent in crowd.alive.values():
+                crowd.drain(agent)
+                if agent.sent:
+                    crowd.lives.setdefault(agent.name, []).append(
+                        (agent.sent[0], agent.sent[-1]))
+            end = time.monotonic() + 3
+            while time.monotonic() < end:
+                rclpy.spin_once(drv, timeout_sec=0.1)
+        finally:
+            drv.destroy_node()
+            rclpy.try_shutdown()
+            node.send_signal(signal.SIGINT)
+            try:
+                out, _ = node.communicate(timeout=60)
+            except subprocess.TimeoutExpired:
+                node.kill()
+                out, _ = node.communicate()
+    result = _verdict(crowd, T0 + sim_s, seed, profile, (lat0, lon0), check_agents)
+    growth = rss[-1] - rss[0] if len(rss) > 1 else 0.0
+    result.update({
+        'concurrent': concurrent, 'simulated_s': sim_s, 'wall_s': wall,
+        'speed_x_real_time': sim_s / wall, 'rss_mb_samples': [round(r, 1) for r in rss],
+        'rss_growth_mb': growth, 'served_max': status['served_max'],
+        'released': status['released'],
+        'node_summary': [ln for ln in out.splitlines() if 'at shutdown' in ln],
+        'node_log': out.splitlines()[-200:]})
+    result['passed'] = (result['missing'] == 0 and result['unexpected'] == 0
+                        and result['duplicates'] == 0 and result['max_error_diff_m'] <= 1e-6
+                        and growth <= rss_growth_mb
+                        and status['served_max'] < 2 * concurrent
+                        and status['released'] >= len(crowd.gone) - 2 * concurrent)
+    return result
+
+
+def _verdict(crowd, end_step, seed, profile, origin, check_agents):
+    """Compare what was sent with what came back, and each fix with its stream."""
+    from gps_error_ros.model.geodesy import difference
+    from gps_error_ros.model.profiles import load_profile
+    from gps_error_ros.model.streams import agent_key
+    missing = unexpected = 0
+    for name, steps in crowd.sent.items():
+        got = set(crowd.fixes.get(name, {}))
+        # from the first fix of each life on (see Driver.wait_for)
+        lives = crowd.lives[name]
+        firsts = [min((k for k in got if a <= k <= b), default=b + 1) for a, b in lives]
+        want = {k for k in steps if k < end_step and (name, k) not in crowd.last
+                and any(f <= k <= b for f, (_, b) in zip(firsts, lives))}
+        crowd.unseen += sum(len([k for k in steps if a <= k < f])
+                            for f, (a, _) in zip(firsts, lives))
+        missing += len(want - got)
+        # held truth: up to max_pose_age (3) steps after a pause or departure
+        allowed = set(steps) | {k + d for k in steps for d in (1, 2, 3)}
+        unexpected += len(got - allowed)
+    model = load_profile(profile).model()
+    # the agents that came back first, then the others, up to check_agents
+    names = sorted(crowd.fixes, key=lambda n: (n not in crowd.returned, n))[:check_agents]
+    keys = np.array([agent_key(seed, n) for n in names], dtype=np.uint64)
+    expected = model.simulate(keys, end_step - T0 + 1, start=T0)
+    worst = 0.0
+    for j, name in enumerate(names):
+        box = crowd.fixes[name]
+        if not box:
+            continue
+        steps = np.array(sorted(box))
+        lat = np.array([box[k][0] for k in steps])
+        lon = np.array([box[k][1] for k in steps])
+        n, e = difference(lat, lon, *origin)
+        got = np.stack([n, e], axis=1)
+        worst = max(worst, float(np.abs(got - expected[steps - T0, j]).max()))
+    return {'agents_ever': crowd.count, 'returns': crowd.returns,
+            'fixes_received': sum(len(b) for b in crowd.fixes.values()),
+            'poses_before_match': crowd.unseen,
+            'departures': len(crowd.gone), 'missing': missing, 'unexpected': unexpected,
+            'duplicates': crowd.dup, 'agents_checked': len(names),
+            'max_error_diff_m': worst}
+
+
+def main(argv=None):
+    """Run the churn soak from the command line; exit 1 when a check fails."""
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--concurrent', type=int, default=50)
+    p.add_argument('--hours', type=float, default=2.0, help='simulated hours')
+    p.add_argument('--life-s', type=int, nargs=2, default=(60, 600),
+                   help='an agent lives uniformly this many simulated seconds')
+    p.add_argument('--return-every', type=int, default=5)
+    p.add_argument('--sample-s', type=int, default=300)
+    p.add_argument('--warmup-s', type=int, default=900)
+    p.add_argument('--rss-growth-mb', type=float, default=20.0)
+    p.add_argument('--check-agents', type=int, default=300)
+    p.add_argument('--max-speed', type=float, default=15.0)
+    p.add_argument('--json', help='write the result here')
+    args = p.parse_args(argv)
+    r = run(args.concurrent, int(args.hours * 3600), tuple(args.life_s), args.return_every,
+            args.sample_s, args.warmup_s, args.rss_growth_mb, args.check_agents,
+            max_speed=args.max_speed)
+    print(f'churn soak: {r["agents_ever"]} agents ({r["returns"]} returns, '
+          f'{r["departures"]} departures, about {r["concurrent"]} at a time) over '
+          f'{r["simulated_s"] / 3600:g} simulated h in {r["wall_s"]:.0f} s '
+          f'(x{r["speed_x_real_time"]:.1f}): missing {r["missing"]}, unexpected '
+          f'{r["unexpected"]}, duplicates {r["duplicates"]} (poses sent before the node '
+          f'matched, not counted: {r["poses_before_match"]}); errors of '
+          f'{r["agents_checked"]} agents against their streams: max diff '
+          f'{r["max_error_diff_m"]:.1e} m; RSS {r["rss_mb_samples"][:1]} -> '
+          f'{r["rss_mb_samples"][-1:]} MB (growth {r["rss_growth_mb"]:.1f} MB); '
+          f'served at most {r["served_max"]}, released {r["released"]}: '
+          f'{"PASSED" if r["passed"] else "FAILED"}')
+    for line in r['node_summary']:
+        print(f'  node {line.strip()}')
+    if args.json:
+        Path(args.json).write_text(json.dumps(r, indent=1))
+    return 0 if r['passed'] else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,222 @@
+"""
+The error node's ``agent_pattern``: which truth topics in the graph are agents.
+
+A pattern is a topic name with one ``*`` standing for one whole name segment
+(``/peds/*/pose``). A topic matches when it has the pattern's segments with
+any ROS name token (letters, digits and ``_``, not starting with a digit) in
+the ``*``'s place; that token is the agent's name, which keys its error
+stream exactly as an entry of ``agents`` would, and its fixes go on the
+matched topic with the last segment replaced by ``fix``.
+"""
+
+import re
+
+import numpy as np
+
+from gps_error_ros.model.streams import agent_key
+from gps_error_ros.ros import conversions
+from gps_error_ros.ros.parameters import ConfigError
+
+TOKEN = r'[A-Za-z_][A-Za-z0-9_]*'
+
+
+class AgentPattern:
+    """A parsed ``agent_pattern`` (see the module docstring)."""
+
+    def __init__(self, pattern, namespace, msg_type):
+        """
+        Parse ``pattern`` (relative ones taken in ``namespace``).
+
+        ``msg_type`` is the truth message's ROS type name
+        (``geometry_msgs/msg/PoseStamped``); topics of other types are not
+        agents.
+
+        Raises
+        ------
+        ConfigError
+            Naming the pattern and what a pattern must be.
+
+        """
+        text = pattern.strip()
+        if not text.startswith('/'):
+            text = namespace.rstrip('/') + '/' + text
+        segments = text.split('/')[1:]
+        problem = None
+        if segments.count('*') != 1:
+            problem = 'exactly one * standing for a whole name segment'
+        elif segments[-1] == '*':
+            problem = 'a segment after the * (the truth topic, e.g. /peds/*/pose)'
+        elif not all(s == '*' or re.fullmatch(TOKEN, s) for s in segments):
+            problem = 'segments of letters, digits and _ (not starting with a digit)'
+        if problem:
+            raise ConfigError(f'parameter \'agent_pattern\': invalid value {pattern!r}: '
+                              f'expected {problem}')
+        self.text = text
+        self.msg_type = msg_type
+        star = segments.index('*')
+        parts = [re.escape(s) if s != '*' else f'({TOKEN})' for s in segments]
+        self.regex = re.compile('/' + '/'.join(parts) + '$')
+        self.fix_segments = segments[:-1] + ['fix']
+        self.star = star
+
+    def fix_topic(self, name):
+        """Return the fix topic of agent ``name``."""
+        segments = list(self.fix_segments)
+        segments[self.star] = name
+        return '/' + '/'.join(segments)
+
+    def scan(self, names_and_types):
+        """
+        Return ({agent: truth topic}, [topics of the wrong type]) in the graph.
+
+        ``names_and_types`` as ``Node.get_topic_names_and_types()`` gives it.
+        """
+        agents, wrong = {}, []
+        for topic, types in names_and_types:
+            m = self.regex.match(topic)
+            if not m:
+                continue
+            if self.msg_type in types:
+                agents[m.group(1)] = topic
+            else:
+                wrong.append(f'{topic} ({", ".join(types)})')
+        return agents, wrong
+
+
+class AgentWatcher:
+    """
+    Serve the agents whose truth topics match a pattern, as they come and go.
+
+    Works on an error node in pattern mode (one profile group over slots).
+    :meth:`scan` runs once a second of wall time: new matching topics get a
+    slot (the engine grows by doubling when none is free), a subscription and
+    a publisher; agents stale for ``timeout_s`` of the ROS clock whose topic
+    has no publisher left are released.
+    """
+
+    def __init__(self, node, pattern, timeout_s):
+        self.node = node
+        self.pattern = pattern
+        self.timeout_ns = int(round(timeout_s * 1e9))
+        self.index = {}             # agent name -> slot
+        self.attached_at = {}       # slot -> ROS time (ns) it was served from
+        self.warned = set()
+        self.stale = 0
+        self.released = 0
+
+    def scan(self):
+        """Serve new agents, release departed ones; return (served, released)."""
+        node = self.node
+        found, wrong = self.pattern.scan(node.get_topic_names_and_types())
+        for topic in wrong:
+            if topic not in self.warned:
+                self.warned.add(topic)
+                node.get_logger().warning(
+                    f'agent_pattern {self.pattern.text}: {topic} matches but is not '
+                    f'of type {self.pattern.msg_type}: not served')
+        new = [(name, topic) for name, topic in sorted(found.items())
+               if name not in self.index]
+        if new:
+            slots = node.open_agents(new, [self.pattern.fix_topic(n) for n, _ in new])
+            now = node.now_ns()
+            for (name, _), slot in zip(new, slots):
+                self.index[name] = slot
+                self.attached_at[slot] = now
+            shown = ', '.join(n for n, _ in new[:5]) + (' ...' if len(new) > 5 else '')
+            node.get_logger().info(f'serving {len(new)} new agent(s): {shown}')
+        gone = self._departed(node.now_ns())
+        if gone:
+            node.close_agents([self.index.pop(name) for name in gone])
+            self.released += len(gone)
+            shown = ', '.join(gone[:5]) + (' ...' if len(gone) > 5 else '')
+            node.get_logger().info(f'released {len(gone)} departed agent(s): {shown}')
+        return len(new), len(gone)
+
+    def _departed(self, now):
+        """Return the names of stale agents with no publisher left; count stale ones."""
+        if now <= 0:
+            return []
+        newest = self.node.newest_truth_ns()
+        gone, stale = [], 0
+        for name, slot in self.index.items():
+            since = self.attached_at.get(slot, 0)
+            if since <= 0 or since > now:      # no clock yet, or it went back
+                self.attached_at[slot] = now
+                continue
+            last = max(int(newest[slot]), since)
+            if now - last <= self.timeout_ns:
+                continue
+            if self.node.truth_publishers(slot):
+                stale += 1
+            else:
+                gone.append(name)
+                del self.attached_at[slot]
+        self.stale = stale
+        return gone
+
+
+class PatternAgents:
+    """
+    The error node's side of ``agent_pattern`` (a mixin of ``GpsErrorNode``).
+
+    Slots are the node's agent indices; in pattern mode there is one profile
+    group whose engine has one row per slot. :class:`AgentWatcher` calls
+    these to open and close agents.
+    """
+
+    def _agent_pattern(self, cfg):
+        """Return the parsed agent_pattern, or None when it is off."""
+        if not cfg['agent_pattern']:
+            return None
+        if cfg['agents'] or cfg['agent_profiles']:
+            raise ConfigError(
+                'parameter \'agent_pattern\': set together with \'agents\' or '
+                '\'agent_profiles\': expected one way of naming the agents (the '
+                'pattern serves every agent with the one profile)')
+        msg_type = conversions.TRUTH_INPUTS[self.input_type][1]
+        type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
+        return AgentPattern(cfg['agent_pattern'], self.get_namespace(), type_name)
+
+    def open_agents(self, new, fix_topics):
+        """Serve ``new`` [(name, truth topic)] on ``fix_topics``; return their slots."""
+        free = [i for i, a in enumerate(self.agents) if a is None]
+        if len(free) < len(new):
+            self._grow(max(len(new) - len(free), len(self.agents)))
+            free = [i for i, a in enumerate(self.agents) if a is None]
+        slots = free[:len(new)]
+        for slot, (name, truth_topic), fix_topic in zip(slots, new, fix_topics):
+            self.agents[slot] = name
+            self._open(slot, truth_topic, fix_topic)
+        self.groups[0].engine.attach(slots, [agent_key(self.seed, n) for n, _ in new])
+        return slots
+
+    def close_agents(self, slots):
+        """Release ``slots``: subscription, publisher and model state."""
+        for slot in slots:
+            self.subs[slot].destroy()
+            self.destroy_publisher(self.pubs[slot])
+            self.agents[slot] = self.subs[slot] = self.pubs[slot] = None
+            self.sub_handles[slot] = self.pub_handles[slot] = None
+        self.groups[0].engine.detach(slots)
+
+    def _grow(self, n):
+        """Add ``n`` free slots (pattern mode: one profile group)."""
+        self.groups[0].engine.grow(n)
+        for lst in (self.agents, self.subs, self.pubs, self.sub_handles, self.pub_handles):
+            lst.extend([None] * n)
+        size = len(self.agents)
+        self.groups[0].members = np.arange(size)
+        self.slot_group = np.zeros(size, dtype=np.int64)
+        self.slot_local = np.arange(size)
+
+    def now_ns(self):
+        """Return the ROS clock's time in ns."""
+        return self._now_ns()
+
+    def newest_truth_ns(self):
+        """Return each slot's newest truth stamp (ns; -1 for none)."""
+        return self.groups[0].engine.truth.newest
+
+    def truth_publishers(self, slot):
+        """Return how many publishers the truth topic of ``slot`` has."""
+        return self.subs[slot].get_publisher_count()

@@ -1,0 +1,124 @@
+"""
+Every topic and service the nodes use, with its type and QoS: one table.
+
+The nodes create their endpoints with the QoS profiles defined here; their
+``--help`` and the README's topic tables (``tools/readme_parameters.py``)
+are rendered from :data:`NODE_TOPICS`, and a test compares the table with
+what a running node shows in the ROS graph.
+"""
+
+from dataclasses import dataclass
+
+from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile,
+                       ReliabilityPolicy)
+
+# Sensor-data QoS (best effort, volatile) with a deeper history than the
+# stock profile's 5, so a burst of truth messages is buffered, not dropped.
+TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                       reliability=ReliabilityPolicy.BEST_EFFORT)
+# Reliable (the default), with a history long enough that a fix lost in a
+# burst can still be repaired (Fast DDS re-sends after ~3 s; a crowd run
+# faster than real time publishes many steps in that time, and depth 10 let 16
+# of 3.6 M fixes go). Best effort on request (parameter fix_reliability).
+FIX_QOS = {
+    name: QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=policy)
+    for name, policy in (('reliable', ReliabilityPolicy.RELIABLE),
+                         ('best_effort', ReliabilityPolicy.BEST_EFFORT))}
+# Best effort (so sensor drivers' best-effort publishers match) with a deep
+# history: a recording replayed fast must not overwrite what is not yet read.
+CALIBRATION_INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
+                                   reliability=ReliabilityPolicy.BEST_EFFORT)
+# As diagnostic_updater: reliable, volatile, a short history (a monitor wants
+# the newest status, not a backlog).
+DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                             reliability=ReliabilityPolicy.RELIABLE)
+DIAGNOSTICS_TOPIC = '/diagnostics'
+
+
+def qos_text(qos):
+    """Return a QoS profile as the README writes it (``best effort, keep last 100``)."""
+    if qos is None:
+        return 'rcl default'
+    parts = [{ReliabilityPolicy.RELIABLE: 'reliable',
+              ReliabilityPolicy.BEST_EFFORT: 'best effort'}[qos.reliability]]
+    if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL:
+        parts.append('transient local')
+    if qos.history == HistoryPolicy.KEEP_LAST:
+        parts.append(f'keep last {qos.depth}')
+    return ', '.join(parts)
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """One topic or service of a node."""
+
+    direction: str      # 'in', 'out' or 'srv'
+    name: str
+    type: str           # package/Type
+    qos: object         # a QoSProfile, a {choice: QoSProfile} map, or None
+    note: str
+
+    def qos_cell(self):
+        """Return the QoS as table text (each choice named for a parameter)."""
+        if isinstance(self.qos, dict):
+            return '; '.join(f'{qos_text(q)} ({k})' for k, q in self.qos.items())
+        return qos_text(self.qos)
+
+
+_DIAGNOSTICS = Endpoint('out', DIAGNOSTICS_TOPIC, 'diagnostic_msgs/DiagnosticArray',
+                        DIAGNOSTICS_QOS, 'status at 1 Hz of wall time')
+# rclpy's time source subscribes to /clock itself, with this QoS (Jazzy).
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+_CLOCK = Endpoint('in', '/clock', 'rosgraph_msgs/Clock', CLOCK_QOS,
+                  'with use_sim_time:=true (rclpy\'s own subscription)')
+
+_RCL = Endpoint('out', '/rosout, /parameter_events', 'rcl_interfaces/Log, ParameterEvent',
+                None, 'every node\'s own (logging, parameter changes); also the '
+                'parameter services ~/get_parameters etc.')
+
+#: node -> its endpoints, in the order --help and the README list them
+NODE_TOPICS = {
+    'gps_error_node': (
+        Endpoint('in', 'pose', 'geometry_msgs/PoseStamped', TRUTH_QOS,
+                 'truth, input_type pose'),
+        Endpoint('in', 'odom', 'nav_msgs/Odometry', TRUTH_QOS, 'truth, input_type odometry'),
+        Endpoint('in', 'fix_truth', 'sensor_msgs/NavSatFix', TRUTH_QOS,
+                 'truth, input_type navsatfix'),
+        Endpoint('out', 'fix', 'sensor_msgs/NavSatFix', FIX_QOS,
+                 'one per step of rate (QoS by fix_reliability)'),
+        Endpoint('in', 'A/pose', '(as pose)', TRUTH_QOS,
+                 'per agent A with agents:=[...] or agent_pattern (A/odom, A/fix_truth '
+                 'likewise)'),
+        Endpoint('out', 'A/fix', 'sensor_msgs/NavSatFix', FIX_QOS, 'per agent A'),
+        _DIAGNOSTICS,
+        _CLOCK,
+        _RCL,
+    ),
+    'gps_calibration_node': (
+        Endpoint('in', 'fix', 'sensor_msgs/NavSatFix', CALIBRATION_INPUT_QOS,
+                 'the measured fixes'),
+        Endpoint('in', 'pose', 'geometry_msgs/PoseStamped', CALIBRATION_INPUT_QOS,
+                 'truth, input_type pose'),
+        Endpoint('in', 'odom', 'nav_msgs/Odometry', CALIBRATION_INPUT_QOS,
+                 'truth, input_type odometry'),
+        Endpoint('in', 'fix_truth', 'sensor_msgs/NavSatFix', CALIBRATION_INPUT_QOS,
+                 'truth, input_type navsatfix'),
+        Endpoint('srv', '~/calibrate', 'std_srvs/Trigger', None, 'fit and write now'),
+        _DIAGNOSTICS,
+        _CLOCK,
+        _RCL,
+    ),
+}
+
+
+def markdown_topics(node):
+    """Return the README's Markdown table of ``node``'s topics and services."""
+    lines = ['| direction | topic | type | QoS | note |', '|---|---|---|---|---|']
+    for e in NODE_TOPICS[node]:
+        lines.append(f'| {e.direction} | `{e.name}` | {e.type} | {e.qos_cell()} | {e.note} |')
+    return '\n'.join(lines) + '\n'
+
+
+def help_rows(node):
+    """Return (direction, topic, type, note) rows for ``--help``."""
+    return [(e.direction, e.name, e.type, e.note) for e in NODE_TOPICS[node]]

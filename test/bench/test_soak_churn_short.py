@@ -1,0 +1,24 @@
+"""The churn soak, short: about 10 agents coming and going for 10 simulated minutes."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'bench'))
+import soak_churn  # noqa: E402
+
+pytestmark = pytest.mark.integration
+
+
+def test_short_churn_soak():
+    r = soak_churn.run(concurrent=10, sim_s=600, life_s=(30, 120), sample_s=60,
+                       warmup_s=120, max_speed=10.0)
+    summary = {k: v for k, v in r.items() if k != 'node_log'}
+    assert r['departures'] >= 40 and r['returns'] >= 5, summary
+    assert r['missing'] == 0 and r['unexpected'] == 0 and r['duplicates'] == 0, summary
+    assert r['max_error_diff_m'] <= 1e-6, summary
+    assert r['agents_checked'] == r['agents_ever'], summary
+    assert r['served_max'] < 20 and r['released'] >= r['departures'] - 20, summary
+    assert r['rss_growth_mb'] <= 20.0, summary
+    assert r['passed']
