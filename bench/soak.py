@@ -49,6 +49,25 @@ def rss_mb(pid):
     return float('nan')
 
 
+def start_node(ns, params):
+    """Start gps_error_node in namespace ``ns`` with the parameters file ``params``."""
+    exe = Path(sys.executable).with_name('gps_error_node')
+    return subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
+                             '--params-file', str(params)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def stop_node(node, timeout):
+    """SIGINT the node (kill it after ``timeout`` s); return its output."""
+    node.send_signal(signal.SIGINT)
+    try:
+        out, _ = node.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        node.kill()
+        out, _ = node.communicate()
+    return out
+
+
 MAX_SPEED = 25.0     # simulated s per wall s: 75 fixes per topic per heartbeat period
 
 
@@ -79,10 +98,7 @@ def run(agents, sim_s, sample_s, window_s, rss_growth_mb, profile='DS2', seed=3,
                           # the driver runs the clock one step ahead of the
                           # truth it waits on: see README, max_pose_age
                           '    max_pose_age: 3.0\n')
-        exe = Path(sys.executable).with_name('gps_error_node')
-        node = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
-                                 '--params-file', str(params)],
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        node = start_node(ns, params)
         rclpy.init()
         drv = Node('soak_driver')
         try:
@@ -166,12 +182,7 @@ def run(agents, sim_s, sample_s, window_s, rss_growth_mb, profile='DS2', seed=3,
         finally:
             drv.destroy_node()
             rclpy.try_shutdown()
-            node.send_signal(signal.SIGINT)
-            try:
-                out, _ = node.communicate(timeout=120)
-            except subprocess.TimeoutExpired:
-                node.kill()
-                out, _ = node.communicate()
+            out = stop_node(node, timeout=120)
     expected = {(i, k) for i in range(agents) for k in range(t0, t0 + sim_s)}
     counted = {key for key in seen if key[1] < t0 + sim_s}
     missing_keys = expected - counted

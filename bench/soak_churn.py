@@ -29,15 +29,13 @@ import argparse
 import json
 import os
 from pathlib import Path
-import signal
-import subprocess
 import sys
 import tempfile
 import time
 
 import numpy as np
 
-from soak import rss_mb
+from soak import rss_mb, start_node, stop_node
 
 NS = 1_000_000_000
 T0 = 1000
@@ -173,10 +171,7 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                           f'    datum: [{lat0}, {lon0}, 0.0]\n    seed: {seed}\n'
                           f'    profile: {profile}\n    max_pose_age: 3.0\n'
                           f'    agent_pattern: {ns}/peds/*/pose\n    agent_timeout: 5.0\n')
-        exe = Path(sys.executable).with_name('gps_error_node')
-        node = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
-                                 '--params-file', str(params)],
-                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        node = start_node(ns, params)
         rclpy.init()
         drv = Node('churn_driver')
 
@@ -229,12 +224,7 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
         finally:
             drv.destroy_node()
             rclpy.try_shutdown()
-            node.send_signal(signal.SIGINT)
-            try:
-                out, _ = node.communicate(timeout=60)
-            except subprocess.TimeoutExpired:
-                node.kill()
-                out, _ = node.communicate()
+            out = stop_node(node, timeout=60)
     result = _verdict(crowd, T0 + sim_s, seed, profile, (lat0, lon0), check_agents)
     growth = rss[-1] - rss[0] if len(rss) > 1 else 0.0
     result.update({

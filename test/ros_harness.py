@@ -153,6 +153,16 @@ class Peer:
         self.node.destroy_node()
 
 
+def node_statuses(box, hardware_id):
+    """Return the DiagnosticStatus of ``hardware_id`` in DiagnosticArrays ``box``, oldest first."""
+    return [m.status[0] for m in box if m.status[0].hardware_id == hardware_id]
+
+
+def status_values(status):
+    """Return {key: value} of a DiagnosticStatus."""
+    return {kv.key: kv.value for kv in status.values}
+
+
 def stamp(ns):
     """Return builtin_interfaces/Time for integer nanoseconds."""
     from builtin_interfaces.msg import Time

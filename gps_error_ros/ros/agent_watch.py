@@ -105,7 +105,7 @@ class AgentWatcher:
         self.released = 0
 
     def scan(self):
-        """Serve new agents, release departed ones; return (served, released)."""
+        """Serve new agents and release departed ones."""
         node = self.node
         found, wrong = self.pattern.scan(node.get_topic_names_and_types())
         for topic in wrong:
@@ -130,7 +130,6 @@ class AgentWatcher:
             self.released += len(gone)
             shown = ', '.join(gone[:5]) + (' ...' if len(gone) > 5 else '')
             node.get_logger().info(f'released {len(gone)} departed agent(s): {shown}')
-        return len(new), len(gone)
 
     def _departed(self, now):
         """Return the names of stale agents with no publisher left; count stale ones."""
@@ -208,10 +207,6 @@ class PatternAgents:
         self.groups[0].members = np.arange(size)
         self.slot_group = np.zeros(size, dtype=np.int64)
         self.slot_local = np.arange(size)
-
-    def now_ns(self):
-        """Return the ROS clock's time in ns."""
-        return self._now_ns()
 
     def newest_truth_ns(self):
         """Return each slot's newest truth stamp (ns; -1 for none)."""

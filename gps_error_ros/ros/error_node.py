@@ -227,7 +227,8 @@ class GpsErrorNode(PatternAgents, Node):
 
     # --- callbacks -------------------------------------------------------
 
-    def _now_ns(self):
+    def now_ns(self):
+        """Return the ROS clock's time in ns."""
         return self.get_clock().now().nanoseconds
 
     def _on_truth(self, agent, msg):
@@ -246,7 +247,7 @@ class GpsErrorNode(PatternAgents, Node):
             self.get_logger().warning(f'dropped a truth message: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
             return False
-        stamp = conversions.stamp_ns(msg.header.stamp) or self._now_ns()
+        stamp = conversions.stamp_ns(msg.header.stamp) or self.now_ns()
         g, local = self.slot[agent]
         if not self.groups[g].engine.add_truth(local, stamp, lat, lon, alt):
             self.get_logger().warning(
@@ -255,7 +256,7 @@ class GpsErrorNode(PatternAgents, Node):
                 throttle_duration_sec=WARN_PERIOD_S)
             return False
         if not self.polled:
-            self._publish(g, self.groups[g].engine.resolve(self._now_ns()))
+            self._publish(g, self.groups[g].engine.resolve(self.now_ns()))
         return True
 
     def _templates(self):
@@ -295,7 +296,7 @@ class GpsErrorNode(PatternAgents, Node):
                 f'dropped {int((~parsed).sum())} truth message(s) that could not be '
                 f'parsed', throttle_duration_sec=WARN_PERIOD_S)
         agents = np.array(agents)
-        now = self._now_ns()
+        now = self.now_ns()
         stamps[stamps == 0] = now
         if self.input_type == 'navsatfix':
             ok = parsed & usable_fix(values[:, 0], values[:, 1], values[:, 2])
@@ -327,11 +328,11 @@ class GpsErrorNode(PatternAgents, Node):
         t0 = time.perf_counter()
         if self.polled:
             self._drain()
-        now = self._now_ns()
-        resets = sum(g.engine.stats.resets for g in self.groups)
+        now = self.now_ns()
+        resets = self._total('resets')
         for g, group in enumerate(self.groups):
             self._publish(g, group.engine.on_clock(now))
-        late = sum(g.engine.stats.late_truth for g in self.groups)
+        late = self._total('late_truth')
         if late > self.late_reported:
             self.late_reported = late
             self.get_logger().warning(
@@ -339,7 +340,7 @@ class GpsErrorNode(PatternAgents, Node):
                 f'max_pose_age ({self.max_pose_age:g} s of the ROS clock) after the '
                 f'step: /clock runs ahead of the poses; raise max_pose_age to the '
                 f'largest lead', throttle_duration_sec=WARN_PERIOD_S)
-        if sum(g.engine.stats.resets for g in self.groups) > resets:
+        if self._total('resets') > resets:
             self.get_logger().warning(
                 f'the clock went backwards (to {now / 1e9:.3f} s): truth history '
                 f'and pending steps discarded, models restarted',
@@ -349,33 +350,37 @@ class GpsErrorNode(PatternAgents, Node):
         self.tick_time[1] += dt
         self.tick_time[2] = max(self.tick_time[2], dt)
 
+    def _total(self, counter):
+        """Return an EngineStats counter summed over the profile groups."""
+        return sum(getattr(g.engine.stats, counter) for g in self.groups)
+
     def summary(self):
         """Return a one-line account of the run (logged at shutdown)."""
-        stats = [g.engine.stats for g in self.groups]
         ticks, total, worst = self.tick_time
         mean_ms = 1e3 * total / ticks if ticks else 0.0
-        return (f'{ticks} timer ticks, {sum(s.steps for s in stats)} model steps, '
-                f'{sum(s.fixes for s in stats)} fixes published, '
-                f'{sum(s.skipped_no_truth for s in stats)} skipped without truth, '
-                f'{sum(s.dropped_out_of_order for s in stats)} truth messages out of '
-                f'order, {sum(s.dropped_future for s in stats)} stamped in the future, '
-                f'{sum(s.resets for s in stats)} clock resets, '
-                f'{sum(s.late_truth for s in stats)} times truth came after its step '
+        t = self._total
+        return (f'{ticks} timer ticks, {t("steps")} model steps, '
+                f'{t("fixes")} fixes published, '
+                f'{t("skipped_no_truth")} skipped without truth, '
+                f'{t("dropped_out_of_order")} truth messages out of '
+                f'order, {t("dropped_future")} stamped in the future, '
+                f'{t("resets")} clock resets, '
+                f'{t("late_truth")} times truth came after its step '
                 f'was skipped; '
                 f'wall time per '
                 f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
     def _report(self):
         """Return the /diagnostics status: what was published and skipped."""
-        stats = [g.engine.stats for g in self.groups]
+        t = self._total
         total = {
-            'fixes published': sum(s.fixes for s in stats) - self.refused,
-            'steps skipped without truth': sum(s.skipped_no_truth for s in stats),
-            'truth dropped (out of order)': sum(s.dropped_out_of_order for s in stats),
-            'truth dropped (stamped in the future)': sum(s.dropped_future for s in stats),
+            'fixes published': t('fixes') - self.refused,
+            'steps skipped without truth': t('skipped_no_truth'),
+            'truth dropped (out of order)': t('dropped_out_of_order'),
+            'truth dropped (stamped in the future)': t('dropped_future'),
             'truth dropped (invalid)': self.invalid_truth,
-            'truth came after its step was skipped': sum(s.late_truth for s in stats),
-            'clock resets': sum(s.resets for s in stats),
+            'truth came after its step was skipped': t('late_truth'),
+            'clock resets': t('resets'),
             'non-finite fixes refused': self.refused,
         }
         recent = {k: self.counters.delta(k, v) for k, v in total.items()}
@@ -388,7 +393,7 @@ class GpsErrorNode(PatternAgents, Node):
                            'agents released': self.watcher.released})
         values.update(total)
         ticks, spent, worst = self.tick_time
-        values['ROS time (s)'] = self._now_ns() / 1e9
+        values['ROS time (s)'] = self.now_ns() / 1e9
         values['timer ticks'] = ticks
         values['wall time per tick, mean (ms)'] = 1e3 * spent / ticks if ticks else 0.0
         values['wall time per tick, max (ms)'] = 1e3 * worst

@@ -89,6 +89,16 @@ class FixBatch:
     error: np.ndarray = field(repr=False)
 
 
+@dataclass
+class _Step:
+    """An output step waiting for truth: its errors, and which agents are done."""
+
+    t_ns: int             # the step's instant
+    model_step: int       # the model step it carries
+    err: np.ndarray       # (n, 2) north/east errors of every slot
+    done: np.ndarray      # (n,) True once resolved (or free)
+
+
 class _TruthRing:
     """Per-agent circular buffers of (stamp, lat, lon, alt)."""
 
@@ -285,9 +295,9 @@ class FixEngine:
         self.truth.grow(n)
         if self.state is not None:
             self.state = np.concatenate([self.state, self.model.empty_state(n)])
-        for entry in self.pending:
-            entry[2] = np.concatenate([entry[2], np.zeros((n, 2))])
-            entry[3] = np.concatenate([entry[3], np.ones(n, dtype=bool)])
+        for step in self.pending:
+            step.err = np.concatenate([step.err, np.zeros((n, 2))])
+            step.done = np.concatenate([step.done, np.ones(n, dtype=bool)])
         self.n += n
 
     def attach(self, slots, keys):
@@ -308,15 +318,14 @@ class FixEngine:
         self.last_skipped[slots] = -1
         if self.state is None or not slots.size:
             return
-        marks = [entry[1] for entry in self.pending]
-        m = marks[0] if marks else self.model_index
+        m = self.pending[0].model_step if self.pending else self.model_index
         state = self.model.state_after(keys, self.start_index, m)
-        for entry in self.pending:
-            while m < entry[1]:
+        for step in self.pending:
+            while m < step.model_step:
                 m += 1
                 self.model.advance(state, keys, m)
-            entry[2][slots] = self.model.errors(state)
-            entry[3][slots] = False
+            step.err[slots] = self.model.errors(state)
+            step.done[slots] = False
         while m < self.model_index:
             m += 1
             self.model.advance(state, keys, m)
@@ -328,8 +337,8 @@ class FixEngine:
         self.active[slots] = False
         self.truth.clear(slots)
         self.last_skipped[slots] = -1
-        for entry in self.pending:
-            entry[3][slots] = True
+        for step in self.pending:
+            step.done[slots] = True
 
     def on_clock(self, now_ns):
         """
@@ -365,14 +374,14 @@ class FixEngine:
             self.model_index += 1
             self.model.advance(self.state, self.keys, self.model_index)
         self.stats.steps += 1
-        # [instant, model step, errors, done]: free slots are done already
-        self.pending.append([t_ns, m, self.model.errors(self.state), ~self.active])
+        # free slots are done already
+        self.pending.append(_Step(t_ns, m, self.model.errors(self.state), ~self.active))
 
     def resolve(self, now_ns):
         """Return fixes for pending steps whose truth is now known."""
         out = []
         while len(self.pending) > self.max_pending:
-            out.extend(self._resolve_entry(self.pending[0], force=True))
+            out.extend(self._resolve_step(self.pending[0], force=True))
             self.pending.popleft()
             self.stats.pending_overflow += 1
         # Every waiting step is looked at, oldest first, not only up to the
@@ -381,15 +390,15 @@ class FixEngine:
         # until the agents that come and go showed it). An agent's fixes
         # still come in step order: truth that makes a later step ready for
         # it makes every earlier step of it ready too, and those come first.
-        for entry in self.pending:
-            expired = now_ns >= entry[0] + self.max_pose_age_ns
-            out.extend(self._resolve_entry(entry, force=expired))
-        while self.pending and self.pending[0][3].all():
+        for step in self.pending:
+            expired = now_ns >= step.t_ns + self.max_pose_age_ns
+            out.extend(self._resolve_step(step, force=expired))
+        while self.pending and self.pending[0].done.all():
             self.pending.popleft()
         return out
 
-    def _resolve_entry(self, entry, force):
-        t_ns, _, err, done = entry
+    def _resolve_step(self, step, force):
+        t_ns, err, done = step.t_ns, step.err, step.done
         newest = self.truth.newest
         ready = ~done & (newest >= t_ns)
         fixes = []

@@ -9,8 +9,8 @@ from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.model.profiles import load_profile
 from gps_error_ros.model.streams import agent_key
-from ros_harness import (DATUM, DATUM_ARG, errors, NodeProcess, NS, Peer, pose_msg,
-                         stamp_ns, unique_ns)
+from ros_harness import (DATUM, DATUM_ARG, errors, node_statuses, NodeProcess, NS, Peer,
+                         pose_msg, stamp_ns, status_values, unique_ns)
 
 pytestmark = pytest.mark.integration
 T0 = 3000
@@ -27,11 +27,9 @@ def pattern_node(ns, *extra):
     return NodeProcess(args)
 
 
-def latest_status(box):
-    """Return {key: value} of the newest diagnostics status, with level and message."""
-    status = box[-1].status[0]
-    values = {kv.key: kv.value for kv in status.values}
-    return dict(values, level=status.level[0], message=status.message)
+def flat(status):
+    """Return {key: value} of a diagnostics status, with its level and message."""
+    return dict(status_values(status), level=status.level[0], message=status.message)
 
 
 class Crowd:
@@ -76,8 +74,8 @@ def test_agents_come_go_and_come_back_on_their_streams():
         mine = []
 
         def status_seen(pred):
-            mine[:] = [m for m in diag if m.status[0].hardware_id == f'{ns}/gps_error_node']
-            return bool(mine) and pred(latest_status(mine))
+            mine[:] = node_statuses(diag, f'{ns}/gps_error_node')
+            return bool(mine) and pred(flat(mine[-1]))
         # the node has subscribed to /clock and started (its status flows)
         assert peer.spin_until(lambda: status_seen(lambda s: True), 20), node.stop()[1]
         assert peer.spin_until(lambda: any(

@@ -9,20 +9,11 @@ from rclpy.qos import ReliabilityPolicy
 from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.ros.topics import NODE_TOPICS
-from ros_harness import (DATUM_ARG, NodeProcess, NS, Peer, pose_msg, start, stamp_ns,
-                         unique_ns)
+from ros_harness import (DATUM_ARG, node_statuses, NodeProcess, NS, Peer, pose_msg, start,
+                         stamp_ns, status_values, unique_ns)
 
 pytestmark = pytest.mark.integration
 T0 = 4000
-
-
-def statuses(box, hardware_id):
-    """Return the statuses in ``box`` of the node ``hardware_id``, oldest first."""
-    return [m.status[0] for m in box if m.status[0].hardware_id == hardware_id]
-
-
-def values(status):
-    return {kv.key: kv.value for kv in status.values}
 
 
 def test_error_node_status_says_what_was_skipped_and_keeps_coming_on_a_paused_clock():
@@ -34,22 +25,22 @@ def test_error_node_status_says_what_was_skipped_and_keeps_coming_on_a_paused_cl
         fixes = peer.collect(NavSatFix, f'{ns}/fix')
         pose = peer.publisher(PoseStamped, f'{ns}/pose')
         mine = f'{ns}/gps_error_node'
-        assert peer.spin_until(lambda: statuses(box, mine), 20), node.stop()[1]
-        first = statuses(box, mine)[-1]
+        assert peer.spin_until(lambda: node_statuses(box, mine), 20), node.stop()[1]
+        first = node_statuses(box, mine)[-1]
         assert first.name == 'gps_error_node: fixes'
         assert first.level == DiagnosticStatus.OK, first
-        assert values(first)['profile'] == 'DS5' and values(first)['seed'] == '3'
+        assert status_values(first)['profile'] == 'DS5' and status_values(first)['seed'] == '3'
         # the clock paused (never started): the status still comes once a second
-        n0 = len(statuses(box, mine))
+        n0 = len(node_statuses(box, mine))
         peer.spin_for(2.6)
-        assert len(statuses(box, mine)) - n0 >= 2
+        assert len(node_statuses(box, mine)) - n0 >= 2
         peer.wait_connected(pose, f'{ns}/fix', node)
         for k in range(T0, T0 + 6):          # steps without truth: skipped, WARN
             peer.set_clock(k * NS)
             peer.spin_for(0.1)
-        assert peer.spin_until(lambda: statuses(box, mine)[-1].level == DiagnosticStatus.WARN
-                               and 'skipped without truth' in statuses(box, mine)[-1].message,
-                               5), statuses(box, mine)[-1]
+        assert peer.spin_until(lambda: node_statuses(box, mine)[-1].level == DiagnosticStatus.WARN
+                               and 'skipped without truth' in node_statuses(box, mine)[-1].message,
+                               5), node_statuses(box, mine)[-1]
         for k in range(T0 + 6, T0 + 12):     # truth flows: fixes, OK again
             pose.publish(pose_msg(k * NS))
             peer.set_clock(k * NS)
@@ -61,9 +52,9 @@ def test_error_node_status_says_what_was_skipped_and_keeps_coming_on_a_paused_cl
             peer.set_clock(k * NS)
             peer.spin_for(0.6)
         peer.spin_for(1.3)                   # a status after the last fix
-        last = statuses(box, mine)[-1]
+        last = node_statuses(box, mine)[-1]
         assert last.level == DiagnosticStatus.OK, last
-        v = values(last)
+        v = status_values(last)
         assert int(v['fixes published']) == len(fixes) > 0
         assert int(v['steps skipped without truth']) >= 5
         assert float(v['ROS time (s)']) >= T0 + 14
@@ -81,12 +72,12 @@ def test_calibration_node_status_waits_for_both_inputs(tmp_path):
     try:
         box = peer.collect(DiagnosticArray, '/diagnostics')
         mine = f'{ns}/gps_calibration_node'
-        assert peer.spin_until(lambda: statuses(box, mine), 20), node.stop()[1]
-        status = statuses(box, mine)[-1]
+        assert peer.spin_until(lambda: node_statuses(box, mine), 20), node.stop()[1]
+        status = node_statuses(box, mine)[-1]
         assert status.name == 'gps_calibration_node: calibration'
         assert status.level == DiagnosticStatus.WARN and 'waiting for data' in status.message
-        assert values(status)['fixes received'] == '0'
-        assert values(status)['output'] == str(tmp_path / 'p.yaml')
+        assert status_values(status)['fixes received'] == '0'
+        assert status_values(status)['output'] == str(tmp_path / 'p.yaml')
     finally:
         rc, out = node.stop()
         peer.destroy()

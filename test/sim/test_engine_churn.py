@@ -41,7 +41,7 @@ def test_an_agent_attached_late_gets_its_stream_from_the_start(model):
         if k == START + 30:
             # attached while step k - 1 still waits for ped0's truth: it is
             # served for ped7 too
-            assert [entry[1] for entry in eng.pending] == [k - 1]
+            assert [step.model_step for step in eng.pending] == [k - 1]
             eng.attach([1], [key])
             eng.add_truth(1, (k - 2) * NS, LAT, LON, 0.0)
         if k >= START + 30:
