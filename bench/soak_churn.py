@@ -175,13 +175,20 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
         rclpy.init()
         drv = Node('churn_driver')
 
-        def on_status(msg):
-            for st in msg.status:
-                if st.hardware_id == f'{ns}/gps_error_node':
-                    v = {kv.key: kv.value for kv in st.values}
-                    status['served_max'] = max(status['served_max'], int(v['agents served']))
-                    status['released'] = int(v.get('agents released', 0))
-        drv.create_subscription(DiagnosticArray, '/diagnostics', on_status, QoSProfile(depth=10))
+        # The driver never spins: every subscription is taken from by hand. (It
+        # once spun for the /diagnostics callback, and spin_once took and threw
+        # away one agent's fix now and then: one fix "lost" per step.)
+        diagnostics = drv.create_subscription(DiagnosticArray, '/diagnostics',
+                                              lambda m: None, QoSProfile(depth=10))
+
+        def read_status():
+            while (taken := diagnostics.handle.take_message(DiagnosticArray, False)):
+                for st in taken[0].status:
+                    if st.hardware_id == f'{ns}/gps_error_node':
+                        v = {kv.key: kv.value for kv in st.values}
+                        status['served_max'] = max(status['served_max'],
+                                                   int(v['agents served']))
+                        status['released'] = int(v.get('agents released', 0))
         clock = drv.create_publisher(Clock, '/clock', QoSProfile(depth=10))
         crowd = Driver(drv, ns, np.random.default_rng(seed), life_s, return_every)
         rss = []
@@ -191,7 +198,7 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                           for e in drv.get_subscriptions_info_by_topic('/clock')):
                 if time.monotonic() > deadline or node.poll() is not None:
                     raise RuntimeError('the node did not come up')
-                rclpy.spin_once(drv, timeout_sec=0.1)
+                time.sleep(0.1)
             time.sleep(0.5)
             clock.publish(Clock(clock=to_stamp(T0 * NS)))   # the node's first step
             time.sleep(1.0)
@@ -206,7 +213,7 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                 crowd.send(k, msg)
                 clock.publish(Clock(clock=to_stamp(k * NS)))
                 crowd.wait_for(k - 1)
-                rclpy.spin_once(drv, timeout_sec=0)
+                read_status()
                 ahead = (k - T0) / max_speed - (time.monotonic() - wall0)
                 if ahead > 0:
                     time.sleep(ahead)
@@ -220,7 +227,8 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                         (agent.sent[0], agent.sent[-1]))
             end = time.monotonic() + 3
             while time.monotonic() < end:
-                rclpy.spin_once(drv, timeout_sec=0.1)
+                read_status()
+                time.sleep(0.1)
         finally:
             drv.destroy_node()
             rclpy.try_shutdown()
@@ -248,6 +256,7 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
     from gps_error_ros.model.profiles import load_profile
     from gps_error_ros.model.streams import agent_key
     missing = unexpected = 0
+    missing_by_agent = {}
     for name, steps in crowd.sent.items():
         got = set(crowd.fixes.get(name, {}))
         # from the first fix of each life on (see Driver.wait_for)
@@ -258,6 +267,9 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
         crowd.unseen += sum(len([k for k in steps if a <= k < f])
                             for f, (a, _) in zip(firsts, lives))
         missing += len(want - got)
+        if want - got:
+            missing_by_agent[name] = {'steps': sorted(want - got), 'lives': lives,
+                                      'came_back': name in crowd.returned}
         # held truth: up to max_pose_age (3) steps after a pause or departure
         allowed = set(steps) | {k + d for k in steps for d in (1, 2, 3)}
         unexpected += len(got - allowed)
@@ -279,6 +291,7 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
         worst = max(worst, float(np.abs(got - expected[steps - T0, j]).max()))
     return {'agents_ever': crowd.count, 'returns': crowd.returns,
             'fixes_received': sum(len(b) for b in crowd.fixes.values()),
+            'missing_by_agent': missing_by_agent,
             'poses_before_match': crowd.unseen,
             'departures': len(crowd.gone), 'missing': missing, 'unexpected': unexpected,
             'duplicates': crowd.dup, 'agents_checked': len(names),
