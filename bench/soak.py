@@ -50,21 +50,33 @@ def rss_mb(pid):
 
 
 def start_node(ns, params):
-    """Start gps_error_node in namespace ``ns`` with the parameters file ``params``."""
+    """
+    Start gps_error_node in namespace ``ns`` with the parameters file ``params``.
+
+    Its output goes to ``<params>.log``, not to a pipe: nobody reads a pipe
+    until the end, and a node that logs enough (agent_pattern logs each
+    discovery round) fills the pipe's 64 kB and blocks in its next log call.
+    """
     exe = Path(sys.executable).with_name('gps_error_node')
-    return subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
+    log = open(Path(params).with_suffix('.log'), 'w+')
+    node = subprocess.Popen([str(exe), '--ros-args', '-r', f'__ns:={ns}',
                              '--params-file', str(params)],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            stdout=log, stderr=subprocess.STDOUT, text=True)
+    node.log = log
+    return node
 
 
 def stop_node(node, timeout):
     """SIGINT the node (kill it after ``timeout`` s); return its output."""
     node.send_signal(signal.SIGINT)
     try:
-        out, _ = node.communicate(timeout=timeout)
+        node.wait(timeout=timeout)
     except subprocess.TimeoutExpired:
         node.kill()
-        out, _ = node.communicate()
+        node.wait()
+    node.log.seek(0)
+    out = node.log.read()
+    node.log.close()
     return out
 
 

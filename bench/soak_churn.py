@@ -13,7 +13,11 @@ driver waits for the previous step's fixes of the agents that sent, at most
 otherwise:
 
 * every pose an agent sent got exactly one fix (the step of the last pose
-  before a departure excepted: the node may release the agent first);
+  before a departure excepted: the node may release the agent first), and
+  no step got a fix beyond the engine's rules (truth held up to
+  ``max_pose_age`` after it stops, interpolated across gaps up to
+  ``max(2, 2 x max_pose_age)`` s, as for an agent that comes back before its
+  release);
 * every fix's error is the agent's stream: ``gps_error simulate``'s value
   for (seed, name, step), from the node's first step, to 1e-6 m (all agents
   up to ``--check-agents``, returners included);
@@ -39,6 +43,8 @@ from soak import rss_mb, start_node, stop_node
 
 NS = 1_000_000_000
 T0 = 1000
+MAX_POSE_AGE_S = 3
+MAX_GAP_S = max(2, 2 * MAX_POSE_AGE_S)     # the engine's interpolation limit
 
 
 class Agent:
@@ -169,7 +175,7 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
         params = Path(work, 'p.yaml')
         params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
                           f'    datum: [{lat0}, {lon0}, 0.0]\n    seed: {seed}\n'
-                          f'    profile: {profile}\n    max_pose_age: 3.0\n'
+                          f'    profile: {profile}\n    max_pose_age: {MAX_POSE_AGE_S:.1f}\n'
                           f'    agent_pattern: {ns}/peds/*/pose\n    agent_timeout: 5.0\n')
         node = start_node(ns, params)
         rclpy.init()
@@ -256,7 +262,7 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
     from gps_error_ros.model.profiles import load_profile
     from gps_error_ros.model.streams import agent_key
     missing = unexpected = 0
-    missing_by_agent = {}
+    missing_by_agent, unexpected_by_agent = {}, {}
     for name, steps in crowd.sent.items():
         got = set(crowd.fixes.get(name, {}))
         # from the first fix of each life on (see Driver.wait_for)
@@ -270,9 +276,18 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
         if want - got:
             missing_by_agent[name] = {'steps': sorted(want - got), 'lives': lives,
                                       'came_back': name in crowd.returned}
-        # held truth: up to max_pose_age (3) steps after a pause or departure
-        allowed = set(steps) | {k + d for k in steps for d in (1, 2, 3)}
-        unexpected += len(got - allowed)
+        # the engine's rules (sim/engine.py): truth held up to max_pose_age
+        # (3) steps after a pause or departure, and interpolated between two
+        # samples at most max(2, 2 x max_pose_age) = 6 s apart (an agent that
+        # comes back before the node released it)
+        sent = sorted(set(steps))
+        allowed = set(sent) | {k + d for k in sent for d in range(1, MAX_POSE_AGE_S + 1)}
+        allowed |= {k for a, b in zip(sent, sent[1:]) if b - a <= MAX_GAP_S
+                    for k in range(a + 1, b)}
+        extra = sorted(got - allowed)
+        unexpected += len(extra)
+        if extra:
+            unexpected_by_agent[name] = {'steps': extra, 'lives': crowd.lives[name]}
     model = load_profile(profile).model()
     # the agents that came back first, then the others, up to check_agents
     names = sorted(crowd.fixes, key=lambda n: (n not in crowd.returned, n))[:check_agents]
@@ -291,7 +306,7 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
         worst = max(worst, float(np.abs(got - expected[steps - T0, j]).max()))
     return {'agents_ever': crowd.count, 'returns': crowd.returns,
             'fixes_received': sum(len(b) for b in crowd.fixes.values()),
-            'missing_by_agent': missing_by_agent,
+            'missing_by_agent': missing_by_agent, 'unexpected_by_agent': unexpected_by_agent,
             'poses_before_match': crowd.unseen,
             'departures': len(crowd.gone), 'missing': missing, 'unexpected': unexpected,
             'duplicates': crowd.dup, 'agents_checked': len(names),
