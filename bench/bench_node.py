@@ -10,6 +10,12 @@ its wall time per timer tick (from its own shutdown summary), its resident
 memory, and fixes published against fixes received. Fixes are reliable (the
 node's default) in every case, and best effort in a second 1,000-agent case
 (--fix-reliability; the counter's subscriptions then are best effort too).
+
+The floor (``floor_node.py``): at 1,000 and 5,000 agents each case runs
+three times in the same run: the node with ``agents``, the node with
+``agent_pattern`` (the agents found in the graph), and a bare rclpy process
+with the same subscriptions and publishers that publishes a pre-serialized
+fix per truth message. The node's CPU is reported as a ratio to the floor's.
 """
 
 import argparse
@@ -28,6 +34,9 @@ NS = 1_000_000_000
 CASES = ((1, 600, 50.0, 'reliable'), (100, 600, 20.0, 'reliable'),
          (1000, 300, 5.0, 'reliable'), (1000, 300, 5.0, 'best_effort'),
          (5000, 120, 2.0, 'reliable'))
+#: crowd sizes run also with agent_pattern and as the floor
+FLOOR_SIZES = (1000, 5000)
+MODES = ('agents', 'agent_pattern', 'floor')
 
 
 def _stat_cpu_s(path):
@@ -145,26 +154,31 @@ def counter_main(n, out_path, reliability):
         rclpy.try_shutdown()
 
 
-def run_case(n, sim_s, speed, workdir, reliability='reliable'):
-    params = Path(workdir, f'params{n}.yaml')
+def run_case(n, sim_s, speed, workdir, reliability='reliable', mode='agents'):
+    params = Path(workdir, f'params{n}_{mode}.yaml')
     names = ', '.join(f'"a{i}"' for i in range(n))
+    serve = f'agents: [{names}]' if mode == 'agents' else 'agent_pattern: /bench/*/pose'
     params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
                       '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
                       f'    profile: DS5\n    fix_reliability: {reliability}\n'
-                      f'    agents: [{names}]\n')
-    count_file = Path(workdir, f'count{n}_{reliability}.json')    # one per case
+                      f'    {serve}\n')
+    count_file = Path(workdir, f'count{n}_{reliability}_{mode}.json')    # one per case
     exe = Path(sys.executable).with_name('gps_error_node')
     prof = os.environ.get('BENCH_NODE_PROFILE')     # cProfile output, optional
     pre = [sys.executable, '-m', 'cProfile', '-o', prof, '-m',
            'gps_error_ros.ros.error_node'] if prof else [str(exe)]
-    node = subprocess.Popen(pre + ['--ros-args', '-r', '__ns:=/bench',
-                                   '--params-file', str(params)],
+    args = ['--ros-args', '-r', '__ns:=/bench', '--params-file', str(params)]
+    if mode == 'floor':
+        pre = [sys.executable, str(Path(__file__).with_name('floor_node.py')), str(n),
+               reliability]
+        args = ['--ros-args', '-r', '__ns:=/bench']
+    node = subprocess.Popen(pre + args,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     counter = subprocess.Popen([sys.executable, __file__, '--counter', str(n),
                                 str(count_file), reliability])
     try:
         return dict(_drive(n, sim_s, speed, node, counter, count_file),
-                    fix_reliability=reliability)
+                    fix_reliability=reliability, mode=mode)
     finally:
         for proc in (node, counter):
             if proc.poll() is None:
@@ -259,6 +273,20 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     }
 
 
+def _print_ratios(rows, n, reliability):
+    """Print the node's CPU against the floor's, measured in this run."""
+    same = {r['mode']: r for r in rows
+            if r['agents'] == n and r['fix_reliability'] == reliability}
+    floor = same['floor']['core_fraction_at_real_time']
+    for mode in ('agents', 'agent_pattern'):
+        if mode in same and floor > 0:
+            ratio = same[mode]['core_fraction_at_real_time'] / floor
+            same[mode]['cpu_ratio_to_floor'] = ratio
+            print(f'       {mode}: {ratio:.2f}x the floor\'s CPU '
+                  f'({100 * same[mode]["core_fraction_at_real_time"]:.2f} % against '
+                  f'{100 * floor:.2f} % of a core at 1x)', flush=True)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--counter', nargs=3, metavar=('N', 'OUT', 'RELIABILITY'),
@@ -269,6 +297,9 @@ def main():
                    help='QoS of the fixes (the node\'s fix_reliability parameter); '
                         'default: the cases\' own (all reliable, and 1,000 agents '
                         'also best_effort), or reliable with --agents')
+    p.add_argument('--no-floor', action='store_true',
+                   help='skip the agent_pattern and floor runs of the 1,000- and '
+                        '5,000-agent cases')
     p.add_argument('--speed', type=float, default=None,
                    help='simulated seconds per wall second for every case '
                         '(default: per case, 50x for 1 agent down to 2x for 5,000)')
@@ -286,11 +317,15 @@ def main():
         else:
             cases = [c for c in CASES
                      if args.fix_reliability in (None, c[3])]
-        for n, sim_s, speed, reliability in cases:
+        runs = [(c, mode) for c in cases for mode in MODES
+                if mode == 'agents' or (c[0] in FLOOR_SIZES and not args.no_floor)]
+        for (n, sim_s, speed, reliability), mode in runs:
             speed = args.speed or speed
-            r = run_case(n, sim_s, speed, work, reliability)
+            r = run_case(n, sim_s, speed, work, reliability, mode)
             rows.append(r)
-            print(f'{n:>5} agents, {reliability} fixes: node '
+            who = {'agents': 'node', 'agent_pattern': 'node (agent_pattern)',
+                   'floor': 'floor'}[mode]
+            print(f'{n:>5} agents, {reliability} fixes: {who} '
                   f'{r["node_cpu_s_per_sim_hour"]:7.1f} CPU-s per simulated hour '
                   f'({100 * r["core_fraction_at_real_time"]:.2f} % of a core at 1x), '
                   f'tick {r["tick_ms_mean"]:.2f} ms mean / {r["tick_ms_max"]:.1f} ms max, '
@@ -308,6 +343,8 @@ def main():
             threads = sorted(r['core_fraction_by_thread'].items(), key=lambda kv: -kv[1])
             print('       node threads (% of a core at 1x): ' + ', '.join(
                 f'{k} {100 * v:.2f}' for k, v in threads if v >= 0.0005), flush=True)
+            if mode == 'floor':
+                _print_ratios(rows, n, reliability)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 
