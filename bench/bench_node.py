@@ -172,8 +172,10 @@ def run_case(n, sim_s, speed, workdir, reliability='reliable', mode='agents'):
         pre = [sys.executable, str(Path(__file__).with_name('floor_node.py')), str(n),
                reliability]
         args = ['--ros-args', '-r', '__ns:=/bench']
-    node = subprocess.Popen(pre + args,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    log = open(Path(workdir, f'node{n}_{reliability}_{mode}.log'), 'w+')   # not a pipe:
+    node = subprocess.Popen(pre + args,                 # a full one would block the node
+                            stdout=log, stderr=subprocess.STDOUT, text=True)
+    node.log = log
     counter = subprocess.Popen([sys.executable, __file__, '--counter', str(n),
                                 str(count_file), reliability])
     try:
@@ -237,7 +239,9 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     drv.destroy_node()
     rclpy.try_shutdown()
     node.send_signal(signal.SIGINT)
-    out, _ = node.communicate(timeout=300)    # 10,000 entities take ~30 s to destroy
+    node.wait(timeout=300)    # 10,000 entities take ~30 s to destroy
+    node.log.seek(0)
+    out = node.log.read()
     counter.send_signal(signal.SIGINT)
     counter.wait(timeout=60)
     counts = json.loads(count_file.read_text())

@@ -6,7 +6,7 @@ and nothing else: per agent, one truth subscription (taken serialized, not
 parsed) and one fix publisher (the node's QoS), and at each step of the ROS
 clock one pre-serialized ``NavSatFix`` per agent with a truth message
 (only the stamp's eight bytes are written per step). Its CPU is what the
-node could not go below with rclpy and Fast DDS; ``bench_node.py --floor``
+node could not go below with rclpy and Fast DDS; ``bench_node.py``
 runs it in place of the node and reports the node's CPU as a ratio to it.
 
 At shutdown it prints a line in the node's summary format, so the
