@@ -17,22 +17,28 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc
+.PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc
 
 DATA ?= ../shared/data
 
 setup: $(STAMP)
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
+		requirements-sumo.txt \
 		setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
-		-r requirements-import.txt
+		-r requirements-import.txt -r requirements-sumo.txt
 	$(PIP) --no-deps -e .
 	touch $@
 
 demo: setup
 	$(PY) -m gps_error_ros.ros.demo --out $(DEMO_OUT) --hours $(DEMO_HOURS)
+
+# SUMO live: SUMO's pedestrians through gps_error_sumo and the error node
+# (agent_pattern); figure and trace in demo_sumo_output/. About a minute.
+demo-sumo: setup
+	$(PY) -m gps_error_ros.ros.sumo_demo --out demo_sumo_output
 
 test: setup
 	$(PY) -m pytest

@@ -22,7 +22,9 @@ setup(
     install_requires=['setuptools', 'numpy', 'scipy', 'pyproj', 'PyYAML',
                       'matplotlib', 'rosbags'],
     # gps_error import: recordings in (NMEA, GPX); an extra, not a core need.
-    extras_require={'import': ['pynmea2', 'gpxpy']},
+    # gps_error_sumo: SUMO live (the eclipse-sumo wheel, TraCI); an extra too.
+    extras_require={'import': ['pynmea2', 'gpxpy'],
+                    'sumo': ['eclipse-sumo', 'traci', 'sumolib']},
     zip_safe=True,
     maintainer='gps_error_ros maintainers',
     maintainer_email='maintainers@gps-error-ros.invalid',
@@ -36,6 +38,7 @@ setup(
             'gps_error = gps_error_ros.cli:main',
             'gps_calibration_node = gps_error_ros.ros.calibration_node:main',
             'gps_error_play = gps_error_ros.ros.bag_play:main',
+            'gps_error_sumo = gps_error_ros.ros.sumo_bridge:main',
         ],
     },
 )

@@ -65,7 +65,7 @@ def cmd_simulate(args):
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
-                                     args.seed, args.net, args.coordinates)
+                                     args.seed, args.net, args.coordinates, args.digits)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)

@@ -135,6 +135,9 @@ def _add_simulate(sub):
                    help='FCD positions are lon/lat or x/y metres; default: what '
                         'SUMO\'s options comment at the top of the file says '
                         '(required for a file without it)')
+    s.add_argument('--digits', type=number(int, 0, 15), default=None,
+                   help='FCD output: digits after the decimal point of the noisy '
+                        'positions (default 8 for lon/lat, about 1 mm, 3 for metres)')
     s.add_argument('--agents', type=number(int, 1),
                    help='raw mode: number of agents, named agent0, agent1, ...')
     s.add_argument('--duration', type=number(float, 0.0, lo_open=True),

@@ -25,7 +25,7 @@ from rclpy.node import Node
 from rcl_interfaces.msg import SetParametersResult
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from gps_error_ros.sim.engine import FixEngine
+from gps_error_ros.sim.engine import FixEngine, NS
 from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.ros import cdr
@@ -77,7 +77,7 @@ class GpsErrorNode(PatternAgents, Node):
         self._specs = spec_by_name(ERROR_NODE_PARAMS)
         self.frame_id = cfg['frame_id']
         self.max_pose_age = cfg['max_pose_age']
-        self.late_reported = 0
+        self.late_reported, self.late_reported_start = 0, False
         self.input_type = cfg['input_type']
         self.fix_reliability = cfg['fix_reliability']
         pattern = self._agent_pattern(cfg)
@@ -132,7 +132,9 @@ class GpsErrorNode(PatternAgents, Node):
                     for i in members]
             engine = FixEngine(model, keys, rate=cfg['rate'],
                                model_rate=profile.rate_hz,
-                               max_pose_age=cfg['max_pose_age'], active=active)
+                               max_pose_age=cfg['max_pose_age'], active=active,
+                               start_ns=(None if cfg['start_time'] < 0
+                                         else int(round(cfg['start_time'] * NS))))
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
@@ -340,6 +342,11 @@ class GpsErrorNode(PatternAgents, Node):
                 f'max_pose_age ({self.max_pose_age:g} s of the ROS clock) after the '
                 f'step: /clock runs ahead of the poses; raise max_pose_age to the '
                 f'largest lead', throttle_duration_sec=WARN_PERIOD_S)
+        if self._total('late_start') and not self.late_reported_start:
+            self.late_reported_start = True
+            self.get_logger().warning(
+                f'the first clock reading ({now / 1e9:.3f} s) is more than 1000 steps '
+                f'after start_time: the streams begin at it instead')
         if self._total('resets') > resets:
             self.get_logger().warning(
                 f'the clock went backwards (to {now / 1e9:.3f} s): truth history '

@@ -114,6 +114,14 @@ ERROR_NODE_PARAMS = (
     ParamSpec('agent_profiles', None, ParameterType.PARAMETER_STRING_ARRAY,
               'Optional profile per agent, aligned with agents (default: '
               'profile for all).'),
+    ParamSpec('start_time', -1.0, ParameterType.PARAMETER_DOUBLE,
+              'ROS time (s) of the error streams\' first step, for every agent: the '
+              'fixes then do not depend on when the node read its first clock '
+              '(shards of a crowd; gps_error_sumo, whose SUMO begin time it should '
+              'be; gps_error simulate, whose first step is the trajectory\'s first '
+              'time). Clock readings before it are ignored; steps between it and the '
+              'first reading are served from the truth already received (up to '
+              '1000). -1: the first clock reading.', low=-1.0, high=1e12),
     ParamSpec('agent_pattern', '', ParameterType.PARAMETER_STRING,
               'Serve agents as their truth topics appear: a topic name with one '
               '* for a whole name segment, e.g. /peds/*/pose; the segment is the '
@@ -272,6 +280,48 @@ CALIBRATION_NODE_PARAMS = (
               'times the median interval, at least 1.5 s.', low=0.0, high=3600.0),
 )
 
+SUMO_NODE_PARAMS = (
+    ParamSpec('sumocfg', '', ParameterType.PARAMETER_STRING,
+              'The SUMO scenario (.sumocfg) to run; required.'),
+    ParamSpec('sumo_args', None, ParameterType.PARAMETER_STRING_ARRAY,
+              'More SUMO command-line options, e.g. ["--fcd-output", "fcd.xml", '
+              '"--fcd-output.geo", "true"].'),
+    ParamSpec('sumo_binary', '', ParameterType.PARAMETER_STRING,
+              'The sumo executable; empty: the one of the eclipse-sumo wheel, '
+              'else sumo on PATH.'),
+    ParamSpec('person_prefix', '/peds', ParameterType.PARAMETER_STRING,
+              'Each person P\'s truth goes on PREFIX/P/pose (or PREFIX/P/fix_truth).'),
+    ParamSpec('vehicle_prefix', '', ParameterType.PARAMETER_STRING,
+              'Each vehicle V\'s truth goes on PREFIX/V/pose; empty: vehicles '
+              'are not published.'),
+    ParamSpec('output_type', 'pose', ParameterType.PARAMETER_STRING,
+              'pose: geometry_msgs/PoseStamped in the local ENU frame of datum '
+              '(yaw from SUMO\'s heading); navsatfix: noise-free '
+              'sensor_msgs/NavSatFix on fix_truth.', choices=('pose', 'navsatfix')),
+    ParamSpec('datum', None, ParameterType.PARAMETER_DOUBLE_ARRAY,
+              'WGS84 [lat_deg, lon_deg, alt_m] of the ENU frame of the poses; give '
+              'the error node the same. Default: the network\'s x=0, y=0 through '
+              'its <location>; required for a network without a projection, whose '
+              'x/y are then taken as east/north metres from it.'),
+    ParamSpec('frame_id', 'map', ParameterType.PARAMETER_STRING,
+              'header.frame_id of the poses.'),
+    ParamSpec('speed', 1.0, ParameterType.PARAMETER_DOUBLE,
+              'Simulated seconds per wall second; 0: as fast as SUMO and ROS go.',
+              low=0.0, high=1e6),
+    ParamSpec('wait_for_clock', 0, ParameterType.PARAMETER_INTEGER,
+              'Before the first step, wait until /clock has this many subscribers '
+              '(e.g. 1 for an error node started first, so that its first step is '
+              'SUMO\'s first). 0: do not wait.', low=0, high=1000),
+    ParamSpec('match_node', 'gps_error_node', ParameterType.PARAMETER_STRING,
+              'With match_timeout: the node (its name) whose subscription a new '
+              'agent\'s topic waits for.'),
+    ParamSpec('match_timeout', 0.0, ParameterType.PARAMETER_DOUBLE,
+              'Hold a new agent\'s first pose until match_node subscribes to its topic '
+              '(an error node with agent_pattern finds it within about a second, and '
+              'then gets every step), at most this many wall seconds; 0: do not wait.',
+              low=0.0, high=600.0),
+)
+
 
 def datum_frame(datum, input_type):
     """
@@ -334,7 +384,8 @@ def markdown_table(specs):
 
 #: README markers around each generated table: node name -> parameter table
 README_TABLES = {'gps_error_node': ERROR_NODE_PARAMS,
-                 'gps_calibration_node': CALIBRATION_NODE_PARAMS}
+                 'gps_calibration_node': CALIBRATION_NODE_PARAMS,
+                 'gps_error_sumo': SUMO_NODE_PARAMS}
 
 
 def help_text(node, summary, specs, topics, example):
@@ -382,7 +433,8 @@ def params_file(node, specs):
     examples = {'datum': '[40.75057, -73.99065, -23.0]',
                 'agent_pattern': '/peds/*/pose',
                 'agents': '["ped1", "ped2", "ped3"]',
-                'agent_profiles': '["DS2", "DS5", "DS7"]'}
+                'agent_profiles': '["DS2", "DS5", "DS7"]',
+                'sumo_args': '["--fcd-output", "fcd.xml"]'}
     lines = [f'# {node}: every parameter at its default (generated from the node\'s',
              '# parameter table by tools/readme_parameters.py; do not edit by hand).',
              f'# Use: {node} --ros-args --params-file config/{node}.yaml',

@@ -33,6 +33,14 @@ CALIBRATION_INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
 DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                              reliability=ReliabilityPolicy.RELIABLE)
 DIAGNOSTICS_TOPIC = '/diagnostics'
+# gps_error_sumo's truth: reliable (so a recorder may ask for every message;
+# the error node's best-effort subscriptions match it too), keep last 100.
+SUMO_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                            reliability=ReliabilityPolicy.RELIABLE)
+# /clock as simulators publish it (reliable, keep last 10); rclpy's time
+# source subscribes best effort, which matches.
+CLOCK_PUB_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                           reliability=ReliabilityPolicy.RELIABLE)
 
 
 def qos_text(qos):
@@ -106,6 +114,16 @@ NODE_TOPICS = {
         Endpoint('srv', '~/calibrate', 'std_srvs/Trigger', None, 'fit and write now'),
         _DIAGNOSTICS,
         _CLOCK,
+        _RCL,
+    ),
+    'gps_error_sumo': (
+        Endpoint('out', '/clock', 'rosgraph_msgs/Clock', CLOCK_PUB_QOS,
+                 'SUMO\'s time, once per SUMO step, after that step\'s truth'),
+        Endpoint('out', 'PREFIX/P/pose', 'geometry_msgs/PoseStamped', SUMO_TRUTH_QOS,
+                 'per person P (vehicle V with vehicle_prefix), output_type pose; '
+                 'created when it appears in SUMO, destroyed when it leaves'),
+        Endpoint('out', 'PREFIX/P/fix_truth', 'sensor_msgs/NavSatFix', SUMO_TRUTH_QOS,
+                 'likewise, output_type navsatfix'),
         _RCL,
     ),
 }

@@ -35,8 +35,10 @@ Timing rules
   ``max(2 s, 2 * max_pose_age)`` are not interpolated between: steps in
   such a gap get no fix (nothing is made up across it). Truth that arrives
   after a step was skipped, stamped at or after it, is counted in
-  ``late_truth`` (once per run of skips): the clock ran ahead of the truth
-  by more than ``max_pose_age``.
+  ``late_truth`` (once per run of skips) for an agent that had truth before
+  the skip: the clock ran ahead of the truth by more than ``max_pose_age``.
+  (Steps before an agent's first truth are skipped, not late: a crowd member
+  served before its poses begin, e.g. found by ``agent_pattern``.)
 * A profile with a ``motion_lag`` reports the truth ``lag_s`` before the
   step's instant (interpolated the same way; no fix for an agent until its
   truth reaches back that far), still stamped at the step's instant.
@@ -75,6 +77,7 @@ class EngineStats:
     resets: int = 0
     pending_overflow: int = 0
     late_truth: int = 0      # times truth came for a step already skipped
+    late_start: int = 0      # first clock more than max_pending steps after start_ns
 
 
 @dataclass
@@ -181,11 +184,15 @@ class FixEngine:
         resolved (held or skipped) early when more arrive.
     active : bool
         False: every slot starts free (agents come with :meth:`attach`).
+    start_ns : int or None
+        Clock time of the streams' first step (rounded up to a step); None:
+        the first clock reading. Fixed, it makes the fixes independent of
+        when the engine saw its first reading (see :meth:`on_clock`).
 
     """
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
-                 history=64, max_pending=1000, active=True):
+                 history=64, max_pending=1000, active=True, start_ns=None):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -200,6 +207,8 @@ class FixEngine:
         self.future_tolerance_ns = int(FUTURE_TOLERANCE_S * NS)
         self.max_gap_ns = max(2 * NS, 2 * self.max_pose_age_ns)
         self.max_pending = max_pending
+        # the first step of the streams: fixed (start_ns), or the first clock reading
+        self.start_step = None if start_ns is None else -(-int(start_ns) // self.period_ns)
         # a motion lag reports the truth lag_s before each step: keep enough
         # samples to reach back that far at pose rates up to ~64 Hz
         self.lag_ns = int(round(model.lag_s * NS))
@@ -345,7 +354,12 @@ class FixEngine:
         Advance to clock time ``now_ns``; return the fixes now ready.
 
         Returns a list of :class:`FixBatch`, oldest first. A clock reading of 0
-        (simulated time not yet received) is ignored.
+        (simulated time not yet received) is ignored. With ``start_ns`` the
+        streams begin at its step whenever the first reading comes: readings
+        before it are ignored, and the steps from it to the first reading are
+        enqueued (served from the truth already received), unless there are
+        more than ``max_pending`` of them (counted in ``late_start``; the
+        streams then begin at the first reading).
         """
         if now_ns <= 0:
             return []
@@ -357,6 +371,13 @@ class FixEngine:
         self.last_now = now_ns
         due = now_ns // self.period_ns
         first = due if self.last_step is None else self.last_step + 1
+        if self.last_step is None and self.start_step is not None:
+            if due < self.start_step:
+                return []               # the streams have not begun
+            if due - self.start_step <= self.max_pending:
+                first = self.start_step
+            else:
+                self.stats.late_start += 1
         for k in range(first, due + 1):
             self._enqueue(k)
         self.last_step = due
@@ -418,7 +439,8 @@ class FixEngine:
                 done[rest] = True
                 self.stats.skipped_no_truth += int((~fresh).sum())
                 gone = rest[~fresh]
-                first = gone[self.last_skipped[gone] < 0]
+                # an agent that never had truth has not begun: not late
+                first = gone[(self.last_skipped[gone] < 0) & (newest[gone] >= 0)]
                 self.last_skipped[first] = t_ns
                 if held.size:
                     fixes.append(self._make_fix(

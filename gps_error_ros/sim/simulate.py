@@ -34,10 +34,15 @@ from gps_error_ros.traces.trajectories import (
     NetProjection, read_truth_csv, TrajectoryError)
 
 
-def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None):
-    """Add errors to every agent of a SUMO FCD file; return counts (see module doc)."""
+def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None):
+    """
+    Add errors to every agent of a SUMO FCD file; return counts (see module doc).
+
+    ``digits``: digits after the decimal point of the positions written
+    (default 8 for lon/lat, about a millimetre, and 3 for metres).
+    """
     with atomic_output(dst) as tmp:
-        return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates)
+        return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits)
 
 
 def simulate_csv(src, dst, model, rate_hz, seed):
@@ -96,7 +101,7 @@ def _moved(mode, proj, src, t, x, y, err):
     return x + err[:, 1], y + err[:, 0], '{:.3f}'
 
 
-def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None):
+def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None):
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
     size = os.path.getsize(src)
@@ -119,6 +124,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None):
             x, y = lag.lagged(names, t, [a[1] for a in agents],
                               [a[2] for a in agents])
             nx, ny, fmt = _moved(mode, proj, src, t, x, y, crowd.errors(names))
+            fmt = fmt if digits is None else f'{{:.{digits}f}}'
             writer.timestep(elem, [(a[3], {'x': fmt.format(px), 'y': fmt.format(py)})
                                    for a, px, py in zip(agents, nx, ny)])
             rows += len(agents)

@@ -75,9 +75,11 @@ def fcd_coordinates(path, head_bytes=1 << 16):
     Return 'lonlat' or 'xy' as SUMO's options comment says, or None.
 
     SUMO starts its outputs with a comment naming itself and holding the
-    non-default options of the run as a ``<configuration>``; with
-    ``--fcd-output.geo`` it lists ``<fcd-output.geo value="true"/>``. A file
-    without that comment (written by hand or another tool) gives None.
+    non-default options of the run as a ``<configuration>`` (run from the
+    command line) or ``<sumoConfiguration>`` (run with ``-c``, as SUMO 1.28
+    writes it); with ``--fcd-output.geo`` it lists ``<fcd-output.geo
+    value="true"/>``. A file without that comment (written by hand or another
+    tool) gives None.
     """
     try:
         with open(path, 'rb') as f:
@@ -86,7 +88,8 @@ def fcd_coordinates(path, head_bytes=1 << 16):
         raise TrajectoryError(f'{path}: cannot open: {exc}') from None
     head = head.split('<fcd-export', 1)[0]
     for comment in _SUMO_HEADER.findall(head):
-        if 'SUMO' in comment and '<configuration' in comment:
+        if 'SUMO' in comment and ('<configuration' in comment
+                                  or '<sumoConfiguration' in comment):
             return 'lonlat' if _GEO_OPTION.search(comment) else 'xy'
     return None
 

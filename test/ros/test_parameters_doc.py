@@ -6,6 +6,7 @@ import time
 
 from rcl_interfaces.msg import ParameterType
 
+from gps_error_ros.sim.sumo_scenario import build_grid_scenario
 from gps_error_ros.ros.parameters import (ERROR_NODE_PARAMS, markdown_table,
                                           params_file, README_TABLES)
 from gps_error_ros.ros.topics import markdown_topics
@@ -48,6 +49,9 @@ def test_parameters_files_are_the_table_and_start_the_nodes(tmp_path):
             ('gps_calibration_node', ['-p', 'datum:=[40.75, -73.99, 0.0]',
                                       '-p', f'output:={tmp_path / "p.yaml"}'],
              'calibrating from')]
+    scenario = build_grid_scenario(tmp_path / 'sumo', grid=2, length=50.0, depart_until=4.0)
+    runs.append(('gps_error_sumo', ['-p', f'sumocfg:={scenario.sumocfg}', '-p', 'speed:=0.0'],
+                 'SUMO ended'))          # runs to SUMO's end at once, and exits 0
     for node, extra, started in runs:
         proc = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}', '--params-file',
                             str(ROOT / 'config' / f'{node}.yaml')] + extra, name=node)

@@ -182,3 +182,27 @@ def test_truth_behind_the_clock_is_counted_as_late():
     for k in range(10, 30):
         quiet.on_clock(k * NS)
     assert quiet.stats.skipped_no_truth > 0 and quiet.stats.late_truth == 0
+    new = engine(max_pose_age=1.0)                         # nor truth that only begins
+    for k in range(10, 30):
+        new.on_clock(k * NS)
+        if k >= 20:
+            new.add_truth(0, k * NS, LAT, LON, 0.0)
+    assert new.stats.skipped_no_truth == 10 and new.stats.late_truth == 0
+
+
+def test_a_fixed_start_makes_fixes_independent_of_the_first_clock_reading():
+    """start_ns: the streams begin there, whether the first reading is on time or late."""
+    def run(first_clock, start_ns=10 * NS):
+        eng = engine(max_pose_age=1.0, start_ns=start_ns)
+        if start_ns is not None:
+            assert eng.on_clock(5 * NS) == []       # before the start: ignored
+        out = []
+        for k in range(10, 30):
+            eng.add_truth(0, k * NS, LAT, LON, 0.0)
+            if k >= first_clock:
+                out += eng.on_clock(k * NS)
+        return {f.stamp_ns: (f.lat[0], f.lon[0]) for f in out if f.agents.size}
+    on_time, late = run(10), run(14)
+    assert sorted(on_time) == [k * NS for k in range(10, 30)]
+    assert on_time == late          # steps 10-13 served from the truth received
+    assert run(14, None) != late    # without it, the streams begin at 14

@@ -22,13 +22,18 @@ def presence(i, t):
     return 3 * i <= t <= 40 + 5 * i
 
 
-def sumo_comment(geo):
-    """Return the options comment SUMO writes at the top of its outputs."""
+def sumo_comment(geo, root='configuration'):
+    """
+    Return the options comment SUMO writes at the top of its outputs.
+
+    ``root``: ``configuration`` (options on the command line) or
+    ``sumoConfiguration`` (SUMO 1.28 run with ``-c``).
+    """
     option = '        <fcd-output.geo value="true"/>\n' if geo else ''
     return ('<!-- generated on 2026-11-22 10:00:00 by Eclipse SUMO sumo Version 1.28.0\n'
-            '<configuration xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">\n'
+            f'<{root} xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance">\n'
             '    <output>\n        <fcd-output value="fcd.xml"/>\n' + option +
-            '    </output>\n</configuration>\n-->\n\n')
+            f'    </output>\n</{root}>\n-->\n\n')
 
 
 def write_fcd(path, positions, header=''):
@@ -150,6 +155,12 @@ def test_fcd_coordinates_are_read_not_guessed(tmp_path):
     assert abs(x - 60.3) < 50 and abs(y - 20.1) < 50      # metres, not degrees
     write_fcd(src, lambda i, t: (LON0, LAT0), sumo_comment(geo=True))
     assert simulate_fcd(src, out, MODEL, 1.0, 1)['positions'] > 0
+    # SUMO run with -c names its options <sumoConfiguration>
+    write_fcd(src, lambda i, t: (LON0, LAT0), sumo_comment(True, 'sumoConfiguration'))
+    assert simulate_fcd(src, out, MODEL, 1.0, 1)['positions'] > 0
+    write_fcd(src, small, sumo_comment(False, 'sumoConfiguration'))
+    with pytest.raises(TrajectoryError, match='x/y metres.*--net'):
+        simulate_fcd(src, out, MODEL, 1.0, 1)
 
 
 def test_csv_round_trip_through_calibrate(tmp_path):

@@ -1,0 +1,311 @@
+"""
+``gps_error_sumo``: SUMO live in ROS 2, its people as truth topics.
+
+Runs SUMO (the ``eclipse-sumo`` wheel, the optional extra ``sumo``) on a
+``.sumocfg`` through TraCI and, after each SUMO step:
+
+* publishes every person's position (and each vehicle's, with
+  ``vehicle_prefix``) as truth on ``PREFIX/<id>/pose`` (PoseStamped in a
+  local east-north-up frame about ``datum``) or ``PREFIX/<id>/fix_truth``
+  (NavSatFix), stamped with SUMO's time of the step;
+* then publishes that time on ``/clock``.
+
+A topic appears when its agent enters SUMO and is destroyed when it leaves, so
+the error node's ``agent_pattern`` (``/peds/*/pose``) serves the people as
+they walk. The time a position carries is the one SUMO's FCD output gives it:
+the simulation time before ``simulationStep()`` (TraCI's ``getTime()`` is one
+step later after it), so ``gps_error simulate`` on the run's own FCD output
+gives the node's errors (same seed and profile).
+
+Georeference: with a projected network (``<location projParameter>``) a
+position goes network x/y -> lon/lat -> ENU about ``datum`` (default: the
+network's x=0, y=0); a network without a projection needs ``datum`` and its
+x/y are east/north metres from it.
+
+A SUMO id that is not a valid ROS name token (``0``, ``ped.1``) is published
+under an encoded name (:func:`ros_name`) and logged; since the error node
+keys its streams by the topic's name, use ids that are valid tokens (e.g.
+``randomTrips.py --prefix p``) where the node's errors must match
+``gps_error simulate`` on the FCD, which keys them by SUMO's id.
+"""
+
+import math
+import os
+from pathlib import Path
+import re
+import signal
+import sys
+import time
+
+import numpy as np
+import rclpy
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from rosgraph_msgs.msg import Clock
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+from gps_error_ros.model.geodesy import GeodesyError
+from gps_error_ros.ros.conversions import to_stamp
+from gps_error_ros.ros.lifecycle import command_line_problem, wants_help
+from gps_error_ros.ros.parameters import ConfigError, declare, help_text, SUMO_NODE_PARAMS
+from gps_error_ros.ros.topics import CLOCK_PUB_QOS, help_rows, SUMO_TRUTH_QOS
+from gps_error_ros.sim.sumo_scenario import (Georeference, INSTALL_HINT, net_file,
+                                             ScenarioError, sumo_tool, SumoMissing)
+
+NS = 1_000_000_000
+_TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*\Z')
+
+
+def ros_name(sumo_id):
+    """
+    Return the ROS name token for a SUMO id: the id itself when it is one.
+
+    Otherwise ``id_`` and the id's UTF-8 bytes in hex (``0`` -> ``id_30``),
+    so that two different ids never share a topic.
+    """
+    if _TOKEN.match(sumo_id) and '__' not in sumo_id:
+        return sumo_id
+    return 'id_' + sumo_id.encode().hex()
+
+
+class Kind:
+    """One kind of SUMO agent (persons or vehicles): its TraCI domain and topics."""
+
+    def __init__(self, domain, prefix, msg_type, leaf):
+        self.domain, self.prefix = domain, prefix.rstrip('/')
+        self.msg_type, self.leaf = msg_type, leaf
+        self.pubs = {}          # SUMO id -> publisher
+        self.names = {}         # ROS name -> SUMO id (to refuse a clash)
+
+
+class SumoBridge(Node):
+    """Steps SUMO and publishes its agents' truth and its clock."""
+
+    def __init__(self, stop=()):
+        super().__init__('gps_error_sumo')
+        self.stop = stop            # non-empty once a signal asked to stop
+        cfg = declare(self, SUMO_NODE_PARAMS)
+        if not cfg['sumocfg']:
+            raise ConfigError('parameter \'sumocfg\' is required: expected the path '
+                              'of a SUMO scenario (.sumocfg)')
+        if not Path(cfg['sumocfg']).is_file():
+            raise ConfigError(f'parameter \'sumocfg\': {cfg["sumocfg"]} is not a file')
+        self.cfg = cfg
+        try:
+            self.geo = Georeference(net_file(cfg['sumocfg']), cfg['datum'])
+        except (ScenarioError, GeodesyError) as exc:
+            raise ConfigError(str(exc)) from None
+        try:
+            import traci
+        except ImportError:
+            raise ConfigError(INSTALL_HINT) from None
+        self.traci = traci
+        navsat = cfg['output_type'] == 'navsatfix'
+        msg_type, leaf = (NavSatFix, 'fix_truth') if navsat else (PoseStamped, 'pose')
+        self.kinds = [Kind(traci.person, cfg['person_prefix'], msg_type, leaf)]
+        if cfg['vehicle_prefix']:
+            self.kinds.append(Kind(traci.vehicle, cfg['vehicle_prefix'], msg_type, leaf))
+        self.clock = self.create_publisher(Clock, '/clock', CLOCK_PUB_QOS)
+        self.steps = self.published = 0
+        self.renamed = []
+        lat, lon, alt = self.geo.datum
+        self.get_logger().info(f'datum of the poses: [{lat:.9f}, {lon:.9f}, {alt:.3f}] '
+                               f'(give the error node the same)')
+
+    # --- SUMO ------------------------------------------------------------
+
+    def start_sumo(self):
+        """Start SUMO on the scenario through TraCI."""
+        try:
+            binary = self.cfg['sumo_binary'] or sumo_tool('sumo')
+        except SumoMissing as exc:
+            raise ConfigError(str(exc)) from None
+        cmd = [binary, '-c', self.cfg['sumocfg'],
+               '--no-step-log', 'true'] + list(self.cfg['sumo_args'] or [])
+        try:
+            self.traci.start(cmd, label=f'gps_error_sumo_{os.getpid()}')
+        except (self.traci.exceptions.TraCIException, self.traci.exceptions.FatalTraCIError,
+                OSError) as exc:
+            raise ConfigError(f'SUMO did not start ({" ".join(cmd)}): {exc}') from None
+
+    def run(self):
+        """Step SUMO to its end; return the number of steps."""
+        sim = self.traci.simulation
+        self._wait_for_clock()
+        t0, wall0 = None, time.monotonic()
+        end = sim.getEndTime()
+        while (not self.stop and sim.getMinExpectedNumber() > 0
+               and (end < 0 or sim.getTime() < end)):
+            t = sim.getTime()
+            if t0 is None:
+                t0 = t
+                self.get_logger().info(f'SUMO begins at {t:g} s (give the error node '
+                                       f'start_time:={float(t)!r})')
+                if t <= 0:
+                    self.get_logger().warning(
+                        'SUMO begins at 0 s, which ROS reads as "no clock yet": the error '
+                        'node\'s first step is SUMO\'s second; begin at 1 s or later '
+                        '(<begin value="1"/>) to have fixes from the first')
+            self.traci.simulationStep()
+            self.steps += 1
+            stamp = to_stamp(int(round(t * NS)))
+            for kind in self.kinds:
+                self._publish_kind(kind, stamp)
+            self.clock.publish(Clock(clock=stamp))
+            if self.cfg['speed'] > 0:
+                lag = (t - t0 + sim.getDeltaT()) / self.cfg['speed'] - (time.monotonic() - wall0)
+                if lag > 0:
+                    time.sleep(lag)
+        return self.steps
+
+    def close(self):
+        """Close TraCI (SUMO ends) and destroy the agents' publishers."""
+        try:
+            self.traci.close()
+        except Exception:       # SUMO already gone: nothing left to close
+            pass
+        for kind in self.kinds:
+            for pub in kind.pubs.values():
+                self.destroy_publisher(pub)
+            kind.pubs.clear()
+
+    # --- internals -------------------------------------------------------
+
+    def _wait_for_clock(self):
+        want = self.cfg['wait_for_clock']
+        if want:
+            self.get_logger().info(f'waiting for {want} /clock subscriber(s)')
+            while self.clock.get_subscription_count() < want and not self.stop:
+                time.sleep(0.05)
+
+    def _publish_kind(self, kind, stamp):
+        ids = list(kind.domain.getIDList())
+        present = set(ids)
+        for gone in [i for i in kind.pubs if i not in present]:
+            self.destroy_publisher(kind.pubs.pop(gone))
+            del kind.names[ros_name(gone)]
+        new = [i for i in ids if i not in kind.pubs]
+        for i in new:
+            kind.pubs[i] = self._create_agent(kind, i)
+        if new:
+            self._wait_for_match([(kind.pubs[i].topic_name, kind.pubs[i]) for i in new])
+        if not ids:
+            return
+        xy = np.array([kind.domain.getPosition(i) for i in ids], dtype=float)
+        angle = np.array([kind.domain.getAngle(i) for i in ids], dtype=float)
+        east, north, up, lat, lon = self.geo.convert(xy[:, 0], xy[:, 1])
+        for j, i in enumerate(ids):
+            kind.pubs[i].publish(self._message(kind, stamp, east[j], north[j], up[j],
+                                               lat[j], lon[j], angle[j]))
+        self.published += len(ids)
+
+    def _create_agent(self, kind, sumo_id):
+        name = ros_name(sumo_id)
+        if name in kind.names:
+            raise RuntimeError(f'SUMO ids {kind.names[name]!r} and {sumo_id!r} share the '
+                               f'ROS name {name!r}')
+        kind.names[name] = sumo_id
+        if name != sumo_id and len(self.renamed) < 1000:
+            self.renamed.append(sumo_id)
+            self.get_logger().warning(
+                f'SUMO id {sumo_id!r} is not a valid ROS name token: published as '
+                f'{name!r}', throttle_duration_sec=5.0)
+        return self.create_publisher(kind.msg_type, f'{kind.prefix}/{name}/{kind.leaf}',
+                                     SUMO_TRUTH_QOS)
+
+    def _wait_for_match(self, topics):
+        """
+        Wait until ``match_node`` subscribes to every one of ``topics``.
+
+        Its subscription must be in the graph and matched by our publisher:
+        with other subscribers (a recorder), a count alone says nothing.
+        """
+        timeout, who = self.cfg['match_timeout'], self.cfg['match_node']
+        if not timeout:
+            return
+        deadline = time.monotonic() + timeout
+        waiting = list(topics)
+        while waiting and time.monotonic() < deadline and not self.stop:
+            waiting = [(t, p) for t, p in waiting if not self._matched(t, p, who)]
+            if waiting:
+                time.sleep(0.02)
+        if waiting:
+            self.get_logger().warning(
+                f'{len(waiting)} new topic(s) not subscribed by {who} after {timeout:g} s, '
+                f'e.g. {waiting[0][0]}: published anyway', throttle_duration_sec=5.0)
+
+    def _matched(self, topic, pub, who):
+        subs = self.get_subscriptions_info_by_topic(topic)
+        return (any(s.node_name == who for s in subs)
+                and pub.get_subscription_count() >= len(subs))
+
+    def _message(self, kind, stamp, east, north, up, lat, lon, angle_deg):
+        if kind.msg_type is NavSatFix:
+            msg = NavSatFix()
+            msg.header.stamp, msg.header.frame_id = stamp, self.cfg['frame_id']
+            msg.status.status = NavSatStatus.STATUS_FIX
+            msg.status.service = NavSatStatus.SERVICE_GPS
+            msg.latitude, msg.longitude, msg.altitude = float(lat), float(lon), 0.0
+            msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+            return msg
+        msg = PoseStamped()
+        msg.header.stamp, msg.header.frame_id = stamp, self.cfg['frame_id']
+        p = msg.pose.position
+        p.x, p.y, p.z = float(east), float(north), float(up)
+        # SUMO's angle: degrees clockwise from north; ENU yaw: counter-clockwise from east
+        yaw = math.radians(90.0 - angle_deg) if math.isfinite(angle_deg) else 0.0
+        msg.pose.orientation.z, msg.pose.orientation.w = math.sin(yaw / 2), math.cos(yaw / 2)
+        return msg
+
+
+HELP = help_text(
+    'gps_error_sumo',
+    'runs SUMO on a scenario and publishes its people (and vehicles) as truth '
+    'topics and its time on /clock, for gps_error_node with agent_pattern.',
+    SUMO_NODE_PARAMS,
+    help_rows('gps_error_sumo'),
+    'gps_error_sumo --ros-args -p sumocfg:=scenario.sumocfg -p wait_for_clock:=1 '
+    '-p match_timeout:=5.0')
+
+
+def main(args=None):
+    """
+    Run SUMO to its end, publishing as it goes; return the exit code.
+
+    0 at SUMO's end or after Ctrl-C / SIGTERM (SUMO closed first); 2 for a
+    bad parameter, a command line rcl cannot parse, or SUMO not starting.
+    """
+    if wants_help(args):
+        print(HELP)
+        return 0
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except RuntimeError as exc:
+        print(f'gps_error_sumo: cannot parse the command line: '
+              f'{command_line_problem(exc)}', file=sys.stderr)
+        return 2
+    logger = rclpy.logging.get_logger('gps_error_sumo')
+    stop = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.append(True))
+    node, code = None, 0
+    try:
+        node = SumoBridge(stop)
+        node.start_sumo()
+        steps = node.run()
+        logger.info(f'{"stopped" if stop else "SUMO ended"} after {steps} steps; '
+                    f'{node.published} truth messages published')
+    except ConfigError as exc:
+        logger.fatal(str(exc))
+        code = 2
+    finally:
+        if node is not None:
+            node.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
