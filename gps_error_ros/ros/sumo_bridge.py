@@ -101,6 +101,7 @@ class SumoBridge(Node):
         except ImportError:
             raise ConfigError(INSTALL_HINT) from None
         self.traci = traci
+        self.position, self.angle = traci.constants.VAR_POSITION, traci.constants.VAR_ANGLE
         navsat = cfg['output_type'] == 'navsatfix'
         msg_type, leaf = (NavSatFix, 'fix_truth') if navsat else (PoseStamped, 'pose')
         self.kinds = [Kind(traci.person, cfg['person_prefix'], msg_type, leaf)]
@@ -188,12 +189,15 @@ class SumoBridge(Node):
         new = [i for i in ids if i not in kind.pubs]
         for i in new:
             kind.pubs[i] = self._create_agent(kind, i)
+            # one TraCI round trip per step for all agents, not two per agent
+            kind.domain.subscribe(i, (self.position, self.angle))
         if new:
             self._wait_for_match([(kind.pubs[i].topic_name, kind.pubs[i]) for i in new])
         if not ids:
             return
-        xy = np.array([kind.domain.getPosition(i) for i in ids], dtype=float)
-        angle = np.array([kind.domain.getAngle(i) for i in ids], dtype=float)
+        values = kind.domain.getAllSubscriptionResults()
+        xy = np.array([values[i][self.position] for i in ids], dtype=float)
+        angle = np.array([values[i][self.angle] for i in ids], dtype=float)
         east, north, up, lat, lon = self.geo.convert(xy[:, 0], xy[:, 1])
         for j, i in enumerate(ids):
             kind.pubs[i].publish(self._message(kind, stamp, east[j], north[j], up[j],

@@ -13,7 +13,7 @@ network): x/y then are UTM metres less the offset, and SUMO's geo outputs and
 Needs the optional extra ``sumo`` (the eclipse-sumo wheel).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 import os
 from pathlib import Path
 import re
@@ -144,6 +144,7 @@ class Scenario:
     routes: Path
     persons: list       # person ids, in departure order
     begin: float
+    vehicles: list = field(default_factory=list)     # vehicle ids, in departure order
 
 
 def _run(cmd, what, cwd):
@@ -170,14 +171,15 @@ def georeference(net, lat, lon):
 
 
 def build_grid_scenario(out_dir, grid=3, length=80.0, depart_until=30.0, period=2.0,
-                        seed=7, lat=40.75, lon=-73.99, begin=1.0):
+                        seed=7, lat=40.75, lon=-73.99, begin=1.0, vehicle_period=None):
     """
     Write a grid walking scenario to ``out_dir``; return its :class:`Scenario`.
 
     ``grid`` x ``grid`` junctions ``length`` m apart (sidewalks, crossings),
     one person every ``period`` s from ``begin`` to ``depart_until``, ids
     ``p0``, ``p1``, ... (valid ROS names). SUMO begins at ``begin`` (not 0,
-    which ROS reads as "no clock yet").
+    which ROS reads as "no clock yet"). With ``vehicle_period``, also one car
+    trip every so many seconds (ids ``v0``, ``v1``, ...).
     """
     out = Path(out_dir).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -189,13 +191,25 @@ def build_grid_scenario(out_dir, grid=3, length=80.0, depart_until=30.0, period=
     _run([sys.executable, str(sumo_home() / 'tools' / 'randomTrips.py'), '-n', str(net),
           '--pedestrians', '--prefix', 'p', '-b', f'{begin:g}', '-e', f'{depart_until:g}',
           '-p', f'{period:g}', '--seed', str(seed), '-o', str(routes)], 'randomTrips.py', out)
+    route_files = routes.name
+    if vehicle_period:
+        cars = out / 'vehicles.trips.xml'
+        _run([sys.executable, str(sumo_home() / 'tools' / 'randomTrips.py'), '-n', str(net),
+              '--prefix', 'v', '-b', f'{begin:g}', '-e', f'{depart_until:g}',
+              '-p', f'{vehicle_period:g}', '--seed', str(seed + 1), '--validate',
+              '-o', str(cars)], 'randomTrips.py (vehicles)', out)
+        route_files += ',' + cars.name
     cfg.write_text(
         '<configuration>\n'
-        f'    <input><net-file value="{net.name}"/><route-files value="{routes.name}"/>'
+        f'    <input><net-file value="{net.name}"/><route-files value="{route_files}"/>'
         '</input>\n'
         f'    <time><begin value="{begin:g}"/><step-length value="1"/></time>\n'
         '</configuration>\n')
     persons = [p.get('id') for p in ET.parse(routes).getroot().iter('person')]
     if not persons:
         raise RuntimeError(f'{routes}: randomTrips.py made no persons')
-    return Scenario(cfg, net, routes, persons, begin)
+    vehicles = []
+    if vehicle_period:
+        vehicles = [v.get('id') for v in ET.parse(out / 'vehicles.trips.xml').getroot()
+                    if v.tag in ('trip', 'vehicle')]
+    return Scenario(cfg, net, routes, persons, begin, vehicles)

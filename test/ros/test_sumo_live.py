@@ -127,3 +127,51 @@ def test_bad_parameters_stop_the_bridge_naming_them(tmp_path, params, expected):
         args += ['-p', p.format(plain=plain, geo=scenario.sumocfg)]
     rc, log = NodeProcess(args, name='gps_error_sumo').wait_exit(timeout=30)
     assert rc == 2 and expected in log, log
+
+
+def read_fcd_all(path):
+    """Return {(kind, id, t): (lat, lon)} of persons and vehicles in a geo FCD file."""
+    out = {}
+    for ts in ET.parse(path).getroot().iter('timestep'):
+        t = round(float(ts.get('time')))
+        for a in ts:
+            out[(a.tag, a.get('id'), t)] = (float(a.get('y')), float(a.get('x')))
+    return out
+
+
+def test_vehicles_and_navsatfix_truth_are_sumos_positions(tmp_path, peer):
+    """vehicle_prefix and output_type navsatfix: one truth message per FCD row, same place."""
+    scenario = build_grid_scenario(tmp_path / 'scenario', grid=3, length=60.0,
+                                   depart_until=10.0, period=2.0, seed=3,
+                                   vehicle_period=3.0)
+    assert scenario.vehicles
+    ns = unique_ns()
+    boxes = {('person', p): peer.collect(NavSatFix, f'{ns}/peds/{p}/fix_truth')
+             for p in scenario.persons}
+    boxes.update({('vehicle', v): peer.collect(NavSatFix, f'{ns}/cars/{v}/fix_truth')
+                  for v in scenario.vehicles})
+    fcd = tmp_path / 'fcd.xml'
+    bridge = NodeProcess([
+        '--ros-args', '-p', f'sumocfg:={scenario.sumocfg}', '-p', 'output_type:=navsatfix',
+        '-p', f'person_prefix:={ns}/peds', '-p', f'vehicle_prefix:={ns}/cars',
+        '-p', 'speed:=0.0', '-p', 'match_node:=test_peer', '-p', 'match_timeout:=10.0',
+        '-p', f'sumo_args:=["--fcd-output", "{fcd}", "--fcd-output.geo", "true", '
+              f'"--precision.geo", "12"]'], name='gps_error_sumo')
+    try:
+        assert peer.spin_until(lambda: bridge.proc.poll() is not None, 120), 'SUMO ran on'
+        rc, log = bridge.wait_exit()
+        assert rc == 0, log
+        peer.spin_for(1.0)
+    finally:
+        bridge.stop()
+    truth = read_fcd_all(fcd)
+    assert {k for k, _, _ in truth} == {'person', 'vehicle'}
+    got = {}
+    for (kind, i), box in boxes.items():
+        for m in box:
+            key = (kind, i, stamp_ns(m.header.stamp) // NS)
+            assert key not in got and m.status.status == 0, key
+            got[key] = (m.latitude, m.longitude)
+    assert set(got) == set(truth)
+    diff = np.array([np.subtract(got[k], truth[k]) for k in truth])
+    assert np.abs(diff).max() < 1e-9           # degrees: about 0.1 mm
