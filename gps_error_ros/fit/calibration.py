@@ -72,6 +72,41 @@ def errors_on_grid(trace, rate_hz=1.0):
                          float(rate_hz), keep)
 
 
+#: A gap of this many missing grid steps or more is an outage (the phone had
+#: no fix); a shorter one is a message dropped on the way (a logger's or a
+#: transport's loss), not a property of the place.
+MIN_OUTAGE_STEPS = 2
+
+
+def estimate_availability(grid, min_outage_steps=MIN_OUTAGE_STEPS):
+    """
+    Return (availability section or None, evidence) from the gaps of ``grid``.
+
+    The outage rate is outages per step with a fix that has a next step
+    (maximum likelihood for the profile's process); the durations are the
+    outages' lengths in steps, as an empirical distribution. With no outage
+    the section is None and the evidence gives the rate's 95 % upper bound
+    (3 / steps, the rule of three).
+    """
+    ends = [s + len(seg) for s, seg in zip(grid.starts, grid.segments)]
+    gaps = [nxt - end for end, nxt in zip(ends[:-1], grid.starts[1:])]
+    outages = [g for g in gaps if g >= min_outage_steps]
+    chances = max(grid.n - 1, 1)
+    evidence = {'min_outage_steps': int(min_outage_steps), 'outages': len(outages),
+                'dropped_steps': int(sum(g for g in gaps if g < min_outage_steps)),
+                'steps_with_fix': int(grid.n)}
+    if not outages:
+        evidence['outage_rate_upper_95'] = round(3.0 / chances, 6)
+        return None, evidence
+    lengths, counts = np.unique(outages, return_counts=True)
+    section = {'outage_rate': round(len(outages) / chances, 8),
+               'durations': [[int(n), round(float(c) / len(outages), 8)]
+                             for n, c in zip(lengths, counts)]}
+    total = sum(p for _, p in section['durations'])
+    section['durations'][-1][1] = round(section['durations'][-1][1] + 1.0 - total, 8)
+    return section, evidence
+
+
 @dataclass(frozen=True)
 class CalibrationResult:
     """A fitted profile and how it was obtained."""
@@ -81,8 +116,14 @@ class CalibrationResult:
     grid: GriddedErrors
     input: str
 
+    @property
+    def availability(self):
+        """Return (availability section or None, evidence) of the trace's gaps."""
+        return estimate_availability(self.grid)
+
     def profile_dict(self, name, description=None, source=None):
         """Return the profile (schema 1) with a ``fit`` section, as plain data."""
+        availability, evidence = self.availability
         return profile_mapping(
             name, description or f'fitted to {self.input}',
             source or f'gps_error calibrate {self.input}',
@@ -96,7 +137,8 @@ class CalibrationResult:
                 'time_span_s': float(self.grid.span_s),
                 'order_selection': {ax: f.evidence() for ax, f in
                                     zip(AXES, (self.north, self.east))},
-            })
+                'availability': evidence,
+            }, availability=availability)
 
 
 def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):

@@ -16,7 +16,9 @@ Optional keys: ``vertical_sd`` (metres, the altitude standard deviation
 reported in the fix covariance), ``notes`` (free text), ``fit`` (how the
 profile was calibrated) and ``effects`` (model extensions written by
 ``gps_error diagnose --profile-out``; schema in :mod:`effects`; a profile
-without them behaves exactly as the paper's model). A profile without
+without them behaves exactly as the paper's model) and ``availability``
+(fix outages, :mod:`availability`; without it every step has a fix). A
+profile without
 ``axes`` is a placeholder for a data set with no published fit; it loads, but
 :meth:`Profile.model` refuses it. Any other key is an error.
 """
@@ -29,6 +31,8 @@ import re
 
 import yaml
 
+from gps_error_ros.model.availability import (Availability, availability_from_dict,
+                                              AvailabilityError, WithAvailability)
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
@@ -38,7 +42,7 @@ PACKAGE = 'gps_error_ros'
 PROFILE_SUBDIR = ('config', 'profiles')
 
 _TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
-_TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects')
+_TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability')
 _AXIS_KEYS = ('delta', 'phi', 'sigma_w')
 _NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
 
@@ -65,6 +69,7 @@ class Profile:
     fit: dict = field(default_factory=dict)
     effects: Effects = field(default_factory=Effects)
     path: str = ''
+    availability: Availability = None
 
     @property
     def fitted(self):
@@ -91,9 +96,12 @@ class Profile:
                 f'profile from a recording of your own (`gps_error calibrate '
                 f'TRACE.csv -o PROFILE.yaml`) and pass its path')
         try:
-            return build_model(self.axes['north'], self.axes['east'], self.effects)
+            model = build_model(self.axes['north'], self.axes['east'], self.effects)
         except ModelError as exc:
             raise ProfileError(f'{self.path}: {exc}') from None
+        if self.availability is not None:
+            model = WithAvailability(model, self.availability)
+        return model
 
     def vertical_variance(self, model=None):
         """
@@ -187,6 +195,12 @@ def profile_from_dict(raw, source='<profile>'):
         effects = effects_from_dict(raw.get('effects') or {}, source)
     except EffectsError as exc:
         raise ProfileError(str(exc)) from None
+    availability = None
+    if raw.get('availability') is not None:
+        try:
+            availability = availability_from_dict(raw['availability'], source)
+        except AvailabilityError as exc:
+            raise ProfileError(str(exc)) from None
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
@@ -200,7 +214,8 @@ def profile_from_dict(raw, source='<profile>'):
         notes=_text(source, 'notes', raw.get('notes') or ''),
         fit=dict(raw.get('fit') or {}),
         effects=effects,
-        path=source)
+        path=source,
+        availability=availability)
 
 
 def load_profile_file(path):
@@ -295,7 +310,7 @@ def axes_mapping(north, east, digits=6):
 
 
 def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
-                    fit=None):
+                    fit=None, availability=None):
     """
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
@@ -311,6 +326,10 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
         effects = effects.to_dict()
     if effects:
         prof['effects'] = effects
+    if isinstance(availability, Availability):
+        availability = availability.to_dict()
+    if availability:
+        prof['availability'] = availability
     if fit is not None:
         prof['fit'] = fit
     return prof

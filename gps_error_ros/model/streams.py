@@ -54,12 +54,18 @@ DOMAIN_TAIL = 3
 #: Variance regimes: the initial regime's uniform, one per start step.
 DOMAIN_INIT_REGIME = 4
 
+#: Availability: the outage start's and length's uniforms, one pair per model step.
+DOMAIN_OUTAGE = 5
+#: Availability: the initial outage state's uniforms, one pair per start step.
+DOMAIN_INIT_OUTAGE = 6
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
 DOMAINS = {
     'step': DOMAIN_STEP, 'init': DOMAIN_INIT, 'regime': DOMAIN_REGIME,
     'tail': DOMAIN_TAIL, 'init_regime': DOMAIN_INIT_REGIME,
+    'outage': DOMAIN_OUTAGE, 'init_outage': DOMAIN_INIT_OUTAGE,
 }
 
 

@@ -79,3 +79,15 @@ def make_fix(stamp, frame_id, lat, lon, alt, covariance, covariance_type):
     msg.position_covariance = covariance
     msg.position_covariance_type = covariance_type
     return msg
+
+
+def make_no_fix(stamp, frame_id):
+    """Return a NavSatFix saying "no fix": STATUS_NO_FIX, position NaN, covariance unknown."""
+    msg = NavSatFix()
+    msg.header.stamp = to_stamp(stamp)
+    msg.header.frame_id = frame_id
+    msg.status.status = NavSatStatus.STATUS_NO_FIX
+    msg.status.service = NavSatStatus.SERVICE_GPS
+    msg.latitude = msg.longitude = msg.altitude = math.nan
+    msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+    return msg

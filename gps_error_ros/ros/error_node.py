@@ -23,7 +23,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rcl_interfaces.msg import SetParametersResult
-from sensor_msgs.msg import NavSatFix, NavSatStatus
+from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.sim.engine import FixEngine, NS
 from gps_error_ros.model.profiles import load_profile, ProfileError
@@ -33,6 +33,7 @@ from gps_error_ros.ros import conversions
 from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
 from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR, OK,
                                            Report, WARN)
+from gps_error_ros.ros.fix_output import FixOutput
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
 from gps_error_ros.traces.validity import usable_fix, usable_pose
@@ -40,15 +41,14 @@ from gps_error_ros.ros.parameters import (
     ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
     WARN_PERIOD_S)
 
+#: /diagnostics counters that are the node working as it should (an outage is
+#: the profile's availability model, not a fault).
+NOT_TROUBLE = ('fixes published', 'no-fix messages published (outages)',
+               'steps in an outage')
 #: Wall seconds between two looks at the graph for agent_pattern.
 WATCH_PERIOD_S = 1.0
 #: Slots an agent_pattern node starts with (doubled whenever they run out).
 FIRST_SLOTS = 16
-# A crowd's best-effort fixes go out in bursts this size, this far apart: Fast
-# DDS's shared-memory queue of a subscribing process holds 512 messages, and
-# an unspaced burst of 1,000 lost about 1 % of them.
-FIX_BURST = 100
-FIX_BURST_PAUSE_S = 0.001
 
 
 @dataclass
@@ -100,9 +100,10 @@ class GpsErrorNode(PatternAgents, Node):
         self.polled = pattern is not None or len(self.agents) > 1 or self.agents != ['']
         self._create_topics()
         self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
-        self.refused = 0                    # non-finite fixes not published
         self.invalid_truth = 0              # truth messages that could not be used
-        self._templates()
+        self.fix_output = FixOutput(self, cfg['outage_output'],
+                                    self.fix_reliability == 'best_effort')
+        self.fix_output.templates(self.frame_id)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.watcher = None
@@ -161,7 +162,6 @@ class GpsErrorNode(PatternAgents, Node):
             if name is not None:
                 prefix = f'{name}/' if name else ''
                 self._open(i, prefix + topic, prefix + 'fix')
-        self.fix_burst = FIX_BURST if self.fix_reliability == 'best_effort' else None
 
     def _open(self, i, truth_topic, fix_topic):
         """Create agent ``i``'s truth subscription and fix publisher."""
@@ -258,16 +258,8 @@ class GpsErrorNode(PatternAgents, Node):
                 throttle_duration_sec=WARN_PERIOD_S)
             return False
         if not self.polled:
-            self._publish(g, self.groups[g].engine.resolve(self.now_ns()))
+            self.fix_output.publish(g, self.groups[g].engine.resolve(self.now_ns()))
         return True
-
-    def _templates(self):
-        """Build the serialized fix template of each profile group."""
-        self.fix_templates = [
-            cdr.FixTemplate(self.frame_id, group.covariance, group.covariance_type,
-                            NavSatStatus.STATUS_FIX,
-                            NavSatStatus.SERVICE_GPS)
-            for group in self.groups]
 
     def _drain(self):
         """
@@ -333,7 +325,7 @@ class GpsErrorNode(PatternAgents, Node):
         now = self.now_ns()
         resets = self._total('resets')
         for g, group in enumerate(self.groups):
-            self._publish(g, group.engine.on_clock(now))
+            self.fix_output.publish(g, group.engine.on_clock(now))
         late = self._total('late_truth')
         if late > self.late_reported:
             self.late_reported = late
@@ -381,14 +373,16 @@ class GpsErrorNode(PatternAgents, Node):
         """Return the /diagnostics status: what was published and skipped."""
         t = self._total
         total = {
-            'fixes published': t('fixes') - self.refused,
+            'fixes published': t('fixes') - self.fix_output.refused,
+            'no-fix messages published (outages)': self.fix_output.no_fix,
+            'steps in an outage': t('no_fix'),
             'steps skipped without truth': t('skipped_no_truth'),
             'truth dropped (out of order)': t('dropped_out_of_order'),
             'truth dropped (stamped in the future)': t('dropped_future'),
             'truth dropped (invalid)': self.invalid_truth,
             'truth came after its step was skipped': t('late_truth'),
             'clock resets': t('resets'),
-            'non-finite fixes refused': self.refused,
+            'non-finite fixes refused': self.fix_output.refused,
         }
         recent = {k: self.counters.delta(k, v) for k, v in total.items()}
         served = sum(a is not None for a in self.agents)
@@ -407,46 +401,13 @@ class GpsErrorNode(PatternAgents, Node):
         level, message = OK, (f'{served} agent(s) served, {recent["fixes published"]} '
                               f'fix(es) since the last report')
         trouble = [f'{recent[k]} {k}' for k in recent
-                   if recent[k] and k != 'fixes published']
+                   if recent[k] and k not in NOT_TROUBLE]
         if self.watcher is not None and self.watcher.stale:
             trouble.append(f'{self.watcher.stale} agent(s) stale')
         if trouble:
             level = ERROR if recent['non-finite fixes refused'] else WARN
             message += '; ' + ', '.join(trouble)
         return Report(level, message, values)
-
-    def _publish(self, g, fixes):
-        group = self.groups[g]
-        members = group.members
-        if self.polled:
-            for fix in fixes:
-                good = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
-                if not good.all():
-                    self.refused += int((~good).sum())
-                    self.get_logger().error('refused to publish a non-finite fix',
-                                            throttle_duration_sec=WARN_PERIOD_S)
-                raws = self.fix_templates[g].render(
-                    fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
-                handles = [self.pub_handles[i] for i in members[fix.agents[good]]]
-                burst = self.fix_burst or max(len(raws), 1)
-                for start in range(0, len(raws), burst):
-                    if start:
-                        time.sleep(FIX_BURST_PAUSE_S)
-                    for handle, raw in zip(handles[start:start + burst],
-                                           raws[start:start + burst]):
-                        handle.publish_raw(raw)
-            return
-        for fix in fixes:
-            for local, lat, lon, alt in zip(fix.agents, fix.lat, fix.lon, fix.alt):
-                if not (math.isfinite(lat) and math.isfinite(lon)
-                        and math.isfinite(alt)):
-                    self.refused += 1
-                    self.get_logger().error('refused to publish a non-finite fix',
-                                            throttle_duration_sec=WARN_PERIOD_S)
-                    continue
-                self.pubs[members[local]].publish(conversions.make_fix(
-                    fix.stamp_ns, self.frame_id, lat, lon, alt, group.covariance,
-                    group.covariance_type))
 
     def _check_new_parameters(self, params):
         """
@@ -468,7 +429,7 @@ class GpsErrorNode(PatternAgents, Node):
         for p in params:
             if p.name == 'frame_id':
                 self.frame_id = p.value
-                self._templates()
+                self.fix_output.templates(self.frame_id)
 
 
 def main(args=None):

@@ -107,6 +107,11 @@ ERROR_NODE_PARAMS = (
               'CPU; a crowd then publishes its fixes in bursts of 100, 1 ms '
               'apart, so that a subscriber\'s queue is not overrun.',
               choices=('reliable', 'best_effort')),
+    ParamSpec('outage_output', 'no_fix', ParameterType.PARAMETER_STRING,
+              'What a step in an outage (profile availability) publishes: no_fix, a '
+              'NavSatFix with status NO_FIX, position NaN and covariance unknown '
+              '(as robot_localization expects to drop); silent: nothing.',
+              choices=('no_fix', 'silent')),
     ParamSpec('agents', None, ParameterType.PARAMETER_STRING_ARRAY,
               'Agent names: for each agent A the node reads A/pose (A/odom, '
               'A/fix_truth) and publishes A/fix. Empty: one agent on the '

@@ -14,6 +14,7 @@ on when it appeared or who else is present.
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.availability import available
 
 
 class CrowdErrors:
@@ -68,6 +69,14 @@ class CrowdErrors:
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out
+
+    def available(self, names):
+        """Return which named agents have a fix now (profile availability; else all)."""
+        new = [n for n in dict.fromkeys(names) if n not in self.index]
+        if new:
+            self._add(new)
+        rows = np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
+        return available(self.model, self.state[rows])
 
     def _add(self, names):
         keys = np.array([streams.agent_key(self.seed, n) for n in names],

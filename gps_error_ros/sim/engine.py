@@ -59,6 +59,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
 
 NS = 1_000_000_000
@@ -78,6 +79,7 @@ class EngineStats:
     pending_overflow: int = 0
     late_truth: int = 0      # times truth came for a step already skipped
     late_start: int = 0      # first clock more than max_pending steps after start_ns
+    no_fix: int = 0          # steps resolved in an outage (profile availability)
 
 
 @dataclass
@@ -90,6 +92,7 @@ class FixBatch:
     lon: np.ndarray
     alt: np.ndarray
     error: np.ndarray = field(repr=False)
+    fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
 
 
 @dataclass
@@ -100,6 +103,7 @@ class _Step:
     model_step: int       # the model step it carries
     err: np.ndarray       # (n, 2) north/east errors of every slot
     done: np.ndarray      # (n,) True once resolved (or free)
+    fix: np.ndarray       # (n,) False in an outage (profile availability)
 
 
 class _TruthRing:
@@ -307,6 +311,7 @@ class FixEngine:
         for step in self.pending:
             step.err = np.concatenate([step.err, np.zeros((n, 2))])
             step.done = np.concatenate([step.done, np.ones(n, dtype=bool)])
+            step.fix = np.concatenate([step.fix, np.ones(n, dtype=bool)])
         self.n += n
 
     def attach(self, slots, keys):
@@ -334,6 +339,7 @@ class FixEngine:
                 m += 1
                 self.model.advance(state, keys, m)
             step.err[slots] = self.model.errors(state)
+            step.fix[slots] = available(self.model, state)
             step.done[slots] = False
         while m < self.model_index:
             m += 1
@@ -396,7 +402,8 @@ class FixEngine:
             self.model.advance(self.state, self.keys, self.model_index)
         self.stats.steps += 1
         # free slots are done already
-        self.pending.append(_Step(t_ns, m, self.model.errors(self.state), ~self.active))
+        self.pending.append(_Step(t_ns, m, self.model.errors(self.state), ~self.active,
+                                  available(self.model, self.state)))
 
     def resolve(self, now_ns):
         """Return fixes for pending steps whose truth is now known."""
@@ -419,7 +426,7 @@ class FixEngine:
         return out
 
     def _resolve_step(self, step, force):
-        t_ns, err, done = step.t_ns, step.err, step.done
+        t_ns, done = step.t_ns, step.done
         newest = self.truth.newest
         ready = ~done & (newest >= t_ns)
         fixes = []
@@ -429,7 +436,7 @@ class FixEngine:
                                                 self.max_gap_ns)
             done[rows] = True
             self.stats.skipped_no_truth += int((~ok).sum())
-            fixes.append(self._make_fix(t_ns, rows[ok], coords[ok], err[rows[ok]]))
+            fixes.append(self._make_fix(step, rows[ok], coords[ok]))
         if force:
             rest = np.flatnonzero(~done)
             if rest.size:
@@ -443,12 +450,15 @@ class FixEngine:
                 first = gone[(self.last_skipped[gone] < 0) & (newest[gone] >= 0)]
                 self.last_skipped[first] = t_ns
                 if held.size:
-                    fixes.append(self._make_fix(
-                        t_ns, held, self.truth.newest_coord(held), err[held]))
+                    fixes.append(self._make_fix(step, held, self.truth.newest_coord(held)))
         return [f for f in fixes if f.agents.size]
 
-    def _make_fix(self, t_ns, agents, coords, err):
+    def _make_fix(self, step, agents, coords):
+        err, fix = step.err[agents], step.fix[agents]
         lat, lon = offset(coords[:, 0], coords[:, 1], err[:, 0], err[:, 1])
-        self.stats.fixes += agents.size
-        return FixBatch(stamp_ns=t_ns, agents=agents, lat=np.asarray(lat),
-                        lon=np.asarray(lon), alt=coords[:, 2].copy(), error=err)
+        lat, lon = np.asarray(lat), np.asarray(lon)
+        lat[~fix] = lon[~fix] = np.nan          # no fix: no position
+        self.stats.fixes += int(fix.sum())
+        self.stats.no_fix += int((~fix).sum())
+        return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
+                        alt=coords[:, 2].copy(), error=err, fix=fix)

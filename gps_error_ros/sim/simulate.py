@@ -24,6 +24,7 @@ import zipfile
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.model.effects import LagBuffer
 from gps_error_ros.model.atomic import atomic_output
@@ -107,7 +108,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     size = os.path.getsize(src)
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
-    crowd, rows, steps, seen = None, 0, 0, set()
+    crowd, rows, steps, seen, no_fix = None, 0, 0, set(), 0
     lag = LagBuffer(model.lag_s)
     try:
         for t, elem, agents in iter_fcd(src, progress):
@@ -125,13 +126,18 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
                               [a[2] for a in agents])
             nx, ny, fmt = _moved(mode, proj, src, t, x, y, crowd.errors(names))
             fmt = fmt if digits is None else f'{{:.{digits}f}}'
+            fix = crowd.available(names)        # in an outage: no position written
             writer.timestep(elem, [(a[3], {'x': fmt.format(px), 'y': fmt.format(py)})
-                                   for a, px, py in zip(agents, nx, ny)])
-            rows += len(agents)
+                                   for a, px, py, f in zip(agents, nx, ny, fix) if f])
+            rows += int(fix.sum())
+            no_fix += int((~fix).sum())
     finally:
         writer.close()
         progress.close()
-    return {'timesteps': steps, 'positions': rows, 'agents': len(seen)}
+    out = {'timesteps': steps, 'positions': rows, 'agents': len(seen)}
+    if isinstance(model, WithAvailability):
+        out['positions_without_fix'] = no_fix
+    return out
 
 
 def _simulate_csv(src, dst, model, rate_hz, seed):
@@ -144,6 +150,7 @@ def _simulate_csv(src, dst, model, rate_hz, seed):
     lag = LagBuffer(model.lag_s)
     lat_out = np.empty_like(t)
     lon_out = np.empty_like(t)
+    fix = np.ones(t.size, dtype=bool)
     bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
     for b0, b1 in zip(bounds[:-1], bounds[1:]):
         crowd.advance_to(model_step(t[b0], rate_hz))
@@ -151,12 +158,18 @@ def _simulate_csv(src, dst, model, rate_hz, seed):
         if len(set(names)) != len(names):
             raise TrajectoryError(f'{src}: agent listed twice at t={t[b0]}')
         err = crowd.errors(names)
+        fix[b0:b1] = crowd.available(names)
         lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
                               data['truth_lat'][b0:b1])
         lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
-    write_trace_csv(Trace(Path(dst).name, t, lat_out, lon_out, data['truth_lat'],
-                          data['truth_lon']), dst, agent=data['agent'])
-    return {'positions': int(t.size), 'agents': len(set(data['agent']))}
+    # a row in an outage is left out: a gap, as a phone's own log has one
+    write_trace_csv(Trace(Path(dst).name, t[fix], lat_out[fix], lon_out[fix],
+                          data['truth_lat'][fix], data['truth_lon'][fix]), dst,
+                    agent=list(np.asarray(data['agent'], dtype=object)[fix]))
+    out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
+    if isinstance(model, WithAvailability):
+        out['positions_without_fix'] = int((~fix).sum())
+    return out
 
 
 def agent_names(n, prefix='agent'):

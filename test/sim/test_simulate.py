@@ -200,3 +200,41 @@ def test_fcd_summary_counts_every_agent_seen(tmp_path):
     model = load_profile('DS2').model()
     res = simulate_fcd(src, tmp_path / 'out.xml', model, 1.0, 1)
     assert res == {'timesteps': 2, 'positions': 3, 'agents': 3}
+
+
+def test_outages_leave_gaps_where_the_stream_has_them(tmp_path):
+    """A profile with availability: FCD and CSV rows of agents without a fix are left out."""
+    from gps_error_ros.model.availability import availability_from_dict, WithAvailability
+    from gps_error_ros.sim.simulate import simulate_csv
+    av = availability_from_dict({'outage_rate': 0.1, 'durations': [[2, 0.5], [5, 0.5]]})
+    model = WithAvailability(MODEL, av)
+    src, out = tmp_path / 'fcd.xml', tmp_path / 'o.xml'
+    write_fcd(src, lambda i, t: (LON0 + 1e-5 * t, LAT0 + 1e-5 * i), sumo_comment(geo=True))
+    res = simulate_fcd(src, out, model, 1.0, 4)
+    plain = simulate_fcd(src, tmp_path / 'p.xml', MODEL, 1.0, 4)
+    assert res['positions'] + res['positions_without_fix'] == plain['positions']
+    assert res['positions_without_fix'] > 0
+    moved, every = read_fcd(out), read_fcd(tmp_path / 'p.xml')
+    for name in ('ped0', 'ped3', 'veh0'):
+        steps = sorted(t for (n, t) in every if n == name)
+        first = int(read_fcd_first_time(src))
+        mask = model.simulate_availability(
+            np.array([streams.agent_key(4, name)], dtype=np.uint64), 80, start=first)[0]
+        kept = sorted(t for (n, t) in moved if n == name)
+        assert kept == [t for t in steps if mask[int(t) - first]], name
+        for t in kept:           # the errors are those without availability
+            assert moved[name, t][:2] == pytest.approx(every[name, t][:2], abs=1e-9)
+    csv_src = tmp_path / 'truth.csv'
+    csv_src.write_text('t,agent,truth_lat,truth_lon\n' + ''.join(
+        f'{t},w,{LAT0!r},{LON0!r}\n' for t in range(100)))
+    res = simulate_csv(csv_src, tmp_path / 'o.csv', model, 1.0, 4)
+    mask = model.simulate_availability(
+        np.array([streams.agent_key(4, 'w')], dtype=np.uint64), 100, start=0)[0]
+    rows = (tmp_path / 'o.csv').read_text().splitlines()[1:]
+    assert [float(r.split(',')[0]) for r in rows] == list(np.flatnonzero(mask).astype(float))
+    assert res['positions_without_fix'] == int((~mask).sum()) > 0
+
+
+def read_fcd_first_time(path):
+    """Return the time of an FCD file's first timestep."""
+    return float(next(ET.parse(path).getroot().iter('timestep')).get('time'))

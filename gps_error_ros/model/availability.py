@@ -1,0 +1,211 @@
+"""
+Fix availability: when an agent's phone has no fix, from its own stream.
+
+A profile's optional ``availability`` section::
+
+    availability:
+      outage_rate: 0.002         # per step with a fix: probability an outage begins
+      durations: [[2, 0.5], [10, 0.3], [60, 0.2]]   # outage length (model steps), probability
+
+The process is semi-Markov with two states, per agent, on the model grid. At
+each step that follows a step with a fix, an outage begins with probability
+``outage_rate`` (a uniform of the stream domain ``outage`` at that step);
+its length ``L`` (steps, at least 1) is drawn from the empirical
+distribution ``durations`` (the pair's second uniform). Steps ``k .. k+L-1``
+have no fix; step ``k+L`` has one (an outage is never followed directly by
+another). The fixes between outages are therefore 1 + a geometric number of
+steps, mean ``1 / outage_rate``, and the long-run fraction of steps without
+a fix is ``E[L] / (E[L] + 1 / outage_rate)``.
+
+At a run's first step the state is drawn from that stationary law (a
+uniform of the domain ``init_outage``): no fix with the outage fraction, and
+then the steps left from the residual-length law ``P(R = j) = P(L >= j) /
+E[L]``. Everything is a pure function of (seed, agent, step), as the errors.
+
+The error process runs on through an outage (a receiver's error state is not
+reset by losing the fix); :class:`WithAvailability` adds the outage state to
+any error model without touching its errors: a profile without this section
+gives the same errors, bit for bit, as before it existed.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gps_error_ros.model import streams
+
+
+class AvailabilityError(ValueError):
+    """An ``availability`` section that is not valid."""
+
+
+@dataclass(frozen=True)
+class Availability:
+    """Outage process parameters (see module doc)."""
+
+    outage_rate: float
+    lengths: tuple          # outage lengths, model steps (ints >= 1), increasing
+    probs: tuple            # their probabilities (sum 1)
+
+    @property
+    def mean_length(self):
+        """Return the mean outage length, steps."""
+        return float(np.dot(self.lengths, self.probs))
+
+    @property
+    def outage_fraction(self):
+        """Return the long-run fraction of steps without a fix."""
+        if self.outage_rate <= 0:
+            return 0.0
+        m = self.mean_length
+        return m / (m + 1.0 / self.outage_rate)
+
+    def to_dict(self):
+        """Return the profile section as plain data."""
+        return {'outage_rate': float(self.outage_rate),
+                'durations': [[int(n), float(p)] for n, p in zip(self.lengths, self.probs)]}
+
+    # --- the process, vectorised over agents ------------------------------
+
+    def _length(self, u):
+        cum = np.cumsum(self.probs)
+        cum[-1] = 1.0
+        idx = np.minimum(np.searchsorted(cum, u, side='right'), len(self.lengths) - 1)
+        return np.asarray(self.lengths, dtype=np.float64)[idx]
+
+    def initial(self, keys, index):
+        """Return the steps of outage left at step ``index`` (0: a fix), per agent."""
+        u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_OUTAGE, index)
+        left = np.zeros(u.shape[0])
+        out = u[:, 0] < self.outage_fraction
+        if out.any():
+            lengths = np.asarray(self.lengths)
+            # residual law: P(R = j) = P(L >= j) / E[L], j = 1 .. max L
+            j = np.arange(1, lengths.max() + 1)
+            surv = np.array([np.sum(np.asarray(self.probs)[lengths >= k]) for k in j])
+            cum = np.cumsum(surv / surv.sum())
+            cum[-1] = 1.0
+            left[out] = j[np.minimum(np.searchsorted(cum, u[out, 1], side='right'),
+                                     j.size - 1)]
+        return left
+
+    def advance(self, left, keys, index):
+        """Advance ``left`` in place to step ``index``; return the fix mask."""
+        u = streams.uniform_pairs(keys, streams.DOMAIN_OUTAGE, index)
+        was_fix = left == 0
+        left[~was_fix] -= 1
+        begins = was_fix & (u[:, 0] < self.outage_rate)
+        if begins.any():
+            left[begins] = self._length(u[begins, 1])
+        return left == 0
+
+
+def availability_from_dict(raw, source='<profile>'):
+    """Validate an ``availability`` mapping; return :class:`Availability`."""
+    key = 'availability'
+    if not isinstance(raw, dict) or sorted(raw) != ['durations', 'outage_rate']:
+        raise AvailabilityError(f'{source}: key {key!r}: expected a mapping with exactly '
+                                f'outage_rate and durations, got {raw!r}')
+    rate = raw['outage_rate']
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 <= rate < 1:
+        raise AvailabilityError(f'{source}: key {key}.outage_rate: expected a number in '
+                                f'[0, 1), got {rate!r}')
+    pairs = raw['durations']
+    ok = isinstance(pairs, list) and pairs and all(
+        isinstance(p, list) and len(p) == 2 and isinstance(p[0], int)
+        and not isinstance(p[0], bool) and p[0] >= 1
+        and isinstance(p[1], (int, float)) and not isinstance(p[1], bool) and p[1] > 0
+        for p in pairs)
+    if not ok:
+        raise AvailabilityError(
+            f'{source}: key {key}.durations: expected a non-empty list of [steps, '
+            f'probability] pairs (integer steps >= 1, probability > 0), got {pairs!r}')
+    lengths = [p[0] for p in pairs]
+    if len(set(lengths)) != len(lengths):
+        raise AvailabilityError(f'{source}: key {key}.durations: a length appears twice '
+                                f'in {lengths}')
+    total = sum(p[1] for p in pairs)
+    if abs(total - 1.0) > 1e-6:
+        raise AvailabilityError(f'{source}: key {key}.durations: probabilities must sum '
+                                f'to 1, got {total!r}')
+    order = np.argsort(lengths)
+    return Availability(float(rate), tuple(int(lengths[i]) for i in order),
+                        tuple(float(pairs[i][1]) for i in order))
+
+
+class WithAvailability:
+    """
+    An error model with fix availability: the inner model's errors, unchanged.
+
+    The state is the inner model's with one more column: ``[:, 0, -1]`` the
+    steps of outage left (0: a fix). Everything else is the inner model's.
+    """
+
+    def __init__(self, inner, availability):
+        self.inner = inner
+        self.availability = availability
+
+    def __getattr__(self, name):
+        # moments, lag_s, order, axes ... are the inner model's
+        return getattr(self.inner, name)
+
+    def empty_state(self, n):
+        """Return a state array for ``n`` agents (zeros: all with a fix)."""
+        inner = self.inner.empty_state(n)
+        return np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
+
+    def initial_state(self, keys, index):
+        """Draw the inner state and the outage state at model step ``index``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        inner = self.inner.initial_state(keys, index)
+        state = np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
+        state[:, :, :-1] = inner
+        state[:, 0, -1] = self.availability.initial(keys, index)
+        return state
+
+    def advance(self, state, keys, index):
+        """Advance both in place to model step ``index``; return the errors."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        err = self.inner.advance(state[:, :, :-1], keys, index)
+        left = state[:, 0, -1].copy()
+        self.availability.advance(left, keys, index)
+        state[:, 0, -1] = left
+        return err
+
+    def errors(self, state):
+        """Return the current north/east errors of the inner model, (n, 2)."""
+        return self.inner.errors(state[:, :, :-1])
+
+    def available(self, state):
+        """Return which agents have a fix at the current step."""
+        return state[:, 0, -1] == 0
+
+    def state_after(self, keys, start, step):
+        """Return the state at model step ``step`` of a run started at ``start``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        inner = self.inner.state_after(keys, start, step)
+        state = np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
+        state[:, :, :-1] = inner
+        left = self.availability.initial(keys, start)
+        for k in range(start + 1, step + 1):
+            self.availability.advance(left, keys, k)
+        state[:, 0, -1] = left
+        return state
+
+    def simulate_availability(self, keys, n_steps, start=0):
+        """Return the fix mask at steps ``start .. start + n_steps - 1``, (n, n_steps)."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        left = self.availability.initial(keys, start)
+        out = np.empty((keys.size, n_steps), dtype=bool)
+        if n_steps:
+            out[:, 0] = left == 0
+        for i in range(1, n_steps):
+            out[:, i] = self.availability.advance(left, keys, start + i)
+        return out
+
+
+def available(model, state):
+    """Return the fix mask of ``state`` (all True for a model without availability)."""
+    if isinstance(model, WithAvailability):
+        return model.available(state)
+    return np.ones(state.shape[0], dtype=bool)

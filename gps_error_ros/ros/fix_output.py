@@ -1,0 +1,99 @@
+"""
+The error node's fixes out: serialized NavSatFix per agent, and NO_FIX.
+
+A fix with a position goes out with its group's covariance. A step in an
+outage (profile ``availability``) goes out, per parameter ``outage_output``,
+as a NavSatFix with ``STATUS_NO_FIX``, latitude, longitude and altitude NaN
+and covariance ``COVARIANCE_TYPE_UNKNOWN`` (the message's own convention for
+"no position"; robot_localization's navsat_transform drops such fixes), or
+not at all (``silent``). A non-finite position where a fix was due is never
+published: it is counted and logged as an error.
+"""
+
+import time
+
+import numpy as np
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+from gps_error_ros.ros import cdr
+from gps_error_ros.ros import conversions
+from gps_error_ros.ros.parameters import WARN_PERIOD_S
+
+# A crowd's best-effort fixes go out in bursts this size, this far apart: Fast
+# DDS's shared-memory queue of a subscribing process holds 512 messages, and
+# an unspaced burst of 1,000 lost about 1 % of them.
+FIX_BURST = 100
+FIX_BURST_PAUSE_S = 0.001
+NO_COVARIANCE = [0.0] * 9
+
+
+class FixOutput:
+    """Publish the engine's fix batches on the node's per-agent publishers."""
+
+    def __init__(self, node, outage_output, best_effort):
+        self.node = node
+        self.outage_output = outage_output
+        self.burst = FIX_BURST if best_effort else None
+        self.refused = 0            # non-finite positions not published
+        self.no_fix = 0             # NO_FIX messages published
+        self.fix_templates, self.no_fix_template = [], None
+
+    def templates(self, frame_id):
+        """Build the serialized messages again (at start, and for a new frame_id)."""
+        self.frame_id = frame_id
+        self.fix_templates = [
+            cdr.FixTemplate(frame_id, group.covariance, group.covariance_type,
+                            NavSatStatus.STATUS_FIX, NavSatStatus.SERVICE_GPS)
+            for group in self.node.groups]
+        self.no_fix_template = cdr.FixTemplate(
+            frame_id, NO_COVARIANCE, NavSatFix.COVARIANCE_TYPE_UNKNOWN,
+            NavSatStatus.STATUS_NO_FIX, NavSatStatus.SERVICE_GPS)
+
+    def _split(self, fix):
+        """Return (rows to publish with a position, rows without a fix)."""
+        has = np.ones(fix.agents.size, dtype=bool) if fix.fix is None else fix.fix
+        finite = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
+        bad = has & ~finite
+        if bad.any():
+            self.refused += int(bad.sum())
+            self.node.get_logger().error('refused to publish a non-finite fix',
+                                         throttle_duration_sec=WARN_PERIOD_S)
+        none = ~has if self.outage_output == 'no_fix' else np.zeros_like(has)
+        return has & finite, none
+
+    def publish(self, g, fixes):
+        """Publish the fix batches of profile group ``g``."""
+        node = self.node
+        members = node.groups[g].members
+        for fix in fixes:
+            good, none = self._split(fix)
+            if node.polled:
+                raws = self.fix_templates[g].render(
+                    fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
+                handles = [node.pub_handles[i] for i in members[fix.agents[good]]]
+                if none.any():
+                    n = int(none.sum())
+                    nan = np.full(n, np.nan)
+                    raws += self.no_fix_template.render(fix.stamp_ns, nan, nan, nan)
+                    handles += [node.pub_handles[i] for i in members[fix.agents[none]]]
+                    self.no_fix += n
+                self._send(handles, raws)
+                continue
+            group = node.groups[g]
+            for row in np.flatnonzero(good | none):
+                pub = node.pubs[members[fix.agents[row]]]
+                if good[row]:
+                    pub.publish(conversions.make_fix(
+                        fix.stamp_ns, self.frame_id, fix.lat[row], fix.lon[row],
+                        fix.alt[row], group.covariance, group.covariance_type))
+                else:
+                    pub.publish(conversions.make_no_fix(fix.stamp_ns, self.frame_id))
+                    self.no_fix += 1
+
+    def _send(self, handles, raws):
+        burst = self.burst or max(len(raws), 1)
+        for start in range(0, len(raws), burst):
+            if start:
+                time.sleep(FIX_BURST_PAUSE_S)
+            for handle, raw in zip(handles[start:start + burst], raws[start:start + burst]):
+                handle.publish_raw(raw)
