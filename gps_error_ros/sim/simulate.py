@@ -162,12 +162,14 @@ def _simulate_csv(src, dst, model, rate_hz, seed):
         lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
                               data['truth_lat'][b0:b1])
         lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
-    # a row in an outage is left out: a gap, as a phone's own log has one
-    write_trace_csv(Trace(Path(dst).name, t[fix], lat_out[fix], lon_out[fix],
-                          data['truth_lat'][fix], data['truth_lon'][fix]), dst,
-                    agent=list(np.asarray(data['agent'], dtype=object)[fix]))
+    outages = isinstance(model, WithAvailability)
+    # a row in an outage: status no_fix and no position (read back as a gap)
+    lat_out[~fix] = lon_out[~fix] = np.nan
+    write_trace_csv(Trace(Path(dst).name, t, lat_out, lon_out, data['truth_lat'],
+                          data['truth_lon']), dst, agent=data['agent'],
+                    fix=fix if outages else None)
     out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
-    if isinstance(model, WithAvailability):
+    if outages:
         out['positions_without_fix'] = int((~fix).sum())
     return out
 

@@ -22,6 +22,8 @@ from gps_error_ros.model.atomic import atomic_output
 REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
 OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0', 'bearing',
             'hdop', 'truth_speed', 'truth_bearing')
+#: Values of the optional ``status`` column (``gps_error simulate`` with outages).
+STATUSES = ('fix', 'no_fix')
 
 
 class TraceError(ValueError):
@@ -89,6 +91,22 @@ def _column(path, body, i, name):
     return values
 
 
+def _fix_rows(path, body, i):
+    """Return the rows whose ``status`` is ``fix``; refuse another value."""
+    out = []
+    for r, row in enumerate(body, start=2):
+        cell = row[i].strip() if i < len(row) else ''
+        if cell not in STATUSES:
+            raise TraceError(f'{path}: line {r}, column \'status\': expected one of '
+                             f'{list(STATUSES)}, got {cell!r}')
+        if cell == 'fix':
+            out.append(row)
+    if len(out) < 2:
+        raise TraceError(f'{path}: {len(out)} row(s) with status fix: a trace needs '
+                         f'at least 2')
+    return out
+
+
 def _agent_rows(path, header, body, agent):
     """Return the rows of ``agent`` (a trace CSV with an ``agent`` column)."""
     i = header.index('agent')
@@ -129,6 +147,8 @@ def read_trace_csv(path, agent=None):
         raise TraceError(f'{path}: no agent column, so no agent {agent!r}: '
                          f'found columns {header}')
     cols = {c: i for i, c in enumerate(header)}
+    if 'status' in cols:            # gps_error simulate's outages: gaps, not fixes
+        body = _fix_rows(path, body, cols['status'])
     data = {name: _column(path, body, cols[name], name)
             for name in REQUIRED + OPTIONAL if name in cols}
     t = data['t']
@@ -149,31 +169,38 @@ def read_trace_csv(path, agent=None):
                  extra={k: data[k] for k in OPTIONAL if k in data})
 
 
-def write_trace_csv(trace, path, agent=None):
+def write_trace_csv(trace, path, agent=None, fix=None):
     """
     Write ``trace`` as a trace CSV: the one writer of the format read above.
 
     Columns: ``t``, then ``agent`` when given (one name per row), then
+    ``status`` when ``fix`` (a boolean per row) is given (``fix``/``no_fix``;
+    a no-fix row's lat/lon are empty, and readers skip it as a gap), then
     ``lat, lon, truth_lat, truth_lon`` and the trace's optional columns.
     Numbers are written with ``repr`` (round trip exact); a non-finite
-    optional value as an empty cell. Returns ``path``.
+    value as an empty cell. Returns ``path``.
     """
     path = Path(path)
     with atomic_output(path) as tmp:
-        _write_rows(trace, tmp, agent)
+        _write_rows(trace, tmp, agent, fix)
     return path
 
 
-def _write_rows(trace, path, agent):
+def _write_rows(trace, path, agent, fix):
     cols = ['t'] + (['agent'] if agent is not None else []) + \
+        (['status'] if fix is not None else []) + \
         ['lat', 'lon', 'truth_lat', 'truth_lon'] + list(trace.extra)
     data = [trace.t, trace.lat, trace.lon, trace.truth_lat, trace.truth_lon] + \
         list(trace.extra.values())
     names = agent if agent is not None else [None] * len(trace)
+    status = [None] * len(trace) if fix is None else \
+        ['fix' if f else 'no_fix' for f in fix]
     with open(path, 'w', encoding='utf-8', newline='') as f:
         f.write(','.join(cols) + '\n')
-        for name, *row in zip(names, *data):
+        for name, st, *row in zip(names, status, *data):
             cells = ['' if not math.isfinite(v) else repr(float(v)) for v in row]
+            if st is not None:
+                cells.insert(1, st)
             if name is not None:
                 cells.insert(1, _csv_cell(name))
             f.write(','.join(cells) + '\n')

@@ -10,6 +10,7 @@ from gps_error_ros.sim.simulate import simulate_fcd, simulate_npz
 from gps_error_ros.cli import main as cli
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.traces.trace_io import read_trace_csv
 from gps_error_ros.traces.trajectories import TrajectoryError
 
 MODEL = load_profile('DS2').model()
@@ -203,7 +204,7 @@ def test_fcd_summary_counts_every_agent_seen(tmp_path):
 
 
 def test_outages_leave_gaps_where_the_stream_has_them(tmp_path):
-    """A profile with availability: FCD and CSV rows of agents without a fix are left out."""
+    """With availability: FCD positions left out, CSV rows marked no_fix (read as gaps)."""
     from gps_error_ros.model.availability import availability_from_dict, WithAvailability
     from gps_error_ros.sim.simulate import simulate_csv
     av = availability_from_dict({'outage_rate': 0.1, 'durations': [[2, 0.5], [5, 0.5]]})
@@ -230,9 +231,14 @@ def test_outages_leave_gaps_where_the_stream_has_them(tmp_path):
     res = simulate_csv(csv_src, tmp_path / 'o.csv', model, 1.0, 4)
     mask = model.simulate_availability(
         np.array([streams.agent_key(4, 'w')], dtype=np.uint64), 100, start=0)[0]
-    rows = (tmp_path / 'o.csv').read_text().splitlines()[1:]
-    assert [float(r.split(',')[0]) for r in rows] == list(np.flatnonzero(mask).astype(float))
+    lines = (tmp_path / 'o.csv').read_text().splitlines()
+    assert lines[0].startswith('t,agent,status,lat,lon,')
+    status = [r.split(',')[2] for r in lines[1:]]
+    assert status == ['fix' if m else 'no_fix' for m in mask]
+    assert all(r.split(',')[3:5] == ['', ''] for r in lines[1:] if ',no_fix,' in r)
     assert res['positions_without_fix'] == int((~mask).sum()) > 0
+    back = read_trace_csv(tmp_path / 'o.csv')        # no-fix rows read as gaps
+    np.testing.assert_array_equal(back.t, np.flatnonzero(mask).astype(float))
 
 
 def read_fcd_first_time(path):
