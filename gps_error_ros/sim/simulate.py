@@ -185,7 +185,9 @@ def _simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
     Write raw error series to ``dst`` (.npz), streaming agent chunks to disk.
 
     Arrays: ``errors`` (agents, steps, 2) float64 north/east metres;
-    ``t`` (steps,) seconds; ``names`` (agents,) strings; ``seed``, ``rate_hz``.
+    ``t`` (steps,) seconds; ``names`` (agents,) strings; ``seed``, ``rate_hz``;
+    with a profile's availability also ``fix`` (agents, steps) bool, False in
+    an outage (the errors run on through it).
     """
     steps = int(round(duration_s * rate_hz))
     start = model_step(start_s, rate_hz)
@@ -203,6 +205,15 @@ def _simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
                 block = model.simulate(keys, steps, start=start)
                 f.write(np.ascontiguousarray(block.transpose(1, 0, 2)).tobytes())
                 progress.update(keys.size)
+        if isinstance(model, WithAvailability):         # fix[a, k]: False in an outage
+            with zf.open('fix.npy', 'w', force_zip64=True) as f:
+                np.lib.format.write_array_header_2_0(
+                    f, {'descr': '|b1', 'fortran_order': False, 'shape': shape[:2]})
+                for a0 in range(0, n_agents, chunk):
+                    keys = np.array([streams.agent_key(seed, n)
+                                     for n in names[a0:a0 + chunk]], dtype=np.uint64)
+                    f.write(np.ascontiguousarray(
+                        model.simulate_availability(keys, steps, start=start)).tobytes())
         for name, arr in (('t', (start + np.arange(steps)) / rate_hz),
                           ('names', np.array(names)), ('seed', np.array(seed)),
                           ('rate_hz', np.array(rate_hz))):

@@ -244,3 +244,17 @@ def test_outages_leave_gaps_where_the_stream_has_them(tmp_path):
 def read_fcd_first_time(path):
     """Return the time of an FCD file's first timestep."""
     return float(next(ET.parse(path).getroot().iter('timestep')).get('time'))
+
+
+def test_npz_carries_the_fix_mask_with_availability(tmp_path):
+    from gps_error_ros.model.availability import availability_from_dict, WithAvailability
+    av = availability_from_dict({'outage_rate': 0.1, 'durations': [[3, 1.0]]})
+    model = WithAvailability(MODEL, av)
+    simulate_npz(tmp_path / 'e.npz', model, 1.0, 6, 5, 200, chunk=2)
+    simulate_npz(tmp_path / 'p.npz', MODEL, 1.0, 6, 5, 200, chunk=2)
+    with np.load(tmp_path / 'e.npz') as a, np.load(tmp_path / 'p.npz') as b:
+        np.testing.assert_array_equal(a['errors'], b['errors'])     # errors unchanged
+        assert 'fix' not in b
+        keys = np.array([streams.agent_key(6, f'agent{i}') for i in range(5)], dtype=np.uint64)
+        np.testing.assert_array_equal(a['fix'], model.simulate_availability(keys, 200))
+        assert 0 < (~a['fix']).sum() < a['fix'].size
