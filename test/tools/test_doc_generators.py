@@ -27,3 +27,14 @@ def test_calibration_doc_regenerates_from_a_data_directory(tmp_path):
     rec = json.loads((tmp_path / 'docs' / 'calibration' / 'synthetic.json').read_text())
     assert rec['holdout']['test_samples'] == 240
     assert np.isfinite(rec['ar3']['profile']['north']['sigma_w'])
+
+
+def test_outage_evidence_on_the_measured_traces():
+    """The availability evidence of docs/availability.md, from ../shared/data."""
+    data = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+    r = subprocess.run([sys.executable, str(TOOLS / 'outage_evidence.py'), '--data', str(data)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    assert 'gsdc2020-mtv1-pixel4.csv: 1737 fixes on the grid, 0 outage(s), 2 dropped' in out
+    assert 'longest 109 steps' in out            # the static phone's hold
