@@ -116,6 +116,10 @@ def cmd_validate(args):
               f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
               f'{summary["max_lag"]}; quantiles inside at '
               f'{100 * d["quantiles_inside_envelope"]:.0f} %')
+    for name, d in summary['availability'].items():
+        print(f'  {name.replace("_", " ")}: measured {d["measured"]}, simulated median '
+              f'{d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), percentile '
+              f'{d["percentile"]:.0f}')
     print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
     return 0
 

@@ -21,9 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_acf
-from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.fit.calibration import errors_on_grid, MIN_OUTAGE_STEPS
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.traces.trace_io import Trace
 QQ_PROBS = np.linspace(0.01, 0.99, 99)
 
@@ -56,6 +57,7 @@ class ValidationResult:
     measured: np.ndarray   # (n, 2) errors
     simulated: np.ndarray  # (n, 2) one simulated error trace
     truth: tuple           # (lat, lon) at the measured steps
+    availability: dict = None   # outage statistics, measured against simulated
 
     def summary(self):
         """Return the numbers behind the figures as plain data."""
@@ -83,6 +85,8 @@ class ValidationResult:
                 'mean_m': float(self.measured[:, AXES.index(ax)].mean()),
                 'sd_m': float(self.measured[:, AXES.index(ax)].std()),
             }
+        if self.availability is not None:
+            out['availability'] = self.availability
         return out
 
 
@@ -114,4 +118,49 @@ def validate(model, trace, sims=200, max_lag=60, seed=0):
     truth = (trace.truth_lat[grid.rows], trace.truth_lon[grid.rows])
     return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
                             acf, acf_env, quant, quant_env, steps, measured,
-                            sim[:, 0, :], truth)
+                            sim[:, 0, :], truth,
+                            availability_check(model, grid, keys, int(steps[-1]) + 1))
+
+
+def _outage_stats(mask):
+    """Return (outages, steps in outages) by calibrate's rule (>= 2 missing steps)."""
+    runs, n = [], 0
+    for m in mask:
+        if not m:
+            n += 1
+        elif n:
+            runs.append(n)
+            n = 0
+    runs += [n] if n else []
+    long = [r for r in runs if r >= MIN_OUTAGE_STEPS]
+    return len(long), sum(long)
+
+
+def availability_check(model, grid, keys, span):
+    """
+    Return outage statistics, measured (the trace's gaps) against simulated.
+
+    Each simulated trace spans the measured one; a model without
+    availability simulates none. Outages are counted by ``calibrate``'s rule
+    on both sides (runs of 2 or more steps without a fix).
+    """
+    ends = [s + len(seg) for s, seg in zip(grid.starts, grid.segments)]
+    mask = np.zeros(span, dtype=bool)
+    for s, e in zip(grid.starts, ends):
+        mask[s - grid.starts[0]:e - grid.starts[0]] = True
+    measured = dict(zip(('outages', 'steps_in_outages'), _outage_stats(mask)))
+    if isinstance(model, WithAvailability):
+        sims = model.simulate_availability(keys, span)
+    else:
+        sims = np.ones((len(keys), span), dtype=bool)
+    simulated = np.array([_outage_stats(m) for m in sims], dtype=float)
+    out = {}
+    for j, name in enumerate(('outages', 'steps_in_outages')):
+        v = simulated[:, j]
+        out[name] = {'measured': measured[name],
+                     'sim_median': float(np.median(v)),
+                     'sim_lo': float(np.percentile(v, 2.5)),
+                     'sim_hi': float(np.percentile(v, 97.5)),
+                     'percentile': float(100.0 * (np.mean(v < measured[name])
+                                                  + 0.5 * np.mean(v == measured[name])))}
+    return out

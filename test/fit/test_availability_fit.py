@@ -43,3 +43,21 @@ def test_no_outage_gives_no_section_and_a_bound(tmp_path):
     ev = fitted.fit['availability']
     assert ev['outages'] == 0 and ev['dropped_steps'] == 2
     assert abs(ev['outage_rate_upper_95'] - 3 / 2997) < 1e-6
+
+
+def test_validate_sets_measured_outages_beside_the_simulated(tmp_path):
+    from gps_error_ros.fit.validation import validate
+    from gps_error_ros.traces.trace_io import read_trace_csv
+    base = load_profile('DS1').model()
+    model = WithAvailability(base, availability_from_dict(TRUE))
+    src = tmp_path / 'truth.csv'
+    src.write_text('t,truth_lat,truth_lon\n' + ''.join(
+        f'{t},40.75,-73.99\n' for t in range(3000)))
+    simulate_csv(src, tmp_path / 'noisy.csv', model, 1.0, 21)
+    trace = read_trace_csv(tmp_path / 'noisy.csv')
+    same = validate(model, trace, sims=60, max_lag=10).summary()['availability']
+    assert same['outages']['measured'] > 10
+    for d in same.values():          # a draw of the model lies inside its own spread
+        assert d['sim_lo'] <= d['measured'] <= d['sim_hi'], same
+    plain = validate(base, trace, sims=20, max_lag=10).summary()['availability']
+    assert plain['outages']['sim_hi'] == 0 and plain['outages']['percentile'] == 100.0
