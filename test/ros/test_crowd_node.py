@@ -217,3 +217,61 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path):
                                            rtol=0, atol=1e-6, err_msg=f'{a} {k}')
                 compared += 1
     assert compared >= 55
+
+
+def test_outages_are_the_same_in_a_sharded_crowd(tmp_path):
+    """Every agent's availability is its own stream: two shards give the whole crowd's NO_FIX."""
+    import yaml
+    from gps_error_ros.model.profiles import builtin_dir
+    raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
+    raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [4, 0.5]]}
+    path = tmp_path / 'outages.yaml'
+    path.write_text(yaml.safe_dump(raw))
+    agents = AGENTS[:4]
+    whole, half_a, half_b = unique_ns(), unique_ns(), unique_ns()
+    nodes = [crowd_node(whole, agents, [str(path)] * 4),
+             crowd_node(half_a, agents[:2], [str(path)] * 2),
+             crowd_node(half_b, agents[2:], [str(path)] * 2)]
+    peer = Peer()
+    try:
+        pubs, boxes = {}, {}
+        for ns, names in ((whole, agents), (half_a, agents[:2]), (half_b, agents[2:])):
+            for a in names:
+                pubs[ns, a] = peer.publisher(PoseStamped, f'{ns}/{a}/pose')
+                boxes[ns, a] = peer.collect(NavSatFix, f'{ns}/{a}/fix')
+        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0
+                                           for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
+                                       for ns, a in boxes), 30)
+        assert peer.spin_until(lambda: all(
+            any(e.node_namespace == ns for e in peer.node.get_subscriptions_info_by_topic(
+                '/clock')) for ns in (whole, half_a, half_b)), 10)
+        peer.spin_for(0.5)
+        for k in range(T0, T0 + 42):
+            for pub in pubs.values():
+                pub.publish(pose_msg(k * NS, 2.0 * (k - T0), 1.0))
+            peer.set_clock(k * NS)
+            want = (k - 1) * NS
+            peer.spin_until(lambda: all(box and stamp_ns(box[-1].header.stamp) >= want
+                                        for box in boxes.values()), 5)
+        peer.spin_for(0.5)
+        for node in nodes:
+            rc, out = node.stop()
+            assert rc == 0, out
+    finally:
+        for node in nodes:
+            node.stop()
+        peer.destroy()
+
+    def series(ns, a):
+        return {stamp_ns(m.header.stamp): (m.status.status, m.latitude, m.longitude)
+                for m in boxes[ns, a]}
+
+    outages = 0
+    for i, a in enumerate(agents):
+        got, ref = series(whole, a), series(half_a if i < 2 else half_b, a)
+        assert len(got) >= 40 and got.keys() == ref.keys(), a
+        for t in got:
+            np.testing.assert_array_equal(got[t], ref[t], err_msg=f'{a} at {t}')  # NaN = NaN
+        outages += sum(v[0] == -1 for v in got.values())
+    assert outages > 5                     # there were outages to agree on
