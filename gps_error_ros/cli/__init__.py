@@ -62,7 +62,8 @@ def cmd_simulate(args):
     if args.trajectories:
         src = Path(args.trajectories)
         if src.suffix.lower() == '.csv':
-            res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed)
+            res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
+                                     profile.velocity)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits)

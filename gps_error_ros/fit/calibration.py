@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
 from gps_error_ros.model.ar_model import AXES
@@ -115,6 +116,7 @@ class CalibrationResult:
     east: AxisFit
     grid: GriddedErrors
     input: str
+    velocity: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
 
     @property
     def availability(self):
@@ -138,7 +140,8 @@ class CalibrationResult:
                 'order_selection': {ax: f.evidence() for ax, f in
                                     zip(AXES, (self.north, self.east))},
                 'availability': evidence,
-            }, availability=availability)
+                'velocity': self.velocity[1],
+            }, availability=availability, velocity=self.velocity[0])
 
 
 def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
@@ -146,7 +149,7 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
     grid = errors_on_grid(trace, rate_hz)
     fits = [fit_axis(grid.axis(a), order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
-    return CalibrationResult(fits[0], fits[1], grid, trace.name)
+    return CalibrationResult(fits[0], fits[1], grid, trace.name, estimate_velocity(trace))
 
 
 #: Share of fixes in truth gaps, or of missing grid steps, that marks a

@@ -17,7 +17,8 @@ reported in the fix covariance), ``notes`` (free text), ``fit`` (how the
 profile was calibrated) and ``effects`` (model extensions written by
 ``gps_error diagnose --profile-out``; schema in :mod:`effects`; a profile
 without them behaves exactly as the paper's model) and ``availability``
-(fix outages, :mod:`availability`; without it every step has a fix). A
+(fix outages, :mod:`availability`; without it every step has a fix) and
+``velocity`` (reported speed and course, :mod:`velocity`). A
 profile without
 ``axes`` is a placeholder for a data set with no published fit; it loads, but
 :meth:`Profile.model` refuses it. Any other key is an error.
@@ -36,13 +37,15 @@ from gps_error_ros.model.availability import (Availability, availability_from_di
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
+from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
 
 SCHEMA_VERSION = 1
 PACKAGE = 'gps_error_ros'
 PROFILE_SUBDIR = ('config', 'profiles')
 
 _TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
-_TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability')
+_TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability',
+                 'velocity')
 _AXIS_KEYS = ('delta', 'phi', 'sigma_w')
 _NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
 
@@ -70,6 +73,7 @@ class Profile:
     effects: Effects = field(default_factory=Effects)
     path: str = ''
     availability: Availability = None
+    velocity: Velocity = None
 
     @property
     def fitted(self):
@@ -201,6 +205,12 @@ def profile_from_dict(raw, source='<profile>'):
             availability = availability_from_dict(raw['availability'], source)
         except AvailabilityError as exc:
             raise ProfileError(str(exc)) from None
+    velocity = None
+    if raw.get('velocity') is not None:
+        try:
+            velocity = velocity_from_dict(raw['velocity'], source)
+        except VelocityError as exc:
+            raise ProfileError(str(exc)) from None
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
@@ -215,7 +225,8 @@ def profile_from_dict(raw, source='<profile>'):
         fit=dict(raw.get('fit') or {}),
         effects=effects,
         path=source,
-        availability=availability)
+        availability=availability,
+        velocity=velocity)
 
 
 def load_profile_file(path):
@@ -310,7 +321,7 @@ def axes_mapping(north, east, digits=6):
 
 
 def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
-                    fit=None, availability=None):
+                    fit=None, availability=None, velocity=None):
     """
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
@@ -330,6 +341,10 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
         availability = availability.to_dict()
     if availability:
         prof['availability'] = availability
+    if isinstance(velocity, Velocity):
+        velocity = velocity.to_dict()
+    if velocity:
+        prof['velocity'] = velocity
     if fit is not None:
         prof['fit'] = fit
     return prof

@@ -59,6 +59,11 @@ DOMAIN_OUTAGE = 5
 #: Availability: the initial outage state's uniforms, one pair per start step.
 DOMAIN_INIT_OUTAGE = 6
 
+#: Velocity: the east/north normal pair of the velocity error, one per model step.
+DOMAIN_VELOCITY = 7
+#: Velocity: the initial velocity error's normal pair, one per start step.
+DOMAIN_INIT_VELOCITY = 8
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -66,6 +71,7 @@ DOMAINS = {
     'step': DOMAIN_STEP, 'init': DOMAIN_INIT, 'regime': DOMAIN_REGIME,
     'tail': DOMAIN_TAIL, 'init_regime': DOMAIN_INIT_REGIME,
     'outage': DOMAIN_OUTAGE, 'init_outage': DOMAIN_INIT_OUTAGE,
+    'velocity': DOMAIN_VELOCITY, 'init_velocity': DOMAIN_INIT_VELOCITY,
 }
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.sim.crowd import CrowdErrors
+from gps_error_ros.sim.velocity_sim import speed_and_course
 from gps_error_ros.model.effects import LagBuffer
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
@@ -46,10 +47,16 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, dig
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits)
 
 
-def simulate_csv(src, dst, model, rate_hz, seed):
-    """Add errors to a CSV of true positions; write a trace CSV; return counts."""
+def simulate_csv(src, dst, model, rate_hz, seed, velocity=None):
+    """
+    Add errors to a CSV of true positions; write a trace CSV; return counts.
+
+    With ``velocity`` (a profile's :class:`Velocity`) the trace also gets the
+    reported ``speed`` and ``bearing`` and the truth's ``truth_speed`` and
+    ``truth_bearing`` (:mod:`velocity_sim`).
+    """
     with atomic_output(dst) as tmp:
-        return _simulate_csv(src, tmp, model, rate_hz, seed)
+        return _simulate_csv(src, tmp, model, rate_hz, seed, velocity)
 
 
 def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
@@ -140,7 +147,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     return out
 
 
-def _simulate_csv(src, dst, model, rate_hz, seed):
+def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None):
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
@@ -165,8 +172,14 @@ def _simulate_csv(src, dst, model, rate_hz, seed):
     outages = isinstance(model, WithAvailability)
     # a row in an outage: status no_fix and no position (read back as a gap)
     lat_out[~fix] = lon_out[~fix] = np.nan
+    extra = {}
+    if velocity is not None:
+        cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
+        extra = dict(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
+        for k in ('speed', 'bearing'):
+            extra[k][~fix] = np.nan             # no fix: nothing reported
     write_trace_csv(Trace(Path(dst).name, t, lat_out, lon_out, data['truth_lat'],
-                          data['truth_lon']), dst, agent=data['agent'],
+                          data['truth_lon'], extra), dst, agent=data['agent'],
                     fix=fix if outages else None)
     out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
     if outages:

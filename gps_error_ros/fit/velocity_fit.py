@@ -1,0 +1,76 @@
+"""
+Fit a profile's ``velocity`` section from a trace's speed and course columns.
+
+Needs ``speed``, ``bearing`` (the phone's) and ``truth_speed``,
+``truth_bearing`` (the reference's), as the GSDC traces carry them. Both are
+turned into east/north velocity vectors (a course missing where the speed is
+0 is a zero vector; where the reference is slower than 0.2 m/s its course is
+missing and its vector taken as zero). Then, on the rows where the reference
+moves at 1 m/s or more and the phone reports a course:
+
+* ``lag_s``: the delay in 0, 0.1, .. 1.0 s for which the phone's velocity is
+  nearest (least RMS) to the reference's that much earlier (linear
+  interpolation of the reference's vectors in time);
+* ``sigma``: the RMS of the remaining error's east and north components
+  (pooled); ``phi``: its lag-1 autocorrelation on consecutive 1-s rows
+  (pooled over both components, about zero);
+* ``standstill``: the 95th percentile of the reference's speed over the rows
+  where the phone reported exactly 0 (at least 10 such rows; else 0); the
+  phone reports 0 at or below it.
+"""
+
+import numpy as np
+
+NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
+MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
+SLOW_TRUTH = 0.2      # m/s: below it the reference's course is missing and its vector 0
+LAGS = np.round(np.arange(0.0, 1.01, 0.1), 1)
+
+
+def vectors(speed, course_deg, zero_below=0.0):
+    """Return east/north vectors (n, 2); a missing course is 0 where the speed is small."""
+    speed = np.asarray(speed, dtype=float)
+    c = np.radians(np.asarray(course_deg, dtype=float))
+    v = np.stack([speed * np.sin(c), speed * np.cos(c)], axis=1)
+    small = ~np.isfinite(c) & np.isfinite(speed) & (speed <= zero_below)
+    v[small] = 0.0
+    return v
+
+
+def estimate_velocity(trace):
+    """Return (velocity section or None, evidence) for ``trace`` (see module doc)."""
+    missing = [k for k in NEEDED if k not in trace.extra]
+    if missing:
+        return None, {'fitted': False, 'reason': f'no column(s) {missing}'}
+    ex = trace.extra
+    phone = vectors(ex['speed'], ex['bearing'], zero_below=0.0)
+    truth = vectors(ex['truth_speed'], ex['truth_bearing'], zero_below=SLOW_TRUTH)
+    known = np.isfinite(truth).all(axis=1)
+    rows = known & np.isfinite(phone).all(axis=1) & (ex['truth_speed'] >= MOVING)
+    if rows.sum() < 30 or known.sum() < 2:
+        return None, {'fitted': False, 'reason': f'{int(rows.sum())} moving rows with both '
+                                                 f'velocities (30 needed)'}
+    t = trace.t
+    rms = {}
+    for lag in LAGS:
+        earlier = np.stack([np.interp(t[rows] - lag, t[known], truth[known, a])
+                            for a in range(2)], axis=1)
+        rms[float(lag)] = float(np.sqrt(np.mean((phone[rows] - earlier) ** 2)))
+    lag = min(rms, key=rms.get)
+    w = np.full_like(phone, np.nan)
+    w[rows] = phone[rows] - np.stack([np.interp(t[rows] - lag, t[known], truth[known, a])
+                                      for a in range(2)], axis=1)
+    pair = np.flatnonzero(rows[:-1] & rows[1:] & (np.diff(t) == 1.0))
+    sigma = float(np.sqrt(np.mean(w[rows] ** 2)))
+    phi = float(np.sum(w[pair] * w[pair + 1]) / np.sum(w[pair] ** 2)) if pair.size else 0.0
+    zero = ex['speed'] == 0
+    standstill = float(np.percentile(ex['truth_speed'][zero & np.isfinite(ex['truth_speed'])],
+                                     95)) if zero.sum() >= 10 else 0.0
+    section = {'sigma': round(sigma, 6), 'phi': round(min(max(phi, -0.99), 0.99), 6),
+               'lag_s': float(lag), 'standstill': round(standstill, 4)}
+    evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),
+                'rms_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
+                'mean_error_east_north': [round(float(np.mean(w[rows, a])), 4)
+                                          for a in range(2)],
+                'zero_speed_rows': int(zero.sum())}
+    return section, evidence

@@ -1,0 +1,88 @@
+"""Reported speed and course: the velocity error process, and calibrate's fit of it."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gps_error_ros.cli import main as cli
+from gps_error_ros.model import streams
+from gps_error_ros.model.geodesy import offset
+from gps_error_ros.model.profiles import load_profile, load_profile_file, ProfileError
+from gps_error_ros.model.velocity import velocity_from_dict
+from gps_error_ros.sim.simulate import simulate_csv
+
+TRUE = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.4, 'standstill': 0.0}
+DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+
+
+def test_the_error_process_and_what_the_phone_reports():
+    v = velocity_from_dict(TRUE)
+    keys = streams.agent_keys(2, [f'a{i}' for i in range(400)])
+    w = v.errors(keys, 300, start=20)                       # (steps, agents, 2)
+    n = w[:, :, 0].size
+    assert abs(w.std() - 0.15) < 5 * 0.15 / np.sqrt(n / 6)    # ~6 steps per independent value
+    r1 = np.sum(w[1:] * w[:-1]) / np.sum(w[:-1] ** 2)
+    assert abs(r1 - 0.7) < 0.02
+    alone = v.errors(keys[7:8], 300, start=20)
+    np.testing.assert_array_equal(alone[:, 0], w[:, 7])       # each agent its own stream
+    speed, course = v.report(np.array([[0.0, 1.4], [0.0, 0.0], [3.0, 0.0]]), w[5, :3])
+    assert speed[1] == 0 and np.isnan(course[1])              # standstill: 0, no course
+    assert (speed >= 0).all() and 0 <= course[2] < 360
+    # the course error grows as the walker slows: about sigma / speed radians
+    walk = np.zeros((400, 2))
+    walk[:, 1] = 1.4
+    _, c = v.report(walk, w[100])
+    spread = np.degrees(np.sqrt(np.mean(np.radians((c + 180) % 360 - 180) ** 2)))
+    assert abs(spread - np.degrees(0.15 / 1.4)) < 2.0
+
+
+def write_drive(path, steps=1500):
+    """A drive north-east with a speed between 1 and 13 m/s (period 90 s) and turns."""
+    t = np.arange(steps, dtype=float)
+    speed = 7.0 + 6.0 * np.sin(2 * np.pi * t / 90.0)
+    heading = np.radians(45.0 + 40.0 * np.sin(2 * np.pi * t / 400.0))
+    lat, lon = np.empty(steps), np.empty(steps)
+    lat[0], lon[0] = 37.4, -122.1
+    for k in range(1, steps):
+        lat[k], lon[k] = offset(lat[k - 1], lon[k - 1], speed[k] * np.cos(heading[k]),
+                                speed[k] * np.sin(heading[k]))
+    path.write_text('t,truth_lat,truth_lon\n' + ''.join(
+        f'{a:g},{float(b)!r},{float(c)!r}\n' for a, b, c in zip(t, lat, lon)))
+
+
+def test_calibrate_recovers_a_known_velocity_section(tmp_path):
+    write_drive(tmp_path / 'truth.csv')
+    velocity = velocity_from_dict(TRUE)
+    simulate_csv(tmp_path / 'truth.csv', tmp_path / 'noisy.csv', load_profile('DS1').model(),
+                 1.0, 5, velocity)
+    assert cli(['calibrate', str(tmp_path / 'noisy.csv'), '-o', str(tmp_path / 'p.yaml'),
+                '--order', '3']) == 0
+    got = load_profile_file(tmp_path / 'p.yaml').velocity
+    assert got.lag_s == pytest.approx(0.4)
+    assert got.sigma == pytest.approx(0.15, rel=0.15)
+    assert got.phi == pytest.approx(0.7, abs=0.08)
+
+
+def test_the_measured_phones_give_a_half_second_lag_and_decimetre_errors(tmp_path):
+    for name in ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv'):
+        assert cli(['calibrate', str(DATA / name), '-o', str(tmp_path / 'p.yaml'),
+                    '--order', '3']) == 0
+        fitted = load_profile_file(tmp_path / 'p.yaml')
+        v = fitted.velocity
+        assert 0.3 <= v.lag_s <= 0.7 and 0.05 < v.sigma < 0.3 and 0.3 < v.phi < 0.9, v
+        assert fitted.fit['velocity']['moving_rows'] > 1500
+
+
+@pytest.mark.parametrize('section, expected', [
+    ({'sigma': 0.1, 'phi': 0.5}, 'exactly'),
+    ({'sigma': 0.0, 'phi': 0.5, 'lag_s': 0.0, 'standstill': 0.0}, 'velocity.sigma'),
+    ({'sigma': 0.1, 'phi': 1.0, 'lag_s': 0.0, 'standstill': 0.0}, 'velocity.phi'),
+    ({'sigma': 0.1, 'phi': 0.5, 'lag_s': -1, 'standstill': 0.0}, 'velocity.lag_s'),
+])
+def test_a_bad_section_is_refused_naming_the_key(section, expected):
+    from gps_error_ros.model.profiles import profile_from_dict
+    raw = {'schema': 1, 'name': 'v', 'description': 'd', 'source': 's', 'rate_hz': 1.0,
+           'velocity': section}
+    with pytest.raises(ProfileError, match=expected):
+        profile_from_dict(raw, 'v.yaml')
