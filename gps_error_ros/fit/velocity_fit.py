@@ -28,7 +28,7 @@ LAGS = np.round(np.arange(0.0, 1.01, 0.1), 1)
 
 
 def vectors(speed, course_deg, zero_below=0.0):
-    """Return east/north vectors (n, 2); a missing course is 0 where the speed is small."""
+    """Turn speeds and courses into east/north rows; no course at a low speed is 0."""
     speed = np.asarray(speed, dtype=float)
     c = np.radians(np.asarray(course_deg, dtype=float))
     v = np.stack([speed * np.sin(c), speed * np.cos(c)], axis=1)

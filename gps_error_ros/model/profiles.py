@@ -165,6 +165,16 @@ def _axis(source, name, raw):
         raise ProfileError(f'{source}: key {key!r}: {exc}') from None
 
 
+def _section(raw, key, parse, source):
+    """Return an optional section parsed by ``parse``, or None; its error as ProfileError."""
+    if raw.get(key) is None:
+        return None
+    try:
+        return parse(raw[key], source)
+    except (AvailabilityError, VelocityError) as exc:
+        raise ProfileError(str(exc)) from None
+
+
 def profile_from_dict(raw, source='<profile>'):
     """Validate a parsed profile mapping and return a :class:`Profile`."""
     if not isinstance(raw, dict):
@@ -199,18 +209,8 @@ def profile_from_dict(raw, source='<profile>'):
         effects = effects_from_dict(raw.get('effects') or {}, source)
     except EffectsError as exc:
         raise ProfileError(str(exc)) from None
-    availability = None
-    if raw.get('availability') is not None:
-        try:
-            availability = availability_from_dict(raw['availability'], source)
-        except AvailabilityError as exc:
-            raise ProfileError(str(exc)) from None
-    velocity = None
-    if raw.get('velocity') is not None:
-        try:
-            velocity = velocity_from_dict(raw['velocity'], source)
-        except VelocityError as exc:
-            raise ProfileError(str(exc)) from None
+    availability = _section(raw, 'availability', availability_from_dict, source)
+    velocity = _section(raw, 'velocity', velocity_from_dict, source)
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])

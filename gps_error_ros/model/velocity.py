@@ -49,19 +49,24 @@ class Velocity:
         """Return the profile section as plain data."""
         return {k: float(getattr(self, k)) for k in ('sigma', 'phi', 'lag_s', 'standstill')}
 
+    def initial(self, keys, index):
+        """Return the error (n, 2) east/north at a run's first step ``index``."""
+        return self.sigma * streams.normal_pairs(keys, streams.DOMAIN_INIT_VELOCITY, index)
+
+    def step(self, w, keys, index):
+        """Return the error at step ``index`` after ``w`` at the step before."""
+        z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY, index)
+        return self.phi * w + np.sqrt(1.0 - self.phi ** 2) * self.sigma * z
+
     def errors(self, keys, n_steps, start=0):
         """Return the velocity errors at steps ``start ..``, (n_steps, n, 2) east/north m/s."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         out = np.empty((n_steps, keys.size, 2))
         if not n_steps:
             return out
-        w = self.sigma * streams.normal_pairs(keys, streams.DOMAIN_INIT_VELOCITY, start)
-        out[0] = w
-        scale = np.sqrt(1.0 - self.phi ** 2) * self.sigma
+        out[0] = w = self.initial(keys, start)
         for i in range(1, n_steps):
-            z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY, start + i)
-            w = self.phi * w + scale * z
-            out[i] = w
+            out[i] = w = self.step(w, keys, start + i)
         return out
 
     def report(self, v_true, w):

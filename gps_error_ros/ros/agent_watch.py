@@ -194,6 +194,9 @@ class PatternAgents:
         for slot in slots:
             self.subs[slot].destroy()
             self.destroy_publisher(self.pubs[slot])
+            if self.vel_pubs[slot] is not None:
+                self.destroy_publisher(self.vel_pubs[slot])
+                self.vel_pubs[slot] = None
             self.agents[slot] = self.subs[slot] = self.pubs[slot] = None
             self.sub_handles[slot] = self.pub_handles[slot] = None
         self.groups[0].engine.detach(slots)
@@ -201,7 +204,8 @@ class PatternAgents:
     def _grow(self, n):
         """Add ``n`` free slots (pattern mode: one profile group)."""
         self.groups[0].engine.grow(n)
-        for lst in (self.agents, self.subs, self.pubs, self.sub_handles, self.pub_handles):
+        for lst in (self.agents, self.subs, self.pubs, self.sub_handles, self.pub_handles,
+                    self.vel_pubs):
             lst.extend([None] * n)
         size = len(self.agents)
         self.groups[0].members = np.arange(size)

@@ -3,7 +3,7 @@
 import math
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PoseStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
@@ -90,4 +90,28 @@ def make_no_fix(stamp, frame_id):
     msg.status.service = NavSatStatus.SERVICE_GPS
     msg.latitude = msg.longitude = msg.altitude = math.nan
     msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+    return msg
+
+
+#: Variance written for what a phone does not report (angular velocity): unknown.
+UNKNOWN_VARIANCE = 1e6
+
+
+def make_twist(stamp, frame_id, east, north, variance):
+    """
+    Return a TwistWithCovarianceStamped: a phone's velocity in ENU (m/s).
+
+    ``variance`` (m^2/s^2) on the linear x, y, z diagonal; the angular part
+    is not reported: zero, with a variance of :data:`UNKNOWN_VARIANCE`.
+    """
+    msg = TwistWithCovarianceStamped()
+    msg.header.stamp = to_stamp(stamp)
+    msg.header.frame_id = frame_id
+    msg.twist.twist.linear.x = float(east)
+    msg.twist.twist.linear.y = float(north)
+    cov = [0.0] * 36
+    for i in range(3):
+        cov[7 * i] = float(variance)
+        cov[7 * (i + 3)] = UNKNOWN_VARIANCE
+    msg.twist.covariance = cov
     return msg

@@ -23,6 +23,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rcl_interfaces.msg import SetParametersResult
+from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.sim.engine import FixEngine, NS
@@ -135,7 +136,8 @@ class GpsErrorNode(PatternAgents, Node):
                                model_rate=profile.rate_hz,
                                max_pose_age=cfg['max_pose_age'], active=active,
                                start_ns=(None if cfg['start_time'] < 0
-                                         else int(round(cfg['start_time'] * NS))))
+                                         else int(round(cfg['start_time'] * NS))),
+                               velocity=profile.velocity)
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
@@ -158,6 +160,7 @@ class GpsErrorNode(PatternAgents, Node):
         n = len(self.agents)
         self.subs, self.pubs = [None] * n, [None] * n
         self.sub_handles, self.pub_handles = [None] * n, [None] * n
+        self.vel_pubs = [None] * n      # with a profile velocity section
         for i, name in enumerate(self.agents):
             if name is not None:
                 prefix = f'{name}/' if name else ''
@@ -180,6 +183,10 @@ class GpsErrorNode(PatternAgents, Node):
         self.subs[i], self.pubs[i] = sub, pub
         self.sub_handles[i] = (sub.handle, sub.msg_type)
         self.pub_handles[i] = pub.handle
+        if self.groups[self.slot_group[i]].engine.vel is not None:
+            self.vel_pubs[i] = self.create_publisher(
+                TwistWithCovarianceStamped, fix_topic[:-len('fix')] + 'vel',
+                FIX_QOS[self.fix_reliability], event_callbacks=self.pub_events)
 
     def _log_start(self, cfg, profiles):
         """Log what the node serves: each profile, its agents and its SD."""

@@ -36,6 +36,7 @@ class FixOutput:
         self.burst = FIX_BURST if best_effort else None
         self.refused = 0            # non-finite positions not published
         self.no_fix = 0             # NO_FIX messages published
+        self.velocities = 0         # vel messages published
         self.fix_templates, self.no_fix_template = [], None
 
     def templates(self, frame_id):
@@ -62,11 +63,13 @@ class FixOutput:
         return has & finite, none
 
     def publish(self, g, fixes):
-        """Publish the fix batches of profile group ``g``."""
+        """Publish the fix batches of profile group ``g`` (and their velocities)."""
         node = self.node
         members = node.groups[g].members
         for fix in fixes:
             good, none = self._split(fix)
+            if fix.velocity is not None:
+                self._velocities(g, fix, good)
             if node.polled:
                 raws = self.fix_templates[g].render(
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
@@ -89,6 +92,20 @@ class FixOutput:
                 else:
                     pub.publish(conversions.make_no_fix(fix.stamp_ns, self.frame_id))
                     self.no_fix += 1
+
+    def _velocities(self, g, fix, good):
+        """Publish ``vel`` for the rows with a fix and a velocity."""
+        node = self.node
+        members = node.groups[g].members
+        variance = node.groups[g].engine.vel.velocity.sigma ** 2
+        rows = np.flatnonzero(good & np.isfinite(fix.velocity).all(axis=1))
+        for row in rows:
+            pub = node.vel_pubs[members[fix.agents[row]]]
+            if pub is not None:
+                pub.publish(conversions.make_twist(
+                    fix.stamp_ns, self.frame_id, fix.velocity[row, 0], fix.velocity[row, 1],
+                    variance))
+        self.velocities += rows.size
 
     def _send(self, handles, raws):
         burst = self.burst or max(len(raws), 1)

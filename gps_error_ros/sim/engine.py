@@ -61,6 +61,7 @@ import numpy as np
 
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.sim.velocity_state import VelocityState
 
 NS = 1_000_000_000
 FUTURE_TOLERANCE_S = 60.0
@@ -93,6 +94,7 @@ class FixBatch:
     alt: np.ndarray
     error: np.ndarray = field(repr=False)
     fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
+    velocity: np.ndarray = field(default=None, repr=False)  # (m, 2) east/north m/s
 
 
 @dataclass
@@ -104,6 +106,7 @@ class _Step:
     err: np.ndarray       # (n, 2) north/east errors of every slot
     done: np.ndarray      # (n,) True once resolved (or free)
     fix: np.ndarray       # (n,) False in an outage (profile availability)
+    vel_err: np.ndarray = None   # (n, 2) east/north velocity errors (profile velocity)
 
 
 class _TruthRing:
@@ -196,7 +199,7 @@ class FixEngine:
     """
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
-                 history=64, max_pending=1000, active=True, start_ns=None):
+                 history=64, max_pending=1000, active=True, start_ns=None, velocity=None):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -224,6 +227,8 @@ class FixEngine:
         self.last_skipped = np.full(self.n, -1, dtype=np.int64)
         self.active = np.full(self.n, bool(active))
         self.stats = EngineStats()
+        # reported velocity (a profile's velocity section), stepped with the model
+        self.vel = None if velocity is None else VelocityState(velocity, self.n)
         self._reset_time()
 
     def _reset_time(self):
@@ -308,10 +313,14 @@ class FixEngine:
         self.truth.grow(n)
         if self.state is not None:
             self.state = np.concatenate([self.state, self.model.empty_state(n)])
+        if self.vel is not None:
+            self.vel.grow(n)
         for step in self.pending:
             step.err = np.concatenate([step.err, np.zeros((n, 2))])
             step.done = np.concatenate([step.done, np.ones(n, dtype=bool)])
             step.fix = np.concatenate([step.fix, np.ones(n, dtype=bool)])
+            if step.vel_err is not None:
+                step.vel_err = np.concatenate([step.vel_err, np.zeros((n, 2))])
         self.n += n
 
     def attach(self, slots, keys):
@@ -345,6 +354,11 @@ class FixEngine:
             m += 1
             self.model.advance(state, keys, m)
         self.state[slots] = state
+        if self.vel is not None:
+            ws = self.vel.history(keys, self.start_index, self.model_index)
+            for step in self.pending:
+                step.vel_err[slots] = ws[step.model_step - self.start_index]
+            self.vel.w[slots] = ws[-1]
 
     def detach(self, slots):
         """Free ``slots``: no more fixes for them, their truth forgotten."""
@@ -397,13 +411,18 @@ class FixEngine:
         if self.state is None:
             self.state = self.model.initial_state(self.keys, m)
             self.model_index = self.start_index = m
+            if self.vel is not None:
+                self.vel.start(self.keys, m)
         while self.model_index < m:
             self.model_index += 1
             self.model.advance(self.state, self.keys, self.model_index)
+            if self.vel is not None:
+                self.vel.advance(self.keys, self.model_index)
         self.stats.steps += 1
         # free slots are done already
         self.pending.append(_Step(t_ns, m, self.model.errors(self.state), ~self.active,
-                                  available(self.model, self.state)))
+                                  available(self.model, self.state),
+                                  None if self.vel is None else self.vel.w.copy()))
 
     def resolve(self, now_ns):
         """Return fixes for pending steps whose truth is now known."""
@@ -460,5 +479,9 @@ class FixEngine:
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position
         self.stats.fixes += int(fix.sum())
         self.stats.no_fix += int((~fix).sum())
+        velocity = None
+        if self.vel is not None:
+            velocity = self.vel.reported(self.truth, agents, step.t_ns,
+                                         step.vel_err[agents], self.max_gap_ns)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
-                        alt=coords[:, 2].copy(), error=err, fix=fix)
+                        alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity)

@@ -1,9 +1,11 @@
 """
 Reported speed and course for trajectories (``gps_error simulate`` CSV mode).
 
-The true velocity of each agent comes from its own truth positions: central
-differences in east/north metres (one-sided at the ends, zero for an agent
-seen once), then taken ``lag_s`` earlier by linear interpolation in time.
+The true velocity of each agent at time ``t`` is the chord of its truth over
+the second before ``t`` (positions linear in time between rows, clamped at
+the ends, so an agent's first second has speed 0), taken at ``t - lag_s``
+for what the phone reports: the error node's definition
+(:mod:`velocity_state`).
 The velocity error of each agent is its own stream from the run's first step
 (:meth:`Velocity.errors`), indexed by each row's model step, so an agent's
 reported speed and course do not depend on the other agents.
@@ -17,19 +19,17 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.geodesy import difference
 
 
-def true_velocity(t, lat, lon):
-    """Return east/north velocity (n, 2) of one agent's truth rows (t increasing)."""
-    n = t.size
-    v = np.zeros((n, 2))
-    if n < 2:
-        return v
-    north, east = difference(lat[1:], lon[1:], lat[:-1], lon[:-1])
-    step = np.stack([east, north], axis=1) / np.diff(t)[:, None]
-    v[0], v[-1] = step[0], step[-1]
-    if n > 2:       # central: the chord from the previous to the next row
-        n2, e2 = difference(lat[2:], lon[2:], lat[:-2], lon[:-2])
-        v[1:-1] = np.stack([e2, n2], axis=1) / (t[2:] - t[:-2])[:, None]
-    return v
+def true_velocity(t, lat, lon, at):
+    """
+    Return east/north m/s at times ``at``: the chord over the second before.
+
+    The truth is linear in time between rows (clamped at the ends), as the
+    error node interpolates it.
+    """
+    la1, lo1 = np.interp(at, t, lat), np.interp(at, t, lon)
+    la0, lo0 = np.interp(at - 1.0, t, lat), np.interp(at - 1.0, t, lon)
+    north, east = difference(la1, lo1, la0, lo0)
+    return np.stack([np.asarray(east), np.asarray(north)], axis=1)
 
 
 def speed_and_course(velocity, seed, data, start_step, rate_hz):
@@ -45,9 +45,9 @@ def speed_and_course(velocity, seed, data, start_step, rate_hz):
     for name in dict.fromkeys(agents):
         rows = np.flatnonzero(agents == name)
         tt = t[rows]
-        vt = true_velocity(tt, data['truth_lat'][rows], data['truth_lon'][rows])
-        lagged = np.stack([np.interp(tt - velocity.lag_s, tt, vt[:, a]) for a in range(2)],
-                          axis=1)
+        lat, lon = data['truth_lat'][rows], data['truth_lon'][rows]
+        vt = true_velocity(tt, lat, lon, tt)
+        lagged = true_velocity(tt, lat, lon, tt - velocity.lag_s)
         steps = np.floor(tt * rate_hz + 1e-9).astype(np.int64) - start_step
         key = np.array([streams.agent_key(seed, name)], dtype=np.uint64)
         w = velocity.errors(key, int(steps.max()) + 1, start=start_step)[steps, 0]

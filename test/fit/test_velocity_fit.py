@@ -38,7 +38,7 @@ def test_the_error_process_and_what_the_phone_reports():
 
 
 def write_drive(path, steps=1500):
-    """A drive north-east with a speed between 1 and 13 m/s (period 90 s) and turns."""
+    """Write a drive north-east, at 1 to 13 m/s (period 90 s), with turns."""
     t = np.arange(steps, dtype=float)
     speed = 7.0 + 6.0 * np.sin(2 * np.pi * t / 90.0)
     heading = np.radians(45.0 + 40.0 * np.sin(2 * np.pi * t / 400.0))

@@ -1,0 +1,61 @@
+"""
+The fix engine's reported velocity, from the truth it holds.
+
+Each agent's velocity error is stepped with its model, and its true velocity
+comes from the truth the engine holds.
+
+The true velocity at a step's instant ``t`` is the chord of the truth over
+the second before ``t - lag_s`` (truth interpolated linearly in time, as for
+positions), in east/north m/s: the same definition ``gps_error simulate``
+uses (:mod:`velocity_sim`), so both report the same speed and course. No
+velocity is reported where the truth does not reach back that far.
+"""
+
+import numpy as np
+
+from gps_error_ros.model.geodesy import difference
+
+NS = 1_000_000_000
+
+
+class VelocityState:
+    """Velocity errors of the engine's agents (rows), one model step at a time."""
+
+    def __init__(self, velocity, n):
+        self.velocity = velocity
+        self.w = np.zeros((n, 2))
+        self.lag_ns = int(round(velocity.lag_s * NS))
+
+    def start(self, keys, index):
+        """Draw every agent's error at the run's first model step."""
+        self.w = self.velocity.initial(keys, index)
+
+    def advance(self, keys, index):
+        """Step every agent's error to model step ``index``."""
+        self.w = self.velocity.step(self.w, keys, index)
+
+    def grow(self, n):
+        """Add ``n`` rows (free slots)."""
+        self.w = np.concatenate([self.w, np.zeros((n, 2))])
+
+    def history(self, keys, start, end):
+        """Return the errors of ``keys`` at model steps start..end, (steps, k, 2)."""
+        return self.velocity.errors(keys, end - start + 1, start)
+
+    def reported(self, truth, agents, t_ns, w, max_gap_ns):
+        """
+        Return the velocity (m, 2) east/north the phones of ``agents`` report at ``t_ns``.
+
+        ``truth`` is the engine's truth ring, ``w`` the agents' errors at the
+        step. NaN rows: the truth does not reach back to ``t - lag - 1 s``.
+        """
+        at = t_ns - self.lag_ns
+        c1, ok1 = truth.interpolate(agents, at, max_gap_ns)
+        c0, ok0 = truth.interpolate(agents, at - NS, max_gap_ns)
+        ok = ok1 & ok0 & (truth.newest[agents] >= at)
+        north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
+        v_true = np.stack([east, north], axis=1)
+        out = v_true + w
+        out[np.hypot(v_true[:, 0], v_true[:, 1]) <= self.velocity.standstill] = 0.0
+        out[~ok] = np.nan
+        return out
