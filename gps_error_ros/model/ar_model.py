@@ -235,6 +235,15 @@ class ARErrorModel:
                     x[:, i] += self._state_chol[i, j] * z[:, j]
         return x.reshape(keys.size, 2, p)
 
+    def predictive_cov(self, state, first=False):
+        """
+        Return each agent's covariance (n, 2, 2) of the next error given ``state``.
+
+        For the AR process this is the innovation covariance, the same for
+        every agent and step (``first``: at a run's first step, likewise).
+        """
+        return np.repeat(self.innovation_cov[None], state.shape[0], axis=0)
+
     def empty_state(self, n):
         """Return a state array for ``n`` agents (zeros)."""
         return np.zeros((n, 2, self.order))

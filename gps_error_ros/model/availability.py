@@ -176,6 +176,10 @@ class WithAvailability:
         """Return the current north/east errors of the inner model, (n, 2)."""
         return self.inner.errors(state[:, :, :-1])
 
+    def predictive_cov(self, state, first=False):
+        """Return the inner model's covariance of the next error (n, 2, 2)."""
+        return self.inner.predictive_cov(state[:, :, :-1], first)
+
     def available(self, state):
         """Return which agents have a fix at the current step."""
         return state[:, 0, -1] == 0

@@ -283,6 +283,24 @@ class ExtendedModel:
         """Return the current errors, mean included, shape (n, 2)."""
         return state[:, :, 0] + self.mean
 
+    def predictive_cov(self, state, first=False):
+        """
+        Return each agent's covariance (n, 2, 2) of the next error given ``state``.
+
+        The innovation covariance times the expected squared regime scale of
+        the next step given the current regime (``first``: given the regimes'
+        stationary law); heavy tails keep the unit variance.
+        """
+        n = state.shape[0]
+        factor = np.ones(n)
+        if self.scales.size > 1:
+            s2 = self.scales ** 2
+            if first:
+                factor[:] = float(self.pi @ s2)
+            else:
+                factor = np.asarray(self.effects.transition)[self.regimes(state)] @ s2
+        return self.unit.innovation_cov[None] * factor[:, None, None]
+
     def regimes(self, state):
         """Return the current regime index of each agent."""
         return state[:, 0, self.order].astype(np.int64)

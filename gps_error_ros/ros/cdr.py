@@ -165,8 +165,12 @@ class FixTemplate:
         off = _align(_align(12 + slen + 1, 2) + 2, 8)
         self.pos_off = HEADER + off
 
-    def render(self, stamp_ns, lat, lon, alt):
-        """Return a list of serialized fixes (one per row of lat/lon/alt)."""
+    def render(self, stamp_ns, lat, lon, alt, cov=None):
+        """
+        Return a list of serialized fixes (one per row of lat/lon/alt).
+
+        ``cov`` (m, 9), row-major ENU m^2 per fix, replaces the template's.
+        """
         m = len(lat)
         buf = np.tile(self.template, (m, 1))
         stamp = np.empty((m, 2), dtype='<u4')
@@ -176,4 +180,7 @@ class FixTemplate:
         pos = np.empty((m, 3), dtype='<f8')
         pos[:, 0], pos[:, 1], pos[:, 2] = lat, lon, alt
         buf[:, self.pos_off:self.pos_off + 24] = pos.view(np.uint8).reshape(m, 24)
+        if cov is not None:         # the covariance follows the position directly
+            c = np.ascontiguousarray(cov, dtype='<f8')
+            buf[:, self.pos_off + 24:self.pos_off + 96] = c.view(np.uint8).reshape(m, 72)
         return [row.tobytes() for row in buf]

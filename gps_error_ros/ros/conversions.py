@@ -2,6 +2,8 @@
 
 import math
 
+import numpy as np
+
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
@@ -64,6 +66,15 @@ def enu_covariance(cov_ne, vertical_var):
     kind = NavSatFix.COVARIANCE_TYPE_KNOWN if c != 0.0 else \
         NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
     return cov, kind
+
+
+def enu_covariances(cov_ne, vertical_var):
+    """Return row-major ENU 3x3 covariances (m, 9) of north/east 2x2 ones (m, 2, 2)."""
+    out = np.zeros((cov_ne.shape[0], 9))
+    out[:, 0], out[:, 1] = cov_ne[:, 1, 1], cov_ne[:, 1, 0]
+    out[:, 3], out[:, 4] = cov_ne[:, 0, 1], cov_ne[:, 0, 0]
+    out[:, 8] = vertical_var
+    return out
 
 
 def make_fix(stamp, frame_id, lat, lon, alt, covariance, covariance_type):

@@ -103,7 +103,8 @@ class GpsErrorNode(PatternAgents, Node):
         self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
         self.invalid_truth = 0              # truth messages that could not be used
         self.fix_output = FixOutput(self, cfg['outage_output'],
-                                    self.fix_reliability == 'best_effort')
+                                    self.fix_reliability == 'best_effort',
+                                    cfg['covariance_mode'] == 'conditional')
         self.fix_output.templates(self.frame_id)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -137,7 +138,8 @@ class GpsErrorNode(PatternAgents, Node):
                                max_pose_age=cfg['max_pose_age'], active=active,
                                start_ns=(None if cfg['start_time'] < 0
                                          else int(round(cfg['start_time'] * NS))),
-                               velocity=profile.velocity)
+                               velocity=profile.velocity,
+                               conditional_cov=cfg['covariance_mode'] == 'conditional')
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)

@@ -30,9 +30,10 @@ NO_COVARIANCE = [0.0] * 9
 class FixOutput:
     """Publish the engine's fix batches on the node's per-agent publishers."""
 
-    def __init__(self, node, outage_output, best_effort):
+    def __init__(self, node, outage_output, best_effort, conditional=False):
         self.node = node
         self.outage_output = outage_output
+        self.conditional = conditional      # covariance per fix (covariance_mode)
         self.burst = FIX_BURST if best_effort else None
         self.refused = 0            # non-finite positions not published
         self.no_fix = 0             # NO_FIX messages published
@@ -43,12 +44,22 @@ class FixOutput:
         """Build the serialized messages again (at start, and for a new frame_id)."""
         self.frame_id = frame_id
         self.fix_templates = [
-            cdr.FixTemplate(frame_id, group.covariance, group.covariance_type,
+            cdr.FixTemplate(frame_id, group.covariance, self._cov_type(group),
                             NavSatStatus.STATUS_FIX, NavSatStatus.SERVICE_GPS)
             for group in self.node.groups]
         self.no_fix_template = cdr.FixTemplate(
             frame_id, NO_COVARIANCE, NavSatFix.COVARIANCE_TYPE_UNKNOWN,
             NavSatStatus.STATUS_NO_FIX, NavSatStatus.SERVICE_GPS)
+
+    def _cov_type(self, group):
+        return NavSatFix.COVARIANCE_TYPE_KNOWN if self.conditional else group.covariance_type
+
+    def _covs(self, g, fix, rows):
+        """Return the per-fix ENU covariances (m, 9) of ``rows``, or None (the group's)."""
+        if not self.conditional or fix.cov is None:
+            return None
+        vertical = self.node.groups[g].covariance[8]
+        return conversions.enu_covariances(fix.cov[rows], vertical)
 
     def _split(self, fix):
         """Return (rows to publish with a position, rows without a fix)."""
@@ -72,7 +83,8 @@ class FixOutput:
                 self._velocities(g, fix, good)
             if node.polled:
                 raws = self.fix_templates[g].render(
-                    fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good])
+                    fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good],
+                    self._covs(g, fix, good))
                 handles = [node.pub_handles[i] for i in members[fix.agents[good]]]
                 if none.any():
                     n = int(none.sum())
@@ -83,12 +95,14 @@ class FixOutput:
                 self._send(handles, raws)
                 continue
             group = node.groups[g]
+            covs = self._covs(g, fix, slice(None))
             for row in np.flatnonzero(good | none):
                 pub = node.pubs[members[fix.agents[row]]]
                 if good[row]:
                     pub.publish(conversions.make_fix(
-                        fix.stamp_ns, self.frame_id, fix.lat[row], fix.lon[row],
-                        fix.alt[row], group.covariance, group.covariance_type))
+                        fix.stamp_ns, self.frame_id, fix.lat[row], fix.lon[row], fix.alt[row],
+                        group.covariance if covs is None else covs[row].tolist(),
+                        self._cov_type(group)))
                 else:
                     pub.publish(conversions.make_no_fix(fix.stamp_ns, self.frame_id))
                     self.no_fix += 1

@@ -107,6 +107,12 @@ ERROR_NODE_PARAMS = (
               'CPU; a crowd then publishes its fixes in bursts of 100, 1 ms '
               'apart, so that a subscriber\'s queue is not overrun.',
               choices=('reliable', 'best_effort')),
+    ParamSpec('covariance_mode', 'stationary', ParameterType.PARAMETER_STRING,
+              'The fix covariance: stationary, the profile\'s unconditional error '
+              'covariance (the same for every fix); conditional, the model\'s '
+              'covariance of this fix\'s error given its state a step before (the '
+              'innovation covariance, scaled by the regimes expected next), per fix, '
+              'COVARIANCE_TYPE_KNOWN.', choices=('stationary', 'conditional')),
     ParamSpec('outage_output', 'no_fix', ParameterType.PARAMETER_STRING,
               'What a step in an outage (profile availability) publishes: no_fix, a '
               'NavSatFix with status NO_FIX, position NaN and covariance unknown '

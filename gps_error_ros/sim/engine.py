@@ -61,6 +61,7 @@ import numpy as np
 
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.sim.truth_ring import TruthRing
 from gps_error_ros.sim.velocity_state import VelocityState
 
 NS = 1_000_000_000
@@ -95,6 +96,7 @@ class FixBatch:
     error: np.ndarray = field(repr=False)
     fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
     velocity: np.ndarray = field(default=None, repr=False)  # (m, 2) east/north m/s
+    cov: np.ndarray = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
 
 
 @dataclass
@@ -107,65 +109,7 @@ class _Step:
     done: np.ndarray      # (n,) True once resolved (or free)
     fix: np.ndarray       # (n,) False in an outage (profile availability)
     vel_err: np.ndarray = None   # (n, 2) east/north velocity errors (profile velocity)
-
-
-class _TruthRing:
-    """Per-agent circular buffers of (stamp, lat, lon, alt)."""
-
-    def __init__(self, n, size):
-        self.size = size
-        self.stamp = np.full((n, size), -1, dtype=np.int64)
-        self.coord = np.zeros((n, size, 3))
-        self.head = np.zeros(n, dtype=np.int64)      # next slot to write
-        self.newest = np.full(n, -1, dtype=np.int64)
-
-    def push(self, agents, stamps, coords):
-        """Store one sample for each of ``agents`` (distinct agent indices)."""
-        slot = self.head[agents] % self.size
-        self.stamp[agents, slot] = stamps
-        self.coord[agents, slot] = coords
-        self.head[agents] += 1
-        self.newest[agents] = stamps
-
-    def newest_coord(self, rows):
-        """Return the newest sample's coordinates for ``rows``."""
-        return self.coord[rows, (self.head[rows] - 1) % self.size]
-
-    def clear(self, rows=slice(None)):
-        """Forget every sample (of ``rows``: all by default)."""
-        self.stamp[rows] = -1
-        self.newest[rows] = -1
-        self.head[rows] = 0
-
-    def grow(self, n):
-        """Add ``n`` empty rows."""
-        self.stamp = np.concatenate([self.stamp, np.full((n, self.size), -1, np.int64)])
-        self.coord = np.concatenate([self.coord, np.zeros((n, self.size, 3))])
-        self.head = np.concatenate([self.head, np.zeros(n, np.int64)])
-        self.newest = np.concatenate([self.newest, np.full(n, -1, np.int64)])
-
-    def interpolate(self, rows, t_ns, max_gap_ns):
-        """
-        Return truth at ``t_ns`` for ``rows`` (each must have a sample >= t).
-
-        Returns (coords (m, 3), ok (m,)): ``ok`` is False where no sample at
-        or before ``t_ns`` is held.
-        """
-        stamps = self.stamp[rows]
-        valid = stamps >= 0
-        after = np.where(valid & (stamps >= t_ns), stamps, np.iinfo(np.int64).max)
-        before = np.where(valid & (stamps <= t_ns), stamps, -1)
-        i_hi = np.argmin(after, axis=1)
-        i_lo = np.argmax(before, axis=1)
-        ok = before[np.arange(len(rows)), i_lo] >= 0
-        s_lo = stamps[np.arange(len(rows)), i_lo].astype(float)
-        s_hi = stamps[np.arange(len(rows)), i_hi].astype(float)
-        ok &= (s_hi - s_lo) <= max_gap_ns
-        c_lo = self.coord[rows, i_lo]
-        c_hi = self.coord[rows, i_hi]
-        span = s_hi - s_lo
-        w = np.divide(t_ns - s_lo, span, out=np.zeros_like(span), where=span > 0)
-        return c_lo + w[:, None] * (c_hi - c_lo), ok
+    cov: np.ndarray = None       # (n, 2, 2) north/east covariance (conditional_cov)
 
 
 class FixEngine:
@@ -199,7 +143,8 @@ class FixEngine:
     """
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
-                 history=64, max_pending=1000, active=True, start_ns=None, velocity=None):
+                 history=64, max_pending=1000, active=True, start_ns=None, velocity=None,
+                 conditional_cov=False):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -221,7 +166,7 @@ class FixEngine:
         self.lag_ns = int(round(model.lag_s * NS))
         if self.lag_ns:
             history = max(history, int(64 * (1 + model.lag_s)))
-        self.truth = _TruthRing(self.n, history)
+        self.truth = TruthRing(self.n, history)
         # per agent: the first step skipped for want of truth since truth was
         # last found late (-1: none)
         self.last_skipped = np.full(self.n, -1, dtype=np.int64)
@@ -229,6 +174,10 @@ class FixEngine:
         self.stats = EngineStats()
         # reported velocity (a profile's velocity section), stepped with the model
         self.vel = None if velocity is None else VelocityState(velocity, self.n)
+        # conditional_cov: each fix carries the model's covariance of its error
+        # given the state a step before (None: the node reports the stationary one)
+        self.conditional_cov = conditional_cov
+        self.cov_now = None
         self._reset_time()
 
     def _reset_time(self):
@@ -321,6 +270,10 @@ class FixEngine:
             step.fix = np.concatenate([step.fix, np.ones(n, dtype=bool)])
             if step.vel_err is not None:
                 step.vel_err = np.concatenate([step.vel_err, np.zeros((n, 2))])
+            if step.cov is not None:
+                step.cov = np.concatenate([step.cov, np.zeros((n, 2, 2))])
+        if self.cov_now is not None:
+            self.cov_now = np.concatenate([self.cov_now, np.zeros((n, 2, 2))])
         self.n += n
 
     def attach(self, slots, keys):
@@ -342,23 +295,41 @@ class FixEngine:
         if self.state is None or not slots.size:
             return
         m = self.pending[0].model_step if self.pending else self.model_index
-        state = self.model.state_after(keys, self.start_index, m)
+        state, cov = self._caught_up(keys, m)
         for step in self.pending:
             while m < step.model_step:
                 m += 1
+                cov = self.model.predictive_cov(state) if cov is not None else None
                 self.model.advance(state, keys, m)
             step.err[slots] = self.model.errors(state)
             step.fix[slots] = available(self.model, state)
             step.done[slots] = False
+            if cov is not None:
+                step.cov[slots] = cov
         while m < self.model_index:
             m += 1
+            cov = self.model.predictive_cov(state) if cov is not None else None
             self.model.advance(state, keys, m)
         self.state[slots] = state
+        if cov is not None:
+            self.cov_now[slots] = cov
         if self.vel is not None:
             ws = self.vel.history(keys, self.start_index, self.model_index)
             for step in self.pending:
                 step.vel_err[slots] = ws[step.model_step - self.start_index]
             self.vel.w[slots] = ws[-1]
+
+    def _caught_up(self, keys, m):
+        """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
+        if not self.conditional_cov:
+            return self.model.state_after(keys, self.start_index, m), None
+        if m == self.start_index:
+            state = self.model.initial_state(keys, m)
+            return state, self.model.predictive_cov(state, first=True)
+        state = self.model.state_after(keys, self.start_index, m - 1)
+        cov = self.model.predictive_cov(state)
+        self.model.advance(state, keys, m)
+        return state, cov
 
     def detach(self, slots):
         """Free ``slots``: no more fixes for them, their truth forgotten."""
@@ -413,8 +384,12 @@ class FixEngine:
             self.model_index = self.start_index = m
             if self.vel is not None:
                 self.vel.start(self.keys, m)
+            if self.conditional_cov:
+                self.cov_now = self.model.predictive_cov(self.state, first=True)
         while self.model_index < m:
             self.model_index += 1
+            if self.conditional_cov:
+                self.cov_now = self.model.predictive_cov(self.state)
             self.model.advance(self.state, self.keys, self.model_index)
             if self.vel is not None:
                 self.vel.advance(self.keys, self.model_index)
@@ -422,7 +397,8 @@ class FixEngine:
         # free slots are done already
         self.pending.append(_Step(t_ns, m, self.model.errors(self.state), ~self.active,
                                   available(self.model, self.state),
-                                  None if self.vel is None else self.vel.w.copy()))
+                                  None if self.vel is None else self.vel.w.copy(),
+                                  None if self.cov_now is None else self.cov_now.copy()))
 
     def resolve(self, now_ns):
         """Return fixes for pending steps whose truth is now known."""
@@ -484,4 +460,5 @@ class FixEngine:
             velocity = self.vel.reported(self.truth, agents, step.t_ns,
                                          step.vel_err[agents], self.max_gap_ns)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
-                        alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity)
+                        alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
+                        cov=None if step.cov is None else step.cov[agents])

@@ -108,3 +108,35 @@ def test_an_agent_without_truth_does_not_hold_back_the_others():
         # busy's fix of step k comes at step k, not max_pose_age later
         assert [(f.stamp_ns // NS, list(f.agents)) for f in got] == [(k, [1])]
     assert len(eng.pending) == 3      # quiet's steps wait until 3 s after them
+
+
+def test_conditional_covariance_is_the_regimes_prediction_even_after_a_late_attach():
+    key = streams.agent_key(5, 'ped7')
+    whole = FixEngine(EXTENDED, [key], conditional_cov=True)
+    late = FixEngine(EXTENDED, np.zeros(2, dtype=np.uint64), active=False,
+                     conditional_cov=True)
+    late.attach([0], [streams.agent_key(5, 'other')])
+    covs = {'whole': {}, 'late': {}}
+    for k in range(START, START + 60):
+        if k == START + 25:
+            late.attach([1], [key])
+        for name, eng, slot in (('whole', whole, 0), ('late', late, 1)):
+            eng.add_truth(slot, k * NS, LAT, LON, 0.0)
+            for f in eng.on_clock(k * NS):
+                for i, c in zip(f.agents, f.cov):
+                    if i == slot:
+                        covs[name][f.stamp_ns // NS] = c
+    # what the model predicts, a step before each step, from the stream
+    state = EXTENDED.initial_state(np.array([key]), START)
+    expected = {START: EXTENDED.predictive_cov(state, first=True)[0]}
+    for k in range(START + 1, START + 60):
+        expected[k] = EXTENDED.predictive_cov(state)[0]
+        EXTENDED.advance(state, np.array([key]), k)
+    assert sorted(covs["whole"]) == list(range(START, START + 60))
+    for k, c in covs['whole'].items():
+        np.testing.assert_allclose(c, expected[k], rtol=1e-12)
+    assert len(covs['late']) >= 30
+    for k, c in covs['late'].items():
+        np.testing.assert_allclose(c, expected[k], rtol=1e-12)
+    sizes = {round(float(c[0, 0]), 9) for c in covs['whole'].values()}
+    assert len(sizes) == 3          # the first step (regimes unknown), then each regime
