@@ -16,6 +16,8 @@ three times in the same run: the node with ``agents``, the node with
 ``agent_pattern`` (the agents found in the graph), and a bare rclpy process
 with the same subscriptions and publishers that publishes a pre-serialized
 fix per truth message. The node's CPU is reported as a ratio to the floor's.
+At 1,000 agents the node also runs with ``covariance_mode: conditional``
+(a covariance per fix), reported as a ratio to the stationary run.
 """
 
 import argparse
@@ -36,7 +38,9 @@ CASES = ((1, 600, 50.0, 'reliable'), (100, 600, 20.0, 'reliable'),
          (5000, 120, 2.0, 'reliable'))
 #: crowd sizes run also with agent_pattern and as the floor
 FLOOR_SIZES = (1000, 5000)
-MODES = ('agents', 'agent_pattern', 'floor')
+MODES = ('agents', 'conditional', 'agent_pattern', 'floor')
+#: crowd sizes run also with covariance_mode conditional (per-fix covariance)
+CONDITIONAL_SIZES = (1000,)
 
 
 def _stat_cpu_s(path):
@@ -157,7 +161,10 @@ def counter_main(n, out_path, reliability):
 def run_case(n, sim_s, speed, workdir, reliability='reliable', mode='agents'):
     params = Path(workdir, f'params{n}_{mode}.yaml')
     names = ', '.join(f'"a{i}"' for i in range(n))
-    serve = f'agents: [{names}]' if mode == 'agents' else 'agent_pattern: /bench/*/pose'
+    serve = 'agent_pattern: /bench/*/pose' if mode == 'agent_pattern' else \
+        f'agents: [{names}]'
+    if mode == 'conditional':
+        serve += '\n    covariance_mode: conditional'
     params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
                       '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
                       f'    profile: DS5\n    fix_reliability: {reliability}\n'
@@ -291,6 +298,18 @@ def _print_ratios(rows, n, reliability):
                   f'{100 * floor:.2f} % of a core at 1x)', flush=True)
 
 
+def _print_conditional(rows, n, reliability):
+    """Print the per-fix covariance's CPU against the stationary one, same run."""
+    same = {r['mode']: r for r in rows
+            if r['agents'] == n and r['fix_reliability'] == reliability}
+    if 'agents' in same:
+        base = same['agents']['core_fraction_at_real_time']
+        cond = same['conditional']['core_fraction_at_real_time']
+        same['conditional']['cpu_ratio_to_stationary'] = cond / base
+        print(f'       covariance_mode conditional: {cond / base:.2f}x the stationary '
+              f'node\'s CPU ({100 * cond:.2f} % against {100 * base:.2f} %)', flush=True)
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--counter', nargs=3, metavar=('N', 'OUT', 'RELIABILITY'),
@@ -301,6 +320,10 @@ def main():
                    help='QoS of the fixes (the node\'s fix_reliability parameter); '
                         'default: the cases\' own (all reliable, and 1,000 agents '
                         'also best_effort), or reliable with --agents')
+    p.add_argument('--modes', nargs='+', choices=MODES, default=list(MODES),
+                   help='which runs (default all): agents, conditional (1,000 agents, '
+                        'covariance_mode conditional), agent_pattern and floor (1,000 '
+                        'and 5,000 agents)')
     p.add_argument('--no-floor', action='store_true',
                    help='skip the agent_pattern and floor runs of the 1,000- and '
                         '5,000-agent cases')
@@ -321,13 +344,15 @@ def main():
         else:
             cases = [c for c in CASES
                      if args.fix_reliability in (None, c[3])]
-        runs = [(c, mode) for c in cases for mode in MODES
-                if mode == 'agents' or (c[0] in FLOOR_SIZES and not args.no_floor)]
+        runs = [(c, mode) for c in cases for mode in MODES if mode in args.modes and (
+            mode == 'agents' or (mode == 'conditional' and c[0] in CONDITIONAL_SIZES)
+            or (c[0] in FLOOR_SIZES and not args.no_floor))]
         for (n, sim_s, speed, reliability), mode in runs:
             speed = args.speed or speed
             r = run_case(n, sim_s, speed, work, reliability, mode)
             rows.append(r)
             who = {'agents': 'node', 'agent_pattern': 'node (agent_pattern)',
+                   'conditional': 'node (covariance_mode conditional)',
                    'floor': 'floor'}[mode]
             print(f'{n:>5} agents, {reliability} fixes: {who} '
                   f'{r["node_cpu_s_per_sim_hour"]:7.1f} CPU-s per simulated hour '
@@ -349,6 +374,8 @@ def main():
                 f'{k} {100 * v:.2f}' for k, v in threads if v >= 0.0005), flush=True)
             if mode == 'floor':
                 _print_ratios(rows, n, reliability)
+            if mode == 'conditional':
+                _print_conditional(rows, n, reliability)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 
