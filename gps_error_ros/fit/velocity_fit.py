@@ -14,9 +14,9 @@ moves at 1 m/s or more and the phone reports a course:
 * ``sigma``: the RMS of the remaining error's east and north components
   (pooled); ``phi``: its lag-1 autocorrelation on consecutive 1-s rows
   (pooled over both components, about zero);
-* ``standstill``: the 95th percentile of the reference's speed over the rows
-  where the phone reported exactly 0 (at least 10 such rows; else 0); the
-  phone reports 0 at or below it.
+* ``standstill``: the reference speed (up to 2 m/s) at or below which the
+  phone reported exactly 0 with the fewest exceptions either way (at least
+  10 zero reports; else 0); the phone reports 0 at or below it.
 """
 
 import numpy as np
@@ -35,6 +35,15 @@ def vectors(speed, course_deg, zero_below=0.0):
     small = ~np.isfinite(c) & np.isfinite(speed) & (speed <= zero_below)
     v[small] = 0.0
     return v
+
+
+def _standstill(truth_speed, zero):
+    """Return the true speed at or below which the phone's zero reports are best told."""
+    ok = np.isfinite(truth_speed)
+    ts, z = truth_speed[ok], zero[ok]
+    candidates = np.unique(np.r_[0.0, ts[ts <= 2.0]])
+    wrong = [np.sum(z & (ts > c)) + np.sum(~z & (ts <= c)) for c in candidates]
+    return float(candidates[int(np.argmin(wrong))])
 
 
 def estimate_velocity(trace):
@@ -64,8 +73,7 @@ def estimate_velocity(trace):
     sigma = float(np.sqrt(np.mean(w[rows] ** 2)))
     phi = float(np.sum(w[pair] * w[pair + 1]) / np.sum(w[pair] ** 2)) if pair.size else 0.0
     zero = ex['speed'] == 0
-    standstill = float(np.percentile(ex['truth_speed'][zero & np.isfinite(ex['truth_speed'])],
-                                     95)) if zero.sum() >= 10 else 0.0
+    standstill = _standstill(ex['truth_speed'], zero) if zero.sum() >= 10 else 0.0
     section = {'sigma': round(sigma, 6), 'phi': round(min(max(phi, -0.99), 0.99), 6),
                'lag_s': float(lag), 'standstill': round(standstill, 4)}
     evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),

@@ -76,10 +76,11 @@ class Velocity:
         ``v_true`` and ``w`` are (..., 2) east/north, the truth already taken
         ``lag_s`` earlier. At or below ``standstill`` the speed is 0 and the course NaN.
         """
-        v = np.asarray(v_true, dtype=float) + w
+        v_true = np.asarray(v_true, dtype=float)
+        v = v_true + w
         speed = np.hypot(v[..., 0], v[..., 1])
         course = np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 360.0
-        still = np.hypot(v_true[..., 0], v_true[..., 1]) <= self.standstill
+        still = np.hypot(v_true[..., 0], v_true[..., 1]) <= self.standstill   # NaN: not still
         speed = np.where(still, 0.0, speed)
         course = np.where(still, np.nan, course)
         return speed, course

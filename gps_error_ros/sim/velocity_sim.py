@@ -2,10 +2,10 @@
 Reported speed and course for trajectories (``gps_error simulate`` CSV mode).
 
 The true velocity of each agent at time ``t`` is the chord of its truth over
-the second before ``t`` (positions linear in time between rows, clamped at
-the ends, so an agent's first second has speed 0), taken at ``t - lag_s``
-for what the phone reports: the error node's definition
-(:mod:`velocity_state`).
+the second centred at ``t`` (positions linear in time between rows; none
+where the chord leaves them); what the phone reports uses it at
+``t - lag_s``, the chord ending no later than ``t``: the error node's
+definition (:mod:`velocity_state`).
 The velocity error of each agent is its own stream from the run's first step
 (:meth:`Velocity.errors`), indexed by each row's model step, so an agent's
 reported speed and course do not depend on the other agents.
@@ -19,17 +19,22 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.geodesy import difference
 
 
-def true_velocity(t, lat, lon, at):
+def true_velocity(t, lat, lon, at, now=None):
     """
-    Return east/north m/s at times ``at``: the chord over the second before.
+    Return east/north m/s at times ``at``: the chord over the second centred there.
 
-    The truth is linear in time between rows (clamped at the ends), as the
-    error node interpolates it.
+    The truth is linear in time between rows, as the error node interpolates
+    it; with ``now`` (the rows' own times) a chord never ends after ``now``,
+    as the node's never ends after its step. NaN where the chord reaches
+    outside the rows (the node reports no velocity there either).
     """
-    la1, lo1 = np.interp(at, t, lat), np.interp(at, t, lon)
-    la0, lo0 = np.interp(at - 1.0, t, lat), np.interp(at - 1.0, t, lon)
+    end = at + 0.5 if now is None else np.minimum(at + 0.5, now)
+    la1, lo1 = np.interp(end, t, lat), np.interp(end, t, lon)
+    la0, lo0 = np.interp(end - 1.0, t, lat), np.interp(end - 1.0, t, lon)
     north, east = difference(la1, lo1, la0, lo0)
-    return np.stack([np.asarray(east), np.asarray(north)], axis=1)
+    v = np.stack([np.asarray(east), np.asarray(north)], axis=1)
+    v[(end - 1.0 < t[0]) | (end > t[-1])] = np.nan      # the truth does not cover it
+    return v
 
 
 def speed_and_course(velocity, seed, data, start_step, rate_hz):
@@ -47,7 +52,7 @@ def speed_and_course(velocity, seed, data, start_step, rate_hz):
         tt = t[rows]
         lat, lon = data['truth_lat'][rows], data['truth_lon'][rows]
         vt = true_velocity(tt, lat, lon, tt)
-        lagged = true_velocity(tt, lat, lon, tt - velocity.lag_s)
+        lagged = true_velocity(tt, lat, lon, tt - velocity.lag_s, now=tt)
         steps = np.floor(tt * rate_hz + 1e-9).astype(np.int64) - start_step
         key = np.array([streams.agent_key(seed, name)], dtype=np.uint64)
         w = velocity.errors(key, int(steps.max()) + 1, start=start_step)[steps, 0]

@@ -4,11 +4,13 @@ The fix engine's reported velocity, from the truth it holds.
 Each agent's velocity error is stepped with its model, and its true velocity
 comes from the truth the engine holds.
 
-The true velocity at a step's instant ``t`` is the chord of the truth over
-the second before ``t - lag_s`` (truth interpolated linearly in time, as for
-positions), in east/north m/s: the same definition ``gps_error simulate``
-uses (:mod:`velocity_sim`), so both report the same speed and course. No
-velocity is reported where the truth does not reach back that far.
+The true velocity the phone reports at a step's instant ``t`` is the chord
+of the truth over one second centred at ``t - lag_s`` (truth interpolated
+linearly in time, as for positions), in east/north m/s; the chord never
+ends after ``t`` (the truth a step has), so below a lag of 0.5 s it is the
+second before ``t``. ``gps_error simulate`` uses the same definition
+(:mod:`velocity_sim`), so both report the same speed and course. No velocity
+is reported where the truth does not reach back that far.
 """
 
 import numpy as np
@@ -47,12 +49,12 @@ class VelocityState:
         Return the velocity (m, 2) east/north the phones of ``agents`` report at ``t_ns``.
 
         ``truth`` is the engine's truth ring, ``w`` the agents' errors at the
-        step. NaN rows: the truth does not reach back to ``t - lag - 1 s``.
+        step. NaN rows: the truth does not reach back to the chord's start.
         """
-        at = t_ns - self.lag_ns
-        c1, ok1 = truth.interpolate(agents, at, max_gap_ns)
-        c0, ok0 = truth.interpolate(agents, at - NS, max_gap_ns)
-        ok = ok1 & ok0 & (truth.newest[agents] >= at)
+        end = min(t_ns - self.lag_ns + NS // 2, t_ns)     # the chord centred at t - lag
+        c1, ok1 = truth.interpolate(agents, end, max_gap_ns)
+        c0, ok0 = truth.interpolate(agents, end - NS, max_gap_ns)
+        ok = ok1 & ok0 & (truth.newest[agents] >= end)
         north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
         v_true = np.stack([east, north], axis=1)
         out = v_true + w

@@ -38,3 +38,12 @@ def test_outage_evidence_on_the_measured_traces():
     out = r.stdout
     assert 'gsdc2020-mtv1-pixel4.csv: 1737 fixes on the grid, 0 outage(s), 2 dropped' in out
     assert 'longest 109 steps' in out            # the static phone's hold
+
+
+def test_velocity_evidence_on_the_measured_phones():
+    """The comparison of docs/velocity.md runs on ../shared/data (few simulations)."""
+    data = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+    r = subprocess.run([sys.executable, str(TOOLS / 'velocity_evidence.py'), '--data', str(data),
+                        '--sims', '5'], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.count('held out') == 2 and 'course error RMS 10-100 m/s' in r.stdout

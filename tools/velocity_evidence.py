@@ -1,0 +1,101 @@
+"""
+Speed and course of the velocity model against measured phones (docs/velocity.md).
+
+For each trace with speed and course columns: fit the ``velocity`` section on
+the first 70 % (``fit.velocity_fit``), simulate the phone's speed and course
+``--sims`` times on the truth of the last 30 % (each run its own seed), and
+set the measured held-out statistics beside the simulated median and central
+95 % range, with the measured value's percentile: speed error RMS and bias on
+moving rows (truth >= 1 m/s), course error RMS for 1-3, 3-10 and >= 10 m/s,
+and the share of zero-speed reports at the reference's standstill.
+
+    python tools/velocity_evidence.py [--data ../shared/data] [--sims 200]
+"""
+
+import argparse
+from pathlib import Path
+import sys
+
+import numpy as np
+
+from gps_error_ros.fit.validation import slice_trace
+from gps_error_ros.fit.velocity_fit import estimate_velocity
+from gps_error_ros.model.velocity import velocity_from_dict
+from gps_error_ros.sim.velocity_sim import speed_and_course
+from gps_error_ros.traces.trace_io import read_trace_csv
+
+TRACES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv')
+BANDS = ((1.0, 3.0), (3.0, 10.0), (10.0, 100.0))
+
+
+def course_error(course, truth_course):
+    """Return the signed course difference in degrees, in [-180, 180)."""
+    return (course - truth_course + 180.0) % 360.0 - 180.0
+
+
+def statistics(speed, course, truth_speed, truth_course):
+    """Return the statistics compared (NaN where a band has no rows)."""
+    out = {}
+    moving = truth_speed >= 1.0
+    err = speed[moving] - truth_speed[moving]
+    out['speed error RMS (m/s)'] = float(np.sqrt(np.nanmean(err ** 2)))
+    out['speed error mean (m/s)'] = float(np.nanmean(err))
+    for lo, hi in BANDS:
+        rows = (truth_speed >= lo) & (truth_speed < hi) & np.isfinite(course) \
+            & np.isfinite(truth_course)
+        d = course_error(course[rows], truth_course[rows])
+        out[f'course error RMS {lo:g}-{hi:g} m/s (deg)'] = \
+            float(np.sqrt(np.mean(d ** 2))) if rows.any() else float('nan')
+    still = truth_speed < 0.2
+    out['zero speed at standstill (share)'] = \
+        float(np.mean(speed[still] == 0)) if still.any() else float('nan')
+    return out
+
+
+def compare(path, sims):
+    """Return the lines of one trace's comparison."""
+    trace = read_trace_csv(path)
+    section, evidence = estimate_velocity(slice_trace(trace, 0.0, 0.7))
+    if section is None:
+        return [f'{path.name}: no velocity fit ({evidence["reason"]})']
+    velocity = velocity_from_dict(section)
+    test = slice_trace(trace, 0.7, 1.0)
+    ex = test.extra
+    measured = statistics(ex['speed'], ex['bearing'], ex['truth_speed'], ex['truth_bearing'])
+    data = {'t': test.t, 'agent': [''] * len(test), 'truth_lat': test.truth_lat,
+            'truth_lon': test.truth_lon}
+    start = int(np.floor(test.t[0]))
+    runs = []
+    for seed in range(sims):
+        speed, course, _, _ = speed_and_course(velocity, seed, data, start, 1.0)
+        runs.append(statistics(speed, course, ex['truth_speed'], ex['truth_bearing']))
+    lines = [f'{path.name}: fitted on the first 70 % {section}; held out {len(test)} rows, '
+             f'{sims} simulations']
+    for name, value in measured.items():
+        sim = np.array([r[name] for r in runs])
+        sim = sim[np.isfinite(sim)]
+        if not np.isfinite(value) or not sim.size:
+            lines.append(f'  {name}: measured {value:.3f}, simulated: none')
+            continue
+        lo, med, hi = np.percentile(sim, [2.5, 50, 97.5])
+        pct = 100.0 * (np.mean(sim < value) + 0.5 * np.mean(sim == value))
+        lines.append(f'  {name}: measured {value:.3f}, simulated median {med:.3f} '
+                     f'(95 % {lo:.3f} to {hi:.3f}), percentile {pct:.0f}')
+    return lines
+
+
+def main(argv=None):
+    """Print the comparison for every trace found; exit 0."""
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--data', default='../shared/data', help='folder of the trace CSVs')
+    p.add_argument('--sims', type=int, default=200, help='simulations per trace (200)')
+    args = p.parse_args(argv)
+    for name in TRACES:
+        path = Path(args.data) / name
+        if path.exists():
+            print('\n'.join(compare(path, args.sims)))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
