@@ -18,23 +18,12 @@ import sys
 import numpy as np
 
 from gps_error_ros.fit.calibration import errors_on_grid, estimate_availability
+from gps_error_ros.model.availability import runs_without_fix
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.trace_io import read_trace_csv
 
 TRACES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv',
           'urbannav-hk-tst-ublox-spp.csv', 'gmt-static-phone-2016-08-22.csv')
-
-
-def runs_of(flags):
-    """Return the lengths of the runs of True."""
-    out, n = [], 0
-    for f in flags:
-        if f:
-            n += 1
-        elif n:
-            out.append(n)
-            n = 0
-    return out + ([n] if n else [])
 
 
 def describe(path):
@@ -58,7 +47,7 @@ def describe(path):
                      f'error change {jump:.2f} m, percentile {pct:.0f} of the '
                      f'{typical.size} 2-step changes (median {np.median(typical):.2f} m)')
     same = np.r_[False, (np.diff(tr.lat) == 0) & (np.diff(tr.lon) == 0)]
-    runs = runs_of(same)
+    runs = runs_without_fix(~same)        # runs of repeats
     speed, truth_speed = tr.extra.get('speed'), tr.extra.get('truth_speed')
     text = f'  repeated positions: {int(same.sum())} rows in {len(runs)} run(s)'
     if runs:

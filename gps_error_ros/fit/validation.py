@@ -24,7 +24,7 @@ from gps_error_ros.fit.autocorrelation import pooled_acf
 from gps_error_ros.fit.calibration import errors_on_grid, MIN_OUTAGE_STEPS
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
-from gps_error_ros.model.availability import WithAvailability
+from gps_error_ros.model.availability import runs_without_fix, WithAvailability
 from gps_error_ros.traces.trace_io import Trace
 QQ_PROBS = np.linspace(0.01, 0.99, 99)
 
@@ -124,15 +124,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0):
 
 def _outage_stats(mask):
     """Return (outages, steps in outages) by calibrate's rule (>= 2 missing steps)."""
-    runs, n = [], 0
-    for m in mask:
-        if not m:
-            n += 1
-        elif n:
-            runs.append(n)
-            n = 0
-    runs += [n] if n else []
-    long = [r for r in runs if r >= MIN_OUTAGE_STEPS]
+    long = [r for r in runs_without_fix(mask) if r >= MIN_OUTAGE_STEPS]
     return len(long), sum(long)
 
 

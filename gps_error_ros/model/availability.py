@@ -208,6 +208,13 @@ class WithAvailability:
         return out
 
 
+def runs_without_fix(mask):
+    """Return the lengths of the runs of False in a 1-D fix mask, those at its ends included."""
+    mask = np.asarray(mask, dtype=bool)
+    edges = np.diff(np.r_[0, (~mask).astype(np.int8), 0])
+    return (np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).tolist()
+
+
 def available(model, state):
     """Return the fix mask of ``state`` (all True for a model without availability)."""
     if isinstance(model, WithAvailability):

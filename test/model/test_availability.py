@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.availability import Availability, available, WithAvailability
+from gps_error_ros.model.availability import (Availability, available, runs_without_fix,
+                                              WithAvailability)
 from gps_error_ros.model.profiles import load_profile, profile_from_dict, ProfileError
 
 SECTION = {'outage_rate': 0.02, 'durations': [[1, 0.3], [3, 0.4], [10, 0.3]]}
@@ -21,15 +22,13 @@ def profile(availability=SECTION):
 
 
 def runs(mask):
-    """Return the lengths of the whole runs of False in a 1-D boolean array."""
-    out, n = [], 0
-    for m in mask:
-        if not m:
-            n += 1
-        elif n:
-            out.append(n)
-            n = 0
-    return out[1:] if not mask[0] else out      # cut at either end: not whole
+    """Return the lengths of the whole runs of False (those cut at either end left out)."""
+    out = runs_without_fix(mask)
+    if out and not mask[0]:
+        out = out[1:]
+    if out and not mask[-1]:
+        out = out[:-1]
+    return out
 
 
 def test_outages_follow_the_declared_law():
@@ -89,3 +88,8 @@ def test_round_trip_through_the_mapping():
     av = profile().availability
     assert isinstance(av, Availability)
     assert profile(av.to_dict()).availability == av
+
+
+def test_runs_without_fix_counts_the_ends_too():
+    assert runs_without_fix([False, True, False, False, True, False]) == [1, 2, 1]
+    assert runs_without_fix([True, True]) == []
