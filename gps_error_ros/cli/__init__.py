@@ -63,7 +63,7 @@ def cmd_simulate(args):
         src = Path(args.trajectories)
         if src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
-                                     profile.velocity)
+                                     profile.velocity, args.covariance_mode)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits)

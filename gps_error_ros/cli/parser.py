@@ -138,6 +138,11 @@ def _add_simulate(sub):
     s.add_argument('--digits', type=number(int, 0, 15), default=None,
                    help='FCD output: digits after the decimal point of the noisy '
                         'positions (default 8 for lon/lat, about 1 mm, 3 for metres)')
+    s.add_argument('--covariance-mode', choices=('stationary', 'conditional'),
+                   default='stationary',
+                   help='CSV mode: the covariance behind each row\'s accuracy, accuracy_major, '
+                        'accuracy_minor, accuracy_orientation columns, as the node\'s '
+                        'covariance_mode (default stationary)')
     s.add_argument('--agents', type=number(int, 1),
                    help='raw mode: number of agents, named agent0, agent1, ...')
     s.add_argument('--duration', type=number(float, 0.0, lo_open=True),

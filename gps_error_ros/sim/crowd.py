@@ -17,6 +17,22 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.availability import available
 
 
+def state_and_cov(model, keys, start, step):
+    """
+    Return (state at model ``step`` of a run from ``start``, its predictive covariance).
+
+    The covariance is the model's for the error at ``step`` given the state a
+    step before (at ``start``: given the stationary law), (n, 2, 2).
+    """
+    if step == start:
+        state = model.initial_state(keys, step)
+        return state, model.predictive_cov(state, first=True)
+    state = model.state_after(keys, start, step - 1)
+    cov = model.predictive_cov(state)
+    model.advance(state, keys, step)
+    return state, cov
+
+
 class CrowdErrors:
     """
     Per-agent AR errors on the model grid, for agents that come and go.
@@ -35,7 +51,7 @@ class CrowdErrors:
 
     """
 
-    def __init__(self, model, seed, start_step, forget_after=600):
+    def __init__(self, model, seed, start_step, forget_after=600, conditional_cov=False):
         self.model = model
         self.seed = seed
         self.start = int(start_step)
@@ -46,6 +62,10 @@ class CrowdErrors:
         self.keys = np.zeros(0, dtype=np.uint64)
         self.state = model.empty_state(0)
         self.last_seen = np.zeros(0, dtype=np.int64)
+        # conditional_cov: each agent's covariance of its current error given
+        # the state a step before (covariance_mode conditional)
+        self.conditional_cov = conditional_cov
+        self.cov_now = np.zeros((0, 2, 2))
 
     def advance_to(self, step):
         """Advance every known agent to model step ``step`` (never back)."""
@@ -55,6 +75,8 @@ class CrowdErrors:
         while self.step < step:
             self.step += 1
             if self.keys.size:
+                if self.conditional_cov:
+                    self.cov_now = self.model.predictive_cov(self.state)
                 self.model.advance(self.state, self.keys, self.step)
 
     def errors(self, names):
@@ -70,6 +92,12 @@ class CrowdErrors:
             self._forget()
         return out
 
+    def covariance(self, names):
+        """Return the named agents' predictive covariances now (conditional_cov), (n, 2, 2)."""
+        self.available(names)               # adds the unknown ones
+        rows = np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
+        return self.cov_now[rows]
+
     def available(self, names):
         """Return which named agents have a fix now (profile availability; else all)."""
         new = [n for n in dict.fromkeys(names) if n not in self.index]
@@ -81,7 +109,11 @@ class CrowdErrors:
     def _add(self, names):
         keys = np.array([streams.agent_key(self.seed, n) for n in names],
                         dtype=np.uint64)
-        state = self.model.state_after(keys, self.start, self.step)
+        if self.conditional_cov:
+            state, cov = state_and_cov(self.model, keys, self.start, self.step)
+            self.cov_now = np.concatenate([self.cov_now, cov])
+        else:
+            state = self.model.state_after(keys, self.start, self.step)
         base = len(self.names)
         for i, n in enumerate(names):
             self.index[n] = base + i
@@ -98,4 +130,6 @@ class CrowdErrors:
         self.names = [n for n, k in zip(self.names, keep) if k]
         self.index = {n: i for i, n in enumerate(self.names)}
         self.keys, self.state = self.keys[keep], self.state[keep]
+        if self.conditional_cov:
+            self.cov_now = self.cov_now[keep]
         self.last_seen = self.last_seen[keep]

@@ -61,6 +61,7 @@ import numpy as np
 
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.sim.crowd import state_and_cov
 from gps_error_ros.sim.truth_ring import TruthRing
 from gps_error_ros.sim.velocity_state import VelocityState
 
@@ -323,13 +324,7 @@ class FixEngine:
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
         if not self.conditional_cov:
             return self.model.state_after(keys, self.start_index, m), None
-        if m == self.start_index:
-            state = self.model.initial_state(keys, m)
-            return state, self.model.predictive_cov(state, first=True)
-        state = self.model.state_after(keys, self.start_index, m - 1)
-        cov = self.model.predictive_cov(state)
-        self.model.advance(state, keys, m)
-        return state, cov
+        return state_and_cov(self.model, keys, self.start_index, m)
 
     def detach(self, slots):
         """Free ``slots``: no more fixes for them, their truth forgotten."""

@@ -24,6 +24,7 @@ import zipfile
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.accuracy import ellipse, radius68
 from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.velocity_sim import speed_and_course
@@ -47,16 +48,18 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, dig
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits)
 
 
-def simulate_csv(src, dst, model, rate_hz, seed, velocity=None):
+def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary'):
     """
     Add errors to a CSV of true positions; write a trace CSV; return counts.
 
     With ``velocity`` (a profile's :class:`Velocity`) the trace also gets the
     reported ``speed`` and ``bearing`` and the truth's ``truth_speed`` and
-    ``truth_bearing`` (:mod:`velocity_sim`).
+    ``truth_bearing`` (:mod:`velocity_sim`). Every row with a fix states its
+    accuracy (:mod:`accuracy`) from the error covariance of
+    ``covariance_mode``, as the node's: ``stationary`` or ``conditional``.
     """
     with atomic_output(dst) as tmp:
-        return _simulate_csv(src, tmp, model, rate_hz, seed, velocity)
+        return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode)
 
 
 def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
@@ -147,14 +150,16 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     return out
 
 
-def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None):
+def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary'):
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
-    crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz))
+    conditional = covariance_mode == 'conditional'
+    crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz), conditional_cov=conditional)
     lag = LagBuffer(model.lag_s)
+    cov = np.repeat(np.asarray(model.stationary_cov)[None], t.size, axis=0)
     lat_out = np.empty_like(t)
     lon_out = np.empty_like(t)
     fix = np.ones(t.size, dtype=bool)
@@ -166,13 +171,15 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None):
             raise TrajectoryError(f'{src}: agent listed twice at t={t[b0]}')
         err = crowd.errors(names)
         fix[b0:b1] = crowd.available(names)
+        if conditional:
+            cov[b0:b1] = crowd.covariance(names)
         lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
                               data['truth_lat'][b0:b1])
         lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
     outages = isinstance(model, WithAvailability)
     # a row in an outage: status no_fix and no position (read back as a gap)
     lat_out[~fix] = lon_out[~fix] = np.nan
-    extra = {}
+    extra = accuracy_columns(cov, fix)
     if velocity is not None:
         cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
         extra = dict(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
@@ -185,6 +192,16 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None):
     if outages:
         out['positions_without_fix'] = int((~fix).sum())
     return out
+
+
+def accuracy_columns(cov, fix):
+    """Return the stated-accuracy columns of north/east covariances (NaN without a fix)."""
+    major, minor, orientation = ellipse(cov)
+    cols = {'accuracy': radius68(cov), 'accuracy_major': major, 'accuracy_minor': minor,
+            'accuracy_orientation': orientation}
+    for v in cols.values():
+        v[~fix] = np.nan
+    return cols
 
 
 def agent_names(n, prefix='agent'):

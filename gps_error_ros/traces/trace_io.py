@@ -21,7 +21,8 @@ from gps_error_ros.model.atomic import atomic_output
 
 REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
 OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0', 'bearing',
-            'hdop', 'truth_speed', 'truth_bearing')
+            'hdop', 'truth_speed', 'truth_bearing', 'accuracy_major', 'accuracy_minor',
+            'accuracy_orientation')
 #: Values of the optional ``status`` column (``gps_error simulate`` with outages).
 STATUSES = ('fix', 'no_fix')
 

@@ -1,0 +1,51 @@
+"""
+Accuracy as a phone or a V2P message states it, from a 2x2 error covariance.
+
+* :func:`ellipse`: the SAE J2735 positional-accuracy ellipse: semi-major and
+  semi-minor axes at one standard deviation (m) and the major axis'
+  orientation in degrees clockwise from true north, in [0, 180).
+* :func:`radius68`: the radius (m) of the circle about the mean that holds
+  68 % of the error, Android's ``Location.getAccuracy()``.
+
+Both describe the spread about the error's mean: a bias (the profile's mean
+error) is not part of a stated accuracy. Covariances are north/east (m^2),
+arrays of shape (..., 2, 2).
+"""
+
+import numpy as np
+
+_THETA = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+
+
+def ellipse(cov):
+    """Return (semi_major, semi_minor, orientation_deg) of north/east covariances."""
+    cov = np.asarray(cov, dtype=float)
+    nn, ee, ne = cov[..., 0, 0], cov[..., 1, 1], cov[..., 0, 1]
+    half_sum, half_diff = 0.5 * (nn + ee), 0.5 * (nn - ee)
+    root = np.hypot(half_diff, ne)
+    major = np.sqrt(half_sum + root)
+    minor = np.sqrt(np.maximum(half_sum - root, 0.0))
+    # angle of the major axis from north towards east
+    orientation = np.degrees(0.5 * np.arctan2(2.0 * ne, nn - ee)) % 180.0
+    return major, minor, orientation
+
+
+def _inside(a, major, minor):
+    """Return P(|error| <= a) for zero-mean Gaussians with these principal SDs."""
+    # in the principal axes: P = 1/(2 pi) * integral of (1 - exp(-a^2 g / 2)) / (sd1 sd2 g)
+    c2, s2 = np.cos(_THETA) ** 2, np.sin(_THETA) ** 2
+    g = c2 / major[..., None] ** 2 + s2 / minor[..., None] ** 2
+    f = (1.0 - np.exp(-0.5 * a[..., None] ** 2 * g)) / (major[..., None] * minor[..., None] * g)
+    return f.mean(axis=-1)
+
+
+def radius68(cov, p=0.68):
+    """Return the radius holding ``p`` of a zero-mean error with covariance ``cov``."""
+    major, minor, _ = ellipse(cov)
+    minor = np.maximum(minor, 1e-9 * np.maximum(major, 1e-12))
+    lo, hi = np.zeros_like(major), 4.0 * np.maximum(major, 1e-12)
+    for _ in range(60):                          # bisection: 4 major / 2^60
+        mid = 0.5 * (lo + hi)
+        below = _inside(mid, major, minor) < p
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    return 0.5 * (lo + hi)
