@@ -329,7 +329,8 @@ SUMO_NODE_PARAMS = (
     ParamSpec('match_timeout', 0.0, ParameterType.PARAMETER_DOUBLE,
               'Hold a new agent\'s first pose until match_node subscribes to its topic '
               '(an error node with agent_pattern finds it within about a second, and '
-              'then gets every step), at most this many wall seconds; 0: do not wait.',
+              'then gets every step), at most this many wall seconds, then 0.2 s more '
+              'for the node\'s new fix publisher to meet its subscribers; 0: do not wait.',
               low=0.0, high=600.0),
 )
 

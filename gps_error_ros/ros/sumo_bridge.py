@@ -54,6 +54,8 @@ from gps_error_ros.sim.sumo_scenario import (Georeference, INSTALL_HINT, net_fil
                                              ScenarioError, sumo_tool, SumoMissing)
 
 NS = 1_000_000_000
+#: Wall seconds waited after a new agent's topic is matched (see _wait_for_match).
+MATCH_SETTLE_S = 0.2
 _TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*\Z')
 
 
@@ -238,6 +240,11 @@ class SumoBridge(Node):
             self.get_logger().warning(
                 f'{len(waiting)} new topic(s) not subscribed by {who} after {timeout:g} s, '
                 f'e.g. {waiting[0][0]}: published anyway', throttle_duration_sec=5.0)
+        else:
+            # the node made the agent's fix publisher with its subscription: give
+            # it a moment to meet that topic's subscribers, or a first fix sent
+            # before they match is lost to them (seen under load in CI)
+            time.sleep(MATCH_SETTLE_S)
 
     def _matched(self, topic, pub, who):
         subs = self.get_subscriptions_info_by_topic(topic)

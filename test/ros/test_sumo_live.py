@@ -51,6 +51,10 @@ def test_sumo_people_get_the_errors_simulate_gives_their_fcd(tmp_path, peer):
     fixes = {p: peer.collect(NavSatFix, f'{ns}/peds/{ros_name(p)}/fix')
              for p in scenario.persons}
     diag = peer.collect(DiagnosticArray, '/diagnostics')
+    # the node is up and has seen this peer's subscriptions before SUMO starts
+    assert peer.spin_until(lambda: node_statuses(diag, f'{ns}/gps_error_node'), 20), \
+        node.stop()[1]
+    peer.spin_for(1.0)
     fcd = tmp_path / 'fcd.xml'
     bridge = NodeProcess([
         '--ros-args', '-p', f'sumocfg:={scenario.sumocfg}',
