@@ -182,7 +182,7 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     extra = accuracy_columns(cov, fix)
     if velocity is not None:
         cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
-        extra = dict(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
+        extra.update(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
         for k in ('speed', 'bearing'):
             extra[k][~fix] = np.nan             # no fix: nothing reported
     write_trace_csv(Trace(Path(dst).name, t, lat_out, lon_out, data['truth_lat'],

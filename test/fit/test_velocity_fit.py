@@ -58,6 +58,8 @@ def test_calibrate_recovers_a_known_velocity_section(tmp_path):
                  1.0, 5, velocity)
     assert cli(['calibrate', str(tmp_path / 'noisy.csv'), '-o', str(tmp_path / 'p.yaml'),
                 '--order', '3']) == 0
+    header = (tmp_path / 'noisy.csv').read_text().splitlines()[0].split(',')
+    assert {'speed', 'bearing', 'accuracy', 'accuracy_major'} <= set(header)   # both kinds
     got = load_profile_file(tmp_path / 'p.yaml').velocity
     assert got.lag_s == pytest.approx(0.7)     # (below 0.5 s a 1-s chord ending at t acts as 0.5)
     assert got.sigma == pytest.approx(0.15, rel=0.15)
