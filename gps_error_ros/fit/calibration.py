@@ -23,6 +23,7 @@ from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
 from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.availability import runs_without_fix
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import profile_mapping
 
@@ -53,6 +54,14 @@ class GriddedErrors:
     def axis(self, a):
         """Return the segments of axis ``a`` (0 north, 1 east)."""
         return [s[:, a] for s in self.segments]
+
+    def fix_mask(self):
+        """Return, for every step from the first sample to the last, whether it has one."""
+        first = self.starts[0]
+        mask = np.zeros(self.starts[-1] + len(self.segments[-1]) - first, dtype=bool)
+        for s, seg in zip(self.starts, self.segments):
+            mask[s - first:s - first + len(seg)] = True
+        return mask
 
 
 def errors_on_grid(trace, rate_hz=1.0):
@@ -89,8 +98,7 @@ def estimate_availability(grid, min_outage_steps=MIN_OUTAGE_STEPS):
     the section is None and the evidence gives the rate's 95 % upper bound
     (3 / steps, the rule of three).
     """
-    ends = [s + len(seg) for s, seg in zip(grid.starts, grid.segments)]
-    gaps = [nxt - end for end, nxt in zip(ends[:-1], grid.starts[1:])]
+    gaps = runs_without_fix(grid.fix_mask())
     outages = [g for g in gaps if g >= min_outage_steps]
     chances = max(grid.n - 1, 1)
     evidence = {'min_outage_steps': int(min_outage_steps), 'outages': len(outages),

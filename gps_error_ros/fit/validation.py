@@ -119,7 +119,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0):
     return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
                             acf, acf_env, quant, quant_env, steps, measured,
                             sim[:, 0, :], truth,
-                            availability_check(model, grid, keys, int(steps[-1]) + 1))
+                            availability_check(model, grid, keys))
 
 
 def _outage_stats(mask):
@@ -128,7 +128,7 @@ def _outage_stats(mask):
     return len(long), sum(long)
 
 
-def availability_check(model, grid, keys, span):
+def availability_check(model, grid, keys):
     """
     Return outage statistics, measured (the trace's gaps) against simulated.
 
@@ -136,10 +136,8 @@ def availability_check(model, grid, keys, span):
     availability simulates none. Outages are counted by ``calibrate``'s rule
     on both sides (runs of 2 or more steps without a fix).
     """
-    ends = [s + len(seg) for s, seg in zip(grid.starts, grid.segments)]
-    mask = np.zeros(span, dtype=bool)
-    for s, e in zip(grid.starts, ends):
-        mask[s - grid.starts[0]:e - grid.starts[0]] = True
+    mask = grid.fix_mask()
+    span = mask.size
     measured = dict(zip(('outages', 'steps_in_outages'), _outage_stats(mask)))
     if isinstance(model, WithAvailability):
         sims = model.simulate_availability(keys, span)

@@ -60,15 +60,14 @@ def estimate_velocity(trace):
         return None, {'fitted': False, 'reason': f'{int(rows.sum())} moving rows with both '
                                                  f'velocities (30 needed)'}
     t = trace.t
-    rms = {}
+    left = {}                   # lag -> the phone's velocity less the truth's that much earlier
     for lag in LAGS:
-        earlier = np.stack([np.interp(t[rows] - lag, t[known], truth[known, a])
-                            for a in range(2)], axis=1)
-        rms[float(lag)] = float(np.sqrt(np.mean((phone[rows] - earlier) ** 2)))
+        left[float(lag)] = phone[rows] - np.stack(
+            [np.interp(t[rows] - lag, t[known], truth[known, a]) for a in range(2)], axis=1)
+    rms = {lag: float(np.sqrt(np.mean(d ** 2))) for lag, d in left.items()}
     lag = min(rms, key=rms.get)
     w = np.full_like(phone, np.nan)
-    w[rows] = phone[rows] - np.stack([np.interp(t[rows] - lag, t[known], truth[known, a])
-                                      for a in range(2)], axis=1)
+    w[rows] = left[lag]
     pair = np.flatnonzero(rows[:-1] & rows[1:] & (np.diff(t) == 1.0))
     sigma = float(np.sqrt(np.mean(w[rows] ** 2)))
     phi = float(np.sum(w[pair] * w[pair + 1]) / np.sum(w[pair] ** 2)) if pair.size else 0.0

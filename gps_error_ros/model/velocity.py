@@ -79,11 +79,16 @@ class Velocity:
         v_true = np.asarray(v_true, dtype=float)
         v = v_true + w
         speed = np.hypot(v[..., 0], v[..., 1])
-        course = np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 360.0
+        course = course_deg(v)
         still = np.hypot(v_true[..., 0], v_true[..., 1]) <= self.standstill   # NaN: not still
         speed = np.where(still, 0.0, speed)
         course = np.where(still, np.nan, course)
         return speed, course
+
+
+def course_deg(v):
+    """Return the direction of east/north velocities (..., 2), degrees clockwise from north."""
+    return np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 360.0
 
 
 def velocity_from_dict(raw, source='<profile>'):

@@ -59,13 +59,10 @@ def enu_covariance(cov_ne, vertical_var):
 
     ``cov_ne`` is the 2x2 (north, east) horizontal covariance in m^2.
     """
-    var_n, var_e, c = cov_ne[0][0], cov_ne[1][1], cov_ne[0][1]
-    cov = [float(var_e), float(c), 0.0,
-           float(c), float(var_n), 0.0,
-           0.0, 0.0, float(vertical_var)]
-    kind = NavSatFix.COVARIANCE_TYPE_KNOWN if c != 0.0 else \
+    cov = enu_covariances(np.asarray(cov_ne, dtype=float)[None], vertical_var)[0]
+    kind = NavSatFix.COVARIANCE_TYPE_KNOWN if cov[1] != 0.0 else \
         NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
-    return cov, kind
+    return [float(v) for v in cov], kind
 
 
 def enu_covariances(cov_ne, vertical_var):

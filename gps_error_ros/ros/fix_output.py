@@ -37,7 +37,6 @@ class FixOutput:
         self.burst = FIX_BURST if best_effort else None
         self.refused = 0            # non-finite positions not published
         self.no_fix = 0             # NO_FIX messages published
-        self.velocities = 0         # vel messages published
         self.fix_templates, self.no_fix_template = [], None
 
     def templates(self, frame_id):
@@ -119,7 +118,6 @@ class FixOutput:
                 pub.publish(conversions.make_twist(
                     fix.stamp_ns, self.frame_id, fix.velocity[row, 0], fix.velocity[row, 1],
                     variance))
-        self.velocities += rows.size
 
     def _send(self, handles, raws):
         burst = self.burst or max(len(raws), 1)

@@ -111,7 +111,6 @@ class SumoBridge(Node):
             self.kinds.append(Kind(traci.vehicle, cfg['vehicle_prefix'], msg_type, leaf))
         self.clock = self.create_publisher(Clock, '/clock', CLOCK_PUB_QOS)
         self.steps = self.published = 0
-        self.renamed = []
         lat, lon, alt = self.geo.datum
         self.get_logger().info(f'datum of the poses: [{lat:.9f}, {lon:.9f}, {alt:.3f}] '
                                f'(give the error node the same)')
@@ -194,7 +193,7 @@ class SumoBridge(Node):
             # one TraCI round trip per step for all agents, not two per agent
             kind.domain.subscribe(i, (self.position, self.angle))
         if new:
-            self._wait_for_match([(kind.pubs[i].topic_name, kind.pubs[i]) for i in new])
+            self._wait_for_match([kind.pubs[i] for i in new])
         if not ids:
             return
         values = kind.domain.getAllSubscriptionResults()
@@ -212,17 +211,16 @@ class SumoBridge(Node):
             raise RuntimeError(f'SUMO ids {kind.names[name]!r} and {sumo_id!r} share the '
                                f'ROS name {name!r}')
         kind.names[name] = sumo_id
-        if name != sumo_id and len(self.renamed) < 1000:
-            self.renamed.append(sumo_id)
+        if name != sumo_id:
             self.get_logger().warning(
                 f'SUMO id {sumo_id!r} is not a valid ROS name token: published as '
                 f'{name!r}', throttle_duration_sec=5.0)
         return self.create_publisher(kind.msg_type, f'{kind.prefix}/{name}/{kind.leaf}',
                                      SUMO_TRUTH_QOS)
 
-    def _wait_for_match(self, topics):
+    def _wait_for_match(self, pubs):
         """
-        Wait until ``match_node`` subscribes to every one of ``topics``.
+        Wait until ``match_node`` subscribes to the topic of every one of ``pubs``.
 
         Its subscription must be in the graph and matched by our publisher:
         with other subscribers (a recorder), a count alone says nothing.
@@ -231,23 +229,23 @@ class SumoBridge(Node):
         if not timeout:
             return
         deadline = time.monotonic() + timeout
-        waiting = list(topics)
+        waiting = list(pubs)
         while waiting and time.monotonic() < deadline and not self.stop:
-            waiting = [(t, p) for t, p in waiting if not self._matched(t, p, who)]
+            waiting = [p for p in waiting if not self._matched(p, who)]
             if waiting:
                 time.sleep(0.02)
         if waiting:
             self.get_logger().warning(
                 f'{len(waiting)} new topic(s) not subscribed by {who} after {timeout:g} s, '
-                f'e.g. {waiting[0][0]}: published anyway', throttle_duration_sec=5.0)
+                f'e.g. {waiting[0].topic_name}: published anyway', throttle_duration_sec=5.0)
         else:
             # the node made the agent's fix publisher with its subscription: give
             # it a moment to meet that topic's subscribers, or a first fix sent
             # before they match is lost to them (seen under load in CI)
             time.sleep(MATCH_SETTLE_S)
 
-    def _matched(self, topic, pub, who):
-        subs = self.get_subscriptions_info_by_topic(topic)
+    def _matched(self, pub, who):
+        subs = self.get_subscriptions_info_by_topic(pub.topic_name)
         return (any(s.node_name == who for s in subs)
                 and pub.get_subscription_count() >= len(subs))
 

@@ -81,11 +81,7 @@ class CrowdErrors:
 
     def errors(self, names):
         """Return the named agents' current north/east errors, in metres."""
-        new = [n for n in dict.fromkeys(names) if n not in self.index]
-        if new:
-            self._add(new)
-        rows = np.fromiter((self.index[n] for n in names), dtype=np.int64,
-                           count=len(names))
+        rows = self._rows(names)
         self.last_seen[rows] = self.step
         out = self.model.errors(self.state[rows])
         if self.forget_after and self.step % 64 == 0:
@@ -94,17 +90,18 @@ class CrowdErrors:
 
     def covariance(self, names):
         """Return the named agents' predictive covariances now (conditional_cov), (n, 2, 2)."""
-        self.available(names)               # adds the unknown ones
-        rows = np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
-        return self.cov_now[rows]
+        return self.cov_now[self._rows(names)]
 
     def available(self, names):
         """Return which named agents have a fix now (profile availability; else all)."""
+        return available(self.model, self.state[self._rows(names)])
+
+    def _rows(self, names):
+        """Return the state rows of ``names``, adding the agents not yet known."""
         new = [n for n in dict.fromkeys(names) if n not in self.index]
         if new:
             self._add(new)
-        rows = np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
-        return available(self.model, self.state[rows])
+        return np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
 
     def _add(self, names):
         keys = np.array([streams.agent_key(self.seed, n) for n in names],

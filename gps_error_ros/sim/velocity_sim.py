@@ -17,6 +17,7 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.velocity import course_deg
 
 
 def true_velocity(t, lat, lon, at, now=None):
@@ -58,6 +59,5 @@ def speed_and_course(velocity, seed, data, start_step, rate_hz):
         w = velocity.errors(key, int(steps.max()) + 1, start=start_step)[steps, 0]
         out[0][rows], out[1][rows] = velocity.report(lagged, w)
         out[2][rows] = np.hypot(vt[:, 0], vt[:, 1])
-        course = np.degrees(np.arctan2(vt[:, 0], vt[:, 1])) % 360.0
-        out[3][rows] = np.where(out[2][rows] > 0, course, math.nan)
+        out[3][rows] = np.where(out[2][rows] > 0, course_deg(vt), math.nan)
     return tuple(out)
