@@ -27,6 +27,24 @@ def crowd_node(ns, agents, profiles):
         '-p', 'agent_profiles:=[' + ','.join(f'"{p}"' for p in profiles) + ']'])
 
 
+def shard_topics(peer, shards):
+    """
+    Return pose publishers and fix boxes keyed (namespace, agent) for ``shards``.
+
+    ``shards`` is ((namespace, agents), ...); returns once every node has
+    subscribed to its poses and publishes its fixes.
+    """
+    pubs, boxes = {}, {}
+    for ns, agents in shards:
+        for a in agents:
+            pubs[ns, a] = peer.publisher(PoseStamped, f'{ns}/{a}/pose')
+            boxes[ns, a] = peer.collect(NavSatFix, f'{ns}/{a}/fix')
+    assert peer.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
+                           and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
+                                   for ns, a in boxes), 30)
+    return pubs, boxes
+
+
 def test_crowd_sharded_over_two_processes_gives_identical_fixes():
     whole, half_a, half_b = unique_ns(), unique_ns(), unique_ns()
     nodes = [crowd_node(whole, AGENTS, PROFILES),
@@ -34,15 +52,8 @@ def test_crowd_sharded_over_two_processes_gives_identical_fixes():
              crowd_node(half_b, AGENTS[3:], PROFILES[3:])]
     peer = Peer()
     try:
-        pubs, boxes = {}, {}
-        for ns, agents in ((whole, AGENTS), (half_a, AGENTS[:3]), (half_b, AGENTS[3:])):
-            for a in agents:
-                pubs[ns, a] = peer.publisher(PoseStamped, f'{ns}/{a}/pose')
-                boxes[ns, a] = peer.collect(NavSatFix, f'{ns}/{a}/fix')
-        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0
-                                           for p in pubs.values())
-                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
-                                       for ns, a in boxes), 30)
+        pubs, boxes = shard_topics(peer, ((whole, AGENTS), (half_a, AGENTS[:3]),
+                                          (half_b, AGENTS[3:])))
         # the node drains its truth subscriptions itself, outside the executor;
         # they are still its own in the ROS graph
         graph = {}
@@ -234,15 +245,8 @@ def test_outages_are_the_same_in_a_sharded_crowd(tmp_path):
              crowd_node(half_b, agents[2:], [str(path)] * 2)]
     peer = Peer()
     try:
-        pubs, boxes = {}, {}
-        for ns, names in ((whole, agents), (half_a, agents[:2]), (half_b, agents[2:])):
-            for a in names:
-                pubs[ns, a] = peer.publisher(PoseStamped, f'{ns}/{a}/pose')
-                boxes[ns, a] = peer.collect(NavSatFix, f'{ns}/{a}/fix')
-        assert peer.spin_until(lambda: all(p.get_subscription_count() > 0
-                                           for p in pubs.values())
-                               and all(peer.node.count_publishers(f'{ns}/{a}/fix') > 0
-                                       for ns, a in boxes), 30)
+        pubs, boxes = shard_topics(peer, ((whole, agents), (half_a, agents[:2]),
+                                          (half_b, agents[2:])))
         assert peer.spin_until(lambda: all(
             any(e.node_namespace == ns for e in peer.node.get_subscriptions_info_by_topic(
                 '/clock')) for ns in (whole, half_a, half_b)), 10)

@@ -27,6 +27,16 @@ pytestmark = pytest.mark.integration
 SEED = 5
 
 
+def start_bridge(scenario, fcd, *params):
+    """Start gps_error_sumo on ``scenario``, writing SUMO's geo FCD (12 digits) to ``fcd``."""
+    args = ['--ros-args', '-p', f'sumocfg:={scenario.sumocfg}',
+            '-p', f'sumo_args:=["--fcd-output", "{fcd}", "--fcd-output.geo", "true", '
+                  f'"--precision.geo", "12"]']
+    for p in params:
+        args += ['-p', p]
+    return NodeProcess(args, name='gps_error_sumo')
+
+
 def read_fcd(path):
     """Return {(person id, t): (lat, lon)} of an FCD file written with --fcd-output.geo."""
     out = {}
@@ -56,12 +66,8 @@ def test_sumo_people_get_the_errors_simulate_gives_their_fcd(tmp_path, peer):
         node.stop()[1]
     peer.spin_for(1.0)
     fcd = tmp_path / 'fcd.xml'
-    bridge = NodeProcess([
-        '--ros-args', '-p', f'sumocfg:={scenario.sumocfg}',
-        '-p', f'person_prefix:={ns}/peds', '-p', 'speed:=10.0',
-        '-p', 'wait_for_clock:=1', '-p', 'match_timeout:=10.0',
-        '-p', f'sumo_args:=["--fcd-output", "{fcd}", "--fcd-output.geo", "true", '
-              f'"--precision.geo", "12"]'], name='gps_error_sumo')
+    bridge = start_bridge(scenario, fcd, f'person_prefix:={ns}/peds', 'speed:=10.0',
+                          'wait_for_clock:=1', 'match_timeout:=10.0')
     try:
         assert peer.spin_until(lambda: bridge.proc.poll() is not None, 300), 'SUMO ran on'
         rc, bridge_log = bridge.wait_exit()
@@ -155,12 +161,9 @@ def test_vehicles_and_navsatfix_truth_are_sumos_positions(tmp_path, peer):
     boxes.update({('vehicle', v): peer.collect(NavSatFix, f'{ns}/cars/{v}/fix_truth')
                   for v in scenario.vehicles})
     fcd = tmp_path / 'fcd.xml'
-    bridge = NodeProcess([
-        '--ros-args', '-p', f'sumocfg:={scenario.sumocfg}', '-p', 'output_type:=navsatfix',
-        '-p', f'person_prefix:={ns}/peds', '-p', f'vehicle_prefix:={ns}/cars',
-        '-p', 'speed:=0.0', '-p', 'match_node:=test_peer', '-p', 'match_timeout:=10.0',
-        '-p', f'sumo_args:=["--fcd-output", "{fcd}", "--fcd-output.geo", "true", '
-              f'"--precision.geo", "12"]'], name='gps_error_sumo')
+    bridge = start_bridge(scenario, fcd, 'output_type:=navsatfix',
+                          f'person_prefix:={ns}/peds', f'vehicle_prefix:={ns}/cars',
+                          'speed:=0.0', 'match_node:=test_peer', 'match_timeout:=10.0')
     try:
         assert peer.spin_until(lambda: bridge.proc.poll() is not None, 120), 'SUMO ran on'
         rc, log = bridge.wait_exit()
