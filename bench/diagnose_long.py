@@ -7,7 +7,8 @@ reported unexplained. Holm keeps the family-wise level at 5 %, so the count
 must not exceed the binomial(seeds, 0.05) bound at 1 % (the run fails
 otherwise). For every scenario with an effect, ``--effect-seeds`` walks
 (default 20): the share with exactly the right attribution, and the share
-where the held-out NLL after is lower than before, printed (and failed if
+where the cross-validated selection kept exactly the right effects, and
+the share where the held-out NLL after is lower than before, printed (and failed if
 the right attribution is below ``--min-power``).
 
 Prints one line per scenario and a JSON summary (``--json``); exits non-zero
@@ -32,6 +33,7 @@ def one(job):
     s = diagnose(synthetic_trace(scenario, seed, duration), sims=10).summary
     return {'scenario': scenario, 'seed': seed,
             'effects': [e['name'] for e in s['effects']],
+            'kept': s['selection'].get('kept', []),
             'unexplained': [u['structure'] for u in s['unexplained']],
             'before': s['error_before']['heldout_nll_per_sample'],
             'after': s['error_after']['heldout_nll_per_sample']}
@@ -67,10 +69,13 @@ def main(argv=None):
             right = sum(sorted(r['effects']) == sorted(expected)
                         and bool(r['unexplained']) == unexplained for r in rows)
             better = sum(r['after'] < r['before'] for r in rows)
+            kept = sum(sorted(r['kept']) == sorted(expected) for r in rows)
             passed = right / n >= args.min_power
             line = (f'{sc:20s} {n} seeds: right attribution {right} ({100 * right / n:.0f} %), '
+                    f'kept for simulation {kept}, '
                     f'held-out NLL lower after {better} ({100 * better / n:.0f} %)')
-            summary[sc] = {'seeds': n, 'right': right, 'after_better': better,
+            summary[sc] = {'seeds': n, 'right': right, 'kept_right': kept,
+                           'after_better': better,
                            'passed': passed,
                            'found': sorted({tuple(r['effects']) for r in rows})}
         ok &= passed

@@ -14,6 +14,7 @@ import argparse
 import json
 from pathlib import Path
 
+from close_loop_evidence import render_trace, run_evidence
 from data_sources import CREDITS
 
 from gps_error_ros.diagnose import diagnose, DiagnosisError, extended_profile
@@ -82,10 +83,12 @@ def run(data_dir, out_dir, sims=SIMS):
             continue
         rec['summary'] = diag.to_dict()
         rec['classes'] = compare(diag, sims=sims)
+        rec['evidence'] = run_evidence(diag.fitted, trace, sims)
         compare_figure(compare_json(csv_path.name, diag.split, rec['classes']),
                        sub / f'{stem}.compare.png')
         (sub / f'{stem}.json').write_text(json.dumps(
-            {'diagnosis': rec['summary'], 'classes': rec['classes']}, indent=1))
+            {'diagnosis': rec['summary'], 'classes': rec['classes'],
+             'evidence': rec['evidence']}, indent=1))
         diagnosis_figure(diag, sub / f'{stem}.png', csv_path.name)
         write_profile(sub / f'{stem}.extended.yaml',
                       extended_profile(diag, f'{stem}-extended', csv_path.name),
@@ -97,6 +100,7 @@ def run(data_dir, out_dir, sims=SIMS):
         synth.append({'scenario': sc, 'expected': list(expected),
                       'expected_unexplained': unexplained,
                       'found': [e['name'] for e in s['effects']],
+                      'kept': s['selection'].get('kept', []),
                       'unexplained': [u['structure'] for u in s['unexplained']],
                       'before': s['error_before']['heldout_nll_per_sample'],
                       'after': s['error_after']['heldout_nll_per_sample'],
@@ -194,7 +198,19 @@ def render(records, synth, long_run=None):
           'among 2 levels, 3 levels, and 2 levels plus Student-t innovations '
           '(`heavy_tails` too); kurtosis without persistence: `heavy_tails`. '
           'Serial correlation is never forced onto an effect: `unexplained`.',
-          '5. **Extended model** with the attributed effects; its own '
+          '5. **Selection**: the tests say which structures the training '
+          'innovations hold, not that a model with all of them simulates the '
+          'phone better. Every subset of the attributed effects is scored by '
+          'blocked cross-validation over the training part (three contiguous '
+          'blocks, each scored by a model fitted on the other two) on '
+          '`inside_95` of 50 traces simulated along the block and on the '
+          'one-step NLL. The effects found stand unless the blocks agree '
+          'against them: a subset that another beats on `inside_95` by 0.05 '
+          'or more in every block is vetoed; a subset not vetoed with the '
+          'lower NLL in every block replaces the effects found; if these are '
+          'vetoed, the lowest NLL of the rest '
+          '(`gps_error_ros/diagnose/selection.py`).',
+          '6. **Extended model** with the effects kept; its own '
           'innovations are tested again (serial and cross correlation, '
           'persistence, PIT of the predictive radius). What remains of a '
           'structure no attributed effect targets is `unexplained`.',
@@ -218,12 +234,13 @@ def render(records, synth, long_run=None):
           'by a mechanism other than the fitted forms. The diagnosis is not '
           'told which. One seed per scenario (the same seed for all; `make '
           'test` runs these):', '',
-          '| scenario | expected | found | unexplained | held-out NLL before -> '
-          'after (95 % CI of the gain) |', '|---|---|---|---|---|']
+          '| scenario | expected | found | kept | unexplained | held-out NLL before -> '
+          'after (95 % CI of the gain) |', '|---|---|---|---|---|---|']
     for r in synth:
         exp = ', '.join(r['expected']) or ('unexplained' if r['expected_unexplained']
                                            else 'nothing')
         md.append(f'| {r["scenario"]} | {exp} | {", ".join(r["found"]) or "-"} | '
+                  f'{", ".join(r["kept"]) or "-"} | '
                   f'{"; ".join(r["unexplained"]) or "-"} | {_f(r["before"])} -> '
                   f'{_f(r["after"])} ({_f(r["ci95"][0])} .. {_f(r["ci95"][1])}) |')
     md.append('')
@@ -236,7 +253,8 @@ def render(records, synth, long_run=None):
                 res = (f'false alarms {v["false_alarms"]} (bound {v["bound"]}: '
                        f'binomial at the 5 % level, 99 % quantile)')
             else:
-                res = (f'right attribution {v["right"]}, held-out NLL lower '
+                res = (f'right attribution {v["right"]}, kept for simulation '
+                       f'{v.get("kept_right", "-")}, held-out NLL lower '
                        f'after {v["after_better"]}')
             md.append(f'| {sc} | {v["seeds"]} | {res} |')
         md.append('')
@@ -309,7 +327,71 @@ def render(records, synth, long_run=None):
             stem = Path(rec['trace']).stem
             md += [f'![{rec["trace"]}: every class against the held-out part]'
                    f'(close-the-loop/{stem}.compare.png)', '']
+    md += _evidence_section(records)
     return '\n'.join(md)
+
+
+def _evidence_section(records):
+    md = ['## Why a model can predict better and simulate worse', '',
+          'The held-out NLL scores one step ahead, given the measured past; '
+          '`inside_95` scores whole simulated traces. Four explanations, each '
+          'with an experiment (`gps_error_ros/diagnose/evidence.py`): the '
+          'trace is not stationary (blocks of the training part and the '
+          'held-out part differ by more than sampling moves them; the '
+          'direction of the split changes the ranking); an effect that helps '
+          'one step ahead costs fidelity in simulation (every subset of the '
+          'effects found); the estimator of the AR part (least squares '
+          'against Yule-Walker); and the sampling spread of the measures '
+          'themselves (the simulated range beside each).', '']
+    for rec in records:
+        if 'evidence' in rec:
+            md += render_trace(rec['trace'], rec['evidence'], rec['classes'])
+            if rec['trace'] in EVIDENCE_READINGS:
+                md += [f'**What this says.** {EVIDENCE_READINGS[rec["trace"]]}', '']
+    return md
+
+
+#: What the evidence tables say, per trace (read off the generated tables).
+EVIDENCE_READINGS = {
+    'gsdc2020-mtv1-pixel4.csv':
+    'Not stationary: the mean north error moves between -0.29 and 0.57 m '
+    'from block to block, the north SD falls from 0.90 m (block 1) to 0.46 m '
+    '(held out), and the motion lag each part alone fits ranges from 0.012 '
+    'to 0.045 s. The effect that costs fidelity is `motion_lag`, not the '
+    'regimes: every subset with it fails the short-lag autocorrelations and '
+    'simulates a q95 of 2.1-2.35 m against 1.76 m measured, and it does not '
+    'lower the held-out NLL; without it, cross_axis_coupling + '
+    'variance_regimes has both the lowest held-out NLL (-0.517) and '
+    'inside_95 1.00. The training part cannot see this: in every block of '
+    'the cross-validation the lag lowers the NLL and raises inside_95, '
+    'because the training blocks\' lag (0.024-0.045 s) is not the held-out '
+    'part\'s (0.012 s), so the selection keeps it. Held out the other way '
+    '(first 30 %), the extended model has both the lowest NLL and the '
+    'highest inside_95 (0.91 against 0.81 for AR(p)): the ranking goes '
+    'with the stretch held out. The estimator does not matter here (least '
+    'squares and Yule-Walker 0.99 both).',
+    'gsdc2020-mtv1-pixel4xlmodded.csv':
+    'The selection drops `cross_axis_coupling` (innovation correlation '
+    '-0.05; its cross-validated NLL gain is nil) and keeps motion_lag, '
+    'heavy_tails and variance_regimes: the lowest held-out NLL of all '
+    'classes (-0.473) and inside_95 1.00. The motion lag again widens the '
+    'simulated q95 (4.45 m against 3.30 m measured) but inside the '
+    'envelope; its value is as unstable as on the Pixel 4 (0.000-0.075 s '
+    'by block).',
+    'urbannav-hk-tst-ublox-spp.csv':
+    'Not stationary beyond what sampling moves: the held-out median error '
+    '(31.0 m) and north SD (20.9 m) lie outside the AR(p)\'s simulated '
+    'ranges (11.0-16.7 m, 6.5-12.5 m), and the held-out mean north error is '
+    '-20.1 m against -3.1 to 1.4 m in the training blocks, a bias the '
+    'training part never shows. Even inside the training part the first '
+    'block is no plausible draw of a model fitted on the other two '
+    '(inside_95 0.10-0.16). No stationary model fitted on this training '
+    'part reaches inside_95 0.90 on this held-out part. The regimes lower '
+    'the NLL (6.98 against 7.51) at a small cost in fidelity (0.73 against '
+    '0.79). The estimator matters on this short part: the Yule-Walker AR(p) '
+    'reaches 0.88 against 0.79 by least squares (Yule-Walker keeps the fit '
+    'stationary, least squares does not).',
+}
 
 
 def main(argv=None):

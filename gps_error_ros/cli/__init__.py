@@ -170,7 +170,10 @@ def cmd_diagnose(args):
         flag = 'REJECTED' if t['rejected'] else 'ok'
         print(f'  test {name:24s} p={t["p_value"]:.3g} (Holm {t["holm_adjusted_p"]:.3g}) '
               f'{flag}')
-    print('  effects: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
+    print('  effects found: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
+    if s['effects']:
+        print('  kept for simulation (cross-validated over the training part): '
+              + (', '.join(s['selection']['kept']) or 'none'))
     print('  unexplained: ' + ('; '.join(u['structure'] for u in s['unexplained'])
                                or 'none'))
     imp = s['improvement']
@@ -178,7 +181,9 @@ def cmd_diagnose(args):
           f'after {s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
           f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
           f'{imp["ci95"][1]:.4f})')
-    if s['effects'] and imp['ci95'][0] <= 0.0 <= imp['ci95'][1]:
+    if s['effects'] and not s['selection']['kept']:
+        print('  note: no effect kept: the extended model is the base model')
+    elif s['effects'] and imp['ci95'][0] <= 0.0 <= imp['ci95'][1]:
         print('  note: the 95 % interval of the improvement spans zero: the held-out '
               'part does not show that the extended model predicts better')
     _write_results(args, diag.to_dict(), 'diagnosis.png',

@@ -161,8 +161,12 @@ def _add_diagnose(sub):
                     'dependence on the motion of the truth; Holm at 5 %), '
                     'attribute the structure to cross_axis_coupling, '
                     'motion_lag, heavy_tails or variance_regimes (or report '
-                    'it as unexplained), fit the extended model and report '
-                    'the error before and after on the held-out part. See '
+                    'it as unexplained), keep the subset of those effects '
+                    'that simulates best by blocked cross-validation over '
+                    'the training part (NLL, with a veto on simulation '
+                    'fidelity), fit the '
+                    'extended model with it and report the error before '
+                    'and after on the held-out part. See '
                     'docs/close-the-loop.md.')
     d.add_argument('input', help='trace CSV or rosbag2 directory')
     _add_input_options(d)

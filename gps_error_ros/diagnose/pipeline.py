@@ -23,7 +23,10 @@ choice made on the training part alone:
    tested on the innovations with the lag removed (lag transients would
    otherwise look like tails). Serial correlation that no effect explains,
    and periodic variance, are reported under ``unexplained``.
-5. :func:`fit_extended`: the model with the attributed effects.
+5. :func:`~.selection.select_effects` and :func:`fit_extended`: every
+   subset of the attributed effects is scored by blocked cross-validation
+   over the training part (one-step NLL, with a veto on simulation fidelity;
+   :mod:`.selection`), and the extended model has the subset kept.
 6. :func:`retest_extended`: its own innovations tested again; what remains
    is ``unexplained`` (or an approximation of an effect already present).
 7. :func:`heldout_measures`: one-step predictive NLL per held-out sample
@@ -47,6 +50,7 @@ from gps_error_ros.diagnose.family import (holm, innovation_tests, motion_test,
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
                                            FittedModel, select_orders)
+from gps_error_ros.diagnose.selection import select_effects, Selection
 from gps_error_ros.diagnose.split import Split, split_trace
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.profiles import profile_mapping
@@ -84,6 +88,7 @@ class Diagnosis:
     extended: FittedModel
     train_residuals: dict = field(default_factory=dict)
     split: Split = None
+    fitted: 'FittedModels' = None
 
     def to_dict(self):
         """Return the findings as plain data (floats to 6 significant digits)."""
@@ -244,12 +249,19 @@ def attribute(split, base, family):
     return att
 
 
-def fit_extended(split, base, att):
-    """Step 5: the model with the attributed effects (the base when none)."""
-    if not att.effects:
+def fit_extended(split, base, att, kept=None):
+    """
+    Step 5: the model with the effects kept (the base when none).
+
+    ``kept``: the effects :func:`~.selection.select_effects` keeps; all the
+    attributed ones when not given.
+    """
+    kept = tuple(att.effects) if kept is None else tuple(kept)
+    if not kept:
         return base
-    return fit_model(split.train, base.orders, tuple(att.effects), split.truth,
-                     att.lag_s, regimes=att.regimes)
+    return fit_model(split.train, base.orders, kept, split.truth,
+                     att.lag_s if 'motion_lag' in kept else None,
+                     regimes=att.regimes)
 
 
 def retest_extended(split, extended, att, alpha=ALPHA):
@@ -263,14 +275,14 @@ def retest_extended(split, extended, att, alpha=ALPHA):
     does, but its fitted form only approximates the data's).
     """
     _, r, d, pred = extended.score(split.train, split.truth)
-    if not att.effects:
+    if not extended.effects:
         return {}, (r, d.seg, pred)
     tests = retest(extended, r, d.seg, pred)
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k, t in tests.items():
         t['holm_adjusted_p'] = adjusted[k]
         t['rejected'] = reject[k]
-        covered = [e for e in RETEST_EFFECTS[k] if e in att.effects]
+        covered = [e for e in RETEST_EFFECTS[k] if e in extended.effects]
         seen = any(u['structure'] == RETEST_LABEL[k] for u in att.unexplained)
         t['explained_by'] = covered
         if reject[k] and not covered and not seen:
@@ -321,22 +333,28 @@ class FittedModels:
     base: FittedModel
     family: FamilyResult
     attribution: Attribution
+    selection: Selection
     extended: FittedModel
 
 
-def fit_models(trace, alpha=ALPHA):
+def fit_models(trace, alpha=ALPHA, seed=0):
     """Run steps 1-5 (no held-out simulation); return :class:`FittedModels`."""
-    split = split_step(trace)
+    return fit_split(trace.name, split_step(trace), alpha, seed)
+
+
+def fit_split(name, split, alpha=ALPHA, seed=0):
+    """Run steps 2-5 on a given :class:`Split`; return :class:`FittedModels`."""
     base = fit_base(split)
     family = run_family(split, base, alpha)
     att = attribute(split, base, family)
-    return FittedModels(trace.name, split, base, family, att,
-                        fit_extended(split, base, att))
+    sel = select_effects(split, base.orders, att.effects, att.regimes, seed)
+    return FittedModels(name, split, base, family, att, sel,
+                        fit_extended(split, base, att, sel.kept))
 
 
 def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
     """Run the whole procedure on a trace; return a :class:`Diagnosis`."""
-    fitted = fit_models(trace, alpha)
+    fitted = fit_models(trace, alpha, seed)
     split, base, family = fitted.split, fitted.base, fitted.family
     att, extended = fitted.attribution, fitted.extended
     retests, ext_residuals = retest_extended(split, extended, att, alpha)
@@ -354,6 +372,7 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
         'tests': family.tests,
         'effects': [{'name': e, 'evidence': att.evidence[e]} for e in att.effects],
         'alternatives_rejected': att.alternatives_rejected,
+        'selection': fitted.selection.to_dict(),
         'extended': {'parameters': extended.parameters(),
                      'train_bic': extended.bic, 'retest': retests},
         'unexplained': att.unexplained,
@@ -363,7 +382,8 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
         'improvement': improvement,
     }
     return Diagnosis(summary, base, extended,
-                     {'base': family.base_residuals, 'extended': ext_residuals}, split)
+                     {'base': family.base_residuals, 'extended': ext_residuals}, split,
+                     fitted)
 
 
 RETEST_LABEL = {

@@ -89,7 +89,7 @@ def test_diagnose_remarks_when_the_improvement_may_be_nothing(tmp_path, capsys):
     walk = write_trace_csv(synthetic_trace('receiver_latency', 1, 3600), tmp_path / 'w.csv')
     assert cli(['diagnose', str(walk), '--sims', '20']) == 0
     out = capsys.readouterr().out
-    assert 'effects: motion_lag' in out
+    assert 'effects found: motion_lag' in out
     assert 'interval of the improvement spans zero' in out
 
 

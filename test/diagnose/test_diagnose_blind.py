@@ -80,7 +80,9 @@ def test_cli_writes_json_report_and_a_profile_the_node_can_load(tmp_path):
         # each of the four panels has drawn content, not a blank page
         assert (panel[..., :3].std(axis=-1) > 0.1).mean() > 0.005
     prof = load_profile(str(tmp_path / 'ext.yaml'))
-    assert prof.effects.names == tuple(e['name'] for e in d['effects'])
+    # the profile has the effects the cross-validation kept, a subset of those found
+    assert prof.effects.names == tuple(d['selection']['kept'])
+    assert set(prof.effects.names) <= {e['name'] for e in d['effects']}
     assert 'cross_axis_coupling' in prof.effects.names
     cov = prof.model().stationary_cov
     assert cov[0, 1] > 0                       # ellipse along the 29 deg avenues

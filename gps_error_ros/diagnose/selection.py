@@ -1,0 +1,204 @@
+"""
+Step 5 of the diagnosis: which of the effects found the simulator keeps.
+
+The tests of step 3 say which structures the training innovations hold;
+they do not say that a model with all of them *simulates* the phone better.
+An effect can lower the one-step likelihood while its simulated traces move
+away from the data (a mean effect whose parameter drifts, a variance effect
+that persists through the AR dynamics). So every subset of the effects
+found is scored by blocked cross-validation over the training part, and the
+held-out part is still used only to report.
+
+Blocked cross-validation: the training part's time span is cut into
+``FOLDS`` contiguous blocks; each block in turn is scored by a model fitted
+on the other blocks (their segments kept apart, so no lag reaches across a
+removed block). For AR models this is a valid estimate of the prediction
+error (Bergmeir, Hyndman and Koo, Comput. Stat. Data Anal. 120, 2018).
+Per block two measures: the one-step predictive NLL per sample, and
+``inside_95`` of ``CV_SIMS`` traces simulated along the block's truth and
+grid (:func:`~.fidelity.calibrated_fidelity`). Motion lags are re-estimated
+in every fold.
+
+The rule: the effects the tests found stand unless the blocks agree
+against them. A subset is vetoed when another simulates better in every
+block (``inside_95`` higher by at least ``FIDELITY_TOLERANCE``); a subset
+replaces the effects found when it has the lower NLL in every block and is
+not vetoed, the lowest mean NLL among such; if the effects found are
+vetoed, the lowest mean NLL among the subsets not vetoed is kept.
+"""
+
+from dataclasses import dataclass, field
+import itertools
+
+import numpy as np
+
+from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
+from gps_error_ros.diagnose.fidelity import calibrated_fidelity, simulate_part
+from gps_error_ros.diagnose.mean import condition_count
+from gps_error_ros.diagnose.models import fit_model
+from gps_error_ros.diagnose.split import Part
+
+#: Contiguous blocks of the training part.
+FOLDS = 3
+#: Simulated traces per block for its ``inside_95``.
+CV_SIMS = 50
+#: Vetoed: another subset's ``inside_95`` is higher by this in every block.
+FIDELITY_TOLERANCE = 0.05
+
+RULE = (f'blocked cross-validation over the training part ({FOLDS} contiguous '
+        f'blocks, each scored by a model fitted on the others): a subset is '
+        f'vetoed when another has inside_95 ({CV_SIMS} simulated traces per '
+        f'block) higher by {FIDELITY_TOLERANCE} or more in every block; the '
+        f'effects found stand unless a subset not vetoed has the lower one-step '
+        f'NLL in every block (then the lowest mean NLL of those), or they are '
+        f'vetoed (then the lowest mean NLL of the rest)')
+
+
+def time_blocks(part, k=FOLDS):
+    """Return ``part`` cut into ``k`` contiguous blocks of equal time span."""
+    t0, t1 = part.t[0][0], part.t[-1][-1]
+    edges = t0 + (t1 - t0) * np.arange(k + 1) / k
+    edges[-1] = np.inf
+    blocks = []
+    for b in range(k):
+        block = Part([], [], [])
+        for err, truth, t in zip(part.err, part.truth, part.t):
+            idx = np.flatnonzero((t >= edges[b]) & (t < edges[b + 1]))
+            if idx.size:
+                block.err.append(err[idx])
+                block.truth.append(truth[idx])
+                block.t.append(t[idx])
+        blocks.append(block)
+    return blocks
+
+
+def join_parts(parts):
+    """Return one :class:`Part` holding the segments of ``parts``."""
+    out = Part([], [], [])
+    for p in parts:
+        out.err += p.err
+        out.truth += p.truth
+        out.t += p.t
+    return out
+
+
+@dataclass
+class Candidate:
+    """One subset of the effects and its cross-validated measures."""
+
+    effects: tuple
+    nll: list = field(default_factory=list)          # per block
+    inside_95: list = field(default_factory=list)    # per block
+    failed: str = ''
+
+    @property
+    def mean_nll(self):
+        """Return the mean NLL per sample over the blocks."""
+        return float(np.mean(self.nll)) if self.nll else float('inf')
+
+    @property
+    def mean_inside_95(self):
+        """Return the mean ``inside_95`` over the blocks."""
+        return float(np.mean(self.inside_95)) if self.inside_95 else 0.0
+
+    def to_dict(self):
+        """Return the candidate as plain data."""
+        out = {'effects': list(self.effects), 'cv_nll_per_sample': self.mean_nll,
+               'cv_inside_95': self.mean_inside_95, 'nll_by_block': self.nll,
+               'inside_95_by_block': self.inside_95}
+        if self.failed:
+            out['failed'] = self.failed
+        return out
+
+
+def cross_validate(split, orders, effects, regimes, seed=0, folds=FOLDS,
+                   sims=CV_SIMS):
+    """Return the :class:`Candidate` of ``effects`` scored over the blocks."""
+    blocks = time_blocks(split.train, folds)
+    m0 = condition_count(orders)
+    cand = Candidate(tuple(effects))
+    for i, held in enumerate(blocks):
+        rest = join_parts(b for j, b in enumerate(blocks) if j != i)
+        try:
+            # a fit that is not stationary cannot simulate (ModelError)
+            model = fit_model(rest, orders, effects, split.truth, None, regimes)
+            ll = model.score(held, split.truth, m0)[0]
+            sims_i = simulate_part(model, held, split.truth, sims, seed + i)
+        except (DiagnosisError, ValueError, np.linalg.LinAlgError) as exc:
+            cand.failed = f'block {i}: {exc}'
+            return cand
+        if not ll.size or not np.all(np.isfinite(ll)):
+            cand.failed = f'block {i}: no finite score'
+            return cand
+        cand.nll.append(float(-ll.mean()))
+        cand.inside_95.append(calibrated_fidelity(held, sims_i)['inside_95'])
+    return cand
+
+
+@dataclass
+class Selection:
+    """The effects kept for the extended model, with every candidate's record."""
+
+    kept: tuple
+    candidates: list
+    rule: str = RULE
+    note: str = ''
+
+    def to_dict(self):
+        """Return the selection as plain data."""
+        out = {'rule': self.rule, 'kept': list(self.kept),
+               'candidates': [c.to_dict() for c in self.candidates]}
+        if self.note:
+            out['note'] = self.note
+        return out
+
+
+def _vetoed(c, ok, tolerance):
+    """Return whether another candidate simulates better than ``c`` in every block."""
+    return any(all(o >= v + tolerance - 1e-12 for o, v in zip(other.inside_95, c.inside_95))
+               for other in ok if other is not c)
+
+
+def _beats(c, ref):
+    """Return whether ``c`` has the lower NLL than ``ref`` in every block."""
+    return all(a < b for a, b in zip(c.nll, ref.nll))
+
+
+def choose(candidates, found=None, tolerance=FIDELITY_TOLERANCE):
+    """
+    Return the kept :class:`Candidate` by the module's rule.
+
+    ``found``: the effects the tests attributed (default: the largest
+    candidate), the choice that stands unless the blocks agree against it.
+    """
+    ok = [c for c in candidates if not c.failed]
+    if not ok:
+        raise DiagnosisError('no subset of the effects could be cross-validated')
+    ref = max(ok, key=lambda c: len(c.effects)) if found is None else \
+        next((c for c in ok if set(c.effects) == set(found)), None)
+    allowed = [c for c in ok if not _vetoed(c, ok, tolerance)]
+    if ref is not None and ref in allowed:
+        allowed = [ref] + [c for c in allowed if _beats(c, ref)]
+    return min(allowed, key=lambda c: (round(c.mean_nll, 9), len(c.effects)))
+
+
+def select_effects(split, orders, effects, regimes, seed=0):
+    """
+    Return the :class:`Selection` among all subsets of ``effects``.
+
+    Without effects there is nothing to choose: the base model, no record.
+    When no subset can be cross-validated (every fold's fit fails, e.g. not
+    stationary on a short block), all effects found are kept and ``note``
+    says why.
+    """
+    effects = tuple(e for e in EFFECT_ORDER if e in effects)
+    if not effects:
+        return Selection((), [])
+    cands = [cross_validate(split, orders, sub, regimes, seed)
+             for k in range(len(effects) + 1)
+             for sub in itertools.combinations(effects, k)]
+    try:
+        return Selection(choose(cands, effects).effects, cands)
+    except DiagnosisError as exc:
+        return Selection(effects, cands, note=f'{exc} (first: {cands[0].failed}); '
+                                              f'all effects found are kept')
