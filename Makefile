@@ -69,7 +69,9 @@ soak: setup
 
 # Blind diagnosis of synthetic walks: 100 seeds per effect-free scenario
 # (false alarms against a binomial bound) and 20 per effect (attribution
-# rate). About 10 minutes on a 2-core machine (564 s); see docs/close-the-loop.md.
+# rate, and how often the cross-validated selection keeps the right effects).
+# About 12 minutes on a 2-core machine (730 s with other jobs running); see
+# docs/close-the-loop.md.
 diagnose-long: setup
 	mkdir -p bench_output
 	$(PY) bench/diagnose_long.py --json bench_output/diagnose_long.json
