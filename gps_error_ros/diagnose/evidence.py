@@ -21,16 +21,15 @@ to measure:
   training and the held-out part.
 """
 
-import itertools
-
 import numpy as np
 
 from gps_error_ros.diagnose.common import TRAIN_FRACTION
-from gps_error_ros.diagnose.fidelity import calibrated_fidelity, simulate_part
-from gps_error_ros.diagnose.laws import fit_law, law_logpdf
+from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, measure_vector,
+                                             simulate_part)
 from gps_error_ros.diagnose.mean import condition_count, design, MeanFit
-from gps_error_ros.diagnose.models import fit_model, FittedModel
-from gps_error_ros.diagnose.selection import time_blocks, FOLDS
+from gps_error_ros.diagnose.models import fit_model, with_law
+from gps_error_ros.diagnose.pipeline import fit_extended
+from gps_error_ros.diagnose.selection import FOLDS, subsets, time_blocks
 from gps_error_ros.diagnose.split import Split, split_trace
 from gps_error_ros.fit.yule_walker import fit_axis
 
@@ -81,16 +80,9 @@ def effect_ablation(fitted, sims=100, seed=0):
     """Return, for every subset of the effects found, the held-out measures."""
     split, base, att = fitted.split, fitted.base, fitted.attribution
     m0 = condition_count(base.orders)
-    found = tuple(att.effects)
-    out = []
-    for k in range(len(found) + 1):
-        for sub in itertools.combinations(found, k):
-            model = fit_model(split.train, base.orders, sub, split.truth,
-                              att.lag_s if 'motion_lag' in sub else None,
-                              regimes=att.regimes)
-            out.append({'effects': list(sub),
-                        **_heldout(model, split, m0, sims, seed)})
-    return out
+    return [{'effects': list(sub),
+             **_heldout(fit_extended(split, base, att, sub), split, m0, sims, seed)}
+            for sub in subsets(tuple(att.effects))]
 
 
 def yule_walker_model(split, orders):
@@ -102,10 +94,7 @@ def yule_walker_model(split, orders):
         const[a] = p.delta
     mean = MeanFit(const, phis)
     d = design(split.train, orders, split.truth)
-    r = mean.residuals(d)
-    law = fit_law(r, d.seg)
-    ll = float(np.sum(law_logpdf(law, r, d.seg)[0]))
-    return FittedModel((), tuple(orders), mean, law, ll, len(r))
+    return with_law((), orders, mean, mean.residuals(d), d, 0)
 
 
 def estimator_check(fitted, sims=100, seed=0):
@@ -127,8 +116,8 @@ def sampling_spread(fitted, sims=100, seed=0):
     split, base = fitted.split, fitted.base
     traces = simulate_part(base, split.test, split.truth, sims, seed)
     sim = calibrated_fidelity(split.test, traces)['measures']
-    train = calibrated_fidelity(split.train, [split.train.err])['measures']
+    train = measure_vector(split.train.err)
     names = ('sd_north', 'sd_east', 'horizontal_q50', 'horizontal_q95')
-    return {n: {'training': train[n]['measured'], 'held_out': sim[n]['measured'],
+    return {n: {'training': train[n], 'held_out': sim[n]['measured'],
                 'sim_lo': sim[n]['sim_lo'], 'sim_hi': sim[n]['sim_hi']}
             for n in names}

@@ -99,7 +99,8 @@ class FittedModel:
         return ll, r, d, pred
 
 
-def _with_law(effects, orders, mean, r, d, regimes):
+def with_law(effects, orders, mean, r, d, regimes):
+    """Return the :class:`FittedModel` of a mean part with its law fitted on ``r``."""
     law = fit_law(r, d.seg, coupled='cross_axis_coupling' in effects,
                   tails='heavy_tails' in effects,
                   regimes=regimes if 'variance_regimes' in effects else 0)
@@ -121,13 +122,13 @@ def fit_model(train, orders, effects, truth, lag_s=None, regimes=2):
         mean, r, d = fit_mean_lag(train, orders, truth)
     else:
         mean, r, d = fit_mean(train, orders, truth, lag_s)
-    return _with_law(effects, orders, mean, r, d, regimes)
+    return with_law(effects, orders, mean, r, d, regimes)
 
 
 def fit_motion_probe(train, orders, truth, lag_s):
     """Fit the motion test's model at lag ``lag_s``: gain >= 0 estimated."""
     mean, r, d = fit_mean_gain(train, orders, truth, lag_s)
-    return _with_law(('motion_lag',), orders, mean, r, d, 0)
+    return with_law(('motion_lag',), orders, mean, r, d, 0)
 
 
 def score(model, part, truth, m0=None):

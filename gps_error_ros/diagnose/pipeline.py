@@ -80,15 +80,29 @@ class Diagnosis:
     """
     Everything ``diagnose`` found, with the data needed for figures.
 
-    ``summary`` holds the raw values; :meth:`to_dict` rounds them for JSON.
+    ``summary`` holds the raw values; :meth:`to_dict` rounds them for JSON;
+    ``fitted`` holds steps 1-5 (split, base, attribution, selection,
+    extended).
     """
 
     summary: dict
-    base: FittedModel
-    extended: FittedModel
+    fitted: 'FittedModels'
     train_residuals: dict = field(default_factory=dict)
-    split: Split = None
-    fitted: 'FittedModels' = None
+
+    @property
+    def split(self):
+        """Return the :class:`Split` of the diagnosis."""
+        return self.fitted.split
+
+    @property
+    def base(self):
+        """Return the base model."""
+        return self.fitted.base
+
+    @property
+    def extended(self):
+        """Return the extended model (the base when no effect is kept)."""
+        return self.fitted.extended
 
     def to_dict(self):
         """Return the findings as plain data (floats to 6 significant digits)."""
@@ -381,9 +395,8 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
         'error_after': after,
         'improvement': improvement,
     }
-    return Diagnosis(summary, base, extended,
-                     {'base': family.base_residuals, 'extended': ext_residuals}, split,
-                     fitted)
+    return Diagnosis(summary, fitted,
+                     {'base': family.base_residuals, 'extended': ext_residuals})
 
 
 RETEST_LABEL = {

@@ -182,6 +182,12 @@ def choose(candidates, found=None, tolerance=FIDELITY_TOLERANCE):
     return min(allowed, key=lambda c: (round(c.mean_nll, 9), len(c.effects)))
 
 
+def subsets(effects):
+    """Return every subset of ``effects`` (tuples, in order), the empty one first."""
+    return [sub for k in range(len(effects) + 1)
+            for sub in itertools.combinations(effects, k)]
+
+
 def select_effects(split, orders, effects, regimes, seed=0):
     """
     Return the :class:`Selection` among all subsets of ``effects``.
@@ -195,8 +201,7 @@ def select_effects(split, orders, effects, regimes, seed=0):
     if not effects:
         return Selection((), [])
     cands = [cross_validate(split, orders, sub, regimes, seed)
-             for k in range(len(effects) + 1)
-             for sub in itertools.combinations(effects, k)]
+             for sub in subsets(effects)]
     try:
         return Selection(choose(cands, effects).effects, cands)
     except DiagnosisError as exc:
