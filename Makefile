@@ -24,11 +24,11 @@ DATA ?= ../shared/data
 setup: $(STAMP)
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
-		requirements-sumo.txt \
+		requirements-sumo.txt requirements-zones.txt \
 		setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
-		-r requirements-import.txt -r requirements-sumo.txt
+		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt
 	$(PIP) --no-deps -e .
 	touch $@
 

@@ -23,8 +23,10 @@ setup(
                       'matplotlib', 'rosbags'],
     # gps_error import: recordings in (NMEA, GPX); an extra, not a core need.
     # gps_error_sumo: SUMO live (the eclipse-sumo wheel, TraCI); an extra too.
+    # Zone maps (node parameter zones, simulate --zones): shapely 2.
     extras_require={'import': ['pynmea2', 'gpxpy'],
-                    'sumo': ['eclipse-sumo', 'traci', 'sumolib']},
+                    'sumo': ['eclipse-sumo', 'traci', 'sumolib'],
+                    'zones': ['shapely>=2']},
     zip_safe=True,
     maintainer='gps_error_ros maintainers',
     maintainer_email='maintainers@gps-error-ros.invalid',

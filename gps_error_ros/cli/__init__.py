@@ -55,7 +55,17 @@ def cmd_simulate(args):
                          '--duration S')
     _check_output_dir(args.out, '--out')
     profile = load_profile(args.profile)
-    model = profile.model()
+    zones = None
+    if args.zones:
+        from gps_error_ros.model.zoned import zoned_errors
+        from gps_error_ros.model.zones import load_zone_map
+        if not args.trajectories:
+            raise ValueError('--zones needs --trajectories: the raw mode (--agents) '
+                             'has no positions to place in zones')
+        profile, model, zones = zoned_errors(load_zone_map(args.zones), profile,
+                                             args.covariance_mode)
+    else:
+        model = profile.model()
     if args.seed == -1:
         args.seed = secrets.randbits(63)
         print(f'no seed given: using seed {args.seed}')
@@ -63,10 +73,11 @@ def cmd_simulate(args):
         src = Path(args.trajectories)
         if src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
-                                     profile.velocity, args.covariance_mode)
+                                     profile.velocity, args.covariance_mode, zones)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
-                                     args.seed, args.net, args.coordinates, args.digits)
+                                     args.seed, args.net, args.coordinates, args.digits,
+                                     zones)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)

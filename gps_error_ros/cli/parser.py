@@ -143,6 +143,11 @@ def _add_simulate(sub):
                    help='CSV mode: the covariance behind each row\'s accuracy, accuracy_major, '
                         'accuracy_minor, accuracy_orientation columns, as the node\'s '
                         'covariance_mode (default stationary)')
+    s.add_argument('--zones', default=None,
+                   help='zone map (GeoJSON polygons with a "profile" property): each '
+                        'agent gets the error process of the zone its truth is in, '
+                        'step by step; --profile applies outside every zone unless the '
+                        'map names a default_profile (needs the extra "zones": shapely)')
     s.add_argument('--agents', type=number(int, 1),
                    help='raw mode: number of agents, named agent0, agent1, ...')
     s.add_argument('--duration', type=number(float, 0.0, lo_open=True),

@@ -383,3 +383,21 @@ class ARErrorModel:
                 y, zi[ax] = signal.lfilter([1.0], np.r_[1.0, -self.phi[ax]],
                                            series, axis=-1, zi=zi[ax])
                 out[t0:t1, :, ax] = y.T + self.mean[ax]
+
+
+def state_and_cov(model, keys, start, step):
+    """
+    Return (state at model ``step`` of a run from ``start``, its predictive covariance).
+
+    For any of the package's models (plain, with effects, with availability).
+
+    The covariance is the model's for the error at ``step`` given the state a
+    step before (at ``start``: given the stationary law), (n, 2, 2).
+    """
+    if step == start:
+        state = model.initial_state(keys, step)
+        return state, model.predictive_cov(state, first=True)
+    state = model.state_after(keys, start, step - 1)
+    cov = model.predictive_cov(state)
+    model.advance(state, keys, step)
+    return state, cov

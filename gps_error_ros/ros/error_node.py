@@ -29,6 +29,8 @@ from sensor_msgs.msg import NavSatFix
 from gps_error_ros.sim.engine import FixEngine, NS
 from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
+from gps_error_ros.model.zoned import zoned_errors
+from gps_error_ros.model.zones import load_zone_map, ZoneMapError
 from gps_error_ros.ros import cdr
 from gps_error_ros.ros import conversions
 from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
@@ -104,7 +106,8 @@ class GpsErrorNode(PatternAgents, Node):
         self.invalid_truth = 0              # truth messages that could not be used
         self.fix_output = FixOutput(self, cfg['outage_output'],
                                     self.fix_reliability == 'best_effort',
-                                    cfg['covariance_mode'] == 'conditional')
+                                    cfg['covariance_mode'] == 'conditional',
+                                    per_fix=bool(cfg['zones']))
         self.fix_output.templates(self.frame_id)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -123,13 +126,21 @@ class GpsErrorNode(PatternAgents, Node):
         """Make one engine per distinct profile, each over its own agents."""
         self.groups = []
         self.slot = [None] * len(self.agents)     # agent -> (group, local index)
+        zone_map = self._zone_map(cfg)
         for spec in dict.fromkeys(profiles):
+            zones = None
             try:
                 profile = load_profile(spec)
-                model = profile.model()
+                if zone_map is None:
+                    model = profile.model()
+                else:
+                    profile, model, zones = zoned_errors(zone_map, profile,
+                                                         cfg['covariance_mode'])
             except ProfileError as exc:
                 name = 'agent_profiles' if cfg['agent_profiles'] else 'profile'
                 raise ConfigError(f'parameter {name!r} ({spec!r}): {exc}') from None
+            except ZoneMapError as exc:
+                raise ConfigError(f'parameter \'zones\': {exc}') from None
             members = [i for i, p in enumerate(profiles) if p == spec]
             keys = [agent_key(self.seed, self.agents[i]) if active else 0
                     for i in members]
@@ -139,7 +150,8 @@ class GpsErrorNode(PatternAgents, Node):
                                start_ns=(None if cfg['start_time'] < 0
                                          else int(round(cfg['start_time'] * NS))),
                                velocity=profile.velocity,
-                               conditional_cov=cfg['covariance_mode'] == 'conditional')
+                               conditional_cov=cfg['covariance_mode'] == 'conditional',
+                               zones=zones)
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
@@ -149,6 +161,15 @@ class GpsErrorNode(PatternAgents, Node):
                 self.slot[i] = (g, local)
         self.slot_group = np.array([g for g, _ in self.slot])
         self.slot_local = np.array([local for _, local in self.slot])
+
+    def _zone_map(self, cfg):
+        """Return the zone map of parameter ``zones``, or None."""
+        if not cfg['zones'].strip():
+            return None
+        try:
+            return load_zone_map(cfg['zones'])
+        except ZoneMapError as exc:
+            raise ConfigError(f'parameter \'zones\': {exc}') from None
 
     def _create_topics(self):
         """Create each agent's truth subscription and fix publisher."""
@@ -201,7 +222,10 @@ class GpsErrorNode(PatternAgents, Node):
             agents = f' ({group.members.size} agents)' if self.polled else ''
             parts.append(f'profile {group.profile}{agents}: stationary sd north '
                          f'{sd[0]:.2f} m, east {sd[1]:.2f} m')
-        self.get_logger().info(f'{"; ".join(parts)}; {who}; fixes at '
+        zmap = self.groups[0].engine.zone_map
+        zones = '' if zmap is None else (f'; zones {cfg["zones"]} ({len(zmap)}: '
+                                         f'{", ".join(zmap.names)}) over the default')
+        self.get_logger().info(f'{"; ".join(parts)}{zones}; {who}; fixes at '
                                f'{cfg["rate"]} Hz, seed {self.seed}')
 
     def destroy_node(self):
@@ -397,6 +421,9 @@ class GpsErrorNode(PatternAgents, Node):
         served = sum(a is not None for a in self.agents)
         values = {'profile': ', '.join(g.profile for g in self.groups), 'seed': self.seed,
                   'agents served': served}
+        zmap = self.groups[0].engine.zone_map
+        if zmap is not None:
+            values['zones'] = f'{zmap.path} ({len(zmap)})'
         if self.watcher is not None:
             values.update({'agent_pattern': self.watcher.pattern.text,
                            'agents stale': self.watcher.stale,

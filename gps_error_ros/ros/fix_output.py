@@ -1,7 +1,8 @@
 """
 The error node's fixes out: serialized NavSatFix per agent, and NO_FIX.
 
-A fix with a position goes out with its group's covariance. A step in an
+A fix with a position goes out with its group's covariance (with
+``covariance_mode`` conditional or a zone map: its own). A step in an
 outage (profile ``availability``) goes out, per parameter ``outage_output``,
 as a NavSatFix with ``STATUS_NO_FIX``, latitude, longitude and altitude NaN
 and covariance ``COVARIANCE_TYPE_UNKNOWN`` (the message's own convention for
@@ -30,10 +31,11 @@ NO_COVARIANCE = [0.0] * 9
 class FixOutput:
     """Publish the engine's fix batches on the node's per-agent publishers."""
 
-    def __init__(self, node, outage_output, best_effort, conditional=False):
+    def __init__(self, node, outage_output, best_effort, conditional=False, per_fix=False):
         self.node = node
         self.outage_output = outage_output
         self.conditional = conditional      # covariance per fix (covariance_mode)
+        self.per_fix = conditional or per_fix   # zones: the zone's covariance per fix
         self.burst = FIX_BURST if best_effort else None
         self.refused = 0            # non-finite positions not published
         self.no_fix = 0             # NO_FIX messages published
@@ -55,7 +57,7 @@ class FixOutput:
 
     def _covs(self, g, fix, rows):
         """Return the per-fix ENU covariances (m, 9) of ``rows``, or None (the group's)."""
-        if not self.conditional or fix.cov is None:
+        if not self.per_fix or fix.cov is None:
             return None
         vertical = self.node.groups[g].covariance[8]
         return conversions.enu_covariances(fix.cov[rows], vertical)

@@ -113,6 +113,12 @@ ERROR_NODE_PARAMS = (
               'covariance of this fix\'s error given its state a step before (the '
               'innovation covariance, scaled by the regimes expected next), per fix, '
               'COVARIANCE_TYPE_KNOWN.', choices=('stationary', 'conditional')),
+    ParamSpec('zones', '', ParameterType.PARAMETER_STRING,
+              'Zone map (GeoJSON polygons, each with a "profile" property): each '
+              'agent\'s error follows the zone its truth is in, step by step, the '
+              'error continuous across a boundary; profile (or the map\'s '
+              'default_profile) applies outside every zone; each fix carries its '
+              'zone\'s covariance. Empty: no zones. Needs shapely (extra "zones").'),
     ParamSpec('outage_output', 'no_fix', ParameterType.PARAMETER_STRING,
               'What a step in an outage (profile availability) publishes: no_fix, a '
               'NavSatFix with status NO_FIX, position NaN and covariance unknown '

@@ -14,23 +14,8 @@ on when it appeared or who else is present.
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import state_and_cov  # noqa: F401  (the engine's too)
 from gps_error_ros.model.availability import available
-
-
-def state_and_cov(model, keys, start, step):
-    """
-    Return (state at model ``step`` of a run from ``start``, its predictive covariance).
-
-    The covariance is the model's for the error at ``step`` given the state a
-    step before (at ``start``: given the stationary law), (n, 2, 2).
-    """
-    if step == start:
-        state = model.initial_state(keys, step)
-        return state, model.predictive_cov(state, first=True)
-    state = model.state_after(keys, start, step - 1)
-    cov = model.predictive_cov(state)
-    model.advance(state, keys, step)
-    return state, cov
 
 
 class CrowdErrors:
@@ -51,7 +36,8 @@ class CrowdErrors:
 
     """
 
-    def __init__(self, model, seed, start_step, forget_after=600, conditional_cov=False):
+    def __init__(self, model, seed, start_step, forget_after=600, conditional_cov=False,
+                 zoned=None):
         self.model = model
         self.seed = seed
         self.start = int(start_step)
@@ -66,6 +52,10 @@ class CrowdErrors:
         # the state a step before (covariance_mode conditional)
         self.conditional_cov = conditional_cov
         self.cov_now = np.zeros((0, 2, 2))
+        # zoned: (ZoneMap, ZonedErrors) when the errors follow a zone map
+        self.zone_map, self.zoned = zoned if zoned is not None else (None, None)
+        if self.zoned is not None:
+            self.zoned.restart(self.start)
 
     def advance_to(self, step):
         """Advance every known agent to model step ``step`` (never back)."""
@@ -84,6 +74,22 @@ class CrowdErrors:
         rows = self._rows(names)
         self.last_seen[rows] = self.step
         out = self.model.errors(self.state[rows])
+        if self.forget_after and self.step % 64 == 0:
+            self._forget()
+        return out
+
+    def zoned_errors(self, names, lat, lon):
+        """
+        Return the named agents' errors and covariances in the zones of (lat, lon).
+
+        With a zone map: each agent's error follows the zone its truth is in
+        (:mod:`gps_error_ros.model.zoned`); the covariance is the zone's
+        (stationary, or conditional with ``conditional_cov``).
+        """
+        rows = self._rows(names)
+        self.last_seen[rows] = self.step
+        zones = self.zone_map.lookup(lat, lon)
+        out = self.zoned.errors(rows, self.keys[rows], self.step, zones)
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out
@@ -119,6 +125,8 @@ class CrowdErrors:
         self.state = np.concatenate([self.state, state])
         self.last_seen = np.concatenate(
             [self.last_seen, np.full(len(names), self.step, dtype=np.int64)])
+        if self.zoned is not None:
+            self.zoned.grow(len(names))
 
     def _forget(self):
         keep = self.step - self.last_seen <= self.forget_after
@@ -130,3 +138,5 @@ class CrowdErrors:
         if self.conditional_cov:
             self.cov_now = self.cov_now[keep]
         self.last_seen = self.last_seen[keep]
+        if self.zoned is not None:
+            self.zoned.keep(keep)

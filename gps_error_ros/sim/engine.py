@@ -45,6 +45,10 @@ Timing rules
 * The clock going backwards resets the engine: pending steps and truth
   history are discarded and the model restarts from its stationary law at the
   new instant.
+* With a zone map (``zones``) an agent's error follows the zone of the
+  (lagged) truth its fix is made from (:mod:`gps_error_ros.model.zoned`):
+  errors are computed when the fix is made, and every fix carries its zone's
+  covariance (stationary, or conditional).
 * Agents may come and go (:meth:`FixEngine.attach`, :meth:`FixEngine.detach`;
   the node's ``agent_pattern``). Every agent's model counts from the
   engine's first model step (the *start*): one attached later is caught up
@@ -145,7 +149,7 @@ class FixEngine:
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
                  history=64, max_pending=1000, active=True, start_ns=None, velocity=None,
-                 conditional_cov=False):
+                 conditional_cov=False, zones=None):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -179,6 +183,10 @@ class FixEngine:
         # given the state a step before (None: the node reports the stationary one)
         self.conditional_cov = conditional_cov
         self.cov_now = None
+        # zones: (ZoneMap, ZonedErrors); the errors then follow the zone of each fix
+        self.zone_map, self.zoned = zones if zones is not None else (None, None)
+        if self.zoned is not None:
+            self.zoned.grow(self.n - self.zoned.n)
         self._reset_time()
 
     def _reset_time(self):
@@ -275,6 +283,8 @@ class FixEngine:
                 step.cov = np.concatenate([step.cov, np.zeros((n, 2, 2))])
         if self.cov_now is not None:
             self.cov_now = np.concatenate([self.cov_now, np.zeros((n, 2, 2))])
+        if self.zoned is not None:
+            self.zoned.grow(n)
         self.n += n
 
     def attach(self, slots, keys):
@@ -293,6 +303,8 @@ class FixEngine:
         self.active[slots] = True
         self.truth.clear(slots)
         self.last_skipped[slots] = -1
+        if self.zoned is not None:
+            self.zoned.forget(slots)
         if self.state is None or not slots.size:
             return
         m = self.pending[0].model_step if self.pending else self.model_index
@@ -332,6 +344,8 @@ class FixEngine:
         self.active[slots] = False
         self.truth.clear(slots)
         self.last_skipped[slots] = -1
+        if self.zoned is not None:
+            self.zoned.forget(slots)
         for step in self.pending:
             step.done[slots] = True
 
@@ -377,6 +391,8 @@ class FixEngine:
         if self.state is None:
             self.state = self.model.initial_state(self.keys, m)
             self.model_index = self.start_index = m
+            if self.zoned is not None:
+                self.zoned.restart(m)
             if self.vel is not None:
                 self.vel.start(self.keys, m)
             if self.conditional_cov:
@@ -445,6 +461,10 @@ class FixEngine:
 
     def _make_fix(self, step, agents, coords):
         err, fix = step.err[agents], step.fix[agents]
+        cov = None if step.cov is None else step.cov[agents]
+        if self.zoned is not None:
+            zones = self.zone_map.lookup(coords[:, 0], coords[:, 1])
+            err, cov = self.zoned.errors(agents, self.keys[agents], step.model_step, zones)
         lat, lon = offset(coords[:, 0], coords[:, 1], err[:, 0], err[:, 1])
         lat, lon = np.asarray(lat), np.asarray(lon)
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position
@@ -456,4 +476,4 @@ class FixEngine:
                                          step.vel_err[agents], self.max_gap_ns)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
                         alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
-                        cov=None if step.cov is None else step.cov[agents])
+                        cov=cov)

@@ -14,6 +14,12 @@ names and first step give the same errors):
 A profile's ``effects`` apply in every mode, except ``motion_lag`` in the
 ``.npz`` mode, which has no trajectory to lag (the two trajectory modes
 report each agent's position ``lag_s`` earlier, interpolated).
+
+With a zone map (``zones``: ``(ZoneMap, ZonedErrors)``, see
+:func:`gps_error_ros.model.zoned.zoned_errors`) the two trajectory modes give each agent the error
+process of the zone its (lagged) truth is in, step by step
+(:mod:`gps_error_ros.model.zoned`), as the node with ``zones`` does; the
+accuracy columns follow the zone.
 """
 
 import math
@@ -37,7 +43,8 @@ from gps_error_ros.traces.trajectories import (
     NetProjection, read_truth_csv, TrajectoryError)
 
 
-def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None):
+def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
+                 zones=None):
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
@@ -45,10 +52,12 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, dig
     (default 8 for lon/lat, about a millimetre, and 3 for metres).
     """
     with atomic_output(dst) as tmp:
-        return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits)
+        return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits,
+                             zones)
 
 
-def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary'):
+def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
+                 zones=None):
     """
     Add errors to a CSV of true positions; write a trace CSV; return counts.
 
@@ -59,7 +68,8 @@ def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode=
     ``covariance_mode``, as the node's: ``stationary`` or ``conditional``.
     """
     with atomic_output(dst) as tmp:
-        return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode)
+        return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode,
+                             zones)
 
 
 def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
@@ -112,9 +122,14 @@ def _moved(mode, proj, src, t, x, y, err):
     return x + err[:, 1], y + err[:, 0], '{:.3f}'
 
 
-def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None):
+def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
+                  zones=None):
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
+    if zones is not None and mode == 'plane':
+        raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
+                              f'its <location>), so positions cannot be placed in the '
+                              f'zone map\'s longitude/latitude polygons')
     size = os.path.getsize(src)
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
@@ -124,7 +139,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
             if crowd is None:
-                crowd = CrowdErrors(model, seed, m)
+                crowd = CrowdErrors(model, seed, m, zoned=zones)
             crowd.advance_to(m)
             steps += 1
             if not agents:
@@ -134,7 +149,12 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
             seen.update(names)
             x, y = lag.lagged(names, t, [a[1] for a in agents],
                               [a[2] for a in agents])
-            nx, ny, fmt = _moved(mode, proj, src, t, x, y, crowd.errors(names))
+            if zones is None:
+                err = crowd.errors(names)
+            else:
+                lon, lat = (x, y) if mode == 'lonlat' else proj.to_lonlat(x, y)
+                err = crowd.zoned_errors(names, np.asarray(lat), np.asarray(lon))[0]
+            nx, ny, fmt = _moved(mode, proj, src, t, x, y, err)
             fmt = fmt if digits is None else f'{{:.{digits}f}}'
             fix = crowd.available(names)        # in an outage: no position written
             writer.timestep(elem, [(a[3], {'x': fmt.format(px), 'y': fmt.format(py)})
@@ -150,14 +170,16 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     return out
 
 
-def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary'):
+def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
+                  zones=None):
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
     conditional = covariance_mode == 'conditional'
-    crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz), conditional_cov=conditional)
+    crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz), conditional_cov=conditional,
+                        zoned=zones)
     lag = LagBuffer(model.lag_s)
     cov = np.repeat(np.asarray(model.stationary_cov)[None], t.size, axis=0)
     lat_out = np.empty_like(t)
@@ -169,12 +191,15 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
         names = data['agent'][b0:b1]
         if len(set(names)) != len(names):
             raise TrajectoryError(f'{src}: agent listed twice at t={t[b0]}')
-        err = crowd.errors(names)
-        fix[b0:b1] = crowd.available(names)
-        if conditional:
-            cov[b0:b1] = crowd.covariance(names)
         lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
                               data['truth_lat'][b0:b1])
+        if zones is not None:
+            err, cov[b0:b1] = crowd.zoned_errors(names, lat, lon)
+        else:
+            err = crowd.errors(names)
+            if conditional:
+                cov[b0:b1] = crowd.covariance(names)
+        fix[b0:b1] = crowd.available(names)
         lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
     outages = isinstance(model, WithAvailability)
     # a row in an outage: status no_fix and no position (read back as a gap)

@@ -1,0 +1,215 @@
+"""
+Zone maps (GeoJSON) and errors that follow the zone.
+
+The map's rules, its errors, and the statistics of a walk through two zones
+(DS1 then DS5).
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from gps_error_ros.model import streams
+from gps_error_ros.model.profiles import builtin_dir, load_profile
+from gps_error_ros.model.zoned import zoned_errors, ZonedErrors
+from gps_error_ros.model.zones import load_zone_map, OUTSIDE, zone_models, ZoneMapError
+
+LAT0, LON0 = 40.75, -73.99
+
+
+def square(lon0, lat0, size):
+    """Return a GeoJSON Polygon: a square of ``size`` degrees at (lon0, lat0)."""
+    ring = [[lon0, lat0], [lon0 + size, lat0], [lon0 + size, lat0 + size],
+            [lon0, lat0 + size], [lon0, lat0]]
+    return {'type': 'Polygon', 'coordinates': [ring]}
+
+
+def feature(geometry, **props):
+    """Return a GeoJSON Feature."""
+    return {'type': 'Feature', 'properties': props, 'geometry': geometry}
+
+
+def write_map(path, features, **extra):
+    """Write a FeatureCollection; return its path."""
+    path.write_text(json.dumps({'type': 'FeatureCollection', 'features': features,
+                                **extra}))
+    return path
+
+
+def two_zones(tmp_path, **extra):
+    """West square DS1 (ninth), east square DS5 (seventh), touching at LON0 + 0.01."""
+    return write_map(tmp_path / 'zones.geojson', [
+        feature(square(LON0, LAT0, 0.01), name='ninth', profile='DS1'),
+        feature(square(LON0 + 0.01, LAT0, 0.01), name='seventh', profile='DS5')], **extra)
+
+
+def test_lookup_edges_overlaps_and_outside(tmp_path):
+    big = square(LON0, LAT0, 0.02)
+    path = write_map(tmp_path / 'm.geojson', [
+        feature(square(LON0 + 0.005, LAT0 + 0.005, 0.005), name='inner', profile='DS5'),
+        feature(big, name='outer', profile='DS1')])
+    zmap = load_zone_map(path)
+    assert zmap.names == ['inner', 'outer'] and len(zmap) == 2
+    lat = np.array([LAT0 + 0.007, LAT0 + 0.001, LAT0 + 0.03, LAT0, np.nan])
+    lon = np.array([LON0 + 0.007, LON0 + 0.001, LON0 + 0.001, LON0 + 0.01, LON0])
+    # overlap: the first feature in the file; an edge counts as inside;
+    # outside (and a non-finite position) is the default
+    assert zmap.lookup(lat, lon).tolist() == [0, 1, OUTSIDE, 1, OUTSIDE]
+    assert [p.name for p in zmap.profiles] == ['DS5', 'DS1'] and zmap.default is None
+
+
+def test_profiles_relative_to_the_map_and_default(tmp_path):
+    sub = tmp_path / 'profiles'
+    sub.mkdir()
+    (sub / 'mine.yaml').write_text((builtin_dir() / 'DS2.yaml').read_text())
+    path = write_map(tmp_path / 'm.geojson',
+                     [feature(square(LON0, LAT0, 0.01), profile='profiles/mine.yaml')],
+                     default_profile='DS7')
+    zmap = load_zone_map(path)
+    assert zmap.names == ['zone0'] and zmap.profiles[0].name == 'DS2'
+    default, models = zone_models(zmap, load_profile('DS1'))
+    assert default.name == 'DS7' and len(models) == 2     # the zone, then the default
+
+
+@pytest.mark.parametrize('content, expected', [
+    ('{"type": "FeatureCollection", "features": [', 'not valid JSON (line 1'),
+    ({'type': 'Feature'}, 'expected a GeoJSON FeatureCollection'),
+    ({'type': 'FeatureCollection', 'features': []}, 'expected a non-empty list'),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'name': 'a'},
+         'geometry': square(LON0, LAT0, .01)}]},
+     'feature 0 (a): expected a property "profile"'),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS9'},
+         'geometry': square(LON0, LAT0, .01)}]},
+     "feature 0 (zone0): unknown profile 'DS9'"),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS3'},
+         'geometry': square(LON0, LAT0, .01)}]},
+     'has no fitted AR parameters'),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS1'},
+         'geometry': {'type': 'Point', 'coordinates': [LON0, LAT0]}}]},
+     'expected a GeoJSON Polygon or MultiPolygon'),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS1'},
+         'geometry': square(LAT0, LON0 - 30, 1)}]},
+     'expected WGS84 [longitude, latitude]'),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS1'}, 'geometry': {
+            'type': 'Polygon', 'coordinates': [[[0, 0], [1, 1], [1, 0], [0, 1], [0, 0]]]}}]},
+     'the polygon is not valid (Self-intersection'),
+    ({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS1', 'name': 'x'},
+         'geometry': square(0, 0, 1)},
+        {'type': 'Feature', 'properties': {'profile': 'DS5', 'name': 'x'},
+         'geometry': square(2, 0, 1)}]},
+     "expected unique names, got ['x']"),
+])
+def test_bad_maps_say_what_and_where(tmp_path, content, expected):
+    path = tmp_path / 'bad.geojson'
+    path.write_text(content if isinstance(content, str) else json.dumps(content))
+    with pytest.raises(ZoneMapError) as exc:
+        load_zone_map(path)
+    assert str(path) in str(exc.value) and expected in str(exc.value), str(exc.value)
+
+
+def test_zone_profiles_that_cannot_mix_with_the_default(tmp_path):
+    text = (builtin_dir() / 'DS2.yaml').read_text()
+    (tmp_path / 'lag.yaml').write_text(text + 'effects:\n  motion_lag: {lag_s: 0.5}\n')
+    (tmp_path / 'fast.yaml').write_text(text.replace('rate_hz: 1.0', 'rate_hz: 2.0'))
+    (tmp_path / 'outages.yaml').write_text(
+        text + 'availability: {outage_rate: 0.01, durations: [[2, 0.5], [5, 0.5]]}\n')
+    for name, expected in (('lag', 'motion_lag 0.5 s differs'),
+                           ('fast', 'rate_hz 2.0 differs'),
+                           ('outages', 'has an availability section')):
+        path = write_map(tmp_path / f'{name}.geojson',
+                         [feature(square(LON0, LAT0, 0.01), profile=f'{name}.yaml')])
+        with pytest.raises(ZoneMapError, match=expected):
+            zone_models(load_zone_map(path), load_profile('DS1'))
+
+
+def test_one_zone_is_the_plain_model():
+    model = load_profile('DS5').model()
+    keys = streams.agent_keys(3, ['a', 'b', 'c'])
+    zoned = ZonedErrors([model, load_profile('DS1').model()], 3)
+    zoned.restart(10)
+    got = np.array([zoned.errors(np.arange(3), keys, k, np.zeros(3, int))[0]
+                    for k in range(10, 60)])
+    np.testing.assert_allclose(got, model.simulate(keys, 50, start=10), atol=1e-9)
+
+
+def _acf(x, mean, lags):
+    """Return the autocorrelation per axis of x (time, agents, 2) about a known mean."""
+    d = x - mean
+    var = (d * d).mean(axis=(0, 1))
+    return np.array([(d[lag:] * d[:len(d) - lag]).mean(axis=(0, 1)) / var for lag in lags])
+
+
+def test_walk_through_two_zones_has_each_zones_statistics(tmp_path):
+    """
+    Walk 600 s in DS1's zone, then 600 s in DS5's (500 walkers).
+
+    In the last 300 s of each zone the SD and the ACF are that zone's
+    model's, and the step at the crossing is no larger than the steps inside
+    the zones.
+
+    Tolerances: the windows hold about 500 x 300 / 30 = 5,000 independent
+    samples (correlation times up to ~30 s), so the SD is known to ~1 % and
+    the ACF to ~0.02; the bounds are 7 % and 0.06.
+    """
+    zmap = load_zone_map(two_zones(tmp_path))
+    default, model, (zmap, zoned) = zoned_errors(zmap, load_profile('DS2'))
+    n, half = 500, 600
+    keys = streams.agent_keys(11, [f'p{i}' for i in range(n)])
+    zoned.grow(n)
+    zoned.restart(0)
+    lat = np.full(n, LAT0 + 0.005)
+    out = np.empty((2 * half, n, 2))
+    for k in range(2 * half):
+        lon = np.full(n, LON0 + (0.005 if k < half else 0.015))
+        out[k] = zoned.errors(np.arange(n), keys, k, zmap.lookup(lat, lon))[0]
+    lags = (1, 5, 10)
+    for z, window in ((0, slice(half - 300, half)), (1, slice(2 * half - 300, None))):
+        exact = zmap.profiles[z].model()
+        x = out[window]
+        sd = x.std(axis=(0, 1))
+        assert np.all(np.abs(sd / exact.stationary_sd - 1) < 0.07), (z, sd)
+        acf = _acf(x, exact.mean, lags)
+        assert np.all(np.abs(acf - exact.autocorrelation(10)[list(lags)]) < 0.06), (z, acf)
+    step = np.hypot(*np.diff(out, axis=0).transpose(2, 0, 1))     # (time, agents)
+    rms = {name: float(np.sqrt(np.mean(step[w] ** 2))) for name, w in (
+        ('ninth', slice(half - 300, half - 1)), ('crossing', half - 1),
+        ('seventh', slice(2 * half - 300, None)))}
+    assert rms['crossing'] <= 1.15 * max(rms['ninth'], rms['seventh']), rms
+
+
+def test_an_agents_errors_do_not_depend_on_who_else_is_served(tmp_path):
+    """Shards, late starts and the order agents are served in change nothing."""
+    zmap = load_zone_map(two_zones(tmp_path))
+    _, _, (_, whole) = zoned_errors(zmap, load_profile('DS2'), 'conditional')
+    _, _, (_, shard) = zoned_errors(zmap, load_profile('DS2'), 'conditional')
+    names = [f'p{i}' for i in range(6)]
+    keys = streams.agent_keys(5, names)
+    whole.grow(6)
+    shard.grow(2)
+    whole.restart(100)
+    shard.restart(100)
+    lat = np.full(6, LAT0 + 0.005)
+    rng = np.random.default_rng(0)
+    for k in range(100, 160):
+        # each walker crosses at its own time; p5 gets its first fix at step
+        # 130 (a later attach: caught up in its zone then); the whole crowd
+        # is served in a shuffled order, the shard serves p4 and p5 only
+        lon = LON0 + 0.0095 + 1e-4 * (k - 100) * np.arange(1, 7) / 6
+        zones = zmap.lookup(lat, lon)
+        served = np.arange(6 if k >= 130 else 5)
+        order = rng.permutation(served)
+        e_all, c_all = np.empty((6, 2)), np.empty((6, 2, 2))
+        e_all[order], c_all[order] = whole.errors(order, keys[order], k, zones[order])
+        rows = served[4:] - 4
+        e, c = shard.errors(rows, keys[4 + rows], k, zones[4 + rows])
+        np.testing.assert_allclose(e, e_all[4 + rows], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(c, c_all[4 + rows], rtol=0, atol=1e-9)
+    assert set(zones.tolist()) == {1}        # everyone ended in the east zone

@@ -1,0 +1,112 @@
+"""
+Zone maps in the node: a crowd walks from one zone into another.
+
+A real node process with a real GeoJSON file: its fixes equal ``gps_error
+simulate --zones`` on the same truth to 1e-6 m, and each fix's covariance is
+the stationary covariance of the zone its truth is in.
+"""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from sensor_msgs.msg import NavSatFix
+
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.profiles import load_profile
+from ros_harness import NodeProcess, NS, Peer, stamp, stamp_ns, T0, unique_ns
+
+pytestmark = pytest.mark.integration
+LAT0, LON0 = 40.75057, -73.99065
+DEG_PER_M = 1.0 / (111320.0 * np.cos(np.radians(LAT0)))
+SPEED = 10.0            # m/s east: the walkers cross into the east zone at ~20 s
+BORDER = LON0 + 205.0 * DEG_PER_M
+STEPS = 40
+AGENTS = ['ann', 'bob']
+
+
+def zone_map(path):
+    """Write DS1 west of BORDER, DS5 east of it; return the path."""
+    def box(lon0, lon1):
+        ring = [[lon0, LAT0 - 0.01], [lon1, LAT0 - 0.01], [lon1, LAT0 + 0.01],
+                [lon0, LAT0 + 0.01], [lon0, LAT0 - 0.01]]
+        return {'type': 'Polygon', 'coordinates': [ring]}
+    path.write_text(json.dumps({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'name': 'west', 'profile': 'DS1'},
+         'geometry': box(LON0 - 0.01, BORDER)},
+        {'type': 'Feature', 'properties': {'name': 'east', 'profile': 'DS5'},
+         'geometry': box(BORDER, LON0 + 0.02)}]}))
+    return path
+
+
+def truth(k, agent):
+    """Return where ``agent`` truly is at simulated second ``k``: (lat, lon)."""
+    north = 0.0 if agent == 'ann' else 30.0
+    return LAT0 + north / 111320.0, float(LON0 + SPEED * (k - T0) * DEG_PER_M)
+
+
+def truth_msg(k, agent):
+    m = NavSatFix()
+    m.header.stamp = stamp(k * NS)
+    m.header.frame_id = 'gps'
+    m.status.status = 0
+    m.latitude, m.longitude = truth(k, agent)
+    m.altitude = 10.0
+    return m
+
+
+def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
+    from gps_error_ros.cli import main as gps_error
+    zones = zone_map(tmp_path / 'zones.geojson')
+    ns = unique_ns()
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+                        '-p', 'input_type:=navsatfix', '-p', 'seed:=9', '-p', 'profile:=DS2',
+                        '-p', f'zones:={zones}', '-p', 'agents:=["ann","bob"]'])
+    peer = Peer()
+    try:
+        pubs = {a: peer.publisher(NavSatFix, f'{ns}/{a}/fix_truth') for a in AGENTS}
+        boxes = {a: peer.collect(NavSatFix, f'{ns}/{a}/fix') for a in AGENTS}
+        assert peer.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix')
+                                       for a in AGENTS), 20)
+        peer.spin_for(0.5)
+        for k in range(T0, T0 + STEPS + 1):
+            for a in AGENTS:
+                pubs[a].publish(truth_msg(k, a))
+            peer.set_clock(k * NS)
+            peer.spin_until(lambda: all(b and stamp_ns(b[-1].header.stamp) >= (k - 1) * NS
+                                        for b in boxes.values()), 5)
+        rc, out = node.stop()
+        assert rc == 0, out
+        assert 'zones' in out and 'west, east' in out, out
+    finally:
+        node.stop()
+        peer.destroy()
+    src, dst = tmp_path / 'truth.csv', tmp_path / 'noisy.csv'
+    with open(src, 'w') as f:
+        f.write('t,agent,truth_lat,truth_lon\n')
+        for k in range(T0, T0 + STEPS):
+            for a in AGENTS:
+                f.write('{},{},{!r},{!r}\n'.format(k, a, *truth(k, a)))
+    assert gps_error(['simulate', '--profile', 'DS2', '--seed', '9', '--zones', str(zones),
+                      '--trajectories', str(src), '--out', str(dst)]) == 0
+    sim = {(r['agent'], int(float(r['t']))): r for r in csv.DictReader(open(dst))}
+    var = {name: np.diag(load_profile(name).model().stationary_cov) for name in ('DS1', 'DS5')}
+    seen = {'DS1': 0, 'DS5': 0}
+    for a in AGENTS:
+        for m in boxes[a]:
+            k = stamp_ns(m.header.stamp) // NS
+            if (a, k) not in sim:
+                continue
+            lat, lon = truth(k, a)
+            node_err = difference(m.latitude, m.longitude, lat, lon)
+            row = sim[a, k]
+            sim_err = difference(float(row['lat']), float(row['lon']), lat, lon)
+            np.testing.assert_allclose(np.ravel(node_err), np.ravel(sim_err), rtol=0,
+                                       atol=1e-6, err_msg=f'{a} {k}')
+            zone = 'DS1' if lon < BORDER else 'DS5'
+            c = m.position_covariance
+            assert (c[4], c[0]) == pytest.approx(tuple(var[zone]), rel=1e-9), (a, k, zone)
+            seen[zone] += 1
+    assert seen['DS1'] >= 30 and seen['DS5'] >= 30, seen
