@@ -54,6 +54,7 @@ bench: setup
 	$(PY) bench/bench_library.py --json bench_output/library.json
 	$(PY) bench/bench_node.py --json bench_output/node.json
 	$(PY) bench/bench_simulate_fcd.py --json bench_output/simulate_fcd.json
+	$(PY) bench/bench_zones.py --json bench_output/zones.json
 
 # Soak (not part of make test, which runs 12- and 10-minute versions): 24
 # simulated hours for 100 agents, then one simulated hour for 1,000 agents, as

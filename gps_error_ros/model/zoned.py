@@ -49,7 +49,9 @@ class ZonedErrors:
     ----------
     models : list
         The error models of the zones, in the zone map's order, then the
-        default model last (zone index ``OUTSIDE`` = -1 picks it).
+        default model last (zone index ``OUTSIDE`` = -1 picks it). Zones
+        with the same model object are stepped together, and moving between
+        them is not entering a new zone (the regime carries on).
     conditional_cov : bool
         Covariance of each error given the state a step before (the node's
         ``covariance_mode`` conditional); else the zone's stationary one.
@@ -58,7 +60,14 @@ class ZonedErrors:
 
     def __init__(self, models, n=0, conditional_cov=False):
         assert OUTSIDE == -1
-        self.models = list(models)
+        self.models = []                       # distinct models
+        index = {}
+        for m in models:
+            if id(m) not in index:
+                index[id(m)] = len(self.models)
+                self.models.append(m)
+        # zone index (OUTSIDE = -1 is the last entry) -> distinct model
+        self.model_of_zone = np.array([index[id(m)] for m in models], dtype=np.int64)
         self.order = max(m.order for m in self.models)
         self.conditional_cov = conditional_cov
         self.stationary = np.array([m.stationary_cov for m in self.models])
@@ -68,7 +77,7 @@ class ZonedErrors:
     def _alloc(self, n):
         self.err = np.zeros((n, 2, self.order))    # last P errors, newest first
         self.regime = np.zeros(n, dtype=np.int64)
-        self.zone = np.zeros(n, dtype=np.int64)
+        self.zone = np.zeros(n, dtype=np.int64)    # the distinct model in use
         self.step = np.zeros(n, dtype=np.int64)    # last model step advanced
         self.started = np.zeros(n, dtype=bool)
         self.cov = np.zeros((n, 2, 2))             # of the current error
@@ -110,7 +119,7 @@ class ZonedErrors:
         """
         rows = np.asarray(rows, dtype=np.int64)
         keys = np.asarray(keys, dtype=np.uint64)
-        zones = np.asarray(zones, dtype=np.int64)
+        zones = self.model_of_zone[np.asarray(zones, dtype=np.int64)]
         if self.start is None:
             raise ValueError('ZonedErrors.restart(start) was not called')
         fresh = ~self.started[rows]

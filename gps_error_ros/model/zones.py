@@ -216,7 +216,7 @@ def zone_models(zone_map, profile):
     """
     default = zone_map.default or profile
     base = default.model()
-    models = []
+    models, built = [], {}
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
         if zp.rate_hz != default.rate_hz:
@@ -229,7 +229,7 @@ def zone_models(zone_map, profile):
                     f'{where}: has {article} {section} section; expected none: '
                     f'{section} comes from the default profile ({default.name}) '
                     f'everywhere')
-        model = zp.model()
+        model = built.setdefault(zp.path, zp.model())   # zones may share a profile
         if model.lag_s != base.lag_s:
             raise ZoneMapError(f'{where}: motion_lag {model.lag_s} s differs from the '
                                f'default profile {default.name}\'s {base.lag_s} s; '
