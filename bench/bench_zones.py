@@ -88,7 +88,8 @@ def run(n=5000, steps=120, repeats=3):
            'ratio': zoned / plain, 'ms_per_step_lookup': 1e3 * lookup}
     print(f'{n} agents, {len(zmap)} zones: engine '
           f'{row["ms_per_step_without_zones"]:.2f} ms/step '
-          f'without zones, {row["ms_per_step_with_zones"]:.2f} ms/step with (x{row["ratio"]:.2f}); '
+          f'without zones, {row["ms_per_step_with_zones"]:.2f} ms/step with '
+          f'(x{row["ratio"]:.2f}); '
           f'point-in-polygon {row["ms_per_step_lookup"]:.2f} ms/step', flush=True)
     return row
 
