@@ -79,7 +79,13 @@ def _add_calibrate(sub):
                     '(MCAP or SQLite3) with fixes and truth.')
     c.add_argument('input', help='trace CSV or rosbag2 directory')
     _add_input_options(c)
-    c.add_argument('-o', '--output', required=True, help='profile YAML to write')
+    c.add_argument('-o', '--output', required=True,
+                   help='profile YAML to write (with --zones: a directory)')
+    c.add_argument('--zones', default=None,
+                   help='zone map (GeoJSON): fit one profile per zone with at least 300 '
+                        'samples into the directory -o, the whole trace into all.yaml '
+                        '(the fallback of the other zones and the default outside), and '
+                        'write zones.geojson that references them (needs shapely)')
     c.add_argument('--order', type=number(int, 1, MAX_ORDER), default=None,
                    help='fix the AR order (default: chosen per axis by the PACF)')
     c.add_argument('--max-order', type=number(int, 1, MAX_ORDER), default=DEFAULT_MAX_ORDER,

@@ -25,7 +25,9 @@ Rules:
   What a phone reports about itself beyond the error (``availability``,
   ``velocity``) and the output's time line (``rate_hz``) come from the
   default profile, so a zone profile must have the default's ``rate_hz`` and
-  ``motion_lag`` and no ``availability`` or ``velocity`` section.
+  ``motion_lag`` and no ``availability`` or ``velocity`` section (unless it
+  is the default profile itself, as in the fallback zones ``calibrate
+  --zones`` writes).
 
 Point-in-polygon is vectorised over agents: one query of a shapely 2
 ``STRtree`` per step (the optional extra ``zones``).
@@ -217,8 +219,12 @@ def zone_models(zone_map, profile):
     default = zone_map.default or profile
     base = default.model()
     models, built = [], {}
+    inner = getattr(base, 'inner', base)
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
+        if zp.path == default.path:
+            models.append(inner)        # the default itself (a fallback zone)
+            continue
         if zp.rate_hz != default.rate_hz:
             raise ZoneMapError(f'{where}: rate_hz {zp.rate_hz} differs from the default '
                                f'profile {default.name}\'s {default.rate_hz}; expected '
@@ -235,5 +241,5 @@ def zone_models(zone_map, profile):
                                f'default profile {default.name}\'s {base.lag_s} s; '
                                f'expected the same lag in every zone')
         models.append(model)
-    models.append(getattr(base, 'inner', base))
+    models.append(inner)
     return default, models

@@ -1,0 +1,147 @@
+"""Per-zone calibration (``calibrate --zones``) on a rosbag2 and on a CSV."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.geodesy import LocalTangentFrame
+from gps_error_ros.model.zones import load_zone_map, zone_models
+from gps_error_ros.model.profiles import load_profile
+from bag_helpers import write_walk_bag
+
+DATUM = (52.52, 13.40, 40.0)
+SPEED = (0.8, 0.6)                  # east, north m/s: write_walk_bag's walk
+A = (AxisParams(0.4, (1.2, -0.35), 0.5), AxisParams(-0.2, (0.85, 0.0), 0.8))
+B = (AxisParams(-1.0, (0.6, 0.2), 2.0), AxisParams(0.5, (1.5, -0.6), 1.2))
+N = 2000                            # samples in each zone
+
+
+def box(frame, e0, e1):
+    """Return a GeoJSON Polygon spanning east e0..e1 m, north -1..5 km, of the frame."""
+    corners = [(e0, -1000.0), (e1, -1000.0), (e1, 5000.0), (e0, 5000.0), (e0, -1000.0)]
+    ring = []
+    for e, n in corners:
+        lat, lon, _ = frame.to_geodetic(e, n, 0.0)
+        ring.append([float(lon), float(lat)])
+    return {'type': 'Polygon', 'coordinates': [ring]}
+
+
+def yw_se(params, n):
+    """Return the asymptotic SE of Yule-Walker phi: sqrt(diag(s2 G^-1)/n)."""
+    model = ARErrorModel(params, params)
+    acv = model.autocovariance(params.order)[:, 0, 0]
+    p = params.order
+    gamma = np.array([[acv[abs(i - j)] for j in range(p)] for i in range(p)])
+    return np.sqrt(np.diag(params.sigma_w ** 2 * np.linalg.inv(gamma)) / n)
+
+
+def test_a_profile_per_zone_from_a_bag(tmp_path):
+    """
+    A walk whose errors change process where it crosses from zone west to east.
+
+    Each zone's fit recovers its own process (phi within 5 SE, sigma_w within
+    5 SE), a zone the walk never enters keeps the fallback and says why, and
+    what is written loads and runs.
+    """
+    err = np.concatenate([ARErrorModel(*A).simulate(streams.agent_key(5), N)[:, 0],
+                          ARErrorModel(*B).simulate(streams.agent_key(6), N)[:, 0]])
+    jitter = np.random.default_rng(1).uniform(-0.05, 0.05, 2 * N)
+    fix_t = 1000.0 + np.arange(2 * N) + jitter
+    bag = tmp_path / 'walk'
+    write_walk_bag(bag, 'mcap', DATUM, err, fix_t)
+    frame = LocalTangentFrame(*DATUM)
+    border = SPEED[0] * (1000.0 + N - 0.5)          # between the two processes
+    zones = tmp_path / 'zones.geojson'
+    zones.write_text(json.dumps({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'name': 'west', 'profile': 'DS1'},
+         'geometry': box(frame, 0.0, border)},
+        {'type': 'Feature', 'properties': {'name': 'east', 'profile': 'DS1'},
+         'geometry': box(frame, border, 10000.0)},
+        {'type': 'Feature', 'properties': {'name': 'never visited', 'profile': 'DS1'},
+         'geometry': box(frame, -3000.0, -2000.0)}]}))
+    out = tmp_path / 'profiles'
+    r = subprocess.run([sys.executable, '-m', 'gps_error_ros.cli', 'calibrate', str(bag),
+                        '--zones', str(zones), '-o', str(out), '--truth-topic', '/truth',
+                        '--datum', ','.join(map(str, DATUM)), '--order', '2'],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert 'never visited: fallback all.yaml (0 samples, fewer than 300)' in r.stdout, r.stdout
+    zmap = load_zone_map(out / 'zones.geojson')
+    assert zmap.names == ['west', 'east', 'never visited']
+    assert zmap.default.name == 'walk-all' and zmap.profiles[2].name == 'walk-all'
+    for z, true in ((0, A), (1, B)):
+        p = zmap.profiles[z]
+        assert p.fit['samples'] == N and p.fit['segments'] == 1, p.fit
+        for axis, params in zip(('north', 'east'), true):
+            got = p.axes[axis]
+            assert np.all(np.abs(np.array(got.phi) - params.phi) < 5 * yw_se(params, N)), \
+                (z, axis, got)
+            assert abs(got.sigma_w - params.sigma_w) < 5 * params.sigma_w / np.sqrt(2 * N)
+    default, models = zone_models(zmap, load_profile('DS5'))
+    assert default.name == 'walk-all' and len(models) == 4
+
+
+def test_a_file_where_a_directory_is_expected(tmp_path):
+    from gps_error_ros.cli import main as gps_error
+    zones = tmp_path / 'zones.geojson'
+    zones.write_text('{}')
+    out = tmp_path / 'profile.yaml'
+    out.write_text('x')
+    assert gps_error(['calibrate', str(tmp_path / 'missing.csv'), '--zones', str(zones),
+                      '-o', str(out)]) == 2
+    assert out.read_text() == 'x'
+
+
+@pytest.mark.parametrize('bad', ['{"type": "Feature"}', '{'])
+def test_a_bad_map_fails_before_anything_is_written(tmp_path, bad, capsys):
+    from gps_error_ros.cli import main as gps_error
+    zones = tmp_path / 'zones.geojson'
+    zones.write_text(bad)
+    out = tmp_path / 'profiles'
+    assert gps_error(['calibrate', str(tmp_path / 'missing.csv'), '--zones', str(zones),
+                      '-o', str(out)]) == 2
+    assert str(zones) in capsys.readouterr().err and not out.exists()
+
+
+def test_a_profile_per_zone_from_a_csv(tmp_path):
+    """
+    Round trip through the simulator: DS1's zone then DS5's, 3,000 s in each.
+
+    The walk is simulated with the zone map (``simulate --zones``) and
+    calibrated back per zone: each zone's fitted stationary SD is its
+    profile's within 30 % (3,000 samples with correlation times up to ~30 s
+    hold ~100 independent ones: a relative SE of ~7 %).
+    """
+    from gps_error_ros.cli import main as gps_error
+    frame = LocalTangentFrame(*DATUM)
+    speed, n = 1.0, 3000
+    zones = tmp_path / 'zones.geojson'
+    zones.write_text(json.dumps({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'name': 'ninth', 'profile': 'DS1'},
+         'geometry': box(frame, -10.0, speed * (n - 0.5))},
+        {'type': 'Feature', 'properties': {'name': 'seventh', 'profile': 'DS5'},
+         'geometry': box(frame, speed * (n - 0.5), 10000.0)}]}))
+    truth = tmp_path / 'truth.csv'
+    lat, lon, _ = frame.to_geodetic(speed * np.arange(2 * n), np.zeros(2 * n),
+                                    np.zeros(2 * n))
+    with open(truth, 'w') as f:
+        f.write('t,truth_lat,truth_lon\n')
+        for k in range(2 * n):
+            f.write(f'{k},{lat[k]:.9f},{lon[k]:.9f}\n')
+    trace = tmp_path / 'walk.csv'
+    assert gps_error(['simulate', '--profile', 'DS2', '--seed', '3', '--zones', str(zones),
+                      '--trajectories', str(truth), '--out', str(trace)]) == 0
+    out = tmp_path / 'profiles'
+    assert gps_error(['calibrate', str(trace), '--zones', str(zones), '-o', str(out),
+                      '--order', '3']) == 0
+    zmap = load_zone_map(out / 'zones.geojson')
+    for z, name in enumerate(('DS1', 'DS5')):
+        fitted = zmap.profiles[z].model().stationary_sd
+        true = load_profile(name).model().stationary_sd
+        assert np.all(np.abs(fitted / true - 1) < 0.3), (name, fitted, true)
+        assert zmap.profiles[z].fit['samples'] >= n - 1
