@@ -267,8 +267,33 @@ def cmd_compare(args):
     for name, c in doc['classes'].items():
         print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} '
               f'{c["fidelity"]["inside_95"]:10.2f}')
+    if args.zones:
+        _compare_zones(args, trace, fitted.split, doc)
     _write_results(args, doc, 'compare.png', lambda path: compare_figure(doc, path))
     return 0
+
+
+def _compare_zones(args, trace, split, doc):
+    """Add one profile against a profile per zone to ``doc``; print it."""
+    from gps_error_ros.diagnose.zoned_compare import compare_zones
+    from gps_error_ros.model.zones import load_zone_map
+
+    origin = (float(trace.truth_lat[0]), float(trace.truth_lon[0]))
+    z = doc['zones'] = compare_zones(split, load_zone_map(args.zones), origin,
+                                     sims=args.sims, seed=args.seed)
+    print(f'  zones of {args.zones} (Yule-Walker profiles, as calibrate and '
+          f'calibrate --zones write them):')
+    for name, c in z['classes'].items():
+        print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} '
+              f'{c["fidelity"]["inside_95"]:10.2f}')
+    imp = z['nll_improvement']
+    print(f'  per zone lowers the held-out NLL by {imp["per_sample"]:.4f} per sample '
+          f'(95 % CI {imp["ci95"][0]:.4f} .. {imp["ci95"][1]:.4f})')
+    for name, e in z['zones'].items():
+        fitted = 'own profile' if e.get('fitted') else f'one profile ({e.get("reason", "")})'
+        held = (f'; held out {e["heldout_samples"]}: NLL one {e["heldout_nll_one_profile"]:.4f},'
+                f' per zone {e["heldout_nll_per_zone"]:.4f}' if 'heldout_samples' in e else '')
+        print(f'    {name}: {fitted}{held}')
 
 
 def cmd_import(args):

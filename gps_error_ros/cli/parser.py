@@ -207,6 +207,10 @@ def _add_compare(sub):
     c.add_argument('input', help='trace CSV or rosbag2 directory')
     _add_input_options(c)
     c.add_argument('--json', dest='json_out', help='write the comparison as JSON')
+    c.add_argument('--zones', default=None,
+                   help='zone map (GeoJSON): also compare one profile against a profile '
+                        'per zone (zones with >= 300 training samples), held-out NLL and '
+                        'inside_95, and the NLL per zone (needs shapely)')
     c.add_argument('--report', help='directory for the figure (compare.png)')
     c.add_argument('--sims', type=number(int, MIN_SIMS), default=100,
                    help='simulated traces per class (default 100)')

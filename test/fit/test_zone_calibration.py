@@ -145,3 +145,43 @@ def test_a_profile_per_zone_from_a_csv(tmp_path):
         true = load_profile(name).model().stationary_sd
         assert np.all(np.abs(fitted / true - 1) < 0.3), (name, fitted, true)
         assert zmap.profiles[z].fit['samples'] >= n - 1
+
+
+def test_compare_zones_finds_the_gain_where_there_is_one(tmp_path):
+    """
+    A walk back and forth between DS1's zone and DS5's, 4,000 s.
+
+    Both parts of the split visit both zones, so ``compare --zones`` must
+    find that a profile per zone predicts the held-out part better than one
+    profile, beyond sampling (the interval of the gain above zero), and
+    report every zone.
+    """
+    from gps_error_ros.cli import main as gps_error
+    frame = LocalTangentFrame(*DATUM)
+    zones = tmp_path / 'zones.geojson'
+    zones.write_text(json.dumps({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'name': 'ninth', 'profile': 'DS1'},
+         'geometry': box(frame, -1000.0, 0.0)},
+        {'type': 'Feature', 'properties': {'name': 'seventh', 'profile': 'DS5'},
+         'geometry': box(frame, 0.0, 1000.0)}]}))
+    k = np.arange(4000)
+    east = 400.0 * np.sin(2 * np.pi * k / 800.0) + 0.3      # 400 s each side
+    lat, lon, _ = frame.to_geodetic(east, np.zeros(k.size), np.zeros(k.size))
+    truth = tmp_path / 'truth.csv'
+    with open(truth, 'w') as f:
+        f.write('t,truth_lat,truth_lon\n')
+        for i in k:
+            f.write(f'{i},{lat[i]:.9f},{lon[i]:.9f}\n')
+    trace = tmp_path / 'walk.csv'
+    assert gps_error(['simulate', '--profile', 'DS2', '--seed', '8', '--zones', str(zones),
+                      '--trajectories', str(truth), '--out', str(trace)]) == 0
+    out = tmp_path / 'compare.json'
+    assert gps_error(['compare', str(trace), '--zones', str(zones), '--sims', '40',
+                      '--json', str(out)]) == 0
+    z = json.loads(out.read_text())['zones']
+    assert set(z['classes']) == {'one_profile', 'per_zone'}
+    assert z['nll_improvement']['ci95'][0] > 0.0, z['nll_improvement']
+    assert z['classes']['per_zone']['heldout_nll_per_sample'] < \
+        z['classes']['one_profile']['heldout_nll_per_sample']
+    for name in ('ninth', 'seventh'):
+        assert z['zones'][name]['fitted'] and z['zones'][name]['heldout_samples'] > 300, z
