@@ -110,10 +110,16 @@ def cmd_validate(args):
     from gps_error_ros.reports.validation_figure import validation_figure
 
     lo, hi = _part(args.part)
-    model = load_profile(args.profile).model()
+    profile, zones = load_profile(args.profile), None
+    if args.zones:
+        from gps_error_ros.model.zoned import zoned_errors
+        from gps_error_ros.model.zones import load_zone_map
+        profile, model, zones = zoned_errors(load_zone_map(args.zones), profile)
+    else:
+        model = profile.model()
     trace = slice_trace(_load_input(args), lo, hi)
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
-                   seed=args.seed)
+                   seed=args.seed, zones=zones)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summary = res.summary()
@@ -128,6 +134,16 @@ def cmd_validate(args):
               f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
               f'{summary["max_lag"]}; quantiles inside at '
               f'{100 * d["quantiles_inside_envelope"]:.0f} %')
+    for name, d in summary.get('zones', {}).items():
+        if 'north' not in d:
+            print(f'  zone {name}: {d["samples"]} samples, too few to check on their own')
+            continue
+        print(f'  zone {name}: {d["samples"]} samples; ' + '; '.join(
+            f'{ax} ACF inside at {100 * d[ax]["acf_lags_inside_envelope"]:.0f} % of lags '
+            f'1-{d[ax]["max_lag"]}, quantiles at '
+            f'{100 * d[ax]["quantiles_inside_envelope"]:.0f} %, SD {d[ax]["sd_m"]:.2f} m '
+            f'(simulated {d[ax]["sd_simulated_m"][0]:.2f}-{d[ax]["sd_simulated_m"][2]:.2f})'
+            for ax in ('north', 'east')))
     for name, d in summary['availability'].items():
         print(f'  {name.replace("_", " ")}: measured {d["measured"]}, simulated median '
               f'{d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), percentile '

@@ -106,6 +106,10 @@ def _add_validate(sub):
     v.add_argument('profile', help='profile: DS1, DS2, DS5, DS7 (the published '
                                    'fits) or a profile YAML path')
     v.add_argument('input', help='trace CSV or rosbag2 directory')
+    v.add_argument('--zones', default=None,
+                   help='zone map (GeoJSON): simulate with each zone\'s profile where the '
+                        'truth is (PROFILE outside, unless the map has a default_profile) '
+                        'and check each zone\'s samples alone too (needs shapely)')
     v.add_argument('--out', required=True, help='output directory')
     v.add_argument('--sims', type=number(int, MIN_SIMS), default=200,
                    help='Monte-Carlo runs (default 200)')

@@ -29,8 +29,7 @@ from gps_error_ros.fit.zone_calibration import MIN_ZONE_SAMPLES
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AXES
 from gps_error_ros.model.geodesy import offset
-from gps_error_ros.model.zoned import ZonedErrors
-from gps_error_ros.model.zones import OUTSIDE
+from gps_error_ros.model.zoned import simulate_along, ZonedErrors
 
 
 def part_zones(part, zone_map, origin):
@@ -107,23 +106,11 @@ def _loglik(part, zones, models, m0):
 def _simulate(part, zones, models, sims, seed):
     """Return ``sims`` traces along ``part``'s grid, each step in its zone's model."""
     steps = part_steps(part)
-    span = int(steps[-1][-1]) + 1
-    zone_at = np.full(span, OUTSIDE, dtype=np.int64)
-    known = np.zeros(span, dtype=bool)
-    for s, zz in zip(steps, zones):
-        zone_at[s], known[s] = zz, True
-    # a step without a sample takes the zone of the next sample (zoned.py's rule)
-    nxt = np.flatnonzero(known)
-    fill = nxt[np.minimum(np.searchsorted(nxt, np.arange(span)), nxt.size - 1)]
-    zone_at = zone_at[fill]
-    zoned = ZonedErrors(models, sims)
-    zoned.restart(0)
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
-    rows = np.arange(sims)
-    x = np.empty((span, sims, 2))
-    for k in range(span):
-        x[k] = zoned.errors(rows, keys, k, np.full(sims, zone_at[k]))[0]
-    return [[x[s, i] for s in steps] for i in range(sims)]
+    x = simulate_along(ZonedErrors(models), keys, np.concatenate(steps),
+                       np.concatenate(zones))
+    bounds = np.cumsum([0] + [len(s) for s in steps])
+    return [[x[b0:b1, i] for b0, b1 in zip(bounds[:-1], bounds[1:])] for i in range(sims)]
 
 
 def compare_zones(split, zone_map, origin, sims=100, seed=0):

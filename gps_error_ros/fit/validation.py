@@ -25,6 +25,7 @@ from gps_error_ros.fit.calibration import errors_on_grid, MIN_OUTAGE_STEPS
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.availability import runs_without_fix, WithAvailability
+from gps_error_ros.model.zoned import simulate_along
 from gps_error_ros.traces.trace_io import Trace
 QQ_PROBS = np.linspace(0.01, 0.99, 99)
 
@@ -58,6 +59,7 @@ class ValidationResult:
     simulated: np.ndarray  # (n, 2) one simulated error trace
     truth: tuple           # (lat, lon) at the measured steps
     availability: dict = None   # outage statistics, measured against simulated
+    per_zone: dict = None       # zone name -> the same checks on its samples (--zones)
 
     def summary(self):
         """Return the numbers behind the figures as plain data."""
@@ -87,11 +89,19 @@ class ValidationResult:
             }
         if self.availability is not None:
             out['availability'] = self.availability
+        if self.per_zone is not None:
+            out['zones'] = self.per_zone
         return out
 
 
-def validate(model, trace, sims=200, max_lag=60, seed=0):
-    """Compare ``trace`` with ``sims`` traces simulated by ``model``."""
+def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None):
+    """
+    Compare ``trace`` with ``sims`` traces simulated by ``model``.
+
+    With ``zones`` (``(ZoneMap, ZonedErrors)``) the traces follow the zone of
+    the truth at every sample (:func:`~gps_error_ros.model.zoned.simulate_along`)
+    and the checks are also made on each zone's samples alone (``per_zone``).
+    """
     grid = errors_on_grid(trace)
     steps = np.concatenate([s + np.arange(len(seg)) for s, seg in
                             zip(grid.starts, grid.segments)])
@@ -101,8 +111,14 @@ def validate(model, trace, sims=200, max_lag=60, seed=0):
     if max_lag < 1:
         raise ValueError(f'{trace.name}: segments too short to validate')
     keys = streams.agent_keys(seed, [f'validation/{i}' for i in range(sims)])
-    sim = model.simulate(keys, int(steps[-1]) + 1)[steps]   # (n, sims, 2)
     bounds = np.cumsum([0] + [len(s) for s in grid.segments])
+    per_zone = None
+    if zones is None:
+        sim = model.simulate(keys, int(steps[-1]) + 1)[steps]   # (n, sims, 2)
+    else:
+        zone = zones[0].lookup(trace.truth_lat[grid.rows], trace.truth_lon[grid.rows])
+        sim = simulate_along(zones[1], keys, steps, zone)
+        per_zone = zone_checks(measured, sim, steps, zone, zones[0].names, max_lag)
     lags = np.arange(max_lag + 1)
     acf, acf_env, quant, quant_env = {}, {}, {}, {}
     for a, ax in enumerate(AXES):
@@ -119,7 +135,48 @@ def validate(model, trace, sims=200, max_lag=60, seed=0):
     return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
                             acf, acf_env, quant, quant_env, steps, measured,
                             sim[:, 0, :], truth,
-                            availability_check(model, grid, keys))
+                            availability_check(model, grid, keys), per_zone)
+
+
+#: Fewest samples a zone needs for its own checks in ``validate --zones``.
+MIN_ZONE_CHECK_SAMPLES = 60
+
+
+def zone_checks(measured, sim, steps, zone, names, max_lag):
+    """
+    Return, per zone, the ACF and quantile checks on the zone's samples alone.
+
+    A zone's samples are cut into segments wherever a step is missing or the
+    walk left the zone; lags run to at most a third of the zone's longest
+    segment (and ``max_lag``). Zones with fewer than
+    :data:`MIN_ZONE_CHECK_SAMPLES` samples are listed with their count only.
+    """
+    names = list(names) + ['outside']
+    out = {}
+    for z in np.unique(zone):
+        idx = np.flatnonzero(zone == z)
+        entry = out[names[z]] = {'samples': int(idx.size)}
+        if idx.size < MIN_ZONE_CHECK_SAMPLES:
+            continue
+        cuts = np.flatnonzero((np.diff(idx) > 1) | (np.diff(steps[idx]) > 1)) + 1
+        segs = np.split(idx, cuts)
+        lag = int(min(max_lag, max(len(g) for g in segs) // 3))
+        for a, ax in enumerate(AXES):
+            acf = pooled_acf([measured[g, a] for g in segs], lag)
+            env = np.percentile([pooled_acf([sim[g, j, a] for g in segs], lag)
+                                 for j in range(sim.shape[1])], [2.5, 97.5], axis=0)
+            q = np.quantile(measured[idx, a], QQ_PROBS)
+            qenv = np.percentile(np.quantile(sim[idx, :, a], QQ_PROBS, axis=0).T,
+                                 [2.5, 97.5], axis=0)
+            sd = sim[idx, :, a].std(axis=0)
+            entry[ax] = {
+                'max_lag': lag,
+                'acf_lags_inside_envelope': float(np.mean(
+                    (acf[1:] >= env[0, 1:]) & (acf[1:] <= env[1, 1:]))),
+                'quantiles_inside_envelope': float(np.mean((q >= qenv[0]) & (q <= qenv[1]))),
+                'sd_m': float(measured[idx, a].std()),
+                'sd_simulated_m': [float(v) for v in np.percentile(sd, [2.5, 50, 97.5])]}
+    return out
 
 
 def _outage_stats(mask):

@@ -194,3 +194,30 @@ def zoned_errors(zone_map, profile, covariance_mode='stationary'):
     default, models = zone_models(zone_map, profile)
     return default, default.model(), (zone_map, ZonedErrors(
         models, conditional_cov=covariance_mode == 'conditional'))
+
+
+def simulate_along(zoned, keys, steps, zones):
+    """
+    Return errors (n samples, agents, 2) simulated along sampled steps in zones.
+
+    ``steps`` (n,) increasing model steps from 0 where a trace has samples,
+    ``zones`` (n,) the zone of each sample. Every agent runs continuously
+    from step 0; a step without a sample takes the zone of the next sample
+    (the rule of the module doc). ``zoned`` is a fresh :class:`ZonedErrors`.
+    """
+    steps = np.asarray(steps, dtype=np.int64)
+    span = int(steps[-1]) + 1
+    nxt = np.minimum(np.searchsorted(steps, np.arange(span)), steps.size - 1)
+    zone_at = np.asarray(zones, dtype=np.int64)[nxt]
+    keys = np.asarray(keys, dtype=np.uint64)
+    zoned.grow(keys.size - zoned.n)
+    zoned.restart(0)
+    rows = np.arange(keys.size)
+    out = np.empty((steps.size, keys.size, 2))
+    j = 0
+    for k in range(span):
+        e = zoned.errors(rows, keys, k, np.full(keys.size, zone_at[k]))[0]
+        while j < steps.size and steps[j] == k:
+            out[j] = e
+            j += 1
+    return out

@@ -185,3 +185,46 @@ def test_compare_zones_finds_the_gain_where_there_is_one(tmp_path):
         z['classes']['one_profile']['heldout_nll_per_sample']
     for name in ('ninth', 'seventh'):
         assert z['zones'][name]['fitted'] and z['zones'][name]['heldout_samples'] > 300, z
+
+
+def test_validate_zones_checks_each_zone_alone(tmp_path):
+    """
+    The walk of the CSV test validated with its own zone map, and swapped.
+
+    With the right map each zone's measured SD lies inside its simulated
+    range; with DS1 and DS5 swapped it lies outside in both zones.
+    """
+    from gps_error_ros.cli import main as gps_error
+    frame = LocalTangentFrame(*DATUM)
+    n = 2000
+    lat, lon, _ = frame.to_geodetic(np.arange(2 * n, dtype=float), np.zeros(2 * n),
+                                    np.zeros(2 * n))
+    truth = tmp_path / 'truth.csv'
+    with open(truth, 'w') as f:
+        f.write('t,truth_lat,truth_lon\n')
+        for k in range(2 * n):
+            f.write(f'{k},{lat[k]:.9f},{lon[k]:.9f}\n')
+    sd = {}
+    for label, (west, east) in (('right', ('DS1', 'DS5')), ('swapped', ('DS5', 'DS1'))):
+        zones = tmp_path / f'{label}.geojson'
+        zones.write_text(json.dumps({'type': 'FeatureCollection', 'features': [
+            {'type': 'Feature', 'properties': {'name': 'ninth', 'profile': west},
+             'geometry': box(frame, -10.0, n - 0.5)},
+            {'type': 'Feature', 'properties': {'name': 'seventh', 'profile': east},
+             'geometry': box(frame, n - 0.5, 10000.0)}]}))
+        if label == 'right':
+            trace = tmp_path / 'walk.csv'
+            assert gps_error(['simulate', '--profile', 'DS2', '--seed', '4', '--zones',
+                              str(zones), '--trajectories', str(truth), '--out',
+                              str(trace)]) == 0
+        out = tmp_path / label
+        assert gps_error(['validate', 'DS2', str(trace), '--zones', str(zones), '--out',
+                          str(out), '--sims', '60']) == 0
+        sd[label] = json.loads((out / 'validation.json').read_text())['zones']
+    for zone in ('ninth', 'seventh'):
+        for ax in ('north', 'east'):
+            right, swapped = sd['right'][zone][ax], sd['swapped'][zone][ax]
+            lo, _, hi = right['sd_simulated_m']
+            assert lo <= right['sd_m'] <= hi, (zone, ax, right)
+            lo, _, hi = swapped['sd_simulated_m']
+            assert not lo <= swapped['sd_m'] <= hi, (zone, ax, swapped)
