@@ -141,6 +141,8 @@ class ARErrorModel:
 
     #: No motion lag (see :class:`effects.ExtendedModel`).
     lag_s = 0.0
+    #: The innovations do not turn with the direction of travel (street_frame).
+    needs_heading = False
 
     def __init__(self, north, east, innovation_corr=0.0):
         if not -1.0 < innovation_corr < 1.0:

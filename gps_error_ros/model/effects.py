@@ -10,6 +10,7 @@ process of :mod:`ar_model` (written by ``gps_error diagnose --profile-out``)::
       heavy_tails: {dof: 4.5}
       variance_regimes: {scales: [1.0, 2.4],
                          transition: [[0.98, 0.02], [0.05, 0.95]]}
+      street_frame: {sigma_along: 0.6, sigma_across: 1.4}
 
 The process, per model step ``k``::
 
@@ -24,6 +25,16 @@ The process, per model step ``k``::
 * ``r(k)`` is a Markov chain over the regimes with the given row-stochastic
   ``transition`` matrix; regime ``j`` multiplies the innovations by
   ``scales[j]``. Without the section there is one regime of scale 1.
+* ``street_frame`` replaces the innovation covariance of the axes by one in
+  the axes along and across the direction of travel: ``w(k) = R(theta)
+  [sigma_along z1, sigma_across z2]``, with ``theta`` the direction (from
+  north, clockwise) of the truth's last second of travel (moving at least
+  ``MOVING_M`` metres; slower, the last direction holds; north before the
+  first). So the error ellipse turns with the walker; the AR coefficients
+  stay per north/east axis. Not with ``cross_axis_coupling`` (both set the
+  innovation covariance). Its stationary covariance, the one published in
+  ``stationary`` mode, is the average over directions: the AR process with
+  innovation variance ``(sigma_along^2 + sigma_across^2) / 2`` per axis.
 * ``lag_s``: the receiver reports where the device was ``lag_s`` seconds
   ago; the error relative to the truth at the stamp is ``u(k)`` plus
   ``truth(t - lag_s) - truth(t)`` (zero when standing, about ``-lag_s *
@@ -45,16 +56,20 @@ import numpy as np
 from scipy import special
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.ar_model import ARErrorModel
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 
 EFFECT_NAMES = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
-                'variance_regimes')
+                'variance_regimes', 'street_frame')
 _KEYS = {
     'cross_axis_coupling': ('innovation_corr',),
     'motion_lag': ('lag_s',),
     'heavy_tails': ('dof',),
     'variance_regimes': ('scales', 'transition'),
+    'street_frame': ('sigma_along', 'sigma_across'),
 }
+#: Metres the truth must move in one second for its direction to count as
+#: the direction of travel (street_frame); slower, the last direction holds.
+MOVING_M = 0.1
 MAX_LAG_S = 10.0
 MAX_DOF = 1000.0
 
@@ -82,12 +97,13 @@ class Effects:
     dof: float = math.inf
     scales: tuple = (1.0,)
     transition: tuple = ((1.0,),)
+    street: tuple = None        # (sigma_along, sigma_across), m
 
     @property
     def names(self):
         """Return the names of the effects present, in schema order."""
         present = (self.innovation_corr != 0.0, self.lag_s != 0.0,
-                   math.isfinite(self.dof), len(self.scales) > 1)
+                   math.isfinite(self.dof), len(self.scales) > 1, self.street is not None)
         return tuple(n for n, p in zip(EFFECT_NAMES, present) if p)
 
     @property
@@ -119,6 +135,9 @@ class Effects:
             out['variance_regimes'] = {
                 'scales': [round(float(v), 6) for v in self.scales],
                 'transition': rows}
+        if self.street is not None:
+            out['street_frame'] = {'sigma_along': round(float(self.street[0]), 6),
+                                   'sigma_across': round(float(self.street[1]), 6)}
         return out
 
 
@@ -159,8 +178,15 @@ def effects_from_dict(raw, source='<profile>'):
                                MAX_LAG_S)
         elif name == 'heavy_tails':
             kw['dof'] = _num(source, f'{key}.dof', body['dof'], 2.0, MAX_DOF)
+        elif name == 'street_frame':
+            kw['street'] = tuple(_num(source, f'{key}.{k}', body[k], 0.0, 1e6)
+                                 for k in ('sigma_along', 'sigma_across'))
         else:
             kw.update(_regimes(source, key, body))
+    if 'street' in kw and kw.get('innovation_corr'):
+        raise EffectsError(f'{source}: key \'effects\': street_frame and '
+                           f'cross_axis_coupling both set the innovation covariance; '
+                           f'expected one of them')
     return Effects(**kw)
 
 
@@ -192,13 +218,20 @@ class ExtendedModel:
 
     The state of ``n`` agents is an array (n, 2, p + 1): ``[:, :, :p]`` the
     AR deviations as in :class:`ARErrorModel`, ``[:, 0, p]`` the current
-    regime's index. Draws come from the agents' counter-based streams, one
+    regime's index, ``[:, 1, p]`` the direction of travel (radians from
+    north, clockwise; street_frame). Draws come from the agents' counter-based streams, one
     position per model step, so an agent's errors do not depend on how many
     agents are simulated together or when its state was created.
     """
 
     def __init__(self, north, east, effects):
         self.effects = effects
+        self.street = effects.street
+        if self.street is not None:
+            # the AR part with the innovation variance averaged over directions
+            sw = math.sqrt(0.5 * (self.street[0] ** 2 + self.street[1] ** 2))
+            north = AxisParams(north.delta, north.phi, sw)
+            east = AxisParams(east.delta, east.phi, sw)
         self.unit = ARErrorModel(north, east, effects.innovation_corr)
         self.axes = self.unit.axes
         self.order = self.unit.order
@@ -232,6 +265,11 @@ class ExtendedModel:
         """Return the exact autocorrelation per axis (max_lag + 1, 2)."""
         return self.unit.autocorrelation(max_lag)
 
+    @property
+    def needs_heading(self):
+        """Return True when the innovations turn with the direction of travel."""
+        return self.street is not None
+
     def empty_state(self, n):
         """Return a state array for ``n`` agents (zeros)."""
         return np.zeros((n, 2, self.order + 1))
@@ -255,12 +293,20 @@ class ExtendedModel:
             state[:, 0, self.order] = np.searchsorted(self.cum_pi, u, side='right')
         return state
 
-    def advance(self, state, keys, index):
-        """Advance ``state`` in place to model step ``index``; return errors."""
+    def advance(self, state, keys, index, heading=None):
+        """
+        Advance ``state`` in place to model step ``index``; return errors.
+
+        ``heading`` (n,) radians: the direction of travel at this step
+        (street_frame; NaN: standing, the last direction holds).
+        """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         p = self.order
         z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
-        w = self.unit._innovations(z)
+        if self.street is not None:
+            w = self._street_innovations(state, z, heading)
+        else:
+            w = self.unit._innovations(z)
         if self.scales.size > 1:
             u = streams.uniform_pairs(keys, streams.DOMAIN_REGIME, index)[:, 0]
             regime = state[:, 0, p].astype(np.int64)
@@ -279,6 +325,29 @@ class ExtendedModel:
         state[:, :, 0] = w
         return w + self.mean
 
+    def _street_innovations(self, state, z, heading):
+        """Return the innovations along/across the direction of travel, as north/east."""
+        p = self.order
+        if heading is not None:
+            heading = np.asarray(heading, dtype=float)
+            moving = np.isfinite(heading)
+            state[moving, 1, p] = heading[moving]
+        theta = state[:, 1, p]
+        c, s = np.cos(theta), np.sin(theta)
+        along, across = self.street[0] * z[:, 0], self.street[1] * z[:, 1]
+        return np.stack([along * c - across * s, along * s + across * c], axis=1)
+
+    def street_cov(self, state):
+        """Return each agent's innovation covariance (n, 2, 2) in its direction of travel."""
+        theta = state[:, 1, self.order]
+        c, s = np.cos(theta), np.sin(theta)
+        a2, x2 = self.street[0] ** 2, self.street[1] ** 2
+        out = np.empty((theta.size, 2, 2))
+        out[:, 0, 0] = a2 * c * c + x2 * s * s
+        out[:, 1, 1] = a2 * s * s + x2 * c * c
+        out[:, 0, 1] = out[:, 1, 0] = (a2 - x2) * c * s
+        return out
+
     def errors(self, state):
         """Return the current errors, mean included, shape (n, 2)."""
         return state[:, :, 0] + self.mean
@@ -289,7 +358,8 @@ class ExtendedModel:
 
         The innovation covariance times the expected squared regime scale of
         the next step given the current regime (``first``: given the regimes'
-        stationary law); heavy tails keep the unit variance.
+        stationary law); heavy tails keep the unit variance. With
+        street_frame the covariance is turned to the last direction of travel.
         """
         n = state.shape[0]
         factor = np.ones(n)
@@ -299,15 +369,23 @@ class ExtendedModel:
                 factor[:] = float(self.pi @ s2)
             else:
                 factor = np.asarray(self.effects.transition)[self.regimes(state)] @ s2
-        return self.unit.innovation_cov[None] * factor[:, None, None]
+        base = self.street_cov(state) if self.street is not None else \
+            self.unit.innovation_cov[None]
+        return base * factor[:, None, None]
 
     def regimes(self, state):
         """Return the current regime index of each agent."""
         return state[:, 0, self.order].astype(np.int64)
 
-    def state_after(self, keys, start, step):
-        """Return the state at model step ``step`` of a run started at ``start``."""
+    def state_after(self, keys, start, step, heading=None):
+        """
+        Return the state at model step ``step`` of a run started at ``start``.
+
+        ``heading`` (street_frame): the direction of travel of every step.
+        """
         state = self.initial_state(keys, start)
+        if heading is not None:
+            state[:, 1, self.order] = np.where(np.isfinite(heading), heading, 0.0)
         for k in range(start + 1, step + 1):
             self.advance(state, keys, k)
         return state

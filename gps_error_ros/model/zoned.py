@@ -29,12 +29,31 @@ Errors are computed when an agent's fix is made, not when the step comes
 due, because the zone is known only once the truth for the step is.
 """
 
+import math
+
 import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import state_and_cov
-from gps_error_ros.model.effects import ExtendedModel
+from gps_error_ros.model.effects import ExtendedModel, MOVING_M
+from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.zones import OUTSIDE, zone_models
+
+
+def travel_direction(lat0, lon0, lat1, lon1, ok=None):
+    """
+    Return the direction (radians from north, clockwise) from point 0 to point 1.
+
+    NaN where ``ok`` is False or the points are less than ``MOVING_M`` apart
+    (standing: the last direction holds).
+    """
+    north, east = difference(np.asarray(lat1, dtype=float), np.asarray(lon1, dtype=float),
+                             np.asarray(lat0, dtype=float), np.asarray(lon0, dtype=float))
+    north, east = np.atleast_1d(north), np.atleast_1d(east)
+    moving = np.hypot(north, east) >= MOVING_M
+    if ok is not None:
+        moving &= ok
+    return np.where(moving, np.arctan2(east, north), np.nan)
 
 
 def _has_regimes(model):
@@ -81,6 +100,7 @@ class ZonedErrors:
         self.step = np.zeros(n, dtype=np.int64)    # last model step advanced
         self.started = np.zeros(n, dtype=bool)
         self.cov = np.zeros((n, 2, 2))             # of the current error
+        self.heading = np.zeros(n)                 # last direction of travel, rad
 
     @property
     def n(self):
@@ -89,15 +109,15 @@ class ZonedErrors:
 
     def grow(self, n):
         """Add ``n`` slots (not started)."""
-        old = (self.err, self.regime, self.zone, self.step, self.started, self.cov)
+        names = ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading')
+        old = [getattr(self, k) for k in names]
         self._alloc(n)
-        self.err, self.regime, self.zone, self.step, self.started, self.cov = [
-            np.concatenate([a, b]) for a, b in zip(
-                old, (self.err, self.regime, self.zone, self.step, self.started, self.cov))]
+        for k, a in zip(names, old):
+            setattr(self, k, np.concatenate([a, getattr(self, k)]))
 
     def keep(self, mask):
         """Keep only the slots where ``mask`` is True (in order)."""
-        for name in ('err', 'regime', 'zone', 'step', 'started', 'cov'):
+        for name in ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading'):
             setattr(self, name, getattr(self, name)[mask])
 
     def restart(self, start, rows=slice(None)):
@@ -108,20 +128,27 @@ class ZonedErrors:
     def forget(self, rows):
         """Forget ``rows``: their next fix starts them again from the run's start."""
         self.started[rows] = False
+        self.heading[rows] = 0.0
 
-    def errors(self, rows, keys, step, zones):
+    def errors(self, rows, keys, step, zones, heading=None):
         """
         Return the error, shape (m, 2), and covariance (m, 2, 2) of ``rows`` at a step.
 
         ``keys`` are the rows' stream keys and ``zones`` the zone index of
-        each row's truth now (``OUTSIDE`` for the default). Rows behind are
-        advanced to model step ``step`` first (see the module doc).
+        each row's truth now (``OUTSIDE`` for the default); ``heading`` the
+        direction of travel now (radians; NaN standing: the last one holds),
+        for street_frame. Rows behind are advanced to model step ``step``
+        first, in the zone and direction of now (see the module doc).
         """
         rows = np.asarray(rows, dtype=np.int64)
         keys = np.asarray(keys, dtype=np.uint64)
         zones = self.model_of_zone[np.asarray(zones, dtype=np.int64)]
         if self.start is None:
             raise ValueError('ZonedErrors.restart(start) was not called')
+        if heading is not None:
+            heading = np.asarray(heading, dtype=float)
+            moving = np.isfinite(heading)
+            self.heading[rows[moving]] = heading[moving]
         fresh = ~self.started[rows]
         if fresh.any():
             self._begin(rows[fresh], keys[fresh], step, zones[fresh])
@@ -145,7 +172,9 @@ class ZonedErrors:
         """Start ``rows`` at ``step``: the state of a run from the start in one zone."""
         for z, sel in self._groups(zones):
             model, r, k = self.models[z], rows[sel], keys[sel]
-            if self.conditional_cov:
+            if model.needs_heading:
+                state = self._street_start(model, r, k, step)
+            elif self.conditional_cov:
                 state, cov = state_and_cov(model, k, self.start, step)
                 self.cov[r] = cov
             else:
@@ -158,6 +187,20 @@ class ZonedErrors:
             self.step[r] = step
             self.started[r] = True
 
+    def _street_start(self, model, rows, keys, step):
+        """Return the state at ``step`` of a street-frame run from the start, heading now."""
+        if step == self.start:
+            state = model.initial_state(keys, step)
+            state[:, 1, model.order] = self.heading[rows]
+            if self.conditional_cov:
+                self.cov[rows] = model.predictive_cov(state, first=True)
+            return state
+        state = model.state_after(keys, self.start, step - 1, heading=self.heading[rows])
+        if self.conditional_cov:
+            self.cov[rows] = model.predictive_cov(state)
+        model.advance(state, keys, step)
+        return state
+
     def _advance(self, rows, keys, step, zones):
         """Advance ``rows`` (one step behind) to ``step`` with their zones' recursions."""
         for z, sel in self._groups(zones):
@@ -165,6 +208,8 @@ class ZonedErrors:
             p = model.order
             tmp = model.empty_state(r.size)
             tmp[:, :, :p] = self.err[r, :, :p] - model.mean[None, :, None]
+            if model.needs_heading:
+                tmp[:, 1, p] = self.heading[r]
             if _has_regimes(model):
                 regime = self.regime[r].copy()
                 entering = self.zone[r] != z
@@ -221,3 +266,45 @@ def simulate_along(zoned, keys, steps, zones):
             out[j] = e
             j += 1
     return out
+
+
+class TravelDirections:
+    """
+    Each named agent's direction of travel, from truth streamed step by step.
+
+    What the engine computes for the node, for ``simulate``: the direction
+    from the truth ``lag_s`` + 1 s before a step to the truth ``lag_s``
+    before it, each interpolated linearly in latitude and longitude between
+    the samples around it; NaN (the last direction holds) before the truth
+    reaches back that far or when it moved less than ``MOVING_M``.
+    """
+
+    def __init__(self, lag_s=0.0):
+        self.lag_s = float(lag_s)
+        self.hist = {}
+
+    def _at(self, h, when):
+        for (t0, a0, b0), (t1, a1, b1) in zip(h[:-1], h[1:]):
+            if t0 <= when <= t1:
+                w = (when - t0) / (t1 - t0) if t1 > t0 else 0.0
+                return a0 + w * (a1 - a0), b0 + w * (b1 - b0)
+        if h and h[-1][0] == when:
+            return h[-1][1], h[-1][2]
+        return math.nan, math.nan
+
+    def directions(self, names, t, lat, lon):
+        """Store (t, lat, lon) per agent; return each one's direction now (rad or NaN)."""
+        out = np.full(len(names), np.nan)
+        back = t - self.lag_s - 1.0
+        pts = np.full((len(names), 4), np.nan)
+        for i, n in enumerate(names):
+            h = self.hist.setdefault(n, [])
+            h.append((t, float(lat[i]), float(lon[i])))
+            while len(h) > 2 and h[1][0] <= back:
+                h.pop(0)
+            pts[i, :2] = self._at(h, back)
+            pts[i, 2:] = self._at(h, t - self.lag_s)
+        ok = np.isfinite(pts).all(axis=1)
+        if ok.any():
+            out[ok] = travel_direction(pts[ok, 0], pts[ok, 1], pts[ok, 2], pts[ok, 3])
+        return out

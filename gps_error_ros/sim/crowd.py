@@ -78,18 +78,21 @@ class CrowdErrors:
             self._forget()
         return out
 
-    def zoned_errors(self, names, lat, lon):
+    def zoned_errors(self, names, lat, lon, heading=None):
         """
         Return the named agents' errors and covariances in the zones of (lat, lon).
 
         With a zone map: each agent's error follows the zone its truth is in
         (:mod:`gps_error_ros.model.zoned`); the covariance is the zone's
-        (stationary, or conditional with ``conditional_cov``).
+        (stationary, or conditional with ``conditional_cov``). Without a map
+        (a street-frame profile) every agent is in the default zone.
+        ``heading``: the direction of travel (street_frame).
         """
         rows = self._rows(names)
         self.last_seen[rows] = self.step
-        zones = self.zone_map.lookup(lat, lon)
-        out = self.zoned.errors(rows, self.keys[rows], self.step, zones)
+        zones = np.full(rows.size, -1) if self.zone_map is None else \
+            self.zone_map.lookup(lat, lon)
+        out = self.zoned.errors(rows, self.keys[rows], self.step, zones, heading)
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out

@@ -48,7 +48,9 @@ Timing rules
 * With a zone map (``zones``) an agent's error follows the zone of the
   (lagged) truth its fix is made from (:mod:`gps_error_ros.model.zoned`):
   errors are computed when the fix is made, and every fix carries its zone's
-  covariance (stationary, or conditional).
+  covariance (stationary, or conditional). A profile with ``street_frame``
+  takes the same path: its innovations turn with the direction of travel of
+  the truth over the second before the fix's (lagged) instant.
 * Agents may come and go (:meth:`FixEngine.attach`, :meth:`FixEngine.detach`;
   the node's ``agent_pattern``). Every agent's model counts from the
   engine's first model step (the *start*): one attached later is caught up
@@ -65,6 +67,8 @@ import numpy as np
 
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.model.zoned import travel_direction, ZonedErrors
+from gps_error_ros.model.zones import OUTSIDE
 from gps_error_ros.sim.crowd import state_and_cov
 from gps_error_ros.sim.truth_ring import TruthRing
 from gps_error_ros.sim.velocity_state import VelocityState
@@ -183,8 +187,12 @@ class FixEngine:
         # given the state a step before (None: the node reports the stationary one)
         self.conditional_cov = conditional_cov
         self.cov_now = None
-        # zones: (ZoneMap, ZonedErrors); the errors then follow the zone of each fix
+        # zones: (ZoneMap, ZonedErrors): errors follow each fix's zone; a street
+        # frame needs each fix's direction of travel: the same path, one zone
         self.zone_map, self.zoned = zones if zones is not None else (None, None)
+        if self.zoned is None and model.needs_heading:
+            self.zoned = ZonedErrors([getattr(model, 'inner', model)],
+                                     conditional_cov=conditional_cov)
         if self.zoned is not None:
             self.zoned.grow(self.n - self.zoned.n)
         self._reset_time()
@@ -459,12 +467,22 @@ class FixEngine:
                     fixes.append(self._make_fix(step, held, self.truth.newest_coord(held)))
         return [f for f in fixes if f.agents.size]
 
+    def _headings(self, agents, t_ns):
+        """Return the direction of travel at ``t_ns`` (rad; NaN: standing; see zoned)."""
+        now, ok_now = self.truth.interpolate(agents, t_ns - self.lag_ns, self.max_gap_ns)
+        back, ok_back = self.truth.interpolate(agents, t_ns - self.lag_ns - NS,
+                                               self.max_gap_ns)
+        return travel_direction(back[:, 0], back[:, 1], now[:, 0], now[:, 1],
+                                ok_now & ok_back)
+
     def _make_fix(self, step, agents, coords):
         err, fix = step.err[agents], step.fix[agents]
         cov = None if step.cov is None else step.cov[agents]
         if self.zoned is not None:
-            zones = self.zone_map.lookup(coords[:, 0], coords[:, 1])
-            err, cov = self.zoned.errors(agents, self.keys[agents], step.model_step, zones)
+            zones = np.full(agents.size, OUTSIDE) if self.zone_map is None else \
+                self.zone_map.lookup(coords[:, 0], coords[:, 1])
+            err, cov = self.zoned.errors(agents, self.keys[agents], step.model_step, zones,
+                                         self._headings(agents, step.t_ns))
         lat, lon = offset(coords[:, 0], coords[:, 1], err[:, 0], err[:, 1])
         lat, lon = np.asarray(lat), np.asarray(lon)
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position

@@ -32,6 +32,7 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.accuracy import ellipse, radius68
 from gps_error_ros.model.availability import WithAvailability
+from gps_error_ros.model.zoned import TravelDirections, ZonedErrors
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.velocity_sim import speed_and_course
 from gps_error_ros.model.effects import LagBuffer
@@ -41,6 +42,14 @@ from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (
     add_errors_lonlat, check_fcd_root, fcd_coordinates, FcdWriter, iter_fcd,
     NetProjection, read_truth_csv, TrajectoryError)
+
+
+def _per_fix(model, zones, conditional=False):
+    """Return ``zones``, or a one-zone set-up for a street-frame model, or None."""
+    if zones is None and model.needs_heading:
+        return None, ZonedErrors([getattr(model, 'inner', model)],
+                                 conditional_cov=conditional)
+    return zones
 
 
 def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
@@ -109,6 +118,15 @@ def _fcd_mode(src, net, coordinates):
     return ('net' if proj.geo else 'plane'), proj
 
 
+def _lonlat(mode, proj, x, y):
+    """Return FCD positions as (lon, lat) arrays (mode 'lonlat' or 'net')."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if mode == 'lonlat':
+        return x, y
+    lon, lat = proj.to_lonlat(x, y)
+    return np.asarray(lon), np.asarray(lat)
+
+
 def _moved(mode, proj, src, t, x, y, err):
     """Return the positions moved by ``err`` and their number format."""
     if mode == 'lonlat':
@@ -126,15 +144,18 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
                   zones=None):
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
+    zones = _per_fix(model, zones)
     if zones is not None and mode == 'plane':
         raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
                               f'its <location>), so positions cannot be placed in the '
-                              f'zone map\'s longitude/latitude polygons')
+                              f'zone map\'s longitude/latitude polygons or give a '
+                              f'direction of travel for street_frame')
     size = os.path.getsize(src)
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
     crowd, rows, steps, seen, no_fix = None, 0, 0, set(), 0
     lag = LagBuffer(model.lag_s)
+    travel = TravelDirections(model.lag_s)
     try:
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
@@ -152,8 +173,11 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
             if zones is None:
                 err = crowd.errors(names)
             else:
-                lon, lat = (x, y) if mode == 'lonlat' else proj.to_lonlat(x, y)
-                err = crowd.zoned_errors(names, np.asarray(lat), np.asarray(lon))[0]
+                lon, lat = _lonlat(mode, proj, x, y)
+                raw_lon, raw_lat = _lonlat(mode, proj, [a[1] for a in agents],
+                                           [a[2] for a in agents])
+                heading = travel.directions(names, t, raw_lat, raw_lon)
+                err = crowd.zoned_errors(names, lat, lon, heading)[0]
             nx, ny, fmt = _moved(mode, proj, src, t, x, y, err)
             fmt = fmt if digits is None else f'{{:.{digits}f}}'
             fix = crowd.available(names)        # in an outage: no position written
@@ -178,9 +202,11 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
     conditional = covariance_mode == 'conditional'
+    zones = _per_fix(model, zones, conditional)
     crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz), conditional_cov=conditional,
                         zoned=zones)
     lag = LagBuffer(model.lag_s)
+    travel = TravelDirections(model.lag_s)
     cov = np.repeat(np.asarray(model.stationary_cov)[None], t.size, axis=0)
     lat_out = np.empty_like(t)
     lon_out = np.empty_like(t)
@@ -194,7 +220,9 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
         lon, lat = lag.lagged(names, t[b0], data['truth_lon'][b0:b1],
                               data['truth_lat'][b0:b1])
         if zones is not None:
-            err, cov[b0:b1] = crowd.zoned_errors(names, lat, lon)
+            heading = travel.directions(names, t[b0], data['truth_lat'][b0:b1],
+                                        data['truth_lon'][b0:b1])
+            err, cov[b0:b1] = crowd.zoned_errors(names, lat, lon, heading)
         else:
             err = crowd.errors(names)
             if conditional:

@@ -110,3 +110,84 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
             assert (c[4], c[0]) == pytest.approx(tuple(var[zone]), rel=1e-9), (a, k, zone)
             seen[zone] += 1
     assert seen['DS1'] >= 30 and seen['DS5'] >= 30, seen
+
+
+def l_walk(k, agent):
+    """Return (lat, lon) of an L-shaped walk: 20 s east at 1.4 m/s, then north."""
+    s = k - T0
+    north0 = 0.0 if agent == 'ann' else 30.0
+    east = 1.4 * min(s, 20)
+    north = north0 + 1.4 * max(0, s - 20)
+    return LAT0 + north / 111320.0, float(LON0 + east * DEG_PER_M)
+
+
+def test_street_frame_turns_with_the_walker_in_node_and_simulate(tmp_path):
+    """
+    A street-frame profile on an L-shaped walk, covariance_mode conditional.
+
+    Node and ``simulate`` agree to 1e-6 m; each fix's covariance is the
+    along/across ellipse of the leg the walker is on (east: the small
+    variance east; north: the small variance north).
+    """
+    import yaml
+    from gps_error_ros.cli import main as gps_error
+    from gps_error_ros.model.profiles import builtin_dir
+    raw = yaml.safe_load((builtin_dir() / 'DS1.yaml').read_text())
+    raw['effects'] = {'street_frame': {'sigma_along': 0.5, 'sigma_across': 2.0}}
+    prof = tmp_path / 'street.yaml'
+    prof.write_text(yaml.safe_dump(raw))
+    ns = unique_ns()
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+                        '-p', 'input_type:=navsatfix', '-p', 'seed:=3', '-p', f'profile:={prof}',
+                        '-p', 'covariance_mode:=conditional', '-p', 'agents:=["ann","bob"]'])
+    peer = Peer()
+    try:
+        pubs = {a: peer.publisher(NavSatFix, f'{ns}/{a}/fix_truth') for a in AGENTS}
+        boxes = {a: peer.collect(NavSatFix, f'{ns}/{a}/fix') for a in AGENTS}
+        assert peer.spin_until(lambda: all(p.get_subscription_count() for p in pubs.values())
+                               and all(peer.node.count_publishers(f'{ns}/{a}/fix')
+                                       for a in AGENTS), 20)
+        peer.spin_for(0.5)
+        for k in range(T0, T0 + STEPS + 1):
+            for a in AGENTS:
+                m = truth_msg(k, a)
+                m.latitude, m.longitude = l_walk(k, a)
+                pubs[a].publish(m)
+            peer.set_clock(k * NS)
+            peer.spin_until(lambda: all(b and stamp_ns(b[-1].header.stamp) >= (k - 1) * NS
+                                        for b in boxes.values()), 5)
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+    src, dst = tmp_path / 'truth.csv', tmp_path / 'noisy.csv'
+    with open(src, 'w') as f:
+        f.write('t,agent,truth_lat,truth_lon\n')
+        for k in range(T0, T0 + STEPS):
+            for a in AGENTS:
+                f.write('{},{},{!r},{!r}\n'.format(k, a, *l_walk(k, a)))
+    assert gps_error(['simulate', '--profile', str(prof), '--seed', '3', '--covariance-mode',
+                      'conditional', '--trajectories', str(src), '--out', str(dst)]) == 0
+    sim = {(r['agent'], int(float(r['t']))): r for r in csv.DictReader(open(dst))}
+    legs = {'east': 0, 'north': 0}
+    for a in AGENTS:
+        for m in boxes[a]:
+            k = stamp_ns(m.header.stamp) // NS
+            if (a, k) not in sim:
+                continue
+            lat, lon = l_walk(k, a)
+            row = sim[a, k]
+            np.testing.assert_allclose(
+                np.ravel(difference(m.latitude, m.longitude, lat, lon)),
+                np.ravel(difference(float(row['lat']), float(row['lon']), lat, lon)),
+                rtol=0, atol=1e-6, err_msg=f'{a} {k}')
+            c = m.position_covariance
+            if 2 <= k - T0 <= 20:           # walking east (a second of history)
+                assert (c[0], c[4]) == pytest.approx((0.25, 4.0), rel=1e-9), (a, k, c)
+                legs['east'] += 1
+            elif k - T0 >= 22:              # walking north
+                assert (c[0], c[4]) == pytest.approx((4.0, 0.25), rel=1e-9), (a, k, c)
+                legs['north'] += 1
+            assert m.position_covariance_type == NavSatFix.COVARIANCE_TYPE_KNOWN
+    assert legs['east'] >= 30 and legs['north'] >= 30, legs
