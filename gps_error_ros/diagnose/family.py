@@ -1,7 +1,7 @@
 """
 The test family of the diagnosis: what the innovations still carry.
 
-First round, on the base model's training innovations (seven tests, Holm's
+First round, on the base model's training innovations (eight tests, Holm's
 step-down procedure at family-wise level ``ALPHA``):
 
 - ``cross_axis_correlation``: lag-0 north-east correlation
@@ -16,7 +16,10 @@ step-down procedure at family-wise level ``ALPHA``):
   (one-sided, Sidak over the lags): regimes and tails only make squares
   correlate positively, so this is periodic variance;
 - ``serial_north``, ``serial_east``: heteroscedasticity-robust Ljung-Box over
-  lags 1-30 of each axis's innovations (30 - p degrees of freedom).
+  lags 1-30 of each axis's innovations (30 - p degrees of freedom);
+- ``travel_frame``: does the innovation covariance turn with the direction
+  of travel (:func:`travel_frame_test`): a walk along one street cannot
+  show it, a walk that turns corners can.
 
 Second round (:func:`retest`), on the extended model's standardised
 innovations: serial and cross correlation, persistence, and the calibration
@@ -106,6 +109,46 @@ def motion_test(lrs):
                 f'ago - truth now), b >= 0, against none, for L in '
                 f'{list(MOTION_TEST_LAGS)} (chi-bar-squared each, '
                 f'Bonferroni over L)'}
+
+
+#: Circular shifts of the travel-frame test (its p-value is at least 1/1000).
+TRAVEL_SHIFTS = 1000
+
+
+def travel_frame_test(r, heading, shifts=TRAVEL_SHIFTS):
+    """
+    Return the test that the innovation covariance turns with the travel.
+
+    A covariance ``R(theta) diag(a, c) R(theta)'`` has ``E[(rn^2 - re^2)/2] =
+    k cos 2theta + m`` and ``E[rn re] = k sin 2theta + m'`` with ``k = (a -
+    c) / 2``; a covariance fixed in north/east axes has ``k = 0`` whatever the
+    direction. The statistic ``S`` is the covariance of ((rn^2 - re^2)/2,
+    rn re) with (cos 2theta, sin 2theta). Its null distribution comes from
+    the same innovations paired with the directions circularly shifted
+    (``shifts`` shifts evenly spaced over the whole cycle, the unshifted one
+    among them, so that the p-value is the rank of ``S`` in a group of
+    shifts): that keeps the persistence of each (variance that lasts, long
+    legs of one direction) and breaks only their link. Rotation invariant;
+    no power when the direction does not change.
+    """
+    d = r - r.mean(axis=0)
+    u, v = 0.5 * (d[:, 0] ** 2 - d[:, 1] ** 2), d[:, 0] * d[:, 1]
+    u, v = u - u.mean(), v - v.mean()
+    c2, s2 = np.cos(2 * heading), np.sin(2 * heading)
+    c2, s2 = c2 - c2.mean(), s2 - s2.mean()
+    n = len(r)
+    out = {'test': 'covariance of the innovations\' squares with twice the direction '
+                   'of travel, against circular shifts of the directions, two-sided'}
+    spread = float(np.mean(c2 ** 2 + s2 ** 2))
+    k_shifts = min(shifts, n)
+    if spread < 1e-9 or k_shifts < 20:
+        return {**out, 'statistic': 0.0, 'p_value': 1.0, 'shifts': k_shifts}
+    stat = float(np.mean(u * c2 + v * s2))
+    offsets = (np.arange(k_shifts) * n) // k_shifts          # 0 (unshifted) first
+    null = np.array([np.mean(u * np.roll(c2, o) + v * np.roll(s2, o)) for o in offsets])
+    p = int(np.sum(np.abs(null) >= abs(stat) * (1 - 1e-12))) / k_shifts
+    return {**out, 'statistic': stat, 'half_difference_m2': stat / spread,
+            'shifts': int(k_shifts), 'p_value': float(p)}
 
 
 def innovation_tests(r, seg, orders):

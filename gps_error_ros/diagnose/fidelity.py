@@ -12,7 +12,7 @@ simulated median and central 95 % range beside it.
 import numpy as np
 
 from gps_error_ros.diagnose.common import FIDELITY_MAX_LAG
-from gps_error_ros.diagnose.mean import motion_offsets
+from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
 from gps_error_ros.fit.autocorrelation import segment_acf
 from gps_error_ros.model import streams
 
@@ -53,12 +53,23 @@ def simulate_part(model, part, truth, sims, seed):
     Return ``sims`` simulated error traces along ``part``'s truth and grid.
 
     One continuous run per trace over the part's span, sampled at its steps
-    (:func:`part_steps`); a motion lag adds the offsets of the truth itself.
+    (:func:`part_steps`); a motion lag adds the offsets of the truth itself,
+    and a street frame turns with the truth's direction of travel.
     """
     sim = model.simulator()
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
     steps = part_steps(part)
-    x = sim.simulate(keys, int(steps[-1][-1]) + 1)            # (span, sims, 2)
+    span = int(steps[-1][-1]) + 1
+    if sim.needs_heading:           # street_frame: the innovations turn with the walk
+        heading = travel_headings(truth, part.t[0][0] + np.arange(span), model.mean.lag_s)
+        x = np.empty((span, sims, 2))
+        state = sim.initial_state(keys, 0)
+        state[:, 1, sim.order] = heading[0]
+        x[0] = sim.errors(state)
+        for k in range(1, span):
+            x[k] = sim.advance(state, keys, k, np.full(sims, heading[k]))
+    else:
+        x = sim.simulate(keys, span)                          # (span, sims, 2)
     offs = motion_offsets(part, truth, model.mean.lag_s)
     return [[x[s, i] + o for s, o in zip(steps, offs)] for i in range(sims)]
 

@@ -20,7 +20,7 @@ import numpy as np
 from scipy import optimize
 
 from gps_error_ros.diagnose.common import MAX_LAG_S
-from gps_error_ros.model.effects import lag_offsets
+from gps_error_ros.model.effects import lag_offsets, MOVING_M
 
 
 def motion_offsets(part, truth, lag_s, gain=1.0):
@@ -37,6 +37,32 @@ def motion_offsets(part, truth, lag_s, gain=1.0):
     return out if gain == 1.0 else [gain * o for o in out]
 
 
+def travel_headings(truth, times, lag_s=0.0):
+    """
+    Return the direction of travel (rad from north, clockwise) at ``times``.
+
+    As the node's street frame: the truth's move over the second before
+    ``times - lag_s``; where it moved less than ``MOVING_M`` the last
+    direction (in the order of ``times``) holds, north before the first.
+    """
+    times = np.asarray(times, dtype=float)
+    ne = truth.north_east
+    now = [np.interp(times - lag_s, truth.t, ne[:, a]) for a in range(2)]
+    back = [np.interp(times - lag_s - 1.0, truth.t, ne[:, a]) for a in range(2)]
+    dn, de = now[0] - back[0], now[1] - back[1]
+    moving = np.hypot(dn, de) >= MOVING_M
+    held = np.where(moving, np.arange(times.size), -1)
+    held = np.maximum.accumulate(held) if held.size else held
+    theta = np.arctan2(de, dn)
+    return np.where(held >= 0, theta[np.maximum(held, 0)], 0.0)
+
+
+def to_travel_frame(r, heading):
+    """Return north/east innovations ``r`` (n, 2) as (along, across) the travel."""
+    c, s = np.cos(heading), np.sin(heading)
+    return np.stack([r[:, 0] * c + r[:, 1] * s, -r[:, 0] * s + r[:, 1] * c], axis=1)
+
+
 def condition_count(orders):
     """Return how many samples per segment are conditioned on, not scored."""
     return max(max(orders), int(math.ceil(MAX_LAG_S)))
@@ -49,13 +75,14 @@ class Design:
     y: np.ndarray          # (n, 2) u at the scored samples
     lags: list             # per axis (n, p_a) lagged u
     seg: np.ndarray        # (n,) segment index of each scored sample
+    heading: np.ndarray = None   # (n,) direction of travel, rad (street_frame)
 
 
 def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
     """Build the regression of u = e - motion term on its own past."""
     m0 = condition_count(orders) if m0 is None else max(m0, max(orders))
     offs = motion_offsets(part, truth, lag_s, gain)
-    ys, lags, seg = [], [[], []], []
+    ys, lags, seg, times = [], [[], []], [], []
     for s, (e, o) in enumerate(zip(part.err, offs)):
         u = e - o
         idx = np.arange(m0, len(u))
@@ -63,6 +90,7 @@ def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
             continue
         ys.append(u[idx])
         seg.append(np.full(idx.size, s))
+        times.append(part.t[s][idx])
         for a in range(2):
             lags[a].append(np.stack([u[idx - i, a] for i in
                                      range(1, orders[a] + 1)], axis=1))
@@ -70,7 +98,7 @@ def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
         return Design(np.zeros((0, 2)), [np.zeros((0, p)) for p in orders],
                       np.zeros(0, dtype=int))
     return Design(np.concatenate(ys), [np.concatenate(x) for x in lags],
-                  np.concatenate(seg))
+                  np.concatenate(seg), travel_headings(truth, np.concatenate(times), lag_s))
 
 
 @dataclass

@@ -16,7 +16,7 @@ import numpy as np
 from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
 from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf
 from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
-                                         fit_mean_lag, MeanFit)
+                                         fit_mean_lag, MeanFit, to_travel_frame)
 from gps_error_ros.fit.calibration import CalibrationError, fit_axis
 from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
 from gps_error_ros.model.effects import build_model, Effects
@@ -63,6 +63,8 @@ class FittedModel:
             kw['lag_s'] = float(self.mean.lag_s)
         if 'heavy_tails' in self.effects:
             kw['dof'] = float(self.law.dof)
+        if 'street_frame' in self.effects:
+            kw['street'] = (float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[1, 1])))
         if 'variance_regimes' in self.effects:
             kw['scales'] = tuple(float(v) for v in self.law.scales)
             kw['transition'] = tuple(tuple(float(v) for v in row)
@@ -89,18 +91,25 @@ class FittedModel:
         """
         Return (per-sample predictive log densities, residuals, design, pred).
 
+        With ``street_frame`` the residuals are along and across the
+        direction of travel (the axes of the law).
+
         ``m0``: samples per segment conditioned on, not scored (default: the
         model's own :func:`~.mean.condition_count`); ``pred`` holds the
         predictive regime probabilities (n, K).
         """
         d = design(part, self.orders, truth, self.mean.lag_s, self.mean.gain, m0=m0)
         r = self.mean.residuals(d)
+        if 'street_frame' in self.effects:      # the law is along/across the travel
+            r = to_travel_frame(r, d.heading)
         ll, pred = law_logpdf(self.law, r, d.seg)
         return ll, r, d, pred
 
 
 def with_law(effects, orders, mean, r, d, regimes):
     """Return the :class:`FittedModel` of a mean part with its law fitted on ``r``."""
+    if 'street_frame' in effects:
+        r = to_travel_frame(r, d.heading)
     law = fit_law(r, d.seg, coupled='cross_axis_coupling' in effects,
                   tails='heavy_tails' in effects,
                   regimes=regimes if 'variance_regimes' in effects else 0)

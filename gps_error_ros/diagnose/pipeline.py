@@ -14,7 +14,9 @@ choice made on the training part alone:
 3. :func:`run_family`: the test family on the base model's innovations,
    Holm at family-wise level ``ALPHA`` (:mod:`.family`).
 4. :func:`attribute`: ``cross_axis_correlation`` -> ``cross_axis_coupling``;
-   ``motion_dependence`` -> ``motion_lag``. Tails and regimes compete: both
+   ``motion_dependence`` -> ``motion_lag``; ``travel_frame`` -> fixed axes
+   (``cross_axis_coupling``) or axes along/across the travel
+   (``street_frame``), the training BIC deciding. Tails and regimes compete: both
    fatten the marginal tails, only regimes make the squared innovations
    persist. With persistence, ``variance_regimes``, the training BIC choosing
    among 2 levels, 3 levels and 2 levels plus Student-t innovations (then
@@ -46,8 +48,10 @@ from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, EFFECT_ORDER,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
                                            N_TESTS, TRAIN_FRACTION)
 from gps_error_ros.diagnose.family import (holm, innovation_tests, motion_test,
-                                           retest)
+                                           retest, travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
+from gps_error_ros.diagnose.laws import fit_law, law_logpdf
+from gps_error_ros.diagnose.mean import to_travel_frame
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
@@ -167,6 +171,10 @@ def run_family(split, base, alpha=ALPHA):
     The mean part first: when the motion test rejects on its own (Holm's
     first step, alpha / m), the law's tests run on innovations with the lag
     removed, so that lag transients do not pass for tails or regimes.
+    Likewise the frame: when the travel-frame test rejects on its own and
+    axes along/across the travel fit better than fixed ones, the other
+    tests run on the innovations in that frame (a turning ellipse seen in
+    fixed axes is a mixture, with the kurtosis of heavy tails).
     """
     motion = _motion_family(split, base)
     _, r_law, d_law, _ = base.score(split.train, split.truth)
@@ -176,13 +184,30 @@ def run_family(split, base, alpha=ALPHA):
         lagged = fit_model(split.train, base.orders, ('motion_lag',), split.truth)
         lag_s = lagged.mean.lag_s
         _, r_law, d_law, _ = lagged.score(split.train, split.truth)
+    frame = travel_frame_test(r_law, d_law.heading)
+    r_tests = r_law
+    if frame['p_value'] <= alpha / N_TESTS and _travel_axes_win(r_law, d_law):
+        # the law's tests in the travel frame, or a turning ellipse passes for tails
+        r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
-             **innovation_tests(r_law, d_law.seg, base.orders)}
+             **innovation_tests(r_tests, d_law.seg, base.orders), 'travel_frame': frame}
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k in tests:
         tests[k]['holm_adjusted_p'] = adjusted[k]
         tests[k]['rejected'] = reject[k]
     return FamilyResult(tests, reject, adjusted, lag_s, base_residuals)
+
+
+def _travel_axes_win(r, d):
+    """Return True when a Gaussian law along/across the travel beats fixed axes (BIC)."""
+    n = len(r)
+    bic = {}
+    for name, x, coupled in (('fixed', r, True),
+                             ('travel', to_travel_frame(r, d.heading), False)):
+        law = fit_law(x, d.seg, coupled=coupled)
+        bic[name] = -2 * float(np.sum(law_logpdf(law, x, d.seg)[0])) + \
+            law.n_params * math.log(n)
+    return bic['travel'] < bic['fixed']
 
 
 def _pick(test):
@@ -234,6 +259,35 @@ def _attribute_law(split, base, family, att):
         'bic': bics})
 
 
+def _attribute_frame(split, base, family, att):
+    """
+    Axes fixed north/east (coupling) against axes of the travel: training BIC.
+
+    The travel-frame test rejected: the innovation covariance depends on the
+    direction of travel. A fixed ellipse that only changes its elongation
+    with the direction can do that too, so the law with the fixed, coupled
+    covariance and the law along/across the travel are both fitted, and the
+    lower BIC decides.
+    """
+    common = tuple(e for e in att.effects if e != 'cross_axis_coupling')
+    bics = {name: fit_model(split.train, base.orders, common + (name,), split.truth,
+                            att.lag_s).bic
+            for name in ('cross_axis_coupling', 'street_frame')}
+    pick = min(bics, key=bics.get)
+    other = 'street_frame' if pick == 'cross_axis_coupling' else 'cross_axis_coupling'
+    t = family.tests['travel_frame']
+    att.effects[:] = [e for e in EFFECT_ORDER if e in common + (pick,)]
+    att.evidence.pop(other, None)
+    att.evidence.setdefault(pick, {'test': 'travel_frame', **_pick(t)})
+    att.evidence[pick]['frame_bic'] = bics
+    att.alternatives_rejected.append({
+        'effect': other, 'bic': bics,
+        'reason': ('the covariance turns with the direction of travel, but a fixed '
+                   'north/east ellipse fits it better (lower BIC)') if other == 'street_frame'
+        else ('the innovation covariance turns with the direction of travel: axes along '
+              'and across it fit better than fixed north/east axes (lower BIC)')})
+
+
 def attribute(split, base, family):
     """Step 4: turn the rejected tests into effects, or ``unexplained``."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
@@ -244,6 +298,8 @@ def attribute(split, base, family):
             att.effects.append(effect)
             att.evidence[effect] = {'test': test, **_pick(tests[test])}
     att.lag_s = family.lag_s if 'motion_lag' in att.effects else None
+    if reject['travel_frame']:
+        _attribute_frame(split, base, family, att)
     if reject['squared_persistence'] or reject['kurtosis']:
         _attribute_law(split, base, family, att)
     if reject['squared_oscillation']:
@@ -409,7 +465,7 @@ RETEST_LABEL = {
 
 #: retest -> effects whose fitted form targets that structure
 RETEST_EFFECTS = {
-    'cross_axis_correlation': ('cross_axis_coupling',),
+    'cross_axis_correlation': ('cross_axis_coupling', 'street_frame'),
     'squared_persistence': ('variance_regimes',),
     'pit_uniformity': ('heavy_tails', 'variance_regimes'),
     'serial_north': (),

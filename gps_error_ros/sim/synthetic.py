@@ -25,6 +25,12 @@ canyon_levels       innovation SD switches among three levels (1x, 1.8x,
                     3x) with dwell times of about 2 min (variance_regimes)
 canyon_gradual      innovation SD drifts smoothly, x exp(0.5 sin(2 pi t /
                     600 s)) (variance_regimes)
+street_canyon       innovations along and across the street being walked,
+                    across 2.5x along on avenues and 1.8x on cross streets
+                    (same total variance); the frame is the street's axis,
+                    not the direction of travel, and holds while waiting
+                    at a corner; the walker turns at half the corners, not
+                    a quarter (street_frame)
 periodic            a 16 s oscillation of 2.5 m (north) and 2 m (east), like
                     the periodicity seen in a Pixel 4 trace (outside the
                     list: ``unexplained``)
@@ -51,6 +57,7 @@ SCENARIOS = {
     'multipath': (('heavy_tails',), False),
     'canyon_levels': (('variance_regimes',), False),
     'canyon_gradual': (('variance_regimes',), False),
+    'street_canyon': (('street_frame',), False),
     'periodic': ((), True),
 }
 EFFECT_FREE = ('none', 'ar5', 'quantised')
@@ -73,6 +80,17 @@ def _innovations(scenario, n, rng, heading_avenue):
         sc = np.where(heading_avenue, 1.0 / np.sqrt(2.5), 1.0 / np.sqrt(1.625))
         sa, sc = sa * SIGMA_W, sc * SIGMA_W
         w = (z[:, :1] * sa[:, None]) * along + (z[:, 1:] * sc[:, None]) * across
+    elif scenario == 'street_canyon':
+        b = np.radians(GRID_BEARING_DEG)
+        axis = np.where(heading_avenue, b, b + np.pi / 2)   # the street walked
+        along = np.stack([np.cos(axis), np.sin(axis)], axis=1)
+        across = np.stack([-np.sin(axis), np.cos(axis)], axis=1)
+        # deeper canyons on the avenues: across 2.5x along there, 1.8x on cross
+        # streets; the same total variance
+        ratio = np.where(heading_avenue, 2.5, 1.8)
+        sa = SIGMA_W * np.sqrt(2.0 / (1.0 + ratio ** 2))
+        z = rng.standard_normal((n, 2))
+        w = (z[:, :1] * sa[:, None]) * along + (z[:, 1:] * (ratio * sa)[:, None]) * across
     elif scenario == 'multipath':
         jump = rng.random(n) < 0.03
         w[jump] += rng.standard_normal((int(jump.sum()), 2)) * 4.0
@@ -93,6 +111,22 @@ def _innovations(scenario, n, rng, heading_avenue):
     return w
 
 
+def _on_avenue(east, north, hold=False):
+    """
+    Return, per sample, whether the walker heads along an avenue (the grid's bearing).
+
+    ``hold``: while waiting at a corner the last street walked holds.
+    """
+    de, dn = np.gradient(east), np.gradient(north)
+    b = np.radians(GRID_BEARING_DEG)
+    avenue = np.abs(de * np.sin(b) + dn * np.cos(b)) > \
+        np.abs(-de * np.cos(b) + dn * np.sin(b))
+    if hold:
+        moving = np.hypot(de, dn) > 0.3
+        avenue = avenue[np.maximum.accumulate(np.where(moving, np.arange(avenue.size), 0))]
+    return avenue
+
+
 def synthetic_trace(scenario, seed, duration=3600):
     """
     Return a :class:`Trace` of a synthetic walk with ``scenario``'s effect.
@@ -106,14 +140,12 @@ def synthetic_trace(scenario, seed, duration=3600):
     if duration < 60:
         raise ValueError(f'duration must be >= 60 s, got {duration}')
     rng = np.random.default_rng([seed, sorted(SCENARIOS).index(scenario)])
-    walk = manhattan_walk(duration + 10, rng)
+    # the street-frame scenario is a walk that turns corners: every other one
+    walk = manhattan_walk(duration + 10, rng,
+                          turn_probability=0.5 if scenario == 'street_canyon' else 0.25)
     t = np.arange(duration, dtype=float)
     east, north = walk.position(t)
-    # heading on an avenue (along the grid's uptown bearing) or not
-    de, dn = np.gradient(east), np.gradient(north)
-    b = np.radians(GRID_BEARING_DEG)
-    avenue = np.abs(de * np.sin(b) + dn * np.cos(b)) > \
-        np.abs(-de * np.cos(b) + dn * np.sin(b))
+    avenue = _on_avenue(east, north, hold=scenario == 'street_canyon')
     burn = 600
     n = duration + burn
     w = _innovations(scenario, n, rng, np.r_[np.zeros(burn, bool), avenue])

@@ -17,7 +17,7 @@ from gps_error_ros.sim.synthetic import synthetic_trace
 
 FAMILY = {'motion_dependence', 'cross_axis_correlation', 'kurtosis',
           'squared_persistence', 'squared_oscillation', 'serial_north',
-          'serial_east'}
+          'serial_east', 'travel_frame'}
 
 
 @pytest.fixture(scope='module')
@@ -52,7 +52,7 @@ def test_base_model_takes_calibrations_pacf_orders(coupled):
     assert base.n_train == sum(max(0, len(e) - m0) for e in split.train.err)
 
 
-def test_family_is_holm_over_seven_tests(coupled):
+def test_family_is_holm_over_eight_tests(coupled):
     _, _, _, family = coupled
     assert set(family.tests) == FAMILY
     reject, adjusted = holm({k: t['p_value'] for k, t in family.tests.items()}, ALPHA)
