@@ -19,12 +19,14 @@ T0 = 2000
 MAX_AGE = 3.0
 
 
-def crowd_node(ns, agents, profiles):
-    return NodeProcess([
-        '--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
-        '-p', DATUM_ARG, '-p', 'seed:=99', '-p', f'max_pose_age:={MAX_AGE}',
-        '-p', 'agents:=[' + ','.join(f'"{a}"' for a in agents) + ']',
-        '-p', 'agent_profiles:=[' + ','.join(f'"{p}"' for p in profiles) + ']'])
+def crowd_node(ns, agents, profiles, extra=()):
+    args = ['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
+            '-p', DATUM_ARG, '-p', 'seed:=99', '-p', f'max_pose_age:={MAX_AGE}',
+            '-p', 'agents:=[' + ','.join(f'"{a}"' for a in agents) + ']',
+            '-p', 'agent_profiles:=[' + ','.join(f'"{p}"' for p in profiles) + ']']
+    for p in extra:
+        args += ['-p', p]
+    return NodeProcess(args)
 
 
 def shard_topics(peer, shards):
@@ -230,19 +232,48 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path):
     assert compared >= 55
 
 
-def test_outages_are_the_same_in_a_sharded_crowd(tmp_path):
-    """Every agent's availability is its own stream: two shards give the whole crowd's NO_FIX."""
+def _zone_map(path):
+    """Write DS1 west and DS5 east of 41 m east of the datum; return the path."""
+    import json
+    from ros_harness import DATUM
+    border = DATUM[1] + 41.0 / (111320.0 * np.cos(np.radians(DATUM[0])))
+
+    def box(lon0, lon1):
+        ring = [[lon0, DATUM[0] - 0.01], [lon1, DATUM[0] - 0.01], [lon1, DATUM[0] + 0.01],
+                [lon0, DATUM[0] + 0.01], [lon0, DATUM[0] - 0.01]]
+        return {'type': 'Polygon', 'coordinates': [ring]}
+    path.write_text(json.dumps({'type': 'FeatureCollection', 'features': [
+        {'type': 'Feature', 'properties': {'profile': 'DS1'},
+         'geometry': box(DATUM[1] - 0.01, border)},
+        {'type': 'Feature', 'properties': {'profile': 'DS5'},
+         'geometry': box(border, DATUM[1] + 0.01)}]}))
+    return path
+
+
+@pytest.mark.parametrize('case', ['outages', 'zones'])
+def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
+    """
+    Outages and zones are per-agent streams too: two shards give the whole crowd.
+
+    ``outages``: every agent's availability is its own stream (NO_FIX at
+    the same steps). ``zones``: the walkers cross from DS1's zone into DS5's
+    at about 20 s; the errors follow the zone in every process alike.
+    """
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
-    raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [4, 0.5]]}
-    path = tmp_path / 'outages.yaml'
+    extra = ()
+    if case == 'outages':
+        raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [4, 0.5]]}
+    else:
+        extra = (f'zones:={_zone_map(tmp_path / "zones.geojson")}',)
+    path = tmp_path / 'profile.yaml'
     path.write_text(yaml.safe_dump(raw))
     agents = AGENTS[:4]
     whole, half_a, half_b = unique_ns(), unique_ns(), unique_ns()
-    nodes = [crowd_node(whole, agents, [str(path)] * 4),
-             crowd_node(half_a, agents[:2], [str(path)] * 2),
-             crowd_node(half_b, agents[2:], [str(path)] * 2)]
+    nodes = [crowd_node(whole, agents, [str(path)] * 4, extra),
+             crowd_node(half_a, agents[:2], [str(path)] * 2, extra),
+             crowd_node(half_b, agents[2:], [str(path)] * 2, extra)]
     peer = Peer()
     try:
         pubs, boxes = shard_topics(peer, ((whole, agents), (half_a, agents[:2]),
@@ -268,14 +299,19 @@ def test_outages_are_the_same_in_a_sharded_crowd(tmp_path):
         peer.destroy()
 
     def series(ns, a):
-        return {stamp_ns(m.header.stamp): (m.status.status, m.latitude, m.longitude)
+        return {stamp_ns(m.header.stamp): (m.status.status, m.latitude, m.longitude,
+                                           m.position_covariance[0])
                 for m in boxes[ns, a]}
 
-    outages = 0
+    outages, covs = 0, set()
     for i, a in enumerate(agents):
         got, ref = series(whole, a), series(half_a if i < 2 else half_b, a)
         assert len(got) >= 40 and got.keys() == ref.keys(), a
         for t in got:
             np.testing.assert_array_equal(got[t], ref[t], err_msg=f'{a} at {t}')  # NaN = NaN
         outages += sum(v[0] == -1 for v in got.values())
-    assert outages > 5                     # there were outages to agree on
+        covs |= {round(v[3], 6) for v in got.values()}
+    if case == 'outages':
+        assert outages > 5                     # there were outages to agree on
+    else:
+        assert len(covs) == 2, covs            # the fixes carried both zones' covariance
