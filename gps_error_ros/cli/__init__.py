@@ -77,7 +77,7 @@ def cmd_simulate(args):
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits,
-                                     zones)
+                                     zones, args.covariance_mode)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)

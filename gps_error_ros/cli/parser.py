@@ -150,9 +150,9 @@ def _add_simulate(sub):
                         'positions (default 8 for lon/lat, about 1 mm, 3 for metres)')
     s.add_argument('--covariance-mode', choices=('stationary', 'conditional'),
                    default='stationary',
-                   help='CSV mode: the covariance behind each row\'s accuracy, accuracy_major, '
-                        'accuracy_minor, accuracy_orientation columns, as the node\'s '
-                        'covariance_mode (default stationary)')
+                   help='the covariance behind each position\'s accuracy, accuracy_major, '
+                        'accuracy_minor, accuracy_orientation (CSV columns, FCD '
+                        'attributes), as the node\'s covariance_mode (default stationary)')
     s.add_argument('--zones', default=None,
                    help='zone map (GeoJSON polygons with a "profile" property): each '
                         'agent gets the error process of the zone its truth is in, '

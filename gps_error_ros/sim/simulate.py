@@ -53,16 +53,20 @@ def _per_fix(model, zones, conditional=False):
 
 
 def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                 zones=None):
+                 zones=None, covariance_mode='stationary'):
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
     ``digits``: digits after the decimal point of the positions written
-    (default 8 for lon/lat, about a millimetre, and 3 for metres).
+    (default 8 for lon/lat, about a millimetre, and 3 for metres). Every
+    position written also gets the attributes ``accuracy``,
+    ``accuracy_major``, ``accuracy_minor`` (m) and ``accuracy_orientation``
+    (deg from north) of the CSV mode, from the covariance of
+    ``covariance_mode``; an agent in an outage gets no position at all.
     """
     with atomic_output(dst) as tmp:
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits,
-                             zones)
+                             zones, covariance_mode)
 
 
 def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
@@ -141,10 +145,12 @@ def _moved(mode, proj, src, t, x, y, err):
 
 
 def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                  zones=None):
+                  zones=None, covariance_mode='stationary'):
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
-    zones = _per_fix(model, zones)
+    conditional = covariance_mode == 'conditional'
+    zones = _per_fix(model, zones, conditional)
+    stationary = np.asarray(model.stationary_cov)
     if zones is not None and mode == 'plane':
         raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
                               f'its <location>), so positions cannot be placed in the '
@@ -160,7 +166,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
             if crowd is None:
-                crowd = CrowdErrors(model, seed, m, zoned=zones)
+                crowd = CrowdErrors(model, seed, m, conditional_cov=conditional, zoned=zones)
             crowd.advance_to(m)
             steps += 1
             if not agents:
@@ -172,17 +178,22 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
                               [a[2] for a in agents])
             if zones is None:
                 err = crowd.errors(names)
+                cov = crowd.covariance(names) if conditional else \
+                    np.repeat(stationary[None], len(names), axis=0)
             else:
                 lon, lat = _lonlat(mode, proj, x, y)
                 raw_lon, raw_lat = _lonlat(mode, proj, [a[1] for a in agents],
                                            [a[2] for a in agents])
                 heading = travel.directions(names, t, raw_lat, raw_lon)
-                err = crowd.zoned_errors(names, lat, lon, heading)[0]
+                err, cov = crowd.zoned_errors(names, lat, lon, heading)
             nx, ny, fmt = _moved(mode, proj, src, t, x, y, err)
             fmt = fmt if digits is None else f'{{:.{digits}f}}'
             fix = crowd.available(names)        # in an outage: no position written
-            writer.timestep(elem, [(a[3], {'x': fmt.format(px), 'y': fmt.format(py)})
-                                   for a, px, py, f in zip(agents, nx, ny, fix) if f])
+            acc = accuracy_columns(cov, fix)
+            writer.timestep(elem, [
+                (a[3], {'x': fmt.format(nx[i]), 'y': fmt.format(ny[i]),
+                        **{k: f'{v[i]:.3f}' for k, v in acc.items()}})
+                for i, a in enumerate(agents) if fix[i]])
             rows += int(fix.sum())
             no_fix += int((~fix).sum())
     finally:

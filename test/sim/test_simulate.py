@@ -258,3 +258,35 @@ def test_npz_carries_the_fix_mask_with_availability(tmp_path):
         keys = np.array([streams.agent_key(6, f'agent{i}') for i in range(5)], dtype=np.uint64)
         np.testing.assert_array_equal(a['fix'], model.simulate_availability(keys, 200))
         assert 0 < (~a['fix']).sum() < a['fix'].size
+
+
+def test_fcd_positions_state_their_accuracy(tmp_path):
+    """
+    Every position written carries the stated accuracy of the CSV mode.
+
+    Stationary: the profile's one ellipse for all; conditional with variance
+    regimes: the covariance of each step given the state before, so it varies.
+    """
+    import yaml
+    from gps_error_ros.model.accuracy import ellipse, radius68
+    from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
+    src = tmp_path / 'fcd.xml'
+    write_fcd(src, lambda i, t: (LON0 + 1e-5 * t, LAT0 + 1e-4 * i), sumo_comment(True))
+    dst = tmp_path / 'noisy.xml'
+    simulate_fcd(src, dst, MODEL, 1.0, 5)
+    cov = MODEL.stationary_cov
+    major, minor, orient = ellipse(cov)
+    want = {'accuracy': float(radius68(cov)), 'accuracy_major': float(major),
+            'accuracy_minor': float(minor), 'accuracy_orientation': float(orient)}
+    elems = [e for ts in ET.parse(dst).getroot() for e in ts]
+    assert len(elems) > 200
+    for e in elems:
+        for k, v in want.items():
+            assert float(e.get(k)) == pytest.approx(v, abs=6e-4), (k, e.attrib)
+    raw = yaml.safe_load((builtin_dir() / 'DS2.yaml').read_text())
+    raw['effects'] = {'variance_regimes': {'scales': [1.0, 3.0],
+                                           'transition': [[0.8, 0.2], [0.3, 0.7]]}}
+    regimes = profile_from_dict(raw).model()
+    simulate_fcd(src, dst, regimes, 1.0, 5, covariance_mode='conditional')
+    acc = {float(e.get('accuracy')) for ts in ET.parse(dst).getroot() for e in ts}
+    assert len(acc) >= 3, acc
