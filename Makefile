@@ -71,7 +71,7 @@ soak: setup
 # Blind diagnosis of synthetic walks: 100 seeds per effect-free scenario
 # (false alarms against a binomial bound) and 20 per effect (attribution
 # rate, and how often the cross-validated selection keeps the right effects).
-# About 12 minutes on a 2-core machine (730 s with other jobs running); see
+# About 12 minutes on a 2-core machine (711 s with the street_canyon scenario); see
 # docs/close-the-loop.md.
 diagnose-long: setup
 	mkdir -p bench_output
