@@ -250,21 +250,25 @@ def _zone_map(path):
     return path
 
 
-@pytest.mark.parametrize('case', ['outages', 'zones'])
+@pytest.mark.parametrize('case', ['outages', 'zones', 'velocity'])
 def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
     """
-    Outages and zones are per-agent streams too: two shards give the whole crowd.
+    Outages, zones and velocity are per-agent streams too: two shards give the whole crowd.
 
     ``outages``: every agent's availability is its own stream (NO_FIX at
     the same steps). ``zones``: the walkers cross from DS1's zone into DS5's
     at about 20 s; the errors follow the zone in every process alike.
+    ``velocity``: each agent's reported velocity (``vel``) is the same.
     """
+    from geometry_msgs.msg import TwistWithCovarianceStamped
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
     extra = ()
     if case == 'outages':
         raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [4, 0.5]]}
+    elif case == 'velocity':
+        raw['velocity'] = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.4, 'standstill': 0.0}
     else:
         extra = (f'zones:={_zone_map(tmp_path / "zones.geojson")}',)
     path = tmp_path / 'profile.yaml'
@@ -278,6 +282,9 @@ def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
     try:
         pubs, boxes = shard_topics(peer, ((whole, agents), (half_a, agents[:2]),
                                           (half_b, agents[2:])))
+        vels = {(ns, a): peer.collect(TwistWithCovarianceStamped, f'{ns}/{a}/vel')
+                for ns, group in ((whole, agents), (half_a, agents[:2]), (half_b, agents[2:]))
+                for a in group} if case == 'velocity' else {}
         assert peer.spin_until(lambda: all(
             any(e.node_namespace == ns for e in peer.node.get_subscriptions_info_by_topic(
                 '/clock')) for ns in (whole, half_a, half_b)), 10)
@@ -313,5 +320,14 @@ def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
         covs |= {round(v[3], 6) for v in got.values()}
     if case == 'outages':
         assert outages > 5                     # there were outages to agree on
-    else:
+    elif case == 'zones':
         assert len(covs) == 2, covs            # the fixes carried both zones' covariance
+    else:
+        for i, a in enumerate(agents):
+            def twist(ns):
+                return {stamp_ns(m.header.stamp): (m.twist.twist.linear.x, m.twist.twist.linear.y)
+                        for m in vels[ns, a]}
+            got, ref = twist(whole), twist(half_a if i < 2 else half_b)
+            assert len(got) >= 30 and got.keys() == ref.keys(), a
+            assert got == ref, a
+            assert len({v for v in got.values()}) > 20      # it varies: a stream, not a constant
