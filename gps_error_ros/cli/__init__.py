@@ -66,6 +66,11 @@ def cmd_simulate(args):
                                              args.covariance_mode)
     else:
         model = profile.model()
+    if args.covariance_mode == 'reported' and profile.reported_accuracy is None:
+        raise ValueError(f'--covariance-mode reported: profile {profile.name} '
+                         f'({profile.path}) has no reported_accuracy section; calibrate '
+                         f'one from a trace with an accuracy or hdop column, or choose '
+                         f'stationary or conditional')
     if args.seed == -1:
         args.seed = secrets.randbits(63)
         print(f'no seed given: using seed {args.seed}')
@@ -73,11 +78,13 @@ def cmd_simulate(args):
         src = Path(args.trajectories)
         if src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
-                                     profile.velocity, args.covariance_mode, zones)
+                                     profile.velocity, args.covariance_mode, zones,
+                                     profile.reported_accuracy)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits,
-                                     zones, args.covariance_mode)
+                                     zones, args.covariance_mode,
+                                     profile.reported_accuracy, profile.velocity)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)
@@ -119,7 +126,7 @@ def cmd_validate(args):
         model = profile.model()
     trace = slice_trace(_load_input(args), lo, hi)
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
-                   seed=args.seed, zones=zones)
+                   seed=args.seed, zones=zones, reported=profile.reported_accuracy)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     summary = res.summary()
@@ -134,6 +141,10 @@ def cmd_validate(args):
               f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
               f'{summary["max_lag"]}; quantiles inside at '
               f'{100 * d["quantiles_inside_envelope"]:.0f} %')
+    for name, d in summary.get('reported_accuracy', {}).items():
+        print(f'  stated accuracy {name}: measured {d["measured"]:.4g}, simulated '
+              f'{d["sim_median"]:.4g} (95 % {d["sim_lo"]:.4g} to {d["sim_hi"]:.4g}), '
+              f'percentile {d["percentile"]:g}')
     for name, d in summary.get('zones', {}).items():
         if 'north' not in d:
             print(f'  zone {name}: {d["samples"]} samples, too few to check on their own')

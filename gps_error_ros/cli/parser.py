@@ -148,11 +148,12 @@ def _add_simulate(sub):
     s.add_argument('--digits', type=number(int, 0, 15), default=None,
                    help='FCD output: digits after the decimal point of the noisy '
                         'positions (default 8 for lon/lat, about 1 mm, 3 for metres)')
-    s.add_argument('--covariance-mode', choices=('stationary', 'conditional'),
+    s.add_argument('--covariance-mode', choices=('stationary', 'conditional', 'reported'),
                    default='stationary',
                    help='the covariance behind each position\'s accuracy, accuracy_major, '
                         'accuracy_minor, accuracy_orientation (CSV columns, FCD '
-                        'attributes), as the node\'s covariance_mode (default stationary)')
+                        'attributes), as the node\'s covariance_mode (default stationary; '
+                        'reported: the radius the profile\'s reported_accuracy states)')
     s.add_argument('--zones', default=None,
                    help='zone map (GeoJSON polygons with a "profile" property): each '
                         'agent gets the error process of the zone its truth is in, '

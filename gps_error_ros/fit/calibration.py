@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -125,6 +126,7 @@ class CalibrationResult:
     grid: GriddedErrors
     input: str
     velocity: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
+    reported: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
 
     @property
     def availability(self):
@@ -149,7 +151,9 @@ class CalibrationResult:
                                     zip(AXES, (self.north, self.east))},
                 'availability': evidence,
                 'velocity': self.velocity[1],
-            }, availability=availability, velocity=self.velocity[0])
+                'reported_accuracy': self.reported[1],
+            }, availability=availability, velocity=self.velocity[0],
+            reported_accuracy=self.reported[0])
 
 
 def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
@@ -157,7 +161,8 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
     grid = errors_on_grid(trace, rate_hz)
     fits = [fit_axis(grid.axis(a), order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
-    return CalibrationResult(fits[0], fits[1], grid, trace.name, estimate_velocity(trace))
+    return CalibrationResult(fits[0], fits[1], grid, trace.name, estimate_velocity(trace),
+                             estimate_reported(trace))
 
 
 #: Share of fixes in truth gaps, or of missing grid steps, that marks a

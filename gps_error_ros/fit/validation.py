@@ -22,6 +22,7 @@ import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_acf
 from gps_error_ros.fit.calibration import errors_on_grid, MIN_OUTAGE_STEPS
+from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.availability import runs_without_fix, WithAvailability
@@ -60,6 +61,7 @@ class ValidationResult:
     truth: tuple           # (lat, lon) at the measured steps
     availability: dict = None   # outage statistics, measured against simulated
     per_zone: dict = None       # zone name -> the same checks on its samples (--zones)
+    reported: dict = None       # stated accuracy, measured against simulated
 
     def summary(self):
         """Return the numbers behind the figures as plain data."""
@@ -91,12 +93,18 @@ class ValidationResult:
             out['availability'] = self.availability
         if self.per_zone is not None:
             out['zones'] = self.per_zone
+        if self.reported is not None:
+            out['reported_accuracy'] = self.reported
         return out
 
 
-def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None):
+def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=None):
     """
     Compare ``trace`` with ``sims`` traces simulated by ``model``.
+
+    With ``reported`` (a profile's :class:`ReportedAccuracy`) and a trace
+    that states its accuracy, the stated radius is compared too
+    (:mod:`reported_check`; not with zones).
 
     With ``zones`` (``(ZoneMap, ZonedErrors)``) the traces follow the zone of
     the truth at every sample (:func:`~gps_error_ros.model.zoned.simulate_along`)
@@ -132,10 +140,13 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None):
         sim_q = np.quantile(sim[:, :, a], QQ_PROBS, axis=0).T    # (sims, probs)
         quant_env[ax] = np.percentile(sim_q, [2.5, 50, 97.5], axis=0)
     truth = (trace.truth_lat[grid.rows], trace.truth_lon[grid.rows])
+    stated = None
+    if reported is not None and zones is None:
+        stated = reported_check(model, reported, trace, grid.rows, steps, measured, sim, keys)
     return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
                             acf, acf_env, quant, quant_env, steps, measured,
                             sim[:, 0, :], truth,
-                            availability_check(model, grid, keys), per_zone)
+                            availability_check(model, grid, keys), per_zone, stated)
 
 
 #: Fewest samples a zone needs for its own checks in ``validate --zones``.

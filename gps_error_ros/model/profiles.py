@@ -18,7 +18,8 @@ profile was calibrated) and ``effects`` (model extensions written by
 ``gps_error diagnose --profile-out``; schema in :mod:`effects`; a profile
 without them behaves exactly as the paper's model) and ``availability``
 (fix outages, :mod:`availability`; without it every step has a fix) and
-``velocity`` (reported speed and course, :mod:`velocity`). A
+``velocity`` (reported speed and course, :mod:`velocity`) and
+``reported_accuracy`` (the accuracy the phone states, :mod:`reported`). A
 profile without
 ``axes`` is a placeholder for a data set with no published fit; it loads, but
 :meth:`Profile.model` refuses it. Any other key is an error.
@@ -37,6 +38,7 @@ from gps_error_ros.model.availability import (Availability, availability_from_di
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
+from gps_error_ros.model.reported import ReportedAccuracy, reported_from_dict, ReportedError
 from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
 
 SCHEMA_VERSION = 1
@@ -45,7 +47,7 @@ PROFILE_SUBDIR = ('config', 'profiles')
 
 _TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
 _TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability',
-                 'velocity')
+                 'velocity', 'reported_accuracy')
 _AXIS_KEYS = ('delta', 'phi', 'sigma_w')
 _NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
 
@@ -74,6 +76,7 @@ class Profile:
     path: str = ''
     availability: Availability = None
     velocity: Velocity = None
+    reported_accuracy: ReportedAccuracy = None
 
     @property
     def fitted(self):
@@ -171,7 +174,7 @@ def _section(raw, key, parse, source):
         return None
     try:
         return parse(raw[key], source)
-    except (AvailabilityError, VelocityError) as exc:
+    except (AvailabilityError, VelocityError, ReportedError) as exc:
         raise ProfileError(str(exc)) from None
 
 
@@ -211,6 +214,7 @@ def profile_from_dict(raw, source='<profile>'):
         raise ProfileError(str(exc)) from None
     availability = _section(raw, 'availability', availability_from_dict, source)
     velocity = _section(raw, 'velocity', velocity_from_dict, source)
+    reported = _section(raw, 'reported_accuracy', reported_from_dict, source)
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
@@ -226,7 +230,8 @@ def profile_from_dict(raw, source='<profile>'):
         effects=effects,
         path=source,
         availability=availability,
-        velocity=velocity)
+        velocity=velocity,
+        reported_accuracy=reported)
 
 
 def load_profile_file(path):
@@ -321,7 +326,7 @@ def axes_mapping(north, east, digits=6):
 
 
 def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
-                    fit=None, availability=None, velocity=None):
+                    fit=None, availability=None, velocity=None, reported_accuracy=None):
     """
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
@@ -345,6 +350,10 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
         velocity = velocity.to_dict()
     if velocity:
         prof['velocity'] = velocity
+    if isinstance(reported_accuracy, ReportedAccuracy):
+        reported_accuracy = reported_accuracy.to_dict()
+    if reported_accuracy:
+        prof['reported_accuracy'] = reported_accuracy
     if fit is not None:
         prof['fit'] = fit
     return prof

@@ -64,6 +64,11 @@ DOMAIN_VELOCITY = 7
 #: Velocity: the initial velocity error's normal pair, one per start step.
 DOMAIN_INIT_VELOCITY = 8
 
+#: Reported accuracy: the normal pair (first used) of the radius's fluctuation, per model step.
+DOMAIN_REPORTED = 9
+#: Reported accuracy: the initial fluctuation's normal pair, one per start step.
+DOMAIN_INIT_REPORTED = 10
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -72,6 +77,7 @@ DOMAINS = {
     'tail': DOMAIN_TAIL, 'init_regime': DOMAIN_INIT_REGIME,
     'outage': DOMAIN_OUTAGE, 'init_outage': DOMAIN_INIT_OUTAGE,
     'velocity': DOMAIN_VELOCITY, 'init_velocity': DOMAIN_INIT_VELOCITY,
+    'reported': DOMAIN_REPORTED, 'init_reported': DOMAIN_INIT_REPORTED,
 }
 
 

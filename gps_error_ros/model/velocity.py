@@ -60,14 +60,7 @@ class Velocity:
 
     def errors(self, keys, n_steps, start=0):
         """Return the velocity errors at steps ``start ..``, (n_steps, n, 2) east/north m/s."""
-        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        out = np.empty((n_steps, keys.size, 2))
-        if not n_steps:
-            return out
-        out[0] = w = self.initial(keys, start)
-        for i in range(1, n_steps):
-            out[i] = w = self.step(w, keys, start + i)
-        return out
+        return series(self, keys, n_steps, start)
 
     def report(self, v_true, w):
         """
@@ -84,6 +77,24 @@ class Velocity:
         speed = np.where(still, 0.0, speed)
         course = np.where(still, np.nan, course)
         return speed, course
+
+
+def series(process, keys, n_steps, start=0):
+    """
+    Return a side stream's values at steps ``start ..``, (n_steps, n, d).
+
+    ``process`` has ``initial(keys, index)`` and ``step(w, keys, index)``
+    (the velocity error; the stated accuracy's fluctuation, :mod:`reported`).
+    """
+    keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+    first = process.initial(keys, start)
+    out = np.empty((n_steps,) + first.shape)
+    if not n_steps:
+        return out
+    out[0] = w = first
+    for i in range(1, n_steps):
+        out[i] = w = process.step(w, keys, start + i)
+    return out
 
 
 def course_deg(v):

@@ -37,6 +37,7 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import state_and_cov
 from gps_error_ros.model.effects import ExtendedModel, MOVING_M
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.zones import OUTSIDE, zone_models
 
 
@@ -238,7 +239,8 @@ def zoned_errors(zone_map, profile, covariance_mode='stationary'):
     """
     default, models = zone_models(zone_map, profile)
     return default, default.model(), (zone_map, ZonedErrors(
-        models, conditional_cov=covariance_mode == 'conditional'))
+        models, conditional_cov=needs_predictive(covariance_mode,
+                                                 default.reported_accuracy)))
 
 
 def simulate_along(zoned, keys, steps, zones):

@@ -23,11 +23,11 @@ Rules:
   node's ``profile``, ``simulate --profile``).
 * Zone profiles set the error process (the AR parameters and the effects).
   What a phone reports about itself beyond the error (``availability``,
-  ``velocity``) and the output's time line (``rate_hz``) come from the
-  default profile, so a zone profile must have the default's ``rate_hz`` and
-  ``motion_lag`` and no ``availability`` or ``velocity`` section (unless it
-  is the default profile itself, as in the fallback zones ``calibrate
-  --zones`` writes).
+  ``velocity``, ``reported_accuracy``) and the output's time line
+  (``rate_hz``) come from the default profile, so a zone profile must have
+  the default's ``rate_hz`` and ``motion_lag`` and none of those sections
+  (unless it is the default profile itself, as in the fallback zones
+  ``calibrate --zones`` writes).
 
 Point-in-polygon is vectorised over agents: one query of a shapely 2
 ``STRtree`` per step (the optional extra ``zones``).
@@ -229,7 +229,8 @@ def zone_models(zone_map, profile):
             raise ZoneMapError(f'{where}: rate_hz {zp.rate_hz} differs from the default '
                                f'profile {default.name}\'s {default.rate_hz}; expected '
                                f'the same model rate in every zone')
-        for section, article in (('availability', 'an'), ('velocity', 'a')):
+        for section, article in (('availability', 'an'), ('velocity', 'a'),
+                                 ('reported_accuracy', 'a')):
             if getattr(zp, section) is not None:
                 raise ZoneMapError(
                     f'{where}: has {article} {section} section; expected none: '

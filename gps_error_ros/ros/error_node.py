@@ -106,8 +106,7 @@ class GpsErrorNode(PatternAgents, Node):
         self.invalid_truth = 0              # truth messages that could not be used
         self.fix_output = FixOutput(self, cfg['outage_output'],
                                     self.fix_reliability == 'best_effort',
-                                    cfg['covariance_mode'] == 'conditional',
-                                    per_fix=bool(cfg['zones']))
+                                    cfg['covariance_mode'], per_fix=bool(cfg['zones']))
         self.fix_output.templates(self.frame_id)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -141,6 +140,13 @@ class GpsErrorNode(PatternAgents, Node):
                 raise ConfigError(f'parameter {name!r} ({spec!r}): {exc}') from None
             except ZoneMapError as exc:
                 raise ConfigError(f'parameter \'zones\': {exc}') from None
+            reported = profile.reported_accuracy if cfg['covariance_mode'] == 'reported' \
+                else None
+            if cfg['covariance_mode'] == 'reported' and reported is None:
+                raise ConfigError(
+                    f'parameter \'covariance_mode\' (\'reported\'): profile {spec!r} has no '
+                    f'reported_accuracy section; calibrate one from a trace with an '
+                    f'accuracy or hdop column, or choose stationary or conditional')
             members = [i for i, p in enumerate(profiles) if p == spec]
             keys = [agent_key(self.seed, self.agents[i]) if active else 0
                     for i in members]
@@ -151,7 +157,7 @@ class GpsErrorNode(PatternAgents, Node):
                                          else int(round(cfg['start_time'] * NS))),
                                velocity=profile.velocity,
                                conditional_cov=cfg['covariance_mode'] == 'conditional',
-                               zones=zones)
+                               zones=zones, reported=reported)
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)

@@ -2,7 +2,8 @@
 The error node's fixes out: serialized NavSatFix per agent, and NO_FIX.
 
 A fix with a position goes out with its group's covariance (with
-``covariance_mode`` conditional or a zone map: its own). A step in an
+``covariance_mode`` conditional or reported, or a zone map: its own;
+reported: ``COVARIANCE_TYPE_APPROXIMATED``, a stated radius read as a circle). A step in an
 outage (profile ``availability``) goes out, per parameter ``outage_output``,
 as a NavSatFix with ``STATUS_NO_FIX``, latitude, longitude and altitude NaN
 and covariance ``COVARIANCE_TYPE_UNKNOWN`` (the message's own convention for
@@ -31,11 +32,12 @@ NO_COVARIANCE = [0.0] * 9
 class FixOutput:
     """Publish the engine's fix batches on the node's per-agent publishers."""
 
-    def __init__(self, node, outage_output, best_effort, conditional=False, per_fix=False):
+    def __init__(self, node, outage_output, best_effort, covariance_mode='stationary',
+                 per_fix=False):
         self.node = node
         self.outage_output = outage_output
-        self.conditional = conditional      # covariance per fix (covariance_mode)
-        self.per_fix = conditional or per_fix   # zones: the zone's covariance per fix
+        self.mode = covariance_mode         # conditional, reported: a covariance per fix
+        self.per_fix = covariance_mode != 'stationary' or per_fix   # zones: the zone's
         self.burst = FIX_BURST if best_effort else None
         self.refused = 0            # non-finite positions not published
         self.no_fix = 0             # NO_FIX messages published
@@ -53,7 +55,9 @@ class FixOutput:
             NavSatStatus.STATUS_NO_FIX, NavSatStatus.SERVICE_GPS)
 
     def _cov_type(self, group):
-        return NavSatFix.COVARIANCE_TYPE_KNOWN if self.conditional else group.covariance_type
+        return {'conditional': NavSatFix.COVARIANCE_TYPE_KNOWN,
+                'reported': NavSatFix.COVARIANCE_TYPE_APPROXIMATED}.get(
+                    self.mode, group.covariance_type)
 
     def _covs(self, g, fix, rows):
         """Return the per-fix ENU covariances (m, 9) of ``rows``, or None (the group's)."""

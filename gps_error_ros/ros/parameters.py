@@ -112,7 +112,11 @@ ERROR_NODE_PARAMS = (
               'covariance (the same for every fix); conditional, the model\'s '
               'covariance of this fix\'s error given its state a step before (the '
               'innovation covariance, scaled by the regimes expected next), per fix, '
-              'COVARIANCE_TYPE_KNOWN.', choices=('stationary', 'conditional')),
+              'COVARIANCE_TYPE_KNOWN; reported, what the phone would state: the 68 % '
+              'radius of the profile\'s reported_accuracy section as a circular '
+              'covariance (per-axis SD radius / 1.51), per fix, '
+              'COVARIANCE_TYPE_APPROXIMATED.',
+              choices=('stationary', 'conditional', 'reported')),
     ParamSpec('zones', '', ParameterType.PARAMETER_STRING,
               'Zone map (GeoJSON polygons, each with a "profile" property): each '
               'agent\'s error follows the zone its truth is in, step by step, the '

@@ -61,64 +61,21 @@ Timing rules
 """
 
 from collections import deque
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.model.reported import reference_cov
 from gps_error_ros.model.zoned import travel_direction, ZonedErrors
 from gps_error_ros.model.zones import OUTSIDE
 from gps_error_ros.sim.crowd import state_and_cov
+from gps_error_ros.sim.engine_types import EngineStats, FixBatch, PendingStep
 from gps_error_ros.sim.truth_ring import TruthRing
-from gps_error_ros.sim.velocity_state import VelocityState
+from gps_error_ros.sim.velocity_state import SideStream, VelocityState
 
 NS = 1_000_000_000
 FUTURE_TOLERANCE_S = 60.0
-
-
-@dataclass
-class EngineStats:
-    """Counters an operator may want to see."""
-
-    steps: int = 0
-    fixes: int = 0
-    skipped_no_truth: int = 0
-    dropped_out_of_order: int = 0
-    dropped_future: int = 0
-    resets: int = 0
-    pending_overflow: int = 0
-    late_truth: int = 0      # times truth came for a step already skipped
-    late_start: int = 0      # first clock more than max_pending steps after start_ns
-    no_fix: int = 0          # steps resolved in an outage (profile availability)
-
-
-@dataclass
-class FixBatch:
-    """The fixes of one output step: one row per agent in ``agents``."""
-
-    stamp_ns: int
-    agents: np.ndarray
-    lat: np.ndarray
-    lon: np.ndarray
-    alt: np.ndarray
-    error: np.ndarray = field(repr=False)
-    fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
-    velocity: np.ndarray = field(default=None, repr=False)  # (m, 2) east/north m/s
-    cov: np.ndarray = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
-
-
-@dataclass
-class _Step:
-    """An output step waiting for truth: its errors, and which agents are done."""
-
-    t_ns: int             # the step's instant
-    model_step: int       # the model step it carries
-    err: np.ndarray       # (n, 2) north/east errors of every slot
-    done: np.ndarray      # (n,) True once resolved (or free)
-    fix: np.ndarray       # (n,) False in an outage (profile availability)
-    vel_err: np.ndarray = None   # (n, 2) east/north velocity errors (profile velocity)
-    cov: np.ndarray = None       # (n, 2, 2) north/east covariance (conditional_cov)
 
 
 class FixEngine:
@@ -153,7 +110,7 @@ class FixEngine:
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
                  history=64, max_pending=1000, active=True, start_ns=None, velocity=None,
-                 conditional_cov=False, zones=None):
+                 conditional_cov=False, zones=None, reported=None):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -181,8 +138,18 @@ class FixEngine:
         self.last_skipped = np.full(self.n, -1, dtype=np.int64)
         self.active = np.full(self.n, bool(active))
         self.stats = EngineStats()
-        # reported velocity (a profile's velocity section), stepped with the model
-        self.vel = None if velocity is None else VelocityState(velocity, self.n)
+        # side streams stepped with the model: the reported velocity's error
+        # (profile velocity), the stated accuracy's fluctuation (reported_accuracy)
+        self.side = {}
+        if velocity is not None:
+            self.side['vel'] = VelocityState(velocity, self.n)
+        self.vel = self.side.get('vel')
+        self.reported, self.ref_cov = reported, None
+        if reported is not None:
+            self.side['rep'] = SideStream(reported, self.n)
+            if reported.follow != 0.0:      # the radius follows the predictive scale
+                conditional_cov = True
+                self.ref_cov = reference_cov(model)
         # conditional_cov: each fix carries the model's covariance of its error
         # given the state a step before (None: the node reports the stationary one)
         self.conditional_cov = conditional_cov
@@ -279,14 +246,14 @@ class FixEngine:
         self.truth.grow(n)
         if self.state is not None:
             self.state = np.concatenate([self.state, self.model.empty_state(n)])
-        if self.vel is not None:
-            self.vel.grow(n)
+        for side in self.side.values():
+            side.grow(n)
         for step in self.pending:
             step.err = np.concatenate([step.err, np.zeros((n, 2))])
             step.done = np.concatenate([step.done, np.ones(n, dtype=bool)])
             step.fix = np.concatenate([step.fix, np.ones(n, dtype=bool)])
-            if step.vel_err is not None:
-                step.vel_err = np.concatenate([step.vel_err, np.zeros((n, 2))])
+            step.side = {k: np.concatenate([v, np.zeros((n, v.shape[1]))])
+                         for k, v in step.side.items()}
             if step.cov is not None:
                 step.cov = np.concatenate([step.cov, np.zeros((n, 2, 2))])
         if self.cov_now is not None:
@@ -334,11 +301,11 @@ class FixEngine:
         self.state[slots] = state
         if cov is not None:
             self.cov_now[slots] = cov
-        if self.vel is not None:
-            ws = self.vel.history(keys, self.start_index, self.model_index)
+        for name, side in self.side.items():
+            ws = side.history(keys, self.start_index, self.model_index)
             for step in self.pending:
-                step.vel_err[slots] = ws[step.model_step - self.start_index]
-            self.vel.w[slots] = ws[-1]
+                step.side[name][slots] = ws[step.model_step - self.start_index]
+            side.w[slots] = ws[-1]
 
     def _caught_up(self, keys, m):
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
@@ -401,8 +368,8 @@ class FixEngine:
             self.model_index = self.start_index = m
             if self.zoned is not None:
                 self.zoned.restart(m)
-            if self.vel is not None:
-                self.vel.start(self.keys, m)
+            for side in self.side.values():
+                side.start(self.keys, m)
             if self.conditional_cov:
                 self.cov_now = self.model.predictive_cov(self.state, first=True)
         while self.model_index < m:
@@ -410,14 +377,14 @@ class FixEngine:
             if self.conditional_cov:
                 self.cov_now = self.model.predictive_cov(self.state)
             self.model.advance(self.state, self.keys, self.model_index)
-            if self.vel is not None:
-                self.vel.advance(self.keys, self.model_index)
+            for side in self.side.values():
+                side.advance(self.keys, self.model_index)
         self.stats.steps += 1
         # free slots are done already
-        self.pending.append(_Step(t_ns, m, self.model.errors(self.state), ~self.active,
-                                  available(self.model, self.state),
-                                  None if self.vel is None else self.vel.w.copy(),
-                                  None if self.cov_now is None else self.cov_now.copy()))
+        self.pending.append(PendingStep(
+            t_ns, m, self.model.errors(self.state), ~self.active,
+            available(self.model, self.state), {k: v.w.copy() for k, v in self.side.items()},
+            None if self.cov_now is None else self.cov_now.copy()))
 
     def resolve(self, now_ns):
         """Return fixes for pending steps whose truth is now known."""
@@ -488,10 +455,13 @@ class FixEngine:
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position
         self.stats.fixes += int(fix.sum())
         self.stats.no_fix += int((~fix).sum())
-        velocity = None
+        velocity = accuracy = None
         if self.vel is not None:
             velocity = self.vel.reported(self.truth, agents, step.t_ns,
-                                         step.vel_err[agents], self.max_gap_ns)
+                                         step.side['vel'][agents], self.max_gap_ns)
+        if self.reported is not None:       # the phone's stated radius, and its covariance
+            accuracy = self.reported.radius(step.side['rep'][agents], cov, self.ref_cov)
+            cov = self.reported.covariance(accuracy)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
                         alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
-                        cov=cov)
+                        cov=cov, accuracy=accuracy)

@@ -32,9 +32,11 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.accuracy import ellipse, radius68
 from gps_error_ros.model.availability import WithAvailability
+from gps_error_ros.model.reported import needs_predictive, reference_cov
 from gps_error_ros.model.zoned import TravelDirections, ZonedErrors
 from gps_error_ros.sim.crowd import CrowdErrors
-from gps_error_ros.sim.velocity_sim import speed_and_course
+from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
+                                            StreamTracker)
 from gps_error_ros.model.effects import LagBuffer
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
@@ -53,7 +55,7 @@ def _per_fix(model, zones, conditional=False):
 
 
 def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                 zones=None, covariance_mode='stationary'):
+                 zones=None, covariance_mode='stationary', reported=None, velocity=None):
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
@@ -62,15 +64,20 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, dig
     position written also gets the attributes ``accuracy``,
     ``accuracy_major``, ``accuracy_minor`` (m) and ``accuracy_orientation``
     (deg from north) of the CSV mode, from the covariance of
-    ``covariance_mode``; an agent in an outage gets no position at all.
+    ``covariance_mode`` (``reported``: the radius the profile's
+    ``reported_accuracy`` states); an agent in an outage gets no position at all.
+    With ``velocity`` (a profile's :class:`Velocity`) a position also gets
+    the phone's ``reported_speed`` (m/s) and ``reported_bearing`` (deg from
+    north; none at a standstill), as the CSV mode's ``speed`` and
+    ``bearing`` (SUMO's own ``speed`` and ``angle`` stay the truth's).
     """
     with atomic_output(dst) as tmp:
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits,
-                             zones, covariance_mode)
+                             zones, covariance_mode, reported, velocity)
 
 
 def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
-                 zones=None):
+                 zones=None, reported=None):
     """
     Add errors to a CSV of true positions; write a trace CSV; return counts.
 
@@ -78,11 +85,13 @@ def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode=
     reported ``speed`` and ``bearing`` and the truth's ``truth_speed`` and
     ``truth_bearing`` (:mod:`velocity_sim`). Every row with a fix states its
     accuracy (:mod:`accuracy`) from the error covariance of
-    ``covariance_mode``, as the node's: ``stationary`` or ``conditional``.
+    ``covariance_mode``, as the node's: ``stationary``, ``conditional``, or
+    ``reported`` (the radius ``reported``, a profile's
+    :class:`ReportedAccuracy`, states, and the circular covariance it implies).
     """
     with atomic_output(dst) as tmp:
         return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode,
-                             zones)
+                             zones, reported)
 
 
 def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
@@ -145,23 +154,21 @@ def _moved(mode, proj, src, t, x, y, err):
 
 
 def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                  zones=None, covariance_mode='stationary'):
+                  zones=None, covariance_mode='stationary', reported=None, velocity=None):
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
-    conditional = covariance_mode == 'conditional'
+    conditional = needs_predictive(covariance_mode, reported)
+    stated = _Stated(model, reported, seed) if covariance_mode == 'reported' else None
     zones = _per_fix(model, zones, conditional)
     stationary = np.asarray(model.stationary_cov)
-    if zones is not None and mode == 'plane':
-        raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
-                              f'its <location>), so positions cannot be placed in the '
-                              f'zone map\'s longitude/latitude polygons or give a '
-                              f'direction of travel for street_frame')
+    _check_georeferenced(src, zones, mode)
     size = os.path.getsize(src)
     progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
     crowd, rows, steps, seen, no_fix = None, 0, 0, set(), 0
     lag = LagBuffer(model.lag_s)
     travel = TravelDirections(model.lag_s)
+    vel = None if velocity is None else StreamedVelocity(velocity, seed, mode == 'plane')
     try:
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
@@ -189,10 +196,13 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
             nx, ny, fmt = _moved(mode, proj, src, t, x, y, err)
             fmt = fmt if digits is None else f'{{:.{digits}f}}'
             fix = crowd.available(names)        # in an outage: no position written
-            acc = accuracy_columns(cov, fix)
+            radius, cov = stated.streamed(names, m, cov) if stated else (None, cov)
+            acc = {k: (v, '{:.3f}') for k, v in accuracy_columns(cov, fix, radius).items()}
+            if vel is not None:
+                acc.update(_fcd_velocity(vel, mode, proj, names, t, m, agents))
             writer.timestep(elem, [
                 (a[3], {'x': fmt.format(nx[i]), 'y': fmt.format(ny[i]),
-                        **{k: f'{v[i]:.3f}' for k, v in acc.items()}})
+                        **{k: f.format(v[i]) for k, (v, f) in acc.items() if np.isfinite(v[i])}})
                 for i, a in enumerate(agents) if fix[i]])
             rows += int(fix.sum())
             no_fix += int((~fix).sum())
@@ -205,14 +215,34 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     return out
 
 
+def _fcd_velocity(vel, mode, proj, names, t, step, agents):
+    """Return the reported_speed and reported_bearing attributes (values, format)."""
+    x, y = [a[1] for a in agents], [a[2] for a in agents]
+    if mode == 'plane':
+        speed, course = vel.report(names, t, step, np.asarray(y, float), np.asarray(x, float))
+    else:
+        lon, lat = _lonlat(mode, proj, x, y)
+        speed, course = vel.report(names, t, step, lat, lon)
+    return {'reported_speed': (speed, '{:.3f}'), 'reported_bearing': (course, '{:.2f}')}
+
+
+def _check_georeferenced(src, zones, mode):
+    """Refuse zones (or a street frame) on FCD metres without a geo-reference."""
+    if zones is not None and mode == 'plane':
+        raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
+                              f'its <location>), so positions cannot be placed in the '
+                              f'zone map\'s longitude/latitude polygons or give a '
+                              f'direction of travel for street_frame')
+
+
 def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
-                  zones=None):
+                  zones=None, reported=None):
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
-    conditional = covariance_mode == 'conditional'
+    conditional = needs_predictive(covariance_mode, reported)
     zones = _per_fix(model, zones, conditional)
     crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz), conditional_cov=conditional,
                         zoned=zones)
@@ -243,7 +273,12 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     outages = isinstance(model, WithAvailability)
     # a row in an outage: status no_fix and no position (read back as a gap)
     lat_out[~fix] = lon_out[~fix] = np.nan
-    extra = accuracy_columns(cov, fix)
+    radius = None
+    if covariance_mode == 'reported':
+        stated = _Stated(model, reported, seed)
+        radius, cov = stated.radius(row_values(reported, seed, data['agent'], t,
+                                               model_step(t[0], rate_hz), rate_hz), cov)
+    extra = accuracy_columns(cov, fix, radius)
     if velocity is not None:
         cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
         extra.update(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
@@ -258,10 +293,40 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     return out
 
 
-def accuracy_columns(cov, fix):
-    """Return the stated-accuracy columns of north/east covariances (NaN without a fix)."""
+class _Stated:
+    """The radius a profile's ``reported_accuracy`` states, for covariance_mode reported."""
+
+    def __init__(self, model, reported, seed):
+        if reported is None:
+            raise TrajectoryError('covariance mode reported: the profile has no '
+                                  'reported_accuracy section (calibrate one from a trace '
+                                  'with an accuracy or hdop column)')
+        self.reported, self.seed = reported, seed
+        self.ref_cov = reference_cov(model) if reported.follow != 0.0 else None
+        self.tracker = None
+
+    def streamed(self, names, step, cov):
+        """Return :meth:`radius` of agents streamed step by step (the first step starts them)."""
+        if self.tracker is None:
+            self.tracker = StreamTracker(self.reported, self.seed, step)
+        return self.radius(self.tracker.values(names, step), cov)
+
+    def radius(self, x, cov):
+        """Return (stated radius, the covariance it implies) for fluctuations ``x``."""
+        r = self.reported.radius(x, cov, self.ref_cov)
+        return r, self.reported.covariance(r)
+
+
+def accuracy_columns(cov, fix, radius=None):
+    """
+    Return the stated-accuracy columns of north/east covariances (NaN without a fix).
+
+    ``radius``: the stated 68 % radius when the phone states it (else the
+    covariance's own).
+    """
     major, minor, orientation = ellipse(cov)
-    cols = {'accuracy': radius68(cov), 'accuracy_major': major, 'accuracy_minor': minor,
+    cols = {'accuracy': radius68(cov) if radius is None else np.array(radius, dtype=float),
+            'accuracy_major': major, 'accuracy_minor': minor,
             'accuracy_orientation': orientation}
     for v in cols.values():
         v[~fix] = np.nan

@@ -61,3 +61,111 @@ def speed_and_course(velocity, seed, data, start_step, rate_hz):
         out[2][rows] = np.hypot(vt[:, 0], vt[:, 1])
         out[3][rows] = np.where(out[2][rows] > 0, course_deg(vt), math.nan)
     return tuple(out)
+
+
+def row_values(process, seed, agents, t, start_step, rate_hz):
+    """
+    Return a side stream's value at every row, (rows, d), each agent its own stream.
+
+    ``process`` as :class:`gps_error_ros.sim.velocity_state.SideStream`'s
+    (the velocity error, the stated accuracy's fluctuation); every agent's
+    stream counts from the run's first model step ``start_step``, as in the
+    node, so a row's value does not depend on the other agents.
+    """
+    agents = np.asarray(agents, dtype=object)
+    steps = np.floor(np.asarray(t) * rate_hz + 1e-9).astype(np.int64) - start_step
+    out = None
+    for name in dict.fromkeys(agents):
+        rows = np.flatnonzero(agents == name)
+        key = np.array([streams.agent_key(seed, name)], dtype=np.uint64)
+        w = process.errors(key, int(steps[rows].max()) + 1, start=start_step)[steps[rows], 0]
+        if out is None:
+            out = np.full((agents.size, w.shape[1]), np.nan)
+        out[rows] = w
+    return out
+
+
+class StreamTracker:
+    """
+    A side stream's value for named agents streamed step by step (SUMO FCD).
+
+    What :func:`row_values` gives, one time step at a time: each agent's
+    stream counts from the run's first model step; an agent first seen (or
+    seen again) later is caught up on its own stream.
+    """
+
+    def __init__(self, process, seed, start_step):
+        self.process, self.seed, self.start = process, seed, int(start_step)
+        self.known = {}                     # name -> (key, step, value (d,))
+
+    def values(self, names, step):
+        """Return the named agents' values at model step ``step``, (n, d)."""
+        rows = [self.known.get(n) for n in names]
+        out = [None] * len(names)
+        nxt = [i for i, r in enumerate(rows) if r is not None and r[1] == step - 1]
+        if nxt:                             # the usual case: one step on, all at once
+            keys = np.array([rows[i][0] for i in nxt], dtype=np.uint64)
+            w = self.process.step(np.array([rows[i][2] for i in nxt]), keys, step)
+            for j, i in enumerate(nxt):
+                out[i] = w[j]
+        for i, n in enumerate(names):
+            if out[i] is not None:
+                continue
+            key, last, w = rows[i] or (streams.agent_key(self.seed, n), None, None)
+            if last is None or last > step:
+                w = self.process.errors(np.array([key], dtype=np.uint64), step - self.start + 1,
+                                        start=self.start)[-1, 0]
+            else:
+                for k in range(last + 1, step + 1):
+                    w = self.process.step(w[None], np.array([key], dtype=np.uint64), k)[0]
+            out[i] = w
+        for i, n in enumerate(names):
+            self.known[n] = (rows[i][0] if rows[i] else streams.agent_key(self.seed, n),
+                             step, out[i])
+        return np.array(out).reshape(len(names), -1)
+
+    def forget(self, names):
+        """Drop agents that left (they are caught up again if they come back)."""
+        for n in names:
+            self.known.pop(n, None)
+
+
+class StreamedVelocity:
+    """
+    Reported speed and course for agents streamed one time step at a time (SUMO FCD).
+
+    The same as :func:`speed_and_course` on the whole file: each agent's
+    truth is kept back to the start of the chord the phone reports (the
+    second centred at ``t - lag_s``, ending no later than ``t``), linear in
+    time between its rows; no velocity (NaN) before the truth reaches back
+    that far. The velocity error is the agent's own stream from the run's
+    first model step (:class:`StreamTracker`). ``planar``: positions are
+    x/y metres (east, north) instead of latitude/longitude.
+    """
+
+    def __init__(self, velocity, seed, planar=False):
+        self.velocity, self.seed, self.planar = velocity, seed, planar
+        self.errors = None
+        self.hist = {}                  # name -> [first t, [(t, lat, lon), ...]]
+
+    def report(self, names, t, step, lat, lon):
+        """Store each agent's truth at ``t``; return (speed, course) arrays (NaN: none)."""
+        if self.errors is None:
+            self.errors = StreamTracker(self.velocity, self.seed, step)
+        end = min(t - self.velocity.lag_s + 0.5, t)
+        ends = np.full((len(names), 4), np.nan)
+        for i, n in enumerate(names):
+            first, h = self.hist.setdefault(n, [t, []])
+            h.append((t, float(lat[i]), float(lon[i])))
+            while len(h) > 2 and h[1][0] <= end - 1.0:
+                h.pop(0)
+            if end - 1.0 >= first - 1e-9:
+                tt, la, lo = (np.array(c) for c in zip(*h))
+                ends[i] = [np.interp(end, tt, la), np.interp(end, tt, lo),
+                           np.interp(end - 1.0, tt, la), np.interp(end - 1.0, tt, lo)]
+        if self.planar:                     # (y, x) metres
+            north, east = ends[:, 0] - ends[:, 2], ends[:, 1] - ends[:, 3]
+        else:
+            north, east = difference(ends[:, 0], ends[:, 1], ends[:, 2], ends[:, 3])
+        v_true = np.stack([np.asarray(east, dtype=float), np.asarray(north, dtype=float)], axis=1)
+        return self.velocity.report(v_true, self.errors.values(names, step))

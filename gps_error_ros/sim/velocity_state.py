@@ -20,29 +20,44 @@ from gps_error_ros.model.geodesy import difference
 NS = 1_000_000_000
 
 
-class VelocityState:
-    """Velocity errors of the engine's agents (rows), one model step at a time."""
+class SideStream:
+    """
+    A per-agent AR(1) stream beside the error (the engine's agents are rows).
 
-    def __init__(self, velocity, n):
-        self.velocity = velocity
-        self.w = np.zeros((n, 2))
-        self.lag_ns = int(round(velocity.lag_s * NS))
+    ``process`` has ``initial(keys, index)``, ``step(w, keys, index)`` and
+    ``errors(keys, n_steps, start)``, each (n, d): a profile's velocity error
+    (d = 2) or its reported accuracy's fluctuation (d = 1).
+    """
+
+    def __init__(self, process, n):
+        self.process = process
+        self.dim = process.initial(np.zeros(1, dtype=np.uint64), 0).shape[1]
+        self.w = np.zeros((n, self.dim))
 
     def start(self, keys, index):
-        """Draw every agent's error at the run's first model step."""
-        self.w = self.velocity.initial(keys, index)
+        """Draw every agent's value at the run's first model step."""
+        self.w = self.process.initial(keys, index)
 
     def advance(self, keys, index):
-        """Step every agent's error to model step ``index``."""
-        self.w = self.velocity.step(self.w, keys, index)
+        """Step every agent's value to model step ``index``."""
+        self.w = self.process.step(self.w, keys, index)
 
     def grow(self, n):
         """Add ``n`` rows (free slots)."""
-        self.w = np.concatenate([self.w, np.zeros((n, 2))])
+        self.w = np.concatenate([self.w, np.zeros((n, self.dim))])
 
     def history(self, keys, start, end):
-        """Return the errors of ``keys`` at model steps start..end, (steps, k, 2)."""
-        return self.velocity.errors(keys, end - start + 1, start)
+        """Return the values of ``keys`` at model steps start..end, (steps, k, d)."""
+        return self.process.errors(keys, end - start + 1, start)
+
+
+class VelocityState(SideStream):
+    """Velocity errors of the engine's agents (rows), one model step at a time."""
+
+    def __init__(self, velocity, n):
+        super().__init__(velocity, n)
+        self.velocity = velocity
+        self.lag_ns = int(round(velocity.lag_s * NS))
 
     def reported(self, truth, agents, t_ns, w, max_gap_ns):
         """

@@ -1,4 +1,4 @@
-"""covariance_mode conditional: each fix's covariance is the model's prediction for it."""
+"""covariance_mode conditional and reported: the model's prediction, or what the phone states."""
 
 import numpy as np
 import pytest
@@ -8,24 +8,32 @@ from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.model.profiles import builtin_dir, load_profile_file
 from gps_error_ros.model.streams import agent_key
-from ros_harness import DATUM_ARG, drive, NS, pose_msg, stamp_ns, start, T0, unique_ns
+from gps_error_ros.model.reported import reference_cov
+from ros_harness import (DATUM_ARG, drive, NodeProcess, NS, pose_msg, stamp_ns, start, T0,
+                         unique_ns)
 
 pytestmark = pytest.mark.integration
 SEED = 4
 STEPS = 50
 
 
-def regime_profile(tmp_path):
+REPORTED = {'source': 'accuracy', 'median_m': 3.0, 'follow': 1.0, 'phi': 0.9,
+            'sigma_log': 0.3, 'resolution_m': 0.5, 'scale_m': 0.0}
+
+
+def regime_profile(tmp_path, reported=None):
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
     raw['effects'] = {'variance_regimes': {'scales': [1.0, 2.5],
                                            'transition': [[0.9, 0.1], [0.2, 0.8]]}}
+    if reported:
+        raw['reported_accuracy'] = reported
     path = tmp_path / 'regimes.yaml'
     path.write_text(yaml.safe_dump(raw))
     return path
 
 
 def expected(path, name):
-    """Return {step: ENU 3x3 covariance (9)} the model predicts for agent ``name``."""
+    """Return {step: ENU covariance (9)} the model predicts (or the phone states) for ``name``."""
     profile = load_profile_file(path)
     model = profile.model()
     keys = np.array([agent_key(SEED, name)], dtype=np.uint64)
@@ -34,19 +42,27 @@ def expected(path, name):
     for k in range(T0 + 1, T0 + STEPS):
         covs[k] = model.predictive_cov(state)[0]
         model.advance(state, keys, k)
+    rep = profile.reported_accuracy
+    if rep is not None:         # the stated radius follows the predicted scale
+        x = rep.errors(keys, STEPS, T0)[:, 0]
+        radius = rep.radius(x, np.array([covs[k] for k in sorted(covs)]), reference_cov(model))
+        covs = dict(zip(sorted(covs), rep.covariance(radius)))
     vert = profile.vertical_variance(model)
     return {k: [c[1, 1], c[1, 0], 0.0, c[0, 1], c[0, 0], 0.0, 0.0, 0.0, vert]
             for k, c in covs.items()}
 
 
-@pytest.mark.parametrize('crowd', [False, True], ids=['one agent', 'crowd'])
-def test_each_fix_carries_the_models_prediction(tmp_path, peer, crowd):
-    path = regime_profile(tmp_path)
+@pytest.mark.parametrize('mode,crowd', [('conditional', False), ('conditional', True),
+                                        ('reported', False), ('reported', True)],
+                         ids=['conditional, one agent', 'conditional, crowd',
+                              'reported, one agent', 'reported, crowd'])
+def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd):
+    path = regime_profile(tmp_path, REPORTED if mode == 'reported' else None)
     ns = unique_ns()
     names = ['ann', 'bob'] if crowd else ['']
     extra = ['agents:=["ann", "bob"]'] if crowd else []
     node = start(ns, f'profile:={path}', DATUM_ARG, f'seed:={SEED}',
-                 'covariance_mode:=conditional', *extra)
+                 f'covariance_mode:={mode}', *extra)
     prefix = {n: f'{ns}/{n}/' if n else f'{ns}/' for n in names}
     pubs = {n: peer.publisher(PoseStamped, prefix[n] + 'pose') for n in names}
     boxes = {n: peer.collect(NavSatFix, prefix[n] + 'fix') for n in names}
@@ -71,6 +87,14 @@ def test_each_fix_carries_the_models_prediction(tmp_path, peer, crowd):
         assert len(got) >= STEPS - 1, n
         for k, c in got.items():
             assert c == pytest.approx(want[k], rel=1e-12), (n, k)
-        assert all(f.position_covariance_type == NavSatFix.COVARIANCE_TYPE_KNOWN
-                   for f in boxes[n])
-        assert len({round(c[0], 9) for c in got.values()}) == 3, n    # it varies
+        kind = NavSatFix.COVARIANCE_TYPE_KNOWN if mode == 'conditional' else \
+            NavSatFix.COVARIANCE_TYPE_APPROXIMATED
+        assert all(f.position_covariance_type == kind for f in boxes[n])
+        assert len({round(c[0], 9) for c in got.values()}) >= 3, n    # it varies
+
+
+def test_reported_mode_needs_a_reported_accuracy_section():
+    args = ['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', DATUM_ARG, '-p', 'profile:=DS5',
+            '-p', 'covariance_mode:=reported']
+    rc, out = NodeProcess(args).wait_exit()
+    assert rc == 2 and 'has no reported_accuracy section' in out, out

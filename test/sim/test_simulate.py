@@ -116,6 +116,17 @@ def test_fcd_errors_are_the_agents_streams(tmp_path, kind):
             got = difference(ny, nx, y, x)
             tol = 5e-3
         np.testing.assert_allclose(got, ref, atol=tol), (name, t)
+    # the phone's speed and course in every coordinate kind: due east, at the truth's speed
+    from gps_error_ros.model.velocity import velocity_from_dict
+    vel = velocity_from_dict({'sigma': 1e-6, 'phi': 0.5, 'lag_s': 0.0, 'standstill': 0.0})
+    simulate_fcd(src, dst, MODEL, 1.0, 5, net, velocity=vel)
+    moving = [(k, v[3]) for k, v in read_fcd(dst).items() if 'reported_speed' in v[3]]
+    assert len(moving) > 150
+    for (name, t), attrs in moving:
+        i = 99 if name == 'veh0' else int(name[3:])
+        want = 1.0 if kind == 'planar' else 1e-5 * (i + 1) * 111320 * np.cos(np.radians(LAT0))
+        assert float(attrs['reported_speed']) == pytest.approx(want, rel=5e-3), (name, t)
+        assert float(attrs['reported_bearing']) == pytest.approx(90.0, abs=0.2), (name, t)
 
 
 def test_fcd_bad_input(tmp_path):
@@ -290,3 +301,99 @@ def test_fcd_positions_state_their_accuracy(tmp_path):
     simulate_fcd(src, dst, regimes, 1.0, 5, covariance_mode='conditional')
     acc = {float(e.get('accuracy')) for ts in ET.parse(dst).getroot() for e in ts}
     assert len(acc) >= 3, acc
+
+
+def test_reported_accuracy_is_each_agents_own_in_csv_and_fcd(tmp_path):
+    """
+    covariance_mode reported: the stated radius of every position is its agent's own.
+
+    With variance regimes and ``follow`` 1 the radius follows each agent's
+    predicted scale, with its own fluctuation: the CSV mode equals the
+    library computed for one agent alone, and the FCD mode the CSV mode.
+    """
+    import yaml
+    from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
+    from gps_error_ros.model.reported import reference_cov
+    from gps_error_ros.sim.simulate import simulate_csv
+    raw = yaml.safe_load((builtin_dir() / 'DS2.yaml').read_text())
+    raw['effects'] = {'variance_regimes': {'scales': [1.0, 3.0],
+                                           'transition': [[0.8, 0.2], [0.3, 0.7]]}}
+    raw['reported_accuracy'] = {'source': 'accuracy', 'median_m': 3.0, 'follow': 1.0,
+                                'phi': 0.9, 'sigma_log': 0.3, 'resolution_m': 0.5,
+                                'scale_m': 0.0}
+    profile = profile_from_dict(raw)
+    model, rep = profile.model(), profile.reported_accuracy
+    src = tmp_path / 'fcd.xml'
+    write_fcd(src, lambda i, t: (LON0 + 1e-5 * t, LAT0 + 1e-4 * i), sumo_comment(True))
+    fcd = tmp_path / 'noisy.xml'
+    simulate_fcd(src, fcd, model, 1.0, 5, covariance_mode='reported', reported=rep)
+    got_fcd = {k: float(v[3]['accuracy']) for k, v in read_fcd(fcd).items()}
+    rows = ['t,agent,truth_lat,truth_lon'] + [
+        f'{t},{name},{LAT0 + 1e-4 * (99 if name == "veh0" else int(name[3:]))},'
+        f'{LON0 + 1e-5 * t}' for name, t in sorted(got_fcd, key=lambda p: (p[1], p[0]))]
+    truth = tmp_path / 'truth.csv'
+    truth.write_text('\n'.join(rows) + '\n')
+    out = tmp_path / 'noisy.csv'
+    simulate_csv(truth, out, model, 1.0, 5, covariance_mode='reported', reported=rep)
+    got_csv = {}
+    for name in {n for n, _ in got_fcd}:
+        trace = read_trace_csv(out, agent=name)
+        got_csv.update({(name, float(t)): a for t, a in zip(trace.t, trace.extra['accuracy'])})
+    assert set(got_csv) == set(got_fcd)
+    for k, a in got_csv.items():
+        assert got_fcd[k] == pytest.approx(a, abs=6e-4), k
+    # one agent alone, from the library: its predicted scale and its own fluctuation
+    keys = np.array([streams.agent_key(5, 'ped2')], dtype=np.uint64)
+    state = model.initial_state(keys, 10)
+    covs = [model.predictive_cov(state, first=True)[0]]
+    for k in range(11, 71):
+        covs.append(model.predictive_cov(state)[0])
+        model.advance(state, keys, k)
+    radius = rep.radius(rep.errors(keys, 61, 10)[:, 0], np.array(covs), reference_cov(model))
+    mine = {t: a for (n, t), a in got_csv.items() if n == 'ped2'}
+    assert len(mine) > 30
+    for t, a in mine.items():
+        assert a == radius[int(t) - 10], t
+    assert len(set(mine.values())) >= 4                 # it varies, in 0.5 m steps
+    assert all(v % 0.5 == 0 for v in mine.values())
+
+
+def test_fcd_positions_report_the_phones_speed_and_course(tmp_path):
+    """
+    With a velocity section FCD positions carry the CSV mode's speed and bearing.
+
+    As ``reported_speed`` and ``reported_bearing`` (SUMO's ``speed`` and
+    ``angle`` stay the truth's); none where the truth does not reach back a
+    second yet.
+    """
+    from gps_error_ros.model.velocity import velocity_from_dict
+    from gps_error_ros.sim.simulate import simulate_csv
+    vel = velocity_from_dict({'sigma': 0.2, 'phi': 0.7, 'lag_s': 0.3, 'standstill': 0.0})
+    src = tmp_path / 'fcd.xml'
+    pos = lambda i, t: (LON0 + 2e-5 * t * (1 + i % 3), LAT0 + 1e-4 * i + 1e-6 * t * t)  # noqa
+    write_fcd(src, pos, sumo_comment(True))
+    fcd = tmp_path / 'noisy.xml'
+    simulate_fcd(src, fcd, MODEL, 1.0, 7, velocity=vel)
+    elems = read_fcd(fcd)
+    got = {k: v[3] for k, v in elems.items()}
+    assert all(a['speed'] in ('10', '1.3') for a in got.values())     # SUMO's, untouched
+    rows = ['t,agent,truth_lat,truth_lon'] + [
+        f'{t},{name},{pos(99 if name == "veh0" else int(name[3:]), t)[1]!r},'
+        f'{pos(99 if name == "veh0" else int(name[3:]), t)[0]!r}'
+        for name, t in sorted(got, key=lambda p: (p[1], p[0]))]
+    truth = tmp_path / 'truth.csv'
+    truth.write_text('\n'.join(rows) + '\n')
+    out = tmp_path / 'noisy.csv'
+    simulate_csv(truth, out, MODEL, 1.0, 7, velocity=vel)
+    compared = 0
+    for name in {n for n, _ in got}:
+        trace = read_trace_csv(out, agent=name)
+        for t, s, b in zip(trace.t, trace.extra['speed'], trace.extra['bearing']):
+            attrs = got[name, float(t)]
+            if not np.isfinite(s):
+                assert 'reported_speed' not in attrs, (name, t)
+                continue
+            assert float(attrs['reported_speed']) == pytest.approx(s, abs=6e-4), (name, t)
+            assert float(attrs['reported_bearing']) == pytest.approx(b, abs=6e-3), (name, t)
+            compared += 1
+    assert compared > 200

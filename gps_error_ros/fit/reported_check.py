@@ -1,0 +1,88 @@
+"""
+The phone's stated accuracy, measured against simulated (``validate``, docs).
+
+For a trace whose phone stated an accuracy (``accuracy``, or ``hdop`` times
+the profile's ``scale_m``) and a profile with ``reported_accuracy``, each
+simulated trace gets the model's errors and its stated radius at the
+measured steps (the same gaps), and these statistics are compared:
+
+* ``coverage``: the share of fixes whose true horizontal error lies inside
+  the stated 68 % radius (0.68 for an honest phone; the phone's own over- or
+  under-confidence is data);
+* ``radius_median_m``, ``radius_q95_m``: the stated radius's level and spread;
+* ``radius_changes_per_100``: how often the stated value changes between
+  consecutive fixes (its persistence; 0 for a phone that states one value).
+
+Each as measured, the simulated median and central 95 % range, and the
+measured value's percentile among the simulations (ties count half).
+"""
+
+import numpy as np
+
+from gps_error_ros.model.reported import reference_cov
+
+MEASURES = ('coverage', 'radius_median_m', 'radius_q95_m', 'radius_changes_per_100')
+
+
+def stated_radius(trace, reported, rows=None):
+    """Return the trace's stated 68 % radius (m) at ``rows``, or None without the column."""
+    col = trace.extra.get(reported.source)
+    if col is None:
+        return None
+    col = np.asarray(col, dtype=float)
+    col = col if rows is None else col[rows]
+    return col * reported.scale_m if reported.source == 'hdop' else col
+
+
+def _stats(err, radius, consecutive):
+    """Return the measures of errors (n, 2) and stated radii (n,)."""
+    ok = np.isfinite(radius)
+    r = radius[ok]
+    changes = np.diff(radius)[consecutive[1:] & ok[1:] & ok[:-1]]
+    return {'coverage': float(np.mean(np.hypot(err[ok, 0], err[ok, 1]) <= r)),
+            'radius_median_m': float(np.median(r)),
+            'radius_q95_m': float(np.quantile(r, 0.95)),
+            'radius_changes_per_100': float(100 * np.mean(changes != 0)) if changes.size
+            else 0.0}
+
+
+def _simulated_radius(model, reported, keys, span, steps, sim):
+    """Return each simulation's stated radius at ``steps``, (n, sims)."""
+    x = reported.errors(keys, span)[steps, :, :]             # (n, sims, 1)
+    if reported.follow == 0.0:
+        return reported.radius(x)
+    state = model.initial_state(keys, 0)       # the same errors as model.simulate
+    covs = np.empty((span, keys.size, 2, 2))
+    covs[0] = model.predictive_cov(state, first=True)
+    for k in range(1, span):
+        covs[k] = model.predictive_cov(state)
+        model.advance(state, keys, k)
+    return reported.radius(x, covs[steps], reference_cov(model))
+
+
+def reported_check(model, reported, trace, rows, steps, measured, sim, keys):
+    """
+    Return the stated-accuracy measures, measured against simulated (see module doc).
+
+    ``rows``: the trace rows of the measured errors ``measured`` (n, 2), at
+    model ``steps`` (n,) from 0; ``sim`` (n, sims, 2) the simulated errors of
+    streams ``keys``. None when the trace states nothing of the profile's source.
+    """
+    radius = stated_radius(trace, reported, rows)
+    if radius is None or not np.isfinite(radius).any():
+        return None
+    consecutive = np.r_[False, np.diff(steps) == 1]
+    meas = _stats(measured, radius, consecutive)
+    sim_r = _simulated_radius(model, reported, keys, int(steps[-1]) + 1, steps, sim)
+    per_sim = [_stats(sim[:, j], sim_r[:, j], consecutive) for j in range(keys.size)]
+    out = {}
+    for name in MEASURES:
+        v = np.array([p[name] for p in per_sim])
+        m = meas[name]
+        tie = np.abs(v - m) <= 1e-5 * max(1.0, abs(m))     # the same value (YAML's 6 digits)
+        out[name] = {'measured': round(m, 4), 'sim_median': round(float(np.median(v)), 4),
+                     'sim_lo': round(float(np.percentile(v, 2.5)), 4),
+                     'sim_hi': round(float(np.percentile(v, 97.5)), 4),
+                     'percentile': round(float(100.0 * (np.mean((v < m) & ~tie)
+                                                        + 0.5 * np.mean(tie))), 1)}
+    return out
