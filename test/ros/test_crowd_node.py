@@ -250,7 +250,7 @@ def _zone_map(path):
     return path
 
 
-@pytest.mark.parametrize('case', ['outages', 'zones', 'velocity'])
+@pytest.mark.parametrize('case', ['outages', 'zones', 'velocity', 'reported'])
 def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
     """
     Outages, zones and velocity are per-agent streams too: two shards give the whole crowd.
@@ -259,6 +259,7 @@ def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
     the same steps). ``zones``: the walkers cross from DS1's zone into DS5's
     at about 20 s; the errors follow the zone in every process alike.
     ``velocity``: each agent's reported velocity (``vel``) is the same.
+    ``reported``: each fix's stated accuracy (its covariance) is the same.
     """
     from geometry_msgs.msg import TwistWithCovarianceStamped
     import yaml
@@ -269,6 +270,11 @@ def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
         raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [4, 0.5]]}
     elif case == 'velocity':
         raw['velocity'] = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.4, 'standstill': 0.0}
+    elif case == 'reported':
+        raw['reported_accuracy'] = {'source': 'accuracy', 'median_m': 4.0, 'follow': 0.0,
+                                    'phi': 0.8, 'sigma_log': 0.3, 'resolution_m': 0.5,
+                                    'scale_m': 0.0}
+        extra = ('covariance_mode:=reported',)
     else:
         extra = (f'zones:={_zone_map(tmp_path / "zones.geojson")}',)
     path = tmp_path / 'profile.yaml'
@@ -322,6 +328,8 @@ def test_a_sharded_crowd_gives_the_whole_crowds_fixes(tmp_path, case):
         assert outages > 5                     # there were outages to agree on
     elif case == 'zones':
         assert len(covs) == 2, covs            # the fixes carried both zones' covariance
+    elif case == 'reported':
+        assert len(covs) >= 4, covs            # stated radii varied, agent by agent
     else:
         for i, a in enumerate(agents):
             def twist(ns):
