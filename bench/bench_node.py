@@ -17,7 +17,10 @@ three times in the same run: the node with ``agents``, the node with
 with the same subscriptions and publishers that publishes a pre-serialized
 fix per truth message. The node's CPU is reported as a ratio to the floor's.
 At 1,000 agents the node also runs with ``covariance_mode: conditional``
-(a covariance per fix), reported as a ratio to the stationary run.
+(a covariance per fix) and ``covariance_mode: reported`` (DS5 with a
+``reported_accuracy`` section whose radius follows the predictive scale, so
+both the conditional covariance and the stated radius are computed per
+fix), each reported as a ratio to the stationary run.
 """
 
 import argparse
@@ -38,9 +41,12 @@ CASES = ((1, 600, 50.0, 'reliable'), (100, 600, 20.0, 'reliable'),
          (5000, 120, 2.0, 'reliable'))
 #: crowd sizes run also with agent_pattern and as the floor
 FLOOR_SIZES = (1000, 5000)
-MODES = ('agents', 'conditional', 'agent_pattern', 'floor')
-#: crowd sizes run also with covariance_mode conditional (per-fix covariance)
+MODES = ('agents', 'conditional', 'reported', 'agent_pattern', 'floor')
+#: crowd sizes run also with covariance_mode conditional and reported (per-fix covariance)
 CONDITIONAL_SIZES = (1000,)
+#: the stated accuracy of the reported runs (follow != 0: the costlier path)
+REPORTED = ('reported_accuracy: {source: accuracy, median_m: 3.0, follow: 0.01, phi: 0.9, '
+            'sigma_log: 0.05, resolution_m: 1.0, scale_m: 0.0}\n')
 
 
 def _stat_cpu_s(path):
@@ -163,11 +169,16 @@ def run_case(n, sim_s, speed, workdir, reliability='reliable', mode='agents'):
     names = ', '.join(f'"a{i}"' for i in range(n))
     serve = 'agent_pattern: /bench/*/pose' if mode == 'agent_pattern' else \
         f'agents: [{names}]'
-    if mode == 'conditional':
-        serve += '\n    covariance_mode: conditional'
+    profile = 'DS5'
+    if mode in ('conditional', 'reported'):
+        serve += f'\n    covariance_mode: {mode}'
+    if mode == 'reported':
+        from gps_error_ros.model.profiles import builtin_dir
+        profile = Path(workdir, 'reported.yaml')
+        profile.write_text((builtin_dir() / 'DS5.yaml').read_text() + REPORTED)
     params.write_text('/**:\n  ros__parameters:\n    use_sim_time: true\n'
                       '    datum: [40.75, -73.99, 0.0]\n    seed: 1\n'
-                      f'    profile: DS5\n    fix_reliability: {reliability}\n'
+                      f'    profile: {profile}\n    fix_reliability: {reliability}\n'
                       f'    {serve}\n')
     count_file = Path(workdir, f'count{n}_{reliability}_{mode}.json')    # one per case
     exe = Path(sys.executable).with_name('gps_error_node')
@@ -298,15 +309,15 @@ def _print_ratios(rows, n, reliability):
                   f'{100 * floor:.2f} % of a core at 1x)', flush=True)
 
 
-def _print_conditional(rows, n, reliability):
+def _print_conditional(rows, n, reliability, mode):
     """Print the per-fix covariance's CPU against the stationary one, same run."""
     same = {r['mode']: r for r in rows
             if r['agents'] == n and r['fix_reliability'] == reliability}
     if 'agents' in same:
         base = same['agents']['core_fraction_at_real_time']
-        cond = same['conditional']['core_fraction_at_real_time']
-        same['conditional']['cpu_ratio_to_stationary'] = cond / base
-        print(f'       covariance_mode conditional: {cond / base:.2f}x the stationary '
+        cond = same[mode]['core_fraction_at_real_time']
+        same[mode]['cpu_ratio_to_stationary'] = cond / base
+        print(f'       covariance_mode {mode}: {cond / base:.2f}x the stationary '
               f'node\'s CPU ({100 * cond:.2f} % against {100 * base:.2f} %)', flush=True)
 
 
@@ -321,9 +332,9 @@ def main():
                         'default: the cases\' own (all reliable, and 1,000 agents '
                         'also best_effort), or reliable with --agents')
     p.add_argument('--modes', nargs='+', choices=MODES, default=list(MODES),
-                   help='which runs (default all): agents, conditional (1,000 agents, '
-                        'covariance_mode conditional), agent_pattern and floor (1,000 '
-                        'and 5,000 agents)')
+                   help='which runs (default all): agents, conditional and reported '
+                        '(1,000 agents, covariance_mode conditional / reported), '
+                        'agent_pattern and floor (1,000 and 5,000 agents)')
     p.add_argument('--no-floor', action='store_true',
                    help='skip the agent_pattern and floor runs of the 1,000- and '
                         '5,000-agent cases')
@@ -345,7 +356,8 @@ def main():
             cases = [c for c in CASES
                      if args.fix_reliability in (None, c[3])]
         runs = [(c, mode) for c in cases for mode in MODES if mode in args.modes and (
-            mode == 'agents' or (mode == 'conditional' and c[0] in CONDITIONAL_SIZES)
+            mode == 'agents' or (mode in ('conditional', 'reported')
+                                 and c[0] in CONDITIONAL_SIZES)
             or (c[0] in FLOOR_SIZES and not args.no_floor))]
         for (n, sim_s, speed, reliability), mode in runs:
             speed = args.speed or speed
@@ -353,6 +365,7 @@ def main():
             rows.append(r)
             who = {'agents': 'node', 'agent_pattern': 'node (agent_pattern)',
                    'conditional': 'node (covariance_mode conditional)',
+                   'reported': 'node (covariance_mode reported)',
                    'floor': 'floor'}[mode]
             print(f'{n:>5} agents, {reliability} fixes: {who} '
                   f'{r["node_cpu_s_per_sim_hour"]:7.1f} CPU-s per simulated hour '
@@ -374,8 +387,8 @@ def main():
                 f'{k} {100 * v:.2f}' for k, v in threads if v >= 0.0005), flush=True)
             if mode == 'floor':
                 _print_ratios(rows, n, reliability)
-            if mode == 'conditional':
-                _print_conditional(rows, n, reliability)
+            if mode in ('conditional', 'reported'):
+                _print_conditional(rows, n, reliability, mode)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 
