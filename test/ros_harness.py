@@ -230,10 +230,12 @@ def replay_calibration_node(ns, out, *params):
     Start the calibration node on /clock for a bag replayed by ``bag_play``.
 
     Pose truth about the datum [40.0, -74.0, 0.0] on /truth, fixes on /fix
-    (the topics of ``bag_helpers.write_walk_bag``), the profile to ``out``.
+    (the topics of ``bag_helpers.write_walk_bag``), the profile to ``out``;
+    reliable subscriptions, so that no message of the replay is lost.
     """
     args = ['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
             '-p', 'datum:=[40.0, -74.0, 0.0]', '-p', f'output:={out}',
+            '-p', 'input_reliability:=reliable',
             '-r', f'{ns}/pose:=/truth', '-r', f'{ns}/fix:=/fix']
     for p in params:
         args += ['-p', p]

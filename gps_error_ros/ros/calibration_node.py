@@ -28,7 +28,7 @@ from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.diagnostics import DiagnosticsPublisher, OK, Report, WARN
 from gps_error_ros.ros.parameters import (
     CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, help_text, WARN_PERIOD_S)
-from gps_error_ros.ros.topics import CALIBRATION_INPUT_QOS as INPUT_QOS, help_rows
+from gps_error_ros.ros.topics import CALIBRATION_INPUT_QOS, help_rows
 
 
 class GpsCalibrationNode(Node):
@@ -53,8 +53,9 @@ class GpsCalibrationNode(Node):
         self.truth_dropped = 0
         self.last_fit = None        # (success, message) of the latest fit
         topic, msg_type = conversions.TRUTH_INPUTS[cfg['input_type']]
-        self.create_subscription(NavSatFix, 'fix', self._on_fix, INPUT_QOS)
-        self.create_subscription(msg_type, topic, self._on_truth, INPUT_QOS)
+        qos = CALIBRATION_INPUT_QOS[cfg['input_reliability']]
+        self.create_subscription(NavSatFix, 'fix', self._on_fix, qos)
+        self.create_subscription(msg_type, topic, self._on_truth, qos)
         self.create_service(Trigger, '~/calibrate', self._on_calibrate)
         self.diagnostics = DiagnosticsPublisher(self, 'calibration', self._report)
         self.get_logger().info(

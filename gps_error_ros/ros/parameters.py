@@ -299,6 +299,13 @@ CALIBRATION_NODE_PARAMS = (
     ParamSpec('max_truth_gap', 0.0, ParameterType.PARAMETER_DOUBLE,
               'Longest truth interval (s) bridged by interpolation; 0: three '
               'times the median interval, at least 1.5 s.', low=0.0, high=3600.0),
+    ParamSpec('input_reliability', 'best_effort', ParameterType.PARAMETER_STRING,
+              'QoS reliability of the fix and truth subscriptions. best_effort: '
+              'every publisher matches (sensor drivers publish best effort), but '
+              'a message lost in transport is gone; reliable: only reliable '
+              'publishers match (gps_error_play, ros2 bag play by default), and '
+              'lost messages are re-sent, so a replayed recording arrives whole.',
+              choices=('best_effort', 'reliable')),
 )
 
 SUMO_NODE_PARAMS = (

@@ -24,10 +24,16 @@ FIX_QOS = {
     name: QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=policy)
     for name, policy in (('reliable', ReliabilityPolicy.RELIABLE),
                          ('best_effort', ReliabilityPolicy.BEST_EFFORT))}
-# Best effort (so sensor drivers' best-effort publishers match) with a deep
-# history: a recording replayed fast must not overwrite what is not yet read.
-CALIBRATION_INPUT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000,
-                                   reliability=ReliabilityPolicy.BEST_EFFORT)
+# A deep history: a recording replayed fast must not overwrite what is not yet
+# read. Best effort by default, so sensor drivers' best-effort publishers
+# match; reliable on request (parameter input_reliability), so that a replayed
+# recording loses nothing in transport (best effort drops a message now and
+# then on a loaded machine, and a fit from live topics then differs from the
+# offline fit of the same bag).
+CALIBRATION_INPUT_QOS = {
+    name: QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5000, reliability=policy)
+    for name, policy in (('best_effort', ReliabilityPolicy.BEST_EFFORT),
+                         ('reliable', ReliabilityPolicy.RELIABLE))}
 # As diagnostic_updater: reliable, volatile, a short history (a monitor wants
 # the newest status, not a backlog).
 DIAGNOSTICS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
@@ -108,7 +114,7 @@ NODE_TOPICS = {
     ),
     'gps_calibration_node': (
         Endpoint('in', 'fix', 'sensor_msgs/NavSatFix', CALIBRATION_INPUT_QOS,
-                 'the measured fixes'),
+                 'the measured fixes (QoS by input_reliability)'),
         Endpoint('in', 'pose', 'geometry_msgs/PoseStamped', CALIBRATION_INPUT_QOS,
                  'truth, input_type pose'),
         Endpoint('in', 'odom', 'nav_msgs/Odometry', CALIBRATION_INPUT_QOS,
