@@ -156,7 +156,7 @@ def cmd_validate(args):
             f'(simulated {d[ax]["sd_simulated_m"][0]:.2f}-{d[ax]["sd_simulated_m"][2]:.2f})'
             for ax in ('north', 'east')))
     for name, d in summary['availability'].items():
-        print(f'  {name.replace("_", " ")}: measured {d["measured"]}, simulated median '
+        print(f'  {name.replace("_", " ")}: measured {d["measured"]:g}, simulated median '
               f'{d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), percentile '
               f'{d["percentile"]:.0f}')
     print(f'wrote {out / "validation.png"} and {out / "validation.json"}')

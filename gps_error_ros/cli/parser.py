@@ -206,7 +206,10 @@ def _add_compare(sub):
                     'held-out truth and time grid, every fidelity measure '
                     '(autocorrelation at lags 1-30 per axis, north-east '
                     'correlation, SD per axis, horizontal quantiles 50/68/95/99 '
-                    '%%) with the simulated median, central 95 %% range and the '
+                    '%; outages and steps in outages where the held-out part '
+                    'or the training part has outages, the extended class '
+                    'with availability fitted on the training gaps) with the '
+                    'simulated median, central 95 % range and the '
                     'measured value\'s percentile; inside_95 is the share of '
                     'measures inside their range (near 0.95 when calibrated).')
     c.add_argument('input', help='trace CSV or rosbag2 directory')

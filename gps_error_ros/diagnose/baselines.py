@@ -12,7 +12,12 @@ unscored for all) by the same measures as ``gps_error diagnose``:
   is an ARMA(1,1) (hector_gazebo_plugins, PX4's SITL GPS);
 * ``AR(3), paper``: the paper's fixed order;
 * ``AR(p), PACF``: the order calibration picks (the diagnosis's base model);
-* ``extended``: the diagnosis's extended model.
+* ``extended``: the diagnosis's extended model, with fix availability
+  (outages, as ``calibrate`` fits them) from the training part's gaps.
+
+Where the held-out part or the extended class has outages, their number and
+total length join every class's calibrated measures; a class without
+availability simulates a fix at every step.
 """
 
 import math
@@ -21,10 +26,14 @@ import numpy as np
 from scipy import optimize, signal
 
 from gps_error_ros.diagnose.common import LOG2PI
-from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, part_steps,
-                                             simulate_part)
+from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, part_fix_mask,
+                                             part_steps, simulate_part, with_outages)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
+from gps_error_ros.fit.calibration import availability_from_mask
+from gps_error_ros.fit.envelope import outage_stats
+from gps_error_ros.model import streams
+from gps_error_ros.model.availability import availability_from_dict, WithAvailability
 
 CLASSES = ('white noise + bias', 'AR(1)', 'ARMA(1,1)', 'AR(3), paper',
            'AR(p), PACF', 'extended')
@@ -153,20 +162,44 @@ def _classes(diag, sims, seed):
     return {k: out[k] for k in CLASSES}
 
 
+def extended_outages(diag, sims, seed=0):
+    """
+    Return the extended class's simulated fix masks over the held-out span.
+
+    Availability is fitted on the training part's gaps as ``calibrate``
+    fits it; None when the training part has no outage (the class then
+    simulates none). The masks come from the agents' ``outage`` streams of
+    the keys :func:`~.fidelity.simulate_part` uses.
+    """
+    section, _ = availability_from_mask(part_fix_mask(diag.split.train))
+    if section is None:
+        return None
+    model = WithAvailability(diag.extended.simulator(), availability_from_dict(section))
+    keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
+    return model.simulate_availability(keys, part_fix_mask(diag.split.test).size)
+
+
 def compare(diag, sims=100, seed=0):
     """
     Fit every class on the diagnosis's training part; score on its test part.
 
     Returns a dict: class -> ``heldout_nll_per_sample``, the summary
     fidelity measures of ``diagnose`` and ``calibrated`` (the measures of
-    :func:`~.fidelity.calibrated_fidelity`), all on the same samples.
+    :func:`~.fidelity.calibrated_fidelity`, with the outage measures where
+    the held-out part or the extended class has outages), all on the same
+    samples.
     """
     test = diag.split.test
+    masks = extended_outages(diag, sims, seed)
+    outages = masks is not None or outage_stats(part_fix_mask(test))[0] > 0
     out = {}
     for label, (ll, traces) in _classes(diag, sims, seed).items():
+        calibrated = calibrated_fidelity(test, traces)
+        if outages:
+            calibrated = with_outages(calibrated, test,
+                                      masks if label == 'extended' else None)
         out[label] = {'heldout_nll_per_sample': float(-ll.mean()),
-                      **fidelity_of(test, traces),
-                      'calibrated': calibrated_fidelity(test, traces)}
+                      **fidelity_of(test, traces), 'calibrated': calibrated}
     return out
 
 

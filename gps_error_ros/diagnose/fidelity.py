@@ -14,6 +14,7 @@ import numpy as np
 from gps_error_ros.diagnose.common import FIDELITY_MAX_LAG
 from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
 from gps_error_ros.fit.autocorrelation import segment_acf
+from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes
 from gps_error_ros.model import streams
 
 QUANTILES = (0.5, 0.95, 0.99)
@@ -163,13 +164,32 @@ def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG):
     """
     measured = measure_vector(part.err, max_lag)
     sims = [measure_vector(s, max_lag) for s in simulated]
-    out, inside = {}, []
-    for name, value in measured.items():
-        v = np.array([m[name] for m in sims])
-        lo, mid, hi = np.quantile(v, [0.025, 0.5, 0.975])
-        pct = 100.0 * (np.sum(v < value) + 0.5 * np.sum(v == value)) / v.size
-        out[name] = {'measured': value, 'sim_median': float(mid), 'sim_lo': float(lo),
-                     'sim_hi': float(hi), 'percentile': float(pct)}
-        inside.append(lo <= value <= hi)
-    return {'inside_95': float(np.mean(inside)), 'sims': len(simulated),
-            'measures': out}
+    out = {name: envelope(value, [m[name] for m in sims])
+           for name, value in measured.items()}
+    return {'inside_95': float(np.mean([inside(r) for r in out.values()])),
+            'sims': len(simulated), 'measures': out}
+
+
+def part_fix_mask(part):
+    """Return the part's fix mask on the 1 Hz grid, first sample to last."""
+    steps = np.concatenate(part_steps(part))
+    mask = np.zeros(int(steps[-1]) + 1, dtype=bool)
+    mask[steps] = True
+    return mask
+
+
+def with_outages(calibrated, part, masks):
+    """
+    Add the outage measures to a :func:`calibrated_fidelity` result.
+
+    ``masks``: the class's simulated fix masks over the part's span (sims,
+    span), or None for a class without availability (it simulates a fix at
+    every step). The outage counts and steps in outages join the measures
+    and ``inside_95``.
+    """
+    mask = part_fix_mask(part)
+    if masks is None:
+        masks = np.ones((calibrated['sims'], mask.size), dtype=bool)
+    out = dict(calibrated['measures'], **outage_envelopes(mask, masks))
+    return dict(calibrated, measures=out,
+                inside_95=float(np.mean([inside(r) for r in out.values()])))

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.fit.accuracy_fit import estimate_reported
+from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -83,15 +84,14 @@ def errors_on_grid(trace, rate_hz=1.0):
                          float(rate_hz), keep)
 
 
-#: A gap of this many missing grid steps or more is an outage (the phone had
-#: no fix); a shorter one is a message dropped on the way (a logger's or a
-#: transport's loss), not a property of the place.
-MIN_OUTAGE_STEPS = 2
-
-
 def estimate_availability(grid, min_outage_steps=MIN_OUTAGE_STEPS):
+    """Return (availability section or None, evidence) from the gaps of ``grid``."""
+    return availability_from_mask(grid.fix_mask(), min_outage_steps)
+
+
+def availability_from_mask(mask, min_outage_steps=MIN_OUTAGE_STEPS):
     """
-    Return (availability section or None, evidence) from the gaps of ``grid``.
+    Return (availability section or None, evidence) from a fix mask on the grid.
 
     The outage rate is outages per step with a fix that has a next step
     (maximum likelihood for the profile's process); the durations are the
@@ -99,19 +99,21 @@ def estimate_availability(grid, min_outage_steps=MIN_OUTAGE_STEPS):
     the section is None and the evidence gives the rate's 95 % upper bound
     (3 / steps, the rule of three).
     """
-    gaps = runs_without_fix(grid.fix_mask())
+    mask = np.asarray(mask, dtype=bool)
+    gaps = runs_without_fix(mask)
     outages = [g for g in gaps if g >= min_outage_steps]
-    chances = max(grid.n - 1, 1)
+    n = int(mask.sum())
+    chances = max(n - 1, 1)
     evidence = {'min_outage_steps': int(min_outage_steps), 'outages': len(outages),
                 'dropped_steps': int(sum(g for g in gaps if g < min_outage_steps)),
-                'steps_with_fix': int(grid.n)}
+                'steps_with_fix': n}
     if not outages:
         evidence['outage_rate_upper_95'] = round(3.0 / chances, 6)
         return None, evidence
     lengths, counts = np.unique(outages, return_counts=True)
     section = {'outage_rate': round(len(outages) / chances, 8),
-               'durations': [[int(n), round(float(c) / len(outages), 8)]
-                             for n, c in zip(lengths, counts)]}
+               'durations': [[int(k), round(float(c) / len(outages), 8)]
+                             for k, c in zip(lengths, counts)]}
     total = sum(p for _, p in section['durations'])
     section['durations'][-1][1] = round(section['durations'][-1][1] + 1.0 - total, 8)
     return section, evidence

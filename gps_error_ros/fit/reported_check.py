@@ -19,6 +19,7 @@ measured value's percentile among the simulations (ties count half).
 
 import numpy as np
 
+from gps_error_ros.fit.envelope import envelope
 from gps_error_ros.model.reported import reference_cov
 
 MEASURES = ('coverage', 'radius_median_m', 'radius_q95_m', 'radius_changes_per_100')
@@ -77,12 +78,7 @@ def reported_check(model, reported, trace, rows, steps, measured, sim, keys):
     per_sim = [_stats(sim[:, j], sim_r[:, j], consecutive) for j in range(keys.size)]
     out = {}
     for name in MEASURES:
-        v = np.array([p[name] for p in per_sim])
-        m = meas[name]
-        tie = np.abs(v - m) <= 1e-5 * max(1.0, abs(m))     # the same value (YAML's 6 digits)
-        out[name] = {'measured': round(m, 4), 'sim_median': round(float(np.median(v)), 4),
-                     'sim_lo': round(float(np.percentile(v, 2.5)), 4),
-                     'sim_hi': round(float(np.percentile(v, 97.5)), 4),
-                     'percentile': round(float(100.0 * (np.mean((v < m) & ~tie)
-                                                        + 0.5 * np.mean(tie))), 1)}
+        # a tie is the same value to YAML's 6 digits
+        row = envelope(meas[name], [p[name] for p in per_sim], tol=1e-5)
+        out[name] = {k: round(v, 1 if k == 'percentile' else 4) for k, v in row.items()}
     return out

@@ -21,11 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_acf
-from gps_error_ros.fit.calibration import errors_on_grid, MIN_OUTAGE_STEPS
+from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.fit.envelope import outage_envelopes
 from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
-from gps_error_ros.model.availability import runs_without_fix, WithAvailability
+from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.zoned import simulate_along
 from gps_error_ros.traces.trace_io import Trace
 QQ_PROBS = np.linspace(0.01, 0.99, 99)
@@ -190,12 +191,6 @@ def zone_checks(measured, sim, steps, zone, names, max_lag):
     return out
 
 
-def _outage_stats(mask):
-    """Return (outages, steps in outages) by calibrate's rule (>= 2 missing steps)."""
-    long = [r for r in runs_without_fix(mask) if r >= MIN_OUTAGE_STEPS]
-    return len(long), sum(long)
-
-
 def availability_check(model, grid, keys):
     """
     Return outage statistics, measured (the trace's gaps) against simulated.
@@ -205,20 +200,8 @@ def availability_check(model, grid, keys):
     on both sides (runs of 2 or more steps without a fix).
     """
     mask = grid.fix_mask()
-    span = mask.size
-    measured = dict(zip(('outages', 'steps_in_outages'), _outage_stats(mask)))
     if isinstance(model, WithAvailability):
-        sims = model.simulate_availability(keys, span)
+        sims = model.simulate_availability(keys, mask.size)
     else:
-        sims = np.ones((len(keys), span), dtype=bool)
-    simulated = np.array([_outage_stats(m) for m in sims], dtype=float)
-    out = {}
-    for j, name in enumerate(('outages', 'steps_in_outages')):
-        v = simulated[:, j]
-        out[name] = {'measured': measured[name],
-                     'sim_median': float(np.median(v)),
-                     'sim_lo': float(np.percentile(v, 2.5)),
-                     'sim_hi': float(np.percentile(v, 97.5)),
-                     'percentile': float(100.0 * (np.mean(v < measured[name])
-                                                  + 0.5 * np.mean(v == measured[name])))}
-    return out
+        sims = np.ones((len(keys), mask.size), dtype=bool)
+    return outage_envelopes(mask, sims)

@@ -2,8 +2,10 @@
 
 import numpy as np
 
+from gps_error_ros.fit.envelope import OUTAGE_MEASURES
+
 OTHER = ('ne_correlation', 'sd_north', 'sd_east', 'horizontal_q50',
-         'horizontal_q68', 'horizontal_q95', 'horizontal_q99')
+         'horizontal_q68', 'horizontal_q95', 'horizontal_q99') + OUTAGE_MEASURES
 
 
 def _acf_rows(measures, axis):
@@ -20,8 +22,9 @@ def compare_figure(doc, path):
 
     Rows: the autocorrelation north and east (the simulated central 95 %
     band, its median, the measured); then the measured value's percentile
-    among the simulations for the other measures (inside the band between
-    2.5 and 97.5 when the class simulates the phone well).
+    among the simulations for the other measures, outages included where
+    counted (inside the band between 2.5 and 97.5 when the class simulates
+    the phone well).
     """
     import matplotlib
     matplotlib.use('Agg')
@@ -45,14 +48,15 @@ def compare_figure(doc, path):
                 a.set_ylabel(f'{axis} ACF')
                 a.legend(fontsize=7)
         a = axes[2, c]
-        pct = [m[n]['percentile'] for n in OTHER]
+        names = [n for n in OTHER if n in m]      # outages only where counted
+        pct = [m[n]['percentile'] for n in names]
         a.axvspan(2.5, 97.5, color='tab:blue', alpha=0.15)
         inside = [2.5 <= p <= 97.5 for p in pct]
-        a.scatter(pct, range(len(OTHER)), c=['k' if i else 'tab:red' for i in inside],
+        a.scatter(pct, range(len(names)), c=['k' if i else 'tab:red' for i in inside],
                   zorder=3)
         a.set_xlim(-2, 102)
-        a.set_yticks(range(len(OTHER)))
-        a.set_yticklabels([n.replace('horizontal_', '') for n in OTHER], fontsize=8)
+        a.set_yticks(range(len(names)))
+        a.set_yticklabels([n.replace('horizontal_', '') for n in names], fontsize=8)
         a.set_xlabel('measured percentile in simulations')
         axes[0, c].set_title(f'{name}\nNLL {cls["heldout_nll_per_sample"]:.3f}, '
                              f'inside_95 {cls["fidelity"]["inside_95"]:.2f}', fontsize=10)

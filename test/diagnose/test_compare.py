@@ -94,4 +94,48 @@ def test_compare_writes_the_documented_json_and_a_figure(tmp_path, kind):
         assert all(set(v) == FIELDS for v in c['fidelity']['measures'].values())
     nll = {k: c['heldout_nll_per_sample'] for k, c in doc['classes'].items()}
     assert nll['white_bias'] > nll['ar_p']
+    # the same measures for every class; the bag has no gaps: no outage measures
+    names = {tuple(c['fidelity']['measures']) for c in doc['classes'].values()}
+    assert len(names) == 1
+    assert ('outages' in names.pop()) == (kind == 'csv')     # the walk has outages
     assert (tmp_path / 'r' / 'compare.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+
+
+def test_outages_are_measured_beside_every_class(tmp_path):
+    """
+    Compare outages beside every class in a trace that has them.
+
+    The extended class simulates them (fitted on the training gaps), the
+    others simulate none, and inside_95 counts them.
+    """
+    from trace_helpers import synthetic_trace as ar_trace
+
+    rng = np.random.default_rng(11)
+    n, drop, k = 2400, [], 30
+    while k < n - 40:                           # an outage every ~120 s, 2-20 steps long
+        length = int(rng.integers(2, 21))
+        drop.extend(range(k, k + length))
+        k += length + int(rng.geometric(1 / 100))
+    trace, _ = ar_trace(n, seed=5, drop=drop)
+    src = write_trace_csv(trace, tmp_path / 'gappy.csv')
+    out = tmp_path / 'c.json'
+    assert cli(['compare', str(src), '--json', str(out), '--report', str(tmp_path / 'r'),
+                '--sims', '40']) == 0
+    classes = json.loads(out.read_text())['classes']
+    for name, c in classes.items():
+        m = c['fidelity']['measures']
+        assert set(m['outages']) == FIELDS and set(m['steps_in_outages']) == FIELDS
+        assert m['outages']['measured'] >= 3, m['outages']
+        inside = [v['sim_lo'] <= v['measured'] <= v['sim_hi'] for v in m.values()]
+        assert c['fidelity']['inside_95'] == pytest.approx(np.mean(inside))
+        if name == 'extended':
+            # the same process as the data: the measured values are ordinary
+            # draws (not beyond every simulation, as for the other classes)
+            assert m['outages']['sim_median'] >= 3
+            for key in ('outages', 'steps_in_outages'):
+                assert 0.0 < m[key]['percentile'] < 100.0, m[key]
+                assert 0.5 < m[key]['measured'] / m[key]['sim_median'] < 2.5, m[key]
+        else:
+            assert m['outages']['sim_hi'] == 0 and m['steps_in_outages']['sim_hi'] == 0
+            assert m['outages']['percentile'] == 100.0
+    assert (tmp_path / 'r' / 'compare.png').exists()

@@ -1,0 +1,62 @@
+"""
+A measured statistic beside the same statistic of simulated traces.
+
+The one way the package reports whether a measured value is a plausible
+draw of a model: the simulated median and central 95 % range, and the
+measured value's percentile among the simulated values (a tie counts half).
+``validate``, ``compare`` and the reported-accuracy check all use it.
+"""
+
+import numpy as np
+
+from gps_error_ros.model.availability import runs_without_fix
+
+#: A gap of this many missing grid steps or more is an outage (the phone had
+#: no fix); a shorter one is a message dropped on the way (a logger's or a
+#: transport's loss), not a property of the place.
+MIN_OUTAGE_STEPS = 2
+
+
+def envelope(measured, simulated, tol=0.0):
+    """
+    Return ``measured`` against the values ``simulated`` of the same statistic.
+
+    A dict with ``measured``, ``sim_median``, ``sim_lo`` and ``sim_hi`` (the
+    2.5 and 97.5 % points) and ``percentile``; values within ``tol`` (relative
+    to max(1, |measured|)) of the measured one count as ties.
+    """
+    v = np.asarray(simulated, dtype=float)
+    m = float(measured)
+    tie = np.abs(v - m) <= tol * max(1.0, abs(m))
+    lo, mid, hi = np.percentile(v, [2.5, 50.0, 97.5])
+    return {'measured': m, 'sim_median': float(mid), 'sim_lo': float(lo),
+            'sim_hi': float(hi),
+            'percentile': float(100.0 * (np.mean((v < m) & ~tie) + 0.5 * np.mean(tie)))}
+
+
+def inside(row):
+    """Return whether an :func:`envelope` row's measured value is inside its 95 % range."""
+    return bool(row['sim_lo'] <= row['measured'] <= row['sim_hi'])
+
+
+def outage_stats(mask, min_steps=MIN_OUTAGE_STEPS):
+    """
+    Return (outages, steps in outages) of a fix mask on the 1 Hz grid.
+
+    An outage is a run of ``min_steps`` or more steps without a fix (the
+    rule of ``calibrate``); shorter runs are dropped messages.
+    """
+    long = [r for r in runs_without_fix(mask) if r >= min_steps]
+    return len(long), int(sum(long))
+
+
+#: the outage measures, in the order of :func:`outage_stats`
+OUTAGE_MEASURES = ('outages', 'steps_in_outages')
+
+
+def outage_envelopes(mask, simulated_masks):
+    """Return {measure: envelope} of a measured fix mask against simulated ones."""
+    measured = outage_stats(mask)
+    sims = np.array([outage_stats(m) for m in simulated_masks], dtype=float)
+    return {name: envelope(measured[j], sims[:, j])
+            for j, name in enumerate(OUTAGE_MEASURES)}
