@@ -58,6 +58,7 @@ class AgentPattern:
         self.regex = re.compile('/' + '/'.join(parts) + '$')
         self.fix_segments = segments[:-1] + ['fix']
         self.star = star
+        self.misses = set()         # topic names seen not to match
 
     def fix_topic(self, name):
         """Return the fix topic of agent ``name``."""
@@ -65,16 +66,23 @@ class AgentPattern:
         segments[self.star] = name
         return '/' + '/'.join(segments)
 
-    def scan(self, names_and_types):
+    def scan(self, names_and_types, skip=()):
         """
         Return ({agent: truth topic}, [topics of the wrong type]) in the graph.
 
-        ``names_and_types`` as ``Node.get_topic_names_and_types()`` gives it.
+        ``names_and_types`` as ``Node.get_topic_names_and_types()`` gives it;
+        topics in ``skip`` (those already known) are passed over, and so are
+        topics that did not match before (remembered in ``misses``).
         """
         agents, wrong = {}, []
+        if len(self.misses) > 2 * len(names_and_types) + 1000:
+            self.misses.clear()     # bounded over hours of topics that come and go
         for topic, types in names_and_types:
+            if topic in skip or topic in self.misses:
+                continue
             m = self.regex.match(topic)
             if not m:
+                self.misses.add(topic)
                 continue
             if self.msg_type in types:
                 agents[m.group(1)] = topic
@@ -99,7 +107,9 @@ class AgentWatcher:
         self.pattern = pattern
         self.timeout_ns = int(round(timeout_s * 1e9))
         self.index = {}             # agent name -> slot
-        self.attached_at = {}       # slot -> ROS time (ns) it was served from
+        self.topics = {}            # agent name -> its truth topic
+        self.attached = np.zeros(0, dtype=np.int64)   # slot -> ROS time (ns) served from
+        self._served = None         # frozenset of self.topics' values, when current
         self.warned = set()
         self.stale = 0
         self.released = 0
@@ -107,7 +117,10 @@ class AgentWatcher:
     def scan(self):
         """Serve new agents and release departed ones."""
         node = self.node
-        found, wrong = self.pattern.scan(node.get_topic_names_and_types())
+        # the served agents' topics are skipped: a pass costs little beyond the
+        # listing itself, however many agents are served
+        found, wrong = self.pattern.scan(node.get_topic_names_and_types(),
+                                         skip=self._served_topics())
         for topic in wrong:
             if topic not in self.warned:
                 self.warned.add(topic)
@@ -119,37 +132,57 @@ class AgentWatcher:
         if new:
             slots = node.open_agents(new, [self.pattern.fix_topic(n) for n, _ in new])
             now = node.now_ns()
-            for (name, _), slot in zip(new, slots):
+            self._grow(max(slots) + 1)
+            for (name, topic), slot in zip(new, slots):
                 self.index[name] = slot
-                self.attached_at[slot] = now
+                self.topics[name] = topic
+                self.attached[slot] = now
+            self._served = None
             shown = ', '.join(n for n, _ in new[:5]) + (' ...' if len(new) > 5 else '')
             node.get_logger().info(f'serving {len(new)} new agent(s): {shown}')
         gone = self._departed(node.now_ns())
         if gone:
             node.close_agents([self.index.pop(name) for name in gone])
+            for name in gone:
+                del self.topics[name]
+            self._served = None
             self.released += len(gone)
             shown = ', '.join(gone[:5]) + (' ...' if len(gone) > 5 else '')
             node.get_logger().info(f'released {len(gone)} departed agent(s): {shown}')
 
+    def _served_topics(self):
+        """Return the set of served agents' truth topics (rebuilt after a change)."""
+        if self._served is None:
+            self._served = frozenset(self.topics.values())
+        return self._served
+
+    def _grow(self, size):
+        """Make room for slot indices below ``size``."""
+        if size > self.attached.size:
+            self.attached = np.r_[self.attached,
+                                  np.zeros(size - self.attached.size, dtype=np.int64)]
+
     def _departed(self, now):
         """Return the names of stale agents with no publisher left; count stale ones."""
-        if now <= 0:
+        if now <= 0 or not self.index:
+            self.stale = 0
             return []
-        newest = self.node.newest_truth_ns()
+        newest = np.asarray(self.node.newest_truth_ns(), dtype=np.int64)
+        names = list(self.index)
+        slots = np.fromiter(self.index.values(), dtype=np.int64, count=len(names))
+        self._grow(int(slots.max()) + 1)
+        since = self.attached[slots]
+        reset = (since <= 0) | (since > now)       # no clock yet, or it went back
+        self.attached[slots[reset]] = now
+        last = np.maximum(newest[slots], since)
         gone, stale = [], 0
-        for name, slot in self.index.items():
-            since = self.attached_at.get(slot, 0)
-            if since <= 0 or since > now:      # no clock yet, or it went back
-                self.attached_at[slot] = now
-                continue
-            last = max(int(newest[slot]), since)
-            if now - last <= self.timeout_ns:
-                continue
+        for i in np.flatnonzero(~reset & (now - last > self.timeout_ns)):
+            slot = int(slots[i])
             if self.node.truth_publishers(slot):
                 stale += 1
             else:
-                gone.append(name)
-                del self.attached_at[slot]
+                gone.append(names[i])
+                self.attached[slot] = 0
         self.stale = stale
         return gone
 
