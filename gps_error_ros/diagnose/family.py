@@ -20,6 +20,9 @@ step-down procedure at family-wise level ``ALPHA``):
 - ``travel_frame``: does the innovation covariance turn with the direction
   of travel (:func:`travel_frame_test`): a walk along one street cannot
   show it, a walk that turns corners can.
+- ``periodicity``: a cycle of P steps in the innovations' mean or variance
+  (:func:`periodicity_test`), P in ``PERIODS``, against blocks of the
+  innovations with their phases shifted at random.
 
 Second round (:func:`retest`), on the extended model's standardised
 innovations: serial and cross correlation, persistence, and the calibration
@@ -31,7 +34,7 @@ import math
 import numpy as np
 from scipy import stats
 
-from gps_error_ros.diagnose.common import (ALPHA, MOTION_TEST_LAGS,
+from gps_error_ros.diagnose.common import (ALPHA, MOTION_TEST_LAGS, PERIODS,
                                            PERSIST_LAGS, SERIAL_LAGS)
 from gps_error_ros.diagnose.laws import mahalanobis
 from gps_error_ros.fit.autocorrelation import segment_acf
@@ -149,6 +152,71 @@ def travel_frame_test(r, heading, shifts=TRAVEL_SHIFTS):
     p = int(np.sum(np.abs(null) >= abs(stat) * (1 - 1e-12))) / k_shifts
     return {**out, 'statistic': stat, 'half_difference_m2': stat / spread,
             'shifts': int(k_shifts), 'p_value': float(p)}
+
+
+#: Steps per block whose phases :func:`periodicity_test` shifts together.
+CYCLE_BLOCK = 60
+#: Draws of the shifted phases (the p-value is at least 1 / (draws + 1)).
+CYCLE_DRAWS = 400
+
+
+def _phase_spread(series, phase, period):
+    """Return the between-phase sum of squares (sum_j n_j mean_j^2) of each series."""
+    counts = np.bincount(phase, minlength=period)
+    ok = counts > 0
+    return [float(np.sum(np.bincount(phase, weights=x, minlength=period)[ok] ** 2
+                         / counts[ok])) for x in series]
+
+
+def periodicity_test(r, seg, steps, periods=PERIODS, block=CYCLE_BLOCK,
+                     draws=CYCLE_DRAWS, seed=0):
+    """
+    Return the test for a cycle of ``P`` steps in the innovations ``r`` (n, 2).
+
+    ``steps`` (n,) is each innovation's step on the grid (its phase is
+    ``steps % P``). For each P two statistics: the between-phase sum of
+    squares of the standardised innovations, summed over the axes (a cycle
+    in the mean), and that of the standardised ranks of their squared
+    Mahalanobis radius (a cycle in the variance). Their null distribution
+    comes from the same innovations with the phases of each block of
+    ``block`` steps (within a segment) shifted by a random amount: that
+    keeps everything within a block (persistence of variance, serial
+    correlation) and breaks only the alignment of phases from block to
+    block. Each statistic is standardised by its null mean and SD; the test
+    takes the largest over P and the two kinds (the estimated period)
+    against the largest of each draw.
+
+    Long because it is one test: statistics, null draws, p-value.
+    """
+    out = {'test': f'cycle of P steps in the innovations\' mean or variance, P in '
+                   f'{periods[0]}-{periods[-1]}, against blocks of {block} steps with '
+                   f'their phases shifted at random ({draws} draws)'}
+    n = len(r)
+    if n < 4 * max(periods):
+        return {**out, 'statistic': 0.0, 'at_period': 0, 'in': 'none', 'p_value': 1.0}
+    d = r - r.mean(axis=0)
+    z = d / d.std(axis=0)
+    dm = stats.rankdata(mahalanobis(d, np.cov(d.T, bias=True)))
+    series = (z[:, 0], z[:, 1], (dm - dm.mean()) / dm.std())
+    starts = np.r_[0, np.flatnonzero(np.diff(seg) != 0) + 1]
+    pos = np.arange(n) - np.repeat(starts, np.diff(np.r_[starts, n]))
+    blk = np.ravel(np.unique(np.stack([seg, pos // block], axis=1), axis=0,
+                             return_inverse=True)[1])
+    u = np.random.default_rng(seed).random((draws, int(blk.max()) + 1))
+    steps = np.asarray(steps, dtype=np.int64)
+    obs, null = np.empty((len(periods), 2)), np.empty((draws, len(periods), 2))
+    for i, p in enumerate(periods):
+        a, b, c = _phase_spread(series, steps % p, p)
+        obs[i] = a + b, c
+        for k in range(draws):
+            a, b, c = _phase_spread(series, (steps + (u[k] * p).astype(np.int64)[blk]) % p, p)
+            null[k, i] = a + b, c
+    mu, sd = null.mean(axis=0), np.maximum(null.std(axis=0), 1e-12)
+    zobs, znull = (obs - mu) / sd, ((null - mu) / sd).reshape(draws, -1).max(axis=1)
+    i, j = np.unravel_index(int(np.argmax(zobs)), zobs.shape)
+    p_value = (1 + int(np.sum(znull >= zobs[i, j]))) / (draws + 1)
+    return {**out, 'statistic': float(zobs[i, j]), 'at_period': int(periods[i]),
+            'in': ('mean', 'variance')[j], 'p_value': float(p_value)}
 
 
 def innovation_tests(r, seg, orders):

@@ -4,13 +4,16 @@ The mean part of a model: per axis a constant and AR terms, and the motion.
 The error ``e`` is split into a motion term and an AR process ``u``::
 
     e(t) = gain * (truth(t - lag_s) - truth(t)) + u(t)
-    u(t) = const + sum_i phi_i u(t - i) + innovation
+    u(t) = const + offset[phase(t)] + sum_i phi_i u(t - i) + innovation
 
 ``motion_lag`` is the family ``gain = 1`` with ``lag_s`` estimated; the
 motion test uses the family with ``lag_s`` fixed and ``gain >= 0``
 estimated, which is linear in its one coefficient so that each likelihood
 ratio has the chi-bar-squared law. Both are fitted by profile least squares
-(the conditional Gaussian likelihood of the mean part).
+(the conditional Gaussian likelihood of the mean part). With the
+``periodic`` effect, ``offset`` (one per phase of a cycle of ``period``
+steps, averaging zero) is estimated with the rest; a sample's phase is its
+step from the trace's first fix modulo the period.
 """
 
 from dataclasses import dataclass
@@ -20,7 +23,8 @@ import numpy as np
 from scipy import optimize
 
 from gps_error_ros.diagnose.common import MAX_LAG_S
-from gps_error_ros.model.effects import lag_offsets, MOVING_M
+from gps_error_ros.model.effects import MOVING_M
+from gps_error_ros.model.motion_lag import lag_offsets
 
 
 def motion_offsets(part, truth, lag_s, gain=1.0):
@@ -76,6 +80,11 @@ class Design:
     lags: list             # per axis (n, p_a) lagged u
     seg: np.ndarray        # (n,) segment index of each scored sample
     heading: np.ndarray = None   # (n,) direction of travel, rad (street_frame)
+    steps: np.ndarray = None     # (n,) step from the trace's first fix (periodic)
+
+    def phase(self, period):
+        """Return each scored sample's phase in a cycle of ``period`` steps."""
+        return self.steps % period
 
 
 def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
@@ -96,37 +105,55 @@ def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
                                      range(1, orders[a] + 1)], axis=1))
     if not ys:
         return Design(np.zeros((0, 2)), [np.zeros((0, p)) for p in orders],
-                      np.zeros(0, dtype=int))
+                      np.zeros(0, dtype=int), np.zeros(0), np.zeros(0, dtype=np.int64))
+    times = np.concatenate(times)
+    steps = np.round(times - truth.t[0]).astype(np.int64)
     return Design(np.concatenate(ys), [np.concatenate(x) for x in lags],
-                  np.concatenate(seg), travel_headings(truth, np.concatenate(times), lag_s))
+                  np.concatenate(seg), travel_headings(truth, times, lag_s), steps)
 
 
 @dataclass
 class MeanFit:
-    """The fitted mean part: constants, AR coefficients, motion term."""
+    """The fitted mean part: constants, AR coefficients, motion term, cycle."""
 
     const: np.ndarray      # (2,)
     phi: list              # per axis array
     lag_s: float = 0.0
     gain: float = 1.0
+    period: int = 0                 # periodic: the cycle's length, steps (0: none)
+    offsets: np.ndarray = None      # periodic: (period, 2) innovation mean by phase
 
     def residuals(self, d):
         """Return the innovations of design ``d``, (n, 2)."""
         r = d.y - self.const
+        if self.period:
+            r -= self.offsets[d.phase(self.period)]
         for a in range(2):
             r[:, a] -= d.lags[a] @ self.phi[a]
         return r
 
 
-def least_squares(d, lag_s=0.0, gain=1.0):
-    """Fit the design per axis by least squares; return (MeanFit, residuals)."""
+def least_squares(d, lag_s=0.0, gain=1.0, period=0):
+    """
+    Fit the design per axis by least squares; return (MeanFit, residuals).
+
+    With ``period``, one constant per phase in place of the one constant:
+    ``const`` is their average and ``offsets`` the rest.
+    """
     const, phis = np.zeros(2), []
+    offsets = np.zeros((period, 2)) if period else None
+    if period:
+        ones = (d.phase(period)[:, None] == np.arange(period)).astype(float)
+    else:
+        ones = np.ones((len(d.y), 1))
+    k = ones.shape[1]
     for a in range(2):
-        x = np.column_stack([np.ones(len(d.y)), d.lags[a]])
-        beta = np.linalg.lstsq(x, d.y[:, a], rcond=None)[0]
-        const[a] = beta[0]
-        phis.append(beta[1:])
-    mf = MeanFit(const, phis, lag_s, gain)
+        beta = np.linalg.lstsq(np.column_stack([ones, d.lags[a]]), d.y[:, a], rcond=None)[0]
+        const[a] = beta[:k].mean()
+        if period:
+            offsets[:, a] = beta[:k] - const[a]
+        phis.append(beta[k:])
+    mf = MeanFit(const, phis, lag_s, gain, period, offsets)
     return mf, mf.residuals(d)
 
 
@@ -145,22 +172,22 @@ def _profile_minimum(loss, hi):
     return best
 
 
-def _log_det_loss(part, orders, truth, lag_s, gain):
-    _, r = least_squares(design(part, orders, truth, lag_s, gain))
+def _log_det_loss(part, orders, truth, lag_s, gain, period=0):
+    _, r = least_squares(design(part, orders, truth, lag_s, gain), period=period)
     return float(np.sum(np.log(np.mean(r * r, axis=0))))
 
 
-def fit_mean(part, orders, truth, lag_s=0.0, gain=1.0):
+def fit_mean(part, orders, truth, lag_s=0.0, gain=1.0, period=0):
     """Fit the mean part with a fixed motion term; return (MeanFit, r, Design)."""
     d = design(part, orders, truth, lag_s, gain)
-    return least_squares(d, lag_s, gain) + (d,)
+    return least_squares(d, lag_s, gain, period) + (d,)
 
 
-def fit_mean_lag(part, orders, truth):
+def fit_mean_lag(part, orders, truth, period=0):
     """Fit the mean part with ``lag_s`` in [0, MAX_LAG_S] estimated (gain 1)."""
     best = _profile_minimum(
-        lambda tau: _log_det_loss(part, orders, truth, tau, 1.0), MAX_LAG_S)
-    return fit_mean(part, orders, truth, best, 1.0)
+        lambda tau: _log_det_loss(part, orders, truth, tau, 1.0, period), MAX_LAG_S)
+    return fit_mean(part, orders, truth, best, 1.0, period)
 
 
 def fit_mean_gain(part, orders, truth, lag_s):

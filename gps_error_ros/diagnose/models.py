@@ -5,7 +5,11 @@ Estimation, the same for every model: conditional quasi-maximum likelihood
 in two stages. (1) The mean part (delta, phi and, with ``motion_lag``, the
 lag) maximises the conditional Gaussian likelihood, i.e. least squares;
 (2) the innovation law (covariances, correlation, dof, regimes) maximises
-the likelihood of the stage-1 innovations.
+the likelihood of the stage-1 innovations. With ``periodic`` the mean
+part has one constant per phase of the cycle, and the innovations are
+divided by their phase's scale (the root mean square of the phase's
+standardised innovations, averaging 1 in square) before the law is fitted;
+the likelihood carries the Jacobian of that division.
 """
 
 from dataclasses import dataclass
@@ -20,6 +24,7 @@ from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
 from gps_error_ros.fit.calibration import CalibrationError, fit_axis
 from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
 from gps_error_ros.model.effects import build_model, Effects
+from gps_error_ros.model.periodic import Periodic
 
 
 @dataclass
@@ -32,12 +37,13 @@ class FittedModel:
     law: Law
     train_loglik: float
     n_train: int
+    cycle_scales: np.ndarray = None     # periodic: (period,) innovation SD by phase
 
     @property
     def n_params(self):
         """Return the number of free parameters."""
         return sum(p + 1 for p in self.orders) + self.law.n_params + \
-            int('motion_lag' in self.effects)
+            int('motion_lag' in self.effects) + 3 * max(self.mean.period - 1, 0)
 
     @property
     def bic(self):
@@ -69,6 +75,10 @@ class FittedModel:
             kw['scales'] = tuple(float(v) for v in self.law.scales)
             kw['transition'] = tuple(tuple(float(v) for v in row)
                                      for row in self.law.transition)
+        if 'periodic' in self.effects:
+            kw['periodic'] = Periodic(
+                int(self.mean.period), tuple(float(v) for v in self.cycle_scales),
+                tuple((float(a), float(b)) for a, b in self.mean.offsets))
         return Effects(**kw)
 
     def simulator(self):
@@ -102,35 +112,59 @@ class FittedModel:
         r = self.mean.residuals(d)
         if 'street_frame' in self.effects:      # the law is along/across the travel
             r = to_travel_frame(r, d.heading)
+        r, log_jac = cycle_scaled(r, d, self.mean.period, self.cycle_scales)
         ll, pred = law_logpdf(self.law, r, d.seg)
-        return ll, r, d, pred
+        return ll - log_jac, r, d, pred
+
+
+def phase_scales(r, phase, period):
+    """Return the innovations' SD by phase (standardised per axis; mean square 1)."""
+    q = np.mean(r * r / np.mean(r * r, axis=0), axis=1)
+    ms = np.bincount(phase, weights=q, minlength=period) / \
+        np.maximum(np.bincount(phase, minlength=period), 1)
+    ms = np.where(ms > 0, ms, 1.0)
+    return np.sqrt(ms / ms.mean())
+
+
+def cycle_scaled(r, d, period, scales):
+    """Return (``r`` divided by its phase's scale, the log Jacobian per sample)."""
+    if not period:
+        return r, 0.0
+    s = scales[d.phase(period)]
+    return r / s[:, None], 2.0 * np.log(s)
 
 
 def with_law(effects, orders, mean, r, d, regimes):
     """Return the :class:`FittedModel` of a mean part with its law fitted on ``r``."""
     if 'street_frame' in effects:
         r = to_travel_frame(r, d.heading)
+    scales = phase_scales(r, d.phase(mean.period), mean.period) if mean.period else None
+    r, log_jac = cycle_scaled(r, d, mean.period, scales)
     law = fit_law(r, d.seg, coupled='cross_axis_coupling' in effects,
                   tails='heavy_tails' in effects,
                   regimes=regimes if 'variance_regimes' in effects else 0)
-    ll = float(np.sum(law_logpdf(law, r, d.seg)[0]))
+    ll = float(np.sum(law_logpdf(law, r, d.seg)[0] - log_jac))
     return FittedModel(tuple(e for e in EFFECT_ORDER if e in effects),
-                       tuple(orders), mean, law, ll, len(r))
+                       tuple(orders), mean, law, ll, len(r), scales)
 
 
-def fit_model(train, orders, effects, truth, lag_s=None, regimes=2):
+def fit_model(train, orders, effects, truth, lag_s=None, regimes=2, period=0):
     """
     Fit a model with ``effects`` (names) on the training part.
 
     With ``motion_lag``, ``lag_s`` is estimated unless given; ``regimes`` is
-    the number of variance levels when ``variance_regimes`` is present.
+    the number of variance levels when ``variance_regimes`` is present, and
+    ``period`` the cycle's length (steps) when ``periodic`` is.
     """
+    period = int(period) if 'periodic' in effects else 0
+    if 'periodic' in effects and period < 2:
+        raise DiagnosisError(f'periodic needs a period of 2 or more steps, got {period}')
     if 'motion_lag' not in effects:
-        mean, r, d = fit_mean(train, orders, truth)
+        mean, r, d = fit_mean(train, orders, truth, period=period)
     elif lag_s is None:
-        mean, r, d = fit_mean_lag(train, orders, truth)
+        mean, r, d = fit_mean_lag(train, orders, truth, period)
     else:
-        mean, r, d = fit_mean(train, orders, truth, lag_s)
+        mean, r, d = fit_mean(train, orders, truth, lag_s, period=period)
     return with_law(effects, orders, mean, r, d, regimes)
 
 

@@ -44,13 +44,14 @@ import math
 
 import numpy as np
 
-from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, EFFECT_ORDER,
+from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_EFFECTS,
+                                                RETEST_LABEL, travel_axes_win)
+from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
                                            N_TESTS, TRAIN_FRACTION)
 from gps_error_ros.diagnose.family import (holm, innovation_tests, motion_test,
-                                           retest, travel_frame_test)
+                                           periodicity_test, retest, travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
-from gps_error_ros.diagnose.laws import fit_law, law_logpdf
 from gps_error_ros.diagnose.mean import to_travel_frame
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
                                            FittedModel, select_orders)
@@ -124,19 +125,6 @@ class FamilyResult:
     base_residuals: tuple = ()      # (r, seg) of the base model on the training part
 
 
-@dataclass
-class Attribution:
-    """Effects chosen from the tests, with their evidence, and what is left."""
-
-    effects: list
-    evidence: dict
-    alternatives_rejected: list
-    unexplained: list
-    regimes: int = 2
-    lag_s: float = None
-    approximations: list = field(default_factory=list)
-
-
 def split_step(trace):
     """Step 1: split ``trace``; refuse parts too short to fit or to score."""
     split = split_trace(trace, TRAIN_FRACTION)
@@ -184,139 +172,26 @@ def run_family(split, base, alpha=ALPHA):
         lagged = fit_model(split.train, base.orders, ('motion_lag',), split.truth)
         lag_s = lagged.mean.lag_s
         _, r_law, d_law, _ = lagged.score(split.train, split.truth)
+    cycle = periodicity_test(r_law, d_law.seg, d_law.steps)
+    if cycle['p_value'] <= alpha / N_TESTS:
+        # the law's tests without the cycle, or periodic variance passes for tails
+        effects = ('motion_lag',) * (lag_s is not None) + ('periodic',)
+        cyc = fit_model(split.train, base.orders, effects, split.truth, lag_s,
+                        period=cycle['at_period'])
+        _, r_law, d_law, _ = cyc.score(split.train, split.truth)
     frame = travel_frame_test(r_law, d_law.heading)
     r_tests = r_law
-    if frame['p_value'] <= alpha / N_TESTS and _travel_axes_win(r_law, d_law):
+    if frame['p_value'] <= alpha / N_TESTS and travel_axes_win(r_law, d_law):
         # the law's tests in the travel frame, or a turning ellipse passes for tails
         r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
-             **innovation_tests(r_tests, d_law.seg, base.orders), 'travel_frame': frame}
+             **innovation_tests(r_tests, d_law.seg, base.orders), 'travel_frame': frame,
+             'periodicity': cycle}
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k in tests:
         tests[k]['holm_adjusted_p'] = adjusted[k]
         tests[k]['rejected'] = reject[k]
     return FamilyResult(tests, reject, adjusted, lag_s, base_residuals)
-
-
-def _travel_axes_win(r, d):
-    """Return True when a Gaussian law along/across the travel beats fixed axes (BIC)."""
-    n = len(r)
-    bic = {}
-    for name, x, coupled in (('fixed', r, True),
-                             ('travel', to_travel_frame(r, d.heading), False)):
-        law = fit_law(x, d.seg, coupled=coupled)
-        bic[name] = -2 * float(np.sum(law_logpdf(law, x, d.seg)[0])) + \
-            law.n_params * math.log(n)
-    return bic['travel'] < bic['fixed']
-
-
-def _pick(test):
-    return {k: test[k] for k in ('statistic', 'p_value', 'holm_adjusted_p',
-                                 'at_lag_s') if k in test}
-
-
-def _attribute_law(split, base, family, att):
-    """Tails against regimes: add the winner to ``att`` (training BIC)."""
-    tests, reject, adjusted = family.tests, family.reject, family.adjusted
-    train, truth, orders = split.train, split.truth, base.orders
-    common = tuple(att.effects)
-    cands = {'heavy_tails': (('heavy_tails',), 2),
-             'variance_regimes (2 levels)': (('variance_regimes',), 2),
-             'variance_regimes (3 levels)': (('variance_regimes',), 3),
-             'both (2 levels + tails)': (('heavy_tails', 'variance_regimes'), 2)}
-    bics = {'neither': fit_model(train, orders, common, truth, att.lag_s).bic}
-    for label, (extra, k) in cands.items():
-        bics[label] = fit_model(train, orders, common + extra, truth,
-                                att.lag_s, regimes=k).bic
-    if reject['squared_persistence']:
-        pick = min([c for c in cands if c != 'heavy_tails'], key=bics.get)
-        extra, att.regimes = cands[pick]
-        att.effects.extend(e for e in EFFECT_ORDER if e in extra)
-        att.evidence['variance_regimes'] = {
-            'test': 'squared_persistence', **_pick(tests['squared_persistence']),
-            'levels': att.regimes, 'bic': bics, 'chosen': pick}
-        if 'heavy_tails' in extra:
-            att.evidence['heavy_tails'] = {
-                'test': 'kurtosis and BIC', **_pick(tests['kurtosis']),
-                'reason': 'tails beyond the regimes: the BIC with both is '
-                          'the lowest', 'bic': bics}
-        else:
-            att.alternatives_rejected.append({
-                'effect': 'heavy_tails',
-                'reason': 'with the regimes, Student-t innovations do not '
-                          'lower the BIC (the marginal tails come from the '
-                          'regimes)', 'bic': bics})
-        return
-    att.effects.append('heavy_tails')
-    att.evidence['heavy_tails'] = {
-        'test': 'kurtosis', **_pick(tests['kurtosis']), 'bic': bics,
-        'reason': 'excess kurtosis without persistence of the squared '
-                  'innovations'}
-    att.alternatives_rejected.append({
-        'effect': 'variance_regimes',
-        'reason': 'the squared innovations do not persist (Holm-adjusted '
-                  f'p = {adjusted["squared_persistence"]:.3g})',
-        'bic': bics})
-
-
-def _attribute_frame(split, base, family, att):
-    """
-    Axes fixed north/east (coupling) against axes of the travel: training BIC.
-
-    The travel-frame test rejected: the innovation covariance depends on the
-    direction of travel. A fixed ellipse that only changes its elongation
-    with the direction can do that too, so the law with the fixed, coupled
-    covariance and the law along/across the travel are both fitted, and the
-    lower BIC decides.
-    """
-    common = tuple(e for e in att.effects if e != 'cross_axis_coupling')
-    bics = {name: fit_model(split.train, base.orders, common + (name,), split.truth,
-                            att.lag_s).bic
-            for name in ('cross_axis_coupling', 'street_frame')}
-    pick = min(bics, key=bics.get)
-    other = 'street_frame' if pick == 'cross_axis_coupling' else 'cross_axis_coupling'
-    t = family.tests['travel_frame']
-    att.effects[:] = [e for e in EFFECT_ORDER if e in common + (pick,)]
-    att.evidence.pop(other, None)
-    att.evidence.setdefault(pick, {'test': 'travel_frame', **_pick(t)})
-    att.evidence[pick]['frame_bic'] = bics
-    att.alternatives_rejected.append({
-        'effect': other, 'bic': bics,
-        'reason': ('the covariance turns with the direction of travel, but a fixed '
-                   'north/east ellipse fits it better (lower BIC)') if other == 'street_frame'
-        else ('the innovation covariance turns with the direction of travel: axes along '
-              'and across it fit better than fixed north/east axes (lower BIC)')})
-
-
-def attribute(split, base, family):
-    """Step 4: turn the rejected tests into effects, or ``unexplained``."""
-    tests, reject, adjusted = family.tests, family.reject, family.adjusted
-    att = Attribution([], {}, [], [])
-    for test, effect in (('cross_axis_correlation', 'cross_axis_coupling'),
-                         ('motion_dependence', 'motion_lag')):
-        if reject[test]:
-            att.effects.append(effect)
-            att.evidence[effect] = {'test': test, **_pick(tests[test])}
-    att.lag_s = family.lag_s if 'motion_lag' in att.effects else None
-    if reject['travel_frame']:
-        _attribute_frame(split, base, family, att)
-    if reject['squared_persistence'] or reject['kurtosis']:
-        _attribute_law(split, base, family, att)
-    if reject['squared_oscillation']:
-        t = tests['squared_oscillation']
-        att.unexplained.append({
-            'structure': 'periodic variance: squared innovations anti-correlated '
-                         f'at lag {t["at_lag"]}', 'stage': 'base model',
-            'p_value': t['p_value'],
-            'holm_adjusted_p': adjusted['squared_oscillation']})
-    for ax in AXES:
-        k = f'serial_{ax}'
-        if reject[k]:
-            att.unexplained.append({
-                'structure': RETEST_LABEL[k], 'stage': 'base model',
-                'lags_largest': tests[k]['largest_acf_lags'],
-                'p_value': tests[k]['p_value'], 'holm_adjusted_p': adjusted[k]})
-    return att
 
 
 def fit_extended(split, base, att, kept=None):
@@ -331,7 +206,7 @@ def fit_extended(split, base, att, kept=None):
         return base
     return fit_model(split.train, base.orders, kept, split.truth,
                      att.lag_s if 'motion_lag' in kept else None,
-                     regimes=att.regimes)
+                     regimes=att.regimes, period=att.period)
 
 
 def retest_extended(split, extended, att, alpha=ALPHA):
@@ -417,7 +292,7 @@ def fit_split(name, split, alpha=ALPHA, seed=0):
     base = fit_base(split)
     family = run_family(split, base, alpha)
     att = attribute(split, base, family)
-    sel = select_effects(split, base.orders, att.effects, att.regimes, seed)
+    sel = select_effects(split, base.orders, att.effects, att.regimes, seed, att.period)
     return FittedModels(name, split, base, family, att, sel,
                         fit_extended(split, base, att, sel.kept))
 
@@ -453,24 +328,6 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
     }
     return Diagnosis(summary, fitted,
                      {'base': family.base_residuals, 'extended': ext_residuals})
-
-
-RETEST_LABEL = {
-    'cross_axis_correlation': 'north-east correlation left in the innovations',
-    'squared_persistence': 'persistence of the squared innovations left',
-    'pit_uniformity': 'predictive distribution miscalibrated (PIT of the radius)',
-    'serial_north': 'serial correlation of the north innovations',
-    'serial_east': 'serial correlation of the east innovations',
-}
-
-#: retest -> effects whose fitted form targets that structure
-RETEST_EFFECTS = {
-    'cross_axis_correlation': ('cross_axis_coupling', 'street_frame'),
-    'squared_persistence': ('variance_regimes',),
-    'pit_uniformity': ('heavy_tails', 'variance_regimes'),
-    'serial_north': (),
-    'serial_east': (),
-}
 
 
 def extended_profile(diag, name, source):

@@ -112,7 +112,7 @@ class Candidate:
 
 
 def cross_validate(split, orders, effects, regimes, seed=0, folds=FOLDS,
-                   sims=CV_SIMS):
+                   sims=CV_SIMS, period=0):
     """Return the :class:`Candidate` of ``effects`` scored over the blocks."""
     blocks = time_blocks(split.train, folds)
     m0 = condition_count(orders)
@@ -121,7 +121,7 @@ def cross_validate(split, orders, effects, regimes, seed=0, folds=FOLDS,
         rest = join_parts(b for j, b in enumerate(blocks) if j != i)
         try:
             # a fit that is not stationary cannot simulate (ModelError)
-            model = fit_model(rest, orders, effects, split.truth, None, regimes)
+            model = fit_model(rest, orders, effects, split.truth, None, regimes, period)
             ll = model.score(held, split.truth, m0)[0]
             sims_i = simulate_part(model, held, split.truth, sims, seed + i)
         except (DiagnosisError, ValueError, np.linalg.LinAlgError) as exc:
@@ -188,7 +188,7 @@ def subsets(effects):
             for sub in itertools.combinations(effects, k)]
 
 
-def select_effects(split, orders, effects, regimes, seed=0):
+def select_effects(split, orders, effects, regimes, seed=0, period=0):
     """
     Return the :class:`Selection` among all subsets of ``effects``.
 
@@ -200,7 +200,7 @@ def select_effects(split, orders, effects, regimes, seed=0):
     effects = tuple(e for e in EFFECT_ORDER if e in effects)
     if not effects:
         return Selection((), [])
-    cands = [cross_validate(split, orders, sub, regimes, seed)
+    cands = [cross_validate(split, orders, sub, regimes, seed, period=period)
              for sub in subsets(effects)]
     try:
         return Selection(choose(cands, effects).effects, cands)

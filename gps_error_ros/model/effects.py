@@ -11,6 +11,7 @@ process of :mod:`ar_model` (written by ``gps_error diagnose --profile-out``)::
       variance_regimes: {scales: [1.0, 2.4],
                          transition: [[0.98, 0.02], [0.05, 0.95]]}
       street_frame: {sigma_along: 0.6, sigma_across: 1.4}
+      periodic: {period_steps: 8, scales: [...], offsets: [[n, e], ...]}
 
 The process, per model step ``k``::
 
@@ -39,6 +40,9 @@ The process, per model step ``k``::
   ago; the error relative to the truth at the stamp is ``u(k)`` plus
   ``truth(t - lag_s) - truth(t)`` (zero when standing, about ``-lag_s *
   velocity`` when walking).
+* ``periodic`` (:mod:`periodic`): at the agent's phase ``j`` of a cycle of
+  ``period_steps`` the innovation is ``offsets[j] + scales[j] * s[r(k)] *
+  w(k)``; the state carries the phase.
 
 Covariance: the AR part is linear, so its stationary covariance is the
 Lyapunov solution for the *average* innovation covariance, ``E[s^2]`` times
@@ -57,15 +61,18 @@ from scipy import special
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.periodic import (agent_phases, mean_autocovariance, periodic_from_dict,
+                                          periodic_mean)
 
 EFFECT_NAMES = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
-                'variance_regimes', 'street_frame')
+                'variance_regimes', 'street_frame', 'periodic')
 _KEYS = {
     'cross_axis_coupling': ('innovation_corr',),
     'motion_lag': ('lag_s',),
     'heavy_tails': ('dof',),
     'variance_regimes': ('scales', 'transition'),
     'street_frame': ('sigma_along', 'sigma_across'),
+    'periodic': ('period_steps', 'scales', 'offsets'),
 }
 #: Metres the truth must move in one second for its direction to count as
 #: the direction of travel (street_frame); slower, the last direction holds.
@@ -98,12 +105,14 @@ class Effects:
     scales: tuple = (1.0,)
     transition: tuple = ((1.0,),)
     street: tuple = None        # (sigma_along, sigma_across), m
+    periodic: object = None     # a periodic.Periodic
 
     @property
     def names(self):
         """Return the names of the effects present, in schema order."""
         present = (self.innovation_corr != 0.0, self.lag_s != 0.0,
-                   math.isfinite(self.dof), len(self.scales) > 1, self.street is not None)
+                   math.isfinite(self.dof), len(self.scales) > 1, self.street is not None,
+                   self.periodic is not None)
         return tuple(n for n, p in zip(EFFECT_NAMES, present) if p)
 
     @property
@@ -113,8 +122,9 @@ class Effects:
 
     @property
     def variance_factor(self):
-        """Return ``E[s^2]``, the average innovation variance multiplier."""
-        return float(self.regime_probabilities @ np.square(self.scales))
+        """Return the average innovation variance multiplier (regimes and cycle)."""
+        cycle = 1.0 if self.periodic is None else self.periodic.variance_factor
+        return float(self.regime_probabilities @ np.square(self.scales)) * cycle
 
     def to_dict(self):
         """Return the ``effects`` section as plain data (present ones only)."""
@@ -138,6 +148,8 @@ class Effects:
         if self.street is not None:
             out['street_frame'] = {'sigma_along': round(float(self.street[0]), 6),
                                    'sigma_across': round(float(self.street[1]), 6)}
+        if self.periodic is not None:
+            out['periodic'] = self.periodic.to_dict()
         return out
 
 
@@ -181,6 +193,11 @@ def effects_from_dict(raw, source='<profile>'):
         elif name == 'street_frame':
             kw['street'] = tuple(_num(source, f'{key}.{k}', body[k], 0.0, 1e6)
                                  for k in ('sigma_along', 'sigma_across'))
+        elif name == 'periodic':
+            try:
+                kw['periodic'] = periodic_from_dict(body, source, key)
+            except ValueError as exc:
+                raise EffectsError(str(exc)) from None
         else:
             kw.update(_regimes(source, key, body))
     if 'street' in kw and kw.get('innovation_corr'):
@@ -216,12 +233,15 @@ class ExtendedModel:
     """
     The AR(p) process with effects; same interface as :class:`ARErrorModel`.
 
-    The state of ``n`` agents is an array (n, 2, p + 1): ``[:, :, :p]`` the
-    AR deviations as in :class:`ARErrorModel`, ``[:, 0, p]`` the current
-    regime's index, ``[:, 1, p]`` the direction of travel (radians from
-    north, clockwise; street_frame). Draws come from the agents' counter-based streams, one
-    position per model step, so an agent's errors do not depend on how many
-    agents are simulated together or when its state was created.
+    The state of ``n`` agents is an array (n, 2, p + 1), (n, 2, p + 2) with
+    ``periodic``: ``[:, :, :p]`` the AR deviations as in :class:`ARErrorModel`
+    (the cycle's mean included), ``[:, 0, p]`` the current regime's index,
+    ``[:, 1, p]`` the direction of travel (radians from north, clockwise;
+    street_frame), ``[:, 0, p + 1]`` the current phase and ``[:, 1, p + 1]``
+    the agent's offset in the cycle (periodic). Draws come from the agents'
+    counter-based streams, one position per model step, so an agent's errors
+    do not depend on how many agents are simulated together or when its
+    state was created.
     """
 
     def __init__(self, north, east, effects):
@@ -246,11 +266,17 @@ class ExtendedModel:
         self.cum_pi[-1] = 1.0
         self.dof = effects.dof
         self._init_scale = math.sqrt(effects.variance_factor)
+        self.periodic = effects.periodic
+        if self.periodic is not None:
+            self.cycle_scales = np.asarray(self.periodic.scales, dtype=float)
+            self.cycle_offsets = np.asarray(self.periodic.offsets, dtype=float)
+            self.cycle_mean = periodic_mean(self.phi, self.cycle_offsets)
+        self._width = self.order + 1 + (self.periodic is not None)
 
     @property
     def stationary_cov(self):
-        """Return the unconditional 2x2 (north, east) error covariance."""
-        return self.unit.stationary_cov * self.effects.variance_factor
+        """Return the unconditional 2x2 (north, east) error covariance (phase-averaged)."""
+        return self.autocovariance(0)[0]
 
     @property
     def stationary_sd(self):
@@ -259,11 +285,16 @@ class ExtendedModel:
 
     def autocovariance(self, max_lag):
         """Return the exact unconditional autocovariance, (max_lag + 1, 2, 2)."""
-        return self.unit.autocovariance(max_lag) * self.effects.variance_factor
+        out = self.unit.autocovariance(max_lag) * self.effects.variance_factor
+        if self.periodic is not None:
+            out = out + mean_autocovariance(self.cycle_mean, max_lag)
+        return out
 
     def autocorrelation(self, max_lag):
         """Return the exact autocorrelation per axis (max_lag + 1, 2)."""
-        return self.unit.autocorrelation(max_lag)
+        acv = self.autocovariance(max_lag)
+        diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
+        return diag / diag[0]
 
     @property
     def needs_heading(self):
@@ -272,7 +303,7 @@ class ExtendedModel:
 
     def empty_state(self, n):
         """Return a state array for ``n`` agents (zeros)."""
-        return np.zeros((n, 2, self.order + 1))
+        return np.zeros((n, 2, self._width))
 
     def initial_state(self, keys, index):
         """
@@ -291,6 +322,13 @@ class ExtendedModel:
             u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_REGIME,
                                       index)[:, 0]
             state[:, 0, self.order] = np.searchsorted(self.cum_pi, u, side='right')
+        if self.periodic is not None:
+            p, period = self.order, self.periodic.period
+            offset = agent_phases(keys, period)
+            phase = (offset + index) % period
+            state[:, 1, p + 1], state[:, 0, p + 1] = offset, phase
+            for i in range(p):          # the lags sit at their phases' cycle mean
+                state[:, :, i] += self.cycle_mean[(phase - i) % period]
         return state
 
     def advance(self, state, keys, index, heading=None):
@@ -319,6 +357,10 @@ class ExtendedModel:
             half = 0.5 * self.dof
             mix = special.gammaincinv(half, u) / half        # chi2(dof) / dof
             w *= np.sqrt((self.dof - 2.0) / self.dof / mix)[:, None]
+        if self.periodic is not None:
+            phase = (state[:, 1, p + 1].astype(np.int64) + index) % self.periodic.period
+            state[:, 0, p + 1] = phase
+            w = w * self.cycle_scales[phase][:, None] + self.cycle_offsets[phase]
         for i in range(p):
             w += self.phi[:, i] * state[:, :, i]
         state[:, :, 1:p] = state[:, :, 0:p - 1]
@@ -358,7 +400,8 @@ class ExtendedModel:
 
         The innovation covariance times the expected squared regime scale of
         the next step given the current regime (``first``: given the regimes'
-        stationary law); heavy tails keep the unit variance. With
+        stationary law) and the next phase's squared scale (``first``: the
+        cycle's average); heavy tails keep the unit variance. With
         street_frame the covariance is turned to the last direction of travel.
         """
         n = state.shape[0]
@@ -369,6 +412,12 @@ class ExtendedModel:
                 factor[:] = float(self.pi @ s2)
             else:
                 factor = np.asarray(self.effects.transition)[self.regimes(state)] @ s2
+        if self.periodic is not None:
+            if first:
+                factor = factor * self.periodic.variance_factor
+            else:
+                nxt = (state[:, 0, self.order + 1].astype(np.int64) + 1) % self.periodic.period
+                factor = factor * self.cycle_scales[nxt] ** 2
         base = self.street_cov(state) if self.street is not None else \
             self.unit.innovation_cov[None]
         return base * factor[:, None, None]
@@ -396,7 +445,7 @@ class ExtendedModel:
 
         As :meth:`ARErrorModel.simulate`, stepping through time vectorised
         over agents. The lag is not applied (it needs the truth): add
-        :func:`lag_offsets` of the trajectory.
+        :func:`~.motion_lag.lag_offsets` of the trajectory.
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         if out is None:
@@ -408,64 +457,6 @@ class ExtendedModel:
         for k in range(1, n_steps):
             out[k] = self.advance(state, keys, start + k)
         return out
-
-
-def lag_offsets(t, north, east, lag_s, at=None):
-    """
-    Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
-
-    The truth is sampled at times ``t`` (s, increasing) as ``north``/``east``
-    in a local frame and interpolated linearly; ``at`` defaults to ``t``.
-    Before the first sample the truth is held (offset toward the first
-    position).
-    """
-    t = np.asarray(t, dtype=float)
-    at = t if at is None else np.asarray(at, dtype=float)
-    out = np.zeros((at.size, 2))
-    if lag_s == 0.0 or at.size == 0:
-        return out
-    for a, x in enumerate((north, east)):
-        out[:, a] = np.interp(at - lag_s, t, x) - np.interp(at, t, x)
-    return out
-
-
-class LagBuffer:
-    """
-    Recent positions per named agent, to report where each was ``lag_s`` ago.
-
-    For trajectories streamed one time step at a time (SUMO FCD): positions
-    are kept for ``lag_s`` plus one sample and interpolated linearly in the
-    coordinates given; before an agent's first sample its first position is
-    held.
-    """
-
-    def __init__(self, lag_s):
-        self.lag_s = float(lag_s)
-        self.hist = {}
-
-    def lagged(self, names, t, x, y):
-        """Store (t, x, y) per agent; return the positions ``lag_s`` earlier."""
-        ox, oy = np.array(x, dtype=float), np.array(y, dtype=float)
-        if self.lag_s == 0.0:
-            return ox, oy
-        want = t - self.lag_s
-        for i, n in enumerate(names):
-            h = self.hist.setdefault(n, [])
-            h.append((t, ox[i], oy[i]))
-            while len(h) > 2 and h[1][0] <= want:
-                h.pop(0)
-            if len(h) > 1 and h[0][0] <= want:
-                (t0, x0, y0), (t1, x1, y1) = h[0], h[1]
-                w = (want - t0) / (t1 - t0) if t1 > t0 else 0.0
-                ox[i], oy[i] = x0 + w * (x1 - x0), y0 + w * (y1 - y0)
-            else:
-                ox[i], oy[i] = h[0][1], h[0][2]
-        return ox, oy
-
-    def forget(self, names):
-        """Drop the history of agents that left."""
-        for n in names:
-            self.hist.pop(n, None)
 
 
 def build_model(north, east, effects=None):

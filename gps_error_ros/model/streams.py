@@ -69,6 +69,9 @@ DOMAIN_REPORTED = 9
 #: Reported accuracy: the initial fluctuation's normal pair, one per start step.
 DOMAIN_INIT_REPORTED = 10
 
+#: Periodic effect: the agent's phase in the cycle, one uniform at position 0.
+DOMAIN_PERIODIC = 11
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -78,6 +81,7 @@ DOMAINS = {
     'outage': DOMAIN_OUTAGE, 'init_outage': DOMAIN_INIT_OUTAGE,
     'velocity': DOMAIN_VELOCITY, 'init_velocity': DOMAIN_INIT_VELOCITY,
     'reported': DOMAIN_REPORTED, 'init_reported': DOMAIN_INIT_REPORTED,
+    'periodic': DOMAIN_PERIODIC,
 }
 
 

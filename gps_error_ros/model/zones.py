@@ -220,6 +220,7 @@ def zone_models(zone_map, profile):
     base = default.model()
     models, built = [], {}
     inner = getattr(base, 'inner', base)
+    _no_cycle(inner, f'{zone_map.path}: default profile {default.name}')
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
         if zp.path == default.path:
@@ -237,6 +238,7 @@ def zone_models(zone_map, profile):
                     f'{section} comes from the default profile ({default.name}) '
                     f'everywhere')
         model = built.setdefault(zp.path, zp.model())   # zones may share a profile
+        _no_cycle(model, where)
         if model.lag_s != base.lag_s:
             raise ZoneMapError(f'{where}: motion_lag {model.lag_s} s differs from the '
                                f'default profile {default.name}\'s {base.lag_s} s; '
@@ -244,3 +246,11 @@ def zone_models(zone_map, profile):
         models.append(model)
     models.append(inner)
     return default, models
+
+
+def _no_cycle(model, where):
+    """Refuse a model with the ``periodic`` effect: zones do not carry its phase."""
+    if getattr(model, 'periodic', None) is not None:
+        raise ZoneMapError(f'{where}: has the periodic effect; expected none: a zone '
+                           f'map does not carry a cycle\'s phase from zone to zone yet '
+                           f'(run without zones, or drop effects.periodic)')

@@ -37,7 +37,7 @@ from gps_error_ros.model.zoned import TravelDirections, ZonedErrors
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
                                             StreamTracker)
-from gps_error_ros.model.effects import LagBuffer
+from gps_error_ros.model.motion_lag import LagBuffer
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv

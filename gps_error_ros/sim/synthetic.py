@@ -31,8 +31,14 @@ street_canyon       innovations along and across the street being walked,
                     not the direction of travel, and holds while waiting
                     at a corner; the walker turns at half the corners, not
                     a quarter (street_frame)
-periodic            a 16 s oscillation of 2.5 m (north) and 2 m (east), like
-                    the periodicity seen in a Pixel 4 trace (outside the
+periodic            a 16 s sine of 4 m (north) and 3.5 m (east) added to the
+                    reported error, not to the innovations (periodic)
+engine_cycle        a position engine that refreshes every 8 s: the refresh
+                    step's innovation 2.5x, the next 1.3x, the other six
+                    0.8x; the cycle's start at random (periodic; the shape
+                    is a burst, not a sine)
+drifting_wave       the sine of ``periodic`` with its period drifting from
+                    12 s to 20 s over the walk: no fixed cycle (outside the
                     list: ``unexplained``)
 ==================  =========================================================
 
@@ -58,7 +64,9 @@ SCENARIOS = {
     'canyon_levels': (('variance_regimes',), False),
     'canyon_gradual': (('variance_regimes',), False),
     'street_canyon': (('street_frame',), False),
-    'periodic': ((), True),
+    'periodic': (('periodic',), False),
+    'engine_cycle': (('periodic',), False),
+    'drifting_wave': ((), True),
 }
 EFFECT_FREE = ('none', 'ar5', 'quantised')
 
@@ -104,6 +112,10 @@ def _innovations(scenario, n, rng, heading_avenue):
             lv = int(rng.choice([k for k in range(3) if k != lv]))
             i += dwell
         w *= scale[:, None] / np.sqrt(np.mean(levels ** 2))
+    elif scenario == 'engine_cycle':
+        shape = np.array([2.5, 1.3] + [0.8] * 6)
+        scale = shape[(np.arange(n) + int(rng.integers(8))) % 8]
+        w *= scale[:, None] / np.sqrt(np.mean(shape ** 2))
     elif scenario == 'canyon_gradual':
         t = np.arange(n)
         scale = np.exp(0.5 * np.sin(2 * np.pi * t / 600.0 + rng.uniform(0, 6.3)))
@@ -154,10 +166,16 @@ def synthetic_trace(scenario, seed, duration=3600):
     err = np.stack([signal.lfilter([1.0], a, w[:, k]) for k in range(2)],
                    axis=1)[burn:]
     err += BIAS
-    if scenario == 'periodic':
+    if scenario in ('periodic', 'drifting_wave'):
         ph = rng.uniform(0, 2 * np.pi, 2)
-        err[:, 0] += 2.5 * np.sin(2 * np.pi * t / 16.0 + ph[0])
-        err[:, 1] += 2.0 * np.sin(2 * np.pi * t / 16.0 + ph[1])
+        if scenario == 'periodic':
+            cycles = t / 16.0
+        else:               # the period drifts from 12 s to 20 s over the walk
+            period = 12.0 + 8.0 * t / duration
+            cycles = np.cumsum(1.0 / period)
+        amp = (4.0, 3.5)
+        err[:, 0] += amp[0] * np.sin(2 * np.pi * cycles + ph[0])
+        err[:, 1] += amp[1] * np.sin(2 * np.pi * cycles + ph[1])
     rep_n, rep_e = north.copy(), east.copy()
     if scenario == 'receiver_latency':
         # latency wandering between 1.5 and 3 s (processing load), plus a

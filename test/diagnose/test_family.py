@@ -67,3 +67,24 @@ def test_kurtosis_and_persistence_tell_tails_from_regimes():
     reg = rng.normal(size=(3000, 2)) * scale[:, None]
     tests = innovation_tests(reg, seg, (1, 1))
     assert tests['squared_persistence']['p_value'] < 1e-6
+
+
+def test_periodicity_keeps_its_level_and_finds_cycles():
+    """Nulls with persistent variance do not reject; a cycle of 7 steps does."""
+    from gps_error_ros.diagnose.family import periodicity_test
+    rng = np.random.default_rng(21)
+    n = 1200
+    seg = np.r_[np.zeros(600, int), np.ones(600, int)]
+    steps = np.r_[np.arange(600), 650 + np.arange(600)]
+    ps = []
+    for _ in range(20):           # white, and variance levels lasting ~40 steps
+        level = np.repeat(rng.choice([1.0, 3.0], size=n // 40 + 1), 40)[:n]
+        ps.append(periodicity_test(rng.normal(size=(n, 2)) * level[:, None], seg, steps,
+                                   draws=100)['p_value'])
+    assert np.mean(np.array(ps) <= 0.05) <= 0.15, ps          # 5 % expected; 20 draws
+    scale = np.where(steps % 7 == 3, 2.0, 0.85)               # variance, not a sine
+    t = periodicity_test(rng.normal(size=(n, 2)) * scale[:, None], seg, steps)
+    assert t['p_value'] < 0.01 and t['at_period'] in (7, 14, 21, 28) and t['in'] == 'variance'
+    mean = np.where(steps % 5 < 2, 0.6, -0.4)[:, None]       # a cycle in the mean
+    t = periodicity_test(rng.normal(size=(n, 2)) + mean, seg, steps)
+    assert t['p_value'] < 0.01 and t['at_period'] % 5 == 0 and t['in'] == 'mean'

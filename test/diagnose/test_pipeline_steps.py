@@ -17,7 +17,7 @@ from gps_error_ros.sim.synthetic import synthetic_trace
 
 FAMILY = {'motion_dependence', 'cross_axis_correlation', 'kurtosis',
           'squared_persistence', 'squared_oscillation', 'serial_north',
-          'serial_east', 'travel_frame'}
+          'serial_east', 'travel_frame', 'periodicity'}
 
 
 @pytest.fixture(scope='module')
@@ -52,7 +52,7 @@ def test_base_model_takes_calibrations_pacf_orders(coupled):
     assert base.n_train == sum(max(0, len(e) - m0) for e in split.train.err)
 
 
-def test_family_is_holm_over_eight_tests(coupled):
+def test_family_is_holm_over_nine_tests(coupled):
     _, _, _, family = coupled
     assert set(family.tests) == FAMILY
     reject, adjusted = holm({k: t['p_value'] for k, t in family.tests.items()}, ALPHA)
@@ -80,6 +80,15 @@ def test_attribution_follows_the_rejections(coupled):
     assert set(att.evidence['heavy_tails']['bic']) >= {'neither', 'heavy_tails'}
     assert [u['stage'] for u in att.unexplained] == ['base model']
     assert 'periodic variance' in att.unexplained[0]['structure']
+    # a cycle found: periodic, at the divisor of the test's period with the
+    # lowest training BIC; the squared innovations' oscillation is then its
+    tests['periodicity'].update(at_period=12, p_value=1e-3, statistic=9.0, **{'in': 'mean'})
+    reject['periodicity'] = True
+    att = attribute(split, base, FamilyResult(tests, reject, {k: 0.5 for k in FAMILY}))
+    assert att.effects == ['heavy_tails', 'periodic'] and att.unexplained == []
+    bics = att.evidence['periodic']['bic_by_period']
+    assert set(bics) == {'2', '3', '4', '6', '12'}
+    assert att.period == int(min(bics, key=bics.get))
 
 
 def test_extended_fit_and_retest(coupled):

@@ -10,7 +10,8 @@ from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.sim.simulate import simulate_csv
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.model.effects import (Effects, effects_from_dict, EffectsError,
-                                         ExtendedModel, lag_offsets, LagBuffer)
+                                         ExtendedModel)
+from gps_error_ros.model.motion_lag import lag_offsets, LagBuffer
 from gps_error_ros.sim.engine import FixEngine, NS
 from gps_error_ros.model.geodesy import difference, offset
 from gps_error_ros.model.profiles import load_profile, ProfileError

@@ -21,10 +21,14 @@ REPORTED = {'source': 'accuracy', 'median_m': 3.0, 'follow': 1.0, 'phi': 0.9,
             'sigma_log': 0.3, 'resolution_m': 0.5, 'scale_m': 0.0}
 
 
-def regime_profile(tmp_path, reported=None):
+def regime_profile(tmp_path, reported=None, cycle=False):
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
     raw['effects'] = {'variance_regimes': {'scales': [1.0, 2.5],
                                            'transition': [[0.9, 0.1], [0.2, 0.8]]}}
+    if cycle:           # the periodic effect: the next phase's scale enters too
+        raw['effects']['periodic'] = {'period_steps': 4, 'scales': [2.0, 0.5, 1.0, 0.8],
+                                      'offsets': [[0.3, 0.0], [-0.3, 0.1], [0.0, -0.1],
+                                                  [0.0, 0.0]]}
     if reported:
         raw['reported_accuracy'] = reported
     path = tmp_path / 'regimes.yaml'
@@ -52,12 +56,13 @@ def expected(path, name):
             for k, c in covs.items()}
 
 
-@pytest.mark.parametrize('mode,crowd', [('conditional', False), ('conditional', True),
-                                        ('reported', False), ('reported', True)],
-                         ids=['conditional, one agent', 'conditional, crowd',
-                              'reported, one agent', 'reported, crowd'])
-def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd):
-    path = regime_profile(tmp_path, REPORTED if mode == 'reported' else None)
+@pytest.mark.parametrize('mode,crowd,cycle', [
+    ('conditional', False, False), ('conditional', True, False),
+    ('conditional', True, True), ('reported', False, False), ('reported', True, False)],
+    ids=['conditional, one agent', 'conditional, crowd', 'conditional, crowd, periodic',
+         'reported, one agent', 'reported, crowd'])
+def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd, cycle):
+    path = regime_profile(tmp_path, REPORTED if mode == 'reported' else None, cycle)
     ns = unique_ns()
     names = ['ann', 'bob'] if crowd else ['']
     extra = ['agents:=["ann", "bob"]'] if crowd else []

@@ -179,15 +179,32 @@ def test_crowd_parameter_errors():
         assert rc == 2 and hint in out, out
 
 
-def test_simulate_reproduces_what_the_node_publishes(tmp_path):
+def _cycle_profile(tmp_path):
+    """Write DS7 with the periodic effect (8-step cycle) and variance regimes."""
+    import yaml
+    from gps_error_ros.model.profiles import builtin_dir
+    raw = yaml.safe_load((builtin_dir() / 'DS7.yaml').read_text())
+    off = np.array([[0.9, -0.4], [-0.3, 0.2], [0.0, 0.1], [-0.6, 0.1]] * 2)
+    raw['effects'] = {
+        'periodic': {'period_steps': 8, 'scales': [1.8, 0.6, 0.7, 0.8] * 2,
+                     'offsets': (off - off.mean(axis=0)).round(6).tolist()},
+        'variance_regimes': {'scales': [1.0, 2.0], 'transition': [[0.9, 0.1], [0.2, 0.8]]}}
+    path = tmp_path / 'cycle.yaml'
+    path.write_text(yaml.safe_dump(raw))
+    return str(path)
+
+
+@pytest.mark.parametrize('cycle', [False, True], ids=['DS7', 'DS7 with a periodic cycle'])
+def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
     from gps_error_ros.sim.simulate import simulate_csv
     from gps_error_ros.model.geodesy import difference
     from ros_harness import DATUM
 
     ns = unique_ns()
     agents = ['walker_a', 'walker_b']
+    profile = _cycle_profile(tmp_path) if cycle else 'DS7'
     node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
-                        '-p', DATUM_ARG, '-p', 'seed:=4', '-p', 'profile:=DS7',
+                        '-p', DATUM_ARG, '-p', 'seed:=4', '-p', f'profile:={profile}',
                         '-p', f'max_pose_age:={MAX_AGE}',
                         '-p', 'agents:=["walker_a","walker_b"]'])
     peer = Peer()
@@ -215,7 +232,7 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path):
         for k in range(T0, T0 + 30):
             for a in agents:
                 f.write(f'{k},{a},{DATUM[0]!r},{DATUM[1]!r}\n')
-    simulate_csv(src, dst, load_profile('DS7').model(), 1.0, 4)
+    simulate_csv(src, dst, load_profile(profile).model(), 1.0, 4)
     import csv
     rows = list(csv.DictReader(open(dst)))
     sim = {(r['agent'], int(float(r['t']))): difference(

@@ -1,0 +1,68 @@
+"""
+Where the device was ``lag_s`` ago: the offsets of the ``motion_lag`` effect.
+
+A receiver that reports where the device was ``lag_s`` seconds ago has an
+error, relative to the truth at the stamp, of its noise plus ``truth(t -
+lag_s) - truth(t)``. :func:`lag_offsets` gives that term for a whole
+trajectory; :class:`LagBuffer` for trajectories streamed one step at a time.
+"""
+
+import numpy as np
+
+
+def lag_offsets(t, north, east, lag_s, at=None):
+    """
+    Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
+
+    The truth is sampled at times ``t`` (s, increasing) as ``north``/``east``
+    in a local frame and interpolated linearly; ``at`` defaults to ``t``.
+    Before the first sample the truth is held (offset toward the first
+    position).
+    """
+    t = np.asarray(t, dtype=float)
+    at = t if at is None else np.asarray(at, dtype=float)
+    out = np.zeros((at.size, 2))
+    if lag_s == 0.0 or at.size == 0:
+        return out
+    for a, x in enumerate((north, east)):
+        out[:, a] = np.interp(at - lag_s, t, x) - np.interp(at, t, x)
+    return out
+
+
+class LagBuffer:
+    """
+    Recent positions per named agent, to report where each was ``lag_s`` ago.
+
+    For trajectories streamed one time step at a time (SUMO FCD): positions
+    are kept for ``lag_s`` plus one sample and interpolated linearly in the
+    coordinates given; before an agent's first sample its first position is
+    held.
+    """
+
+    def __init__(self, lag_s):
+        self.lag_s = float(lag_s)
+        self.hist = {}
+
+    def lagged(self, names, t, x, y):
+        """Store (t, x, y) per agent; return the positions ``lag_s`` earlier."""
+        ox, oy = np.array(x, dtype=float), np.array(y, dtype=float)
+        if self.lag_s == 0.0:
+            return ox, oy
+        want = t - self.lag_s
+        for i, n in enumerate(names):
+            h = self.hist.setdefault(n, [])
+            h.append((t, ox[i], oy[i]))
+            while len(h) > 2 and h[1][0] <= want:
+                h.pop(0)
+            if len(h) > 1 and h[0][0] <= want:
+                (t0, x0, y0), (t1, x1, y1) = h[0], h[1]
+                w = (want - t0) / (t1 - t0) if t1 > t0 else 0.0
+                ox[i], oy[i] = x0 + w * (x1 - x0), y0 + w * (y1 - y0)
+            else:
+                ox[i], oy[i] = h[0][1], h[0][2]
+        return ox, oy
+
+    def forget(self, names):
+        """Drop the history of agents that left."""
+        for n in names:
+            self.hist.pop(n, None)
