@@ -184,8 +184,8 @@ def with_outages(calibrated, part, masks):
 
     ``masks``: the class's simulated fix masks over the part's span (sims,
     span), or None for a class without availability (it simulates a fix at
-    every step). The outage counts and steps in outages join the measures
-    and ``inside_95``.
+    every step). The outage measures (count, steps in outages, median and
+    longest outage) join the measures and ``inside_95``.
     """
     mask = part_fix_mask(part)
     if masks is None:

@@ -41,17 +41,22 @@ def inside(row):
 
 def outage_stats(mask, min_steps=MIN_OUTAGE_STEPS):
     """
-    Return (outages, steps in outages) of a fix mask on the 1 Hz grid.
+    Return (outages, steps in outages, median and longest outage) of a fix mask.
 
-    An outage is a run of ``min_steps`` or more steps without a fix (the
-    rule of ``calibrate``); shorter runs are dropped messages.
+    An outage is a run of ``min_steps`` or more steps without a fix on the
+    1 Hz grid (the rule of ``calibrate``); shorter runs are dropped messages.
+    The count gives the rate, the other three the durations (0 without an
+    outage).
     """
     long = [r for r in runs_without_fix(mask) if r >= min_steps]
-    return len(long), int(sum(long))
+    if not long:
+        return 0, 0, 0.0, 0
+    return len(long), int(sum(long)), float(np.median(long)), int(max(long))
 
 
 #: the outage measures, in the order of :func:`outage_stats`
-OUTAGE_MEASURES = ('outages', 'steps_in_outages')
+OUTAGE_MEASURES = ('outages', 'steps_in_outages', 'median_outage_steps',
+                   'longest_outage_steps')
 
 
 def outage_envelopes(mask, simulated_masks):
