@@ -218,6 +218,19 @@ def _calibrate_zones(args):
     return 0
 
 
+def improvement_note(summary):
+    """Return the remark diagnose prints under the held-out improvement, or None."""
+    if not summary['effects']:
+        return None
+    if not summary['selection']['kept']:
+        return 'no effect kept: the extended model is the base model'
+    lo, hi = summary['improvement']['ci95']
+    if lo <= 0.0 <= hi:
+        return ('the 95 % interval of the improvement spans zero: the held-out '
+                'part does not show that the extended model predicts better')
+    return None
+
+
 def cmd_diagnose(args):
     """Run ``gps_error diagnose``; return the exit code."""
     from gps_error_ros.diagnose import diagnose, extended_profile
@@ -248,11 +261,9 @@ def cmd_diagnose(args):
           f'after {s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
           f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
           f'{imp["ci95"][1]:.4f})')
-    if s['effects'] and not s['selection']['kept']:
-        print('  note: no effect kept: the extended model is the base model')
-    elif s['effects'] and imp['ci95'][0] <= 0.0 <= imp['ci95'][1]:
-        print('  note: the 95 % interval of the improvement spans zero: the held-out '
-              'part does not show that the extended model predicts better')
+    note = improvement_note(s)
+    if note:
+        print('  note: ' + note)
     _write_results(args, diag.to_dict(), 'diagnosis.png',
                    lambda path: diagnosis_figure(diag, path, trace.name))
     if args.profile_out:

@@ -69,6 +69,11 @@ SCENARIOS = {
     'drifting_wave': ((), True),
 }
 EFFECT_FREE = ('none', 'ar5', 'quantised')
+#: each scenario's own random stream, fixed so that adding a scenario
+#: leaves every other scenario's walks as they were
+STREAM = {'ar5': 0, 'canyon_gradual': 1, 'canyon_levels': 2, 'drifting_wave': 3,
+          'engine_cycle': 4, 'multipath': 5, 'none': 6, 'periodic': 7, 'quantised': 8,
+          'receiver_latency': 9, 'street_canyon': 10, 'street_ellipse': 11}
 
 PHI3 = (1.18, -0.06, -0.14)
 PHI5 = (1.05, 0.05, -0.02, -0.18, 0.05)
@@ -139,6 +144,35 @@ def _on_avenue(east, north, hold=False):
     return avenue
 
 
+def _add_wave(scenario, err, t, duration, rng):
+    """Add the sine of ``periodic`` (or ``drifting_wave``) to the reported error, in place."""
+    if scenario not in ('periodic', 'drifting_wave'):
+        return
+    ph = rng.uniform(0, 2 * np.pi, 2)
+    if scenario == 'periodic':
+        cycles = t / 16.0
+    else:               # the period drifts from 12 s to 20 s over the walk
+        period = 12.0 + 8.0 * t / duration
+        cycles = np.cumsum(1.0 / period)
+    amp = (4.0, 3.5)
+    err[:, 0] += amp[0] * np.sin(2 * np.pi * cycles + ph[0])
+    err[:, 1] += amp[1] * np.sin(2 * np.pi * cycles + ph[1])
+
+
+def _reported_track(scenario, north, east, t, duration, rng):
+    """Return the (north, east) track the receiver reports before its error."""
+    rep_n, rep_e = north.copy(), east.copy()
+    if scenario == 'receiver_latency':
+        # latency wandering between 1.5 and 3 s (processing load), plus a
+        # light 2-tap smoothing of the reported track
+        lat_s = np.clip(2.2 + np.cumsum(rng.normal(0, 0.05, duration)), 1.5, 3.0)
+        rep_n = np.interp(t - lat_s, t, north)
+        rep_e = np.interp(t - lat_s, t, east)
+        rep_n[1:] = 0.7 * rep_n[1:] + 0.3 * rep_n[:-1]
+        rep_e[1:] = 0.7 * rep_e[1:] + 0.3 * rep_e[:-1]
+    return rep_n, rep_e
+
+
 def synthetic_trace(scenario, seed, duration=3600):
     """
     Return a :class:`Trace` of a synthetic walk with ``scenario``'s effect.
@@ -151,7 +185,7 @@ def synthetic_trace(scenario, seed, duration=3600):
     duration = int(duration)
     if duration < 60:
         raise ValueError(f'duration must be >= 60 s, got {duration}')
-    rng = np.random.default_rng([seed, sorted(SCENARIOS).index(scenario)])
+    rng = np.random.default_rng([seed, STREAM[scenario]])
     # the street-frame scenario is a walk that turns corners: every other one
     walk = manhattan_walk(duration + 10, rng,
                           turn_probability=0.5 if scenario == 'street_canyon' else 0.25)
@@ -166,25 +200,8 @@ def synthetic_trace(scenario, seed, duration=3600):
     err = np.stack([signal.lfilter([1.0], a, w[:, k]) for k in range(2)],
                    axis=1)[burn:]
     err += BIAS
-    if scenario in ('periodic', 'drifting_wave'):
-        ph = rng.uniform(0, 2 * np.pi, 2)
-        if scenario == 'periodic':
-            cycles = t / 16.0
-        else:               # the period drifts from 12 s to 20 s over the walk
-            period = 12.0 + 8.0 * t / duration
-            cycles = np.cumsum(1.0 / period)
-        amp = (4.0, 3.5)
-        err[:, 0] += amp[0] * np.sin(2 * np.pi * cycles + ph[0])
-        err[:, 1] += amp[1] * np.sin(2 * np.pi * cycles + ph[1])
-    rep_n, rep_e = north.copy(), east.copy()
-    if scenario == 'receiver_latency':
-        # latency wandering between 1.5 and 3 s (processing load), plus a
-        # light 2-tap smoothing of the reported track
-        lat_s = np.clip(2.2 + np.cumsum(rng.normal(0, 0.05, duration)), 1.5, 3.0)
-        rep_n = np.interp(t - lat_s, t, north)
-        rep_e = np.interp(t - lat_s, t, east)
-        rep_n[1:] = 0.7 * rep_n[1:] + 0.3 * rep_n[:-1]
-        rep_e[1:] = 0.7 * rep_e[1:] + 0.3 * rep_e[:-1]
+    _add_wave(scenario, err, t, duration, rng)
+    rep_n, rep_e = _reported_track(scenario, north, east, t, duration, rng)
     lat0, lon0 = MANHATTAN_DATUM[0], MANHATTAN_DATUM[1]
     truth_lat, truth_lon = offset(lat0, lon0, north, east)
     lat, lon = offset(lat0, lon0, rep_n + err[:, 0], rep_e + err[:, 1])

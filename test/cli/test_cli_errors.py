@@ -1,8 +1,10 @@
 """Bad command lines and inputs: refused at parse time, naming what was wrong."""
 
+import re
+
 import pytest
 
-from gps_error_ros.cli import main as cli
+from gps_error_ros.cli import improvement_note, main as cli
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, TraceError, write_trace_csv
 
@@ -85,12 +87,27 @@ def test_calibrate_remarks_when_the_pacf_hits_the_largest_order(tmp_path, capsys
 
 
 def test_diagnose_remarks_when_the_improvement_may_be_nothing(tmp_path, capsys):
-    """A motion lag's held-out gain is small: its interval spans zero here."""
+    """The note follows the interval diagnose prints, whichever way this walk falls."""
     walk = write_trace_csv(synthetic_trace('receiver_latency', 1, 3600), tmp_path / 'w.csv')
     assert cli(['diagnose', str(walk), '--sims', '20']) == 0
     out = capsys.readouterr().out
     assert 'effects found: motion_lag' in out
-    assert 'interval of the improvement spans zero' in out
+    lo, hi = map(float, re.search(r'95 % CI (\S+) \.\. (\S+)\)', out).groups())
+    assert ('interval of the improvement spans zero' in out) == (lo <= 0.0 <= hi)
+
+
+@pytest.mark.parametrize('effects, kept, ci, expected', [
+    ([], [], (-0.1, 0.2), None),
+    (['motion_lag'], [], (0.0, 0.0), 'no effect kept'),
+    (['motion_lag'], ['motion_lag'], (-0.002, 0.01), 'spans zero'),
+    (['motion_lag'], ['motion_lag'], (0.0, 0.01), 'spans zero'),
+    (['motion_lag'], ['motion_lag'], (0.001, 0.01), None),
+])
+def test_the_improvement_note_says_when_the_gain_may_be_nothing(effects, kept, ci, expected):
+    note = improvement_note({'effects': [{'name': e} for e in effects],
+                             'selection': {'kept': kept},
+                             'improvement': {'ci95': list(ci)}})
+    assert (note is None) if expected is None else (expected in note)
 
 
 def test_messages_show_plain_numbers_and_the_profiles_that_have_fits(tmp_path, capsys):

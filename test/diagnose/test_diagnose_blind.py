@@ -17,7 +17,7 @@ import pytest
 from gps_error_ros.diagnose import ALPHA, diagnose, DiagnosisError
 from gps_error_ros.diagnose.family import holm
 from gps_error_ros.model.profiles import load_profile
-from gps_error_ros.sim.synthetic import SCENARIOS, synthetic_trace
+from gps_error_ros.sim.synthetic import SCENARIOS, STREAM, synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, write_trace_csv
 
 SEED = 1
@@ -42,6 +42,15 @@ def test_blind_attribution(scenario):
     reject, adjusted = holm({k: t['p_value'] for k, t in s['tests'].items()}, ALPHA)
     for k, t in s['tests'].items():
         assert t['holm_adjusted_p'] == adjusted[k] and t['rejected'] == reject[k]
+
+
+def test_every_scenario_has_its_own_fixed_stream():
+    """Adding a scenario must not change the walks of the others (seeded tests rely on it)."""
+    assert set(STREAM) == set(SCENARIOS)
+    assert len(set(STREAM.values())) == len(STREAM)
+    a, b = synthetic_trace('none', 4, 120), synthetic_trace('none', 4, 120)
+    assert (a.lat == b.lat).all() and (a.t == b.t).all()
+    assert not (a.lat == synthetic_trace('ar5', 4, 120).lat).all()
 
 
 def test_too_short_trace_is_refused_with_the_reason():
