@@ -2,7 +2,7 @@
 Step 4 of the diagnosis: from the rejected tests to effects, or ``unexplained``.
 
 A rejected test names the effect that explains it (motion, coupling, the
-travel frame, a cycle); where two effects explain the same test (tails or
+travel frame, a cycle, jumps that come back); where two effects explain the same test (tails or
 regimes; a fixed or a turning ellipse) the training BIC decides between
 them. What no effect explains is reported as ``unexplained``, never forced
 into an effect.
@@ -154,6 +154,11 @@ def attribute(split, base, family):
             att.effects.append(effect)
             att.evidence[effect] = {'test': test, **_pick(tests[test])}
     att.lag_s = family.lag_s if 'motion_lag' in att.effects else None
+    if reject['jump_reversal']:
+        att.effects.append('outliers')
+        t = tests['jump_reversal']
+        att.evidence['outliers'] = {'test': 'jump_reversal', **_pick(t),
+                                    'pairs': t['pairs'], 'large': t['large']}
     if reject['travel_frame']:
         _attribute_frame(split, base, family, att)
     if reject['squared_persistence'] or reject['kurtosis']:
@@ -174,6 +179,7 @@ def attribute(split, base, family):
                 'structure': RETEST_LABEL[k], 'stage': 'base model',
                 'lags_largest': tests[k]['largest_acf_lags'],
                 'p_value': tests[k]['p_value'], 'holm_adjusted_p': adjusted[k]})
+    att.effects[:] = [e for e in EFFECT_ORDER if e in att.effects]
     return att
 
 
@@ -189,7 +195,7 @@ RETEST_LABEL = {
 RETEST_EFFECTS = {
     'cross_axis_correlation': ('cross_axis_coupling', 'street_frame'),
     'squared_persistence': ('variance_regimes',),
-    'pit_uniformity': ('heavy_tails', 'variance_regimes'),
+    'pit_uniformity': ('heavy_tails', 'variance_regimes', 'outliers'),
     'serial_north': (),
     'serial_east': (),
 }

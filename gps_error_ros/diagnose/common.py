@@ -18,7 +18,7 @@ SERIAL_LAGS = 30
 #: Lags L (s) of the motion-dependence likelihood ratios.
 MOTION_TEST_LAGS = (1, 2, 3, 4, 5)
 #: Tests in the first-round family.
-N_TESTS = 9
+N_TESTS = 10
 #: Lags of the persistence tests of the squared innovations.
 PERSIST_LAGS = 10
 #: Smallest training and held-out parts, in samples on the 1 Hz grid.
@@ -28,7 +28,7 @@ MIN_TEST = 100
 FIDELITY_MAX_LAG = 30
 #: Effects in schema order (as ``gps_error_ros.model.effects.EFFECT_NAMES``).
 EFFECT_ORDER = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
-                'variance_regimes', 'street_frame', 'periodic')
+                'variance_regimes', 'street_frame', 'periodic', 'outliers')
 #: Cycle lengths (steps) the periodicity test looks at.
 PERIODS = tuple(range(2, 31))
 LOG2PI = math.log(2.0 * math.pi)

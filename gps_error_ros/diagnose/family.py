@@ -1,7 +1,7 @@
 """
 The test family of the diagnosis: what the innovations still carry.
 
-First round, on the base model's training innovations (eight tests, Holm's
+First round, on the base model's training innovations (ten tests, Holm's
 step-down procedure at family-wise level ``ALPHA``):
 
 - ``cross_axis_correlation``: lag-0 north-east correlation
@@ -23,6 +23,10 @@ step-down procedure at family-wise level ``ALPHA``):
 - ``periodicity``: a cycle of P steps in the innovations' mean or variance
   (:func:`periodicity_test`), P in ``PERIODS``, against blocks of the
   innovations with their phases shifted at random.
+- ``jump_reversal``: do large innovations come in pairs of opposite sign a
+  few steps apart (:func:`jump_reversal_test`): a fix that jumps away and
+  back leaves one at each end, a heavy-tailed innovation or a burst of
+  variance leaves large ones of unrelated signs.
 
 Second round (:func:`retest`), on the extended model's standardised
 innovations: serial and cross correlation, persistence, and the calibration
@@ -217,6 +221,58 @@ def periodicity_test(r, seg, steps, periods=PERIODS, block=CYCLE_BLOCK,
     p_value = (1 + int(np.sum(znull >= zobs[i, j]))) / (draws + 1)
     return {**out, 'statistic': float(zobs[i, j]), 'at_period': int(periods[i]),
             'in': ('mean', 'variance')[j], 'p_value': float(p_value)}
+
+
+#: Large innovations at most this many samples apart pair up (jump_reversal).
+REVERSAL_WINDOW = 10
+#: A squared Mahalanobis radius above this many times its robust scale is large
+#: (the 0.999 quantile of chi-squared with 2 degrees of freedom).
+REVERSAL_THRESHOLD = 13.8
+#: Draws of the random signs (the p-value is at least 1 / (draws + 1)).
+REVERSAL_DRAWS = 2000
+
+
+def robust_whitened(r):
+    """Return ``r`` centred and whitened by a covariance that gross outliers do not inflate."""
+    d = r - np.median(r, axis=0)
+    dev = np.abs(d)
+    mad = np.maximum(1.4826 * np.median(dev, axis=0), 1e-9)
+    keep = np.all(dev < 3.0 * mad, axis=1)
+    cov = np.cov(d[keep].T, bias=True) / 0.9733        # a Gaussian trimmed at 3 SD
+    return np.linalg.solve(np.linalg.cholesky(cov), d.T).T
+
+
+def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, seed=0):
+    """
+    Return the test for jumps of the fix that come back (the ``outliers`` effect).
+
+    A jump of the reported fix by ``o`` leaves an innovation of about ``o``
+    where it starts and about ``-o`` (times the AR's sum) where it ends, so
+    large innovations pair up with opposite directions. The statistic is
+    ``-sum cos`` over pairs of large innovations (squared radius above
+    ``REVERSAL_THRESHOLD`` robust units) at most ``window`` samples apart in
+    one segment. Its null multiplies every large innovation by an
+    independent random sign: exact for any centrally symmetric law of the
+    innovations, however their variance clusters in time (tails, regimes).
+    """
+    out = {'test': f'large innovations in opposite directions within {window} samples, '
+                   f'against random signs ({draws} draws)'}
+    z = robust_whitened(r)
+    q = np.sum(z * z, axis=1)
+    big = np.flatnonzero(q > REVERSAL_THRESHOLD * np.median(q) / math.log(4.0))
+    i, j = np.triu_indices(big.size, 1)
+    near = (big[j] - big[i] <= window) & (seg[big[j]] == seg[big[i]])
+    i, j = i[near], j[near]
+    if not i.size:
+        return {**out, 'statistic': 0.0, 'pairs': 0, 'large': int(big.size), 'p_value': 1.0}
+    u = z[big] / np.sqrt(q[big])[:, None]
+    cos = np.sum(u[i] * u[j], axis=1)
+    stat = float(-cos.sum())
+    signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(draws, big.size))
+    null = -(signs[:, i] * signs[:, j]) @ cos
+    p = (1 + int(np.sum(null >= stat - 1e-12))) / (draws + 1)
+    return {**out, 'statistic': stat, 'pairs': int(i.size), 'large': int(big.size),
+            'p_value': float(p)}
 
 
 def innovation_tests(r, seg, orders):

@@ -165,7 +165,7 @@ def law_from_vector(x, coupled, tails, regimes):
     cov = np.array([[sn * sn, rho * sn * se], [rho * sn * se, se * se]])
     dof = math.inf
     if tails:
-        dof = 2.0 + math.exp(x[i])
+        dof = 2.0 + max(math.exp(x[i]), 1e-3)      # never 2: the covariance must exist
         i += 1
     scales, trans = np.ones(1), np.ones((1, 1))
     k = regimes

@@ -9,21 +9,26 @@ the likelihood of the stage-1 innovations. With ``periodic`` the mean
 part has one constant per phase of the cycle, and the innovations are
 divided by their phase's scale (the root mean square of the phase's
 standardised innovations, averaging 1 in square) before the law is fitted;
-the likelihood carries the Jacobian of that division.
+the likelihood carries the Jacobian of that division. With ``outliers``
+the mean part predicts from the past with its jumps set aside, and the
+likelihood is the filter's mixture (:mod:`.jumps`).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 import numpy as np
 
+from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
 from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf
 from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
-                                         fit_mean_lag, MeanFit, to_travel_frame)
+                                         fit_mean_lag, least_squares, MeanFit,
+                                         to_travel_frame)
 from gps_error_ros.fit.calibration import CalibrationError, fit_axis
 from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
-from gps_error_ros.model.effects import build_model, Effects
+from gps_error_ros.model.effects import build_model, Effects, stationary_distribution
+from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.model.periodic import Periodic
 
 
@@ -38,12 +43,14 @@ class FittedModel:
     train_loglik: float
     n_train: int
     cycle_scales: np.ndarray = None     # periodic: (period,) innovation SD by phase
+    jumps: Outliers = None      # outliers: rate, mean length, size
 
     @property
     def n_params(self):
         """Return the number of free parameters."""
         return sum(p + 1 for p in self.orders) + self.law.n_params + \
-            int('motion_lag' in self.effects) + 3 * max(self.mean.period - 1, 0)
+            int('motion_lag' in self.effects) + 3 * max(self.mean.period - 1, 0) + \
+            3 * (self.jumps is not None)
 
     @property
     def bic(self):
@@ -79,6 +86,9 @@ class FittedModel:
             kw['periodic'] = Periodic(
                 int(self.mean.period), tuple(float(v) for v in self.cycle_scales),
                 tuple((float(a), float(b)) for a, b in self.mean.offsets))
+        if self.jumps is not None:
+            kw['outliers'] = Outliers(float(self.jumps.rate), float(self.jumps.mean_steps),
+                                      float(self.jumps.sigma_m))
         return Effects(**kw)
 
     def simulator(self):
@@ -110,11 +120,39 @@ class FittedModel:
         """
         d = design(part, self.orders, truth, self.mean.lag_s, self.mean.gain, m0=m0)
         r = self.mean.residuals(d)
+        if self.jumps is not None:
+            return self._score_jumps(r, d)
+        ll, r, pred = self._law_score(r, d)
+        return ll, r, d, pred
+
+    def _law_score(self, r, d):
+        """Return (log densities, residuals in the law's frame and scale, pred)."""
         if 'street_frame' in self.effects:      # the law is along/across the travel
             r = to_travel_frame(r, d.heading)
         r, log_jac = cycle_scaled(r, d, self.mean.period, self.cycle_scales)
         ll, pred = law_logpdf(self.law, r, d.seg)
-        return ll - log_jac, r, d, pred
+        return ll - log_jac, r, pred
+
+    def _score_jumps(self, r_obs, d, residuals=True):
+        """Score through the jump filter; the residuals returned have the jumps out."""
+        cov = average_cov(self.law, self.effects)
+        scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
+        jf = jumps.run_filter(r_obs, d.seg, self.mean.phi, cov, self.jumps, scale2,
+                              self.law.dof)
+        clean_ll, _, pred = self._law_score(jf.r, d)
+        ll = jumps.mixture_logpdf(jf, clean_ll, cov, self.jumps, scale2)
+        if not residuals:
+            return ll
+        _, r, _ = self._law_score(jf.innovations(), d)
+        return ll, r, d, pred
+
+
+def average_cov(law, effects):
+    """Return the innovations' covariance (north/east) averaged over regimes and directions."""
+    cov = law.cov
+    if 'street_frame' in effects:           # along/across: averaged over directions
+        cov = np.eye(2) * 0.5 * np.trace(cov)
+    return cov * float(stationary_distribution(law.transition) @ law.scales ** 2)
 
 
 def phase_scales(r, phase, period):
@@ -124,6 +162,11 @@ def phase_scales(r, phase, period):
         np.maximum(np.bincount(phase, minlength=period), 1)
     ms = np.where(ms > 0, ms, 1.0)
     return np.sqrt(ms / ms.mean())
+
+
+def cycle_scale2(d, period, scales):
+    """Return each sample's squared phase scale (None without a cycle)."""
+    return scales[d.phase(period)] ** 2 if period else None
 
 
 def cycle_scaled(r, d, period, scales):
@@ -148,6 +191,50 @@ def with_law(effects, orders, mean, r, d, regimes):
                        tuple(orders), mean, law, ll, len(r), scales)
 
 
+def _robust_cov(r):
+    """Return the covariance of ``r`` without its gross outliers (3 MADs per axis)."""
+    dev = np.abs(r - np.median(r, axis=0))
+    mad = 1.4826 * np.median(dev, axis=0)
+    keep = np.all(dev < 3.0 * np.maximum(mad, 1e-9), axis=1)
+    return np.cov(r[keep].T, bias=True) / 0.9733       # a Gaussian trimmed at 3 SD
+
+
+def with_jumps(effects, orders, mean, r, d, regimes):
+    """
+    Return the :class:`FittedModel` with ``outliers`` (see :mod:`.jumps`).
+
+    Twice: the jumps are set aside, the mean part refitted on the rest and
+    the law fitted on the clean steps; then the jump parameters by maximum
+    likelihood with the rest fixed.
+    """
+    cov, scale2, dof = _robust_cov(r), None, math.inf
+    params = Outliers(jumps.START[0], jumps.START[1],
+                      jumps.START[2] * math.sqrt(0.5 * np.trace(cov)))
+    others = tuple(e for e in effects if e != 'outliers')
+    for _ in range(2):
+        jf = jumps.run_filter(r, d.seg, mean.phi, cov, params, scale2, dof)
+        params = jumps.moment_start(jf, cov) or params
+        mean, _ = least_squares(jumps.cleaned_design(d, jf.offset), mean.lag_s, mean.gain,
+                                mean.period)
+        r = mean.residuals(d)
+        jf = jumps.run_filter(r, d.seg, mean.phi, cov, params, scale2, dof)
+        keep = jf.inside < 0.5
+        # the law of the clean steps: the filter's next pass knows its scale by
+        # phase (or a cycle's bursts pass for jumps) and its tails (or a large
+        # innovation, which persists, passes for a jump, which does not)
+        model = with_law(others, orders, mean, jf.r[keep], jumps.design_subset(d, keep),
+                         regimes)
+        cov, dof = average_cov(model.law, others), model.law.dof
+        scale2 = cycle_scale2(d, mean.period, model.cycle_scales)
+    model = replace(model, effects=tuple(e for e in EFFECT_ORDER if e in effects),
+                    jumps=params)
+    params = jumps.fit_params(
+        lambda p: float(np.sum(replace(model, jumps=p)._score_jumps(r, d, False))), params)
+    model = replace(model, jumps=params)
+    return replace(model, train_loglik=float(np.sum(model._score_jumps(r, d, False))),
+                   n_train=len(r))
+
+
 def fit_model(train, orders, effects, truth, lag_s=None, regimes=2, period=0):
     """
     Fit a model with ``effects`` (names) on the training part.
@@ -165,6 +252,8 @@ def fit_model(train, orders, effects, truth, lag_s=None, regimes=2, period=0):
         mean, r, d = fit_mean_lag(train, orders, truth, period)
     else:
         mean, r, d = fit_mean(train, orders, truth, lag_s, period=period)
+    if 'outliers' in effects:
+        return with_jumps(effects, orders, mean, r, d, regimes)
     return with_law(effects, orders, mean, r, d, regimes)
 
 

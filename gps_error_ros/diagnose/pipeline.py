@@ -49,8 +49,9 @@ from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_E
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
                                            N_TESTS, TRAIN_FRACTION)
-from gps_error_ros.diagnose.family import (holm, innovation_tests, motion_test,
-                                           periodicity_test, retest, travel_frame_test)
+from gps_error_ros.diagnose.family import (holm, innovation_tests, jump_reversal_test,
+                                           motion_test, periodicity_test, retest,
+                                           travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose.mean import to_travel_frame
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
@@ -159,7 +160,10 @@ def run_family(split, base, alpha=ALPHA):
     The mean part first: when the motion test rejects on its own (Holm's
     first step, alpha / m), the law's tests run on innovations with the lag
     removed, so that lag transients do not pass for tails or regimes.
-    Likewise the frame: when the travel-frame test rejects on its own and
+    Likewise a cycle (or periodic variance passes for tails; the scale of
+    the cycle's phases is taken out before the jumps are looked for, or its
+    bursts drown them), jumps that come back (or a jump passes for a heavy
+    tail), and the frame: when the travel-frame test rejects on its own and
     axes along/across the travel fit better than fixed ones, the other
     tests run on the innovations in that frame (a turning ellipse seen in
     fixed axes is a mixture, with the kurtosis of heavy tails).
@@ -172,13 +176,20 @@ def run_family(split, base, alpha=ALPHA):
         lagged = fit_model(split.train, base.orders, ('motion_lag',), split.truth)
         lag_s = lagged.mean.lag_s
         _, r_law, d_law, _ = lagged.score(split.train, split.truth)
+    effects, period = ('motion_lag',) * (lag_s is not None), 0
     cycle = periodicity_test(r_law, d_law.seg, d_law.steps)
     if cycle['p_value'] <= alpha / N_TESTS:
         # the law's tests without the cycle, or periodic variance passes for tails
-        effects = ('motion_lag',) * (lag_s is not None) + ('periodic',)
-        cyc = fit_model(split.train, base.orders, effects, split.truth, lag_s,
-                        period=cycle['at_period'])
+        effects, period = effects + ('periodic',), cycle['at_period']
+        cyc = fit_model(split.train, base.orders, effects, split.truth, lag_s, period=period)
         _, r_law, d_law, _ = cyc.score(split.train, split.truth)
+    reversal = jump_reversal_test(r_law, d_law.seg)
+    if reversal['p_value'] <= alpha / N_TESTS:
+        # the law's tests with the jumps set aside, or a jump passes for a tail;
+        # the filter allows tails (a large innovation persists, a jump does not)
+        jumpy = fit_model(split.train, base.orders, effects + ('heavy_tails', 'outliers'),
+                          split.truth, lag_s, period=period)
+        _, r_law, d_law, _ = jumpy.score(split.train, split.truth)
     frame = travel_frame_test(r_law, d_law.heading)
     r_tests = r_law
     if frame['p_value'] <= alpha / N_TESTS and travel_axes_win(r_law, d_law):
@@ -186,7 +197,7 @@ def run_family(split, base, alpha=ALPHA):
         r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, base.orders), 'travel_frame': frame,
-             'periodicity': cycle}
+             'periodicity': cycle, 'jump_reversal': reversal}
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k in tests:
         tests[k]['holm_adjusted_p'] = adjusted[k]

@@ -1,8 +1,9 @@
 """
 Model extensions beyond the paper's AR(p): the ``effects`` of a profile.
 
-A profile's optional ``effects`` section adds any of four effects to the AR
-process of :mod:`ar_model` (written by ``gps_error diagnose --profile-out``)::
+A profile's optional ``effects`` section adds any of these effects to the AR
+process of :mod:`ar_model` (written by ``gps_error diagnose --profile-out``;
+the schema is :mod:`effect_schema`)::
 
     effects:
       cross_axis_coupling: {innovation_corr: 0.35}
@@ -12,11 +13,12 @@ process of :mod:`ar_model` (written by ``gps_error diagnose --profile-out``)::
                          transition: [[0.98, 0.02], [0.05, 0.95]]}
       street_frame: {sigma_along: 0.6, sigma_across: 1.4}
       periodic: {period_steps: 8, scales: [...], offsets: [[n, e], ...]}
+      outliers: {rate: 0.01, mean_steps: 2.0, sigma_m: 12.0}
 
 The process, per model step ``k``::
 
     u(k) = delta + sum_i phi_i u(k - i) + s[r(k)] * w(k)
-    reported position = truth(t - lag_s) + u(k)
+    reported position = truth(t - lag_s) + u(k) + o(k)
 
 * ``w(k)`` has covariance ``[[sn^2, c sn se], [c sn se, se^2]]`` with
   ``sn, se`` the axes' ``sigma_w`` and ``c`` the ``innovation_corr``; it is
@@ -43,190 +45,31 @@ The process, per model step ``k``::
 * ``periodic`` (:mod:`periodic`): at the agent's phase ``j`` of a cycle of
   ``period_steps`` the innovation is ``offsets[j] + scales[j] * s[r(k)] *
   w(k)``; the state carries the phase.
+* ``o(k)`` (:mod:`outliers`): zero, or a jump's offset held for a few steps;
+  outside the AR recursion, so it does not persist once the jump ends.
 
 Covariance: the AR part is linear, so its stationary covariance is the
 Lyapunov solution for the *average* innovation covariance, ``E[s^2]`` times
 the covariance of ``w``, with ``E[s^2] = sum_j pi_j scales[j]^2`` over the
-chain's stationary distribution ``pi``. That unconditional covariance is
-what the node publishes (it does not depend on the hidden regime; the
-Student-t scaling keeps the covariance of ``w`` as stated). The lag term is a
-motion-dependent offset, not part of it.
+chain's stationary distribution ``pi``, plus the cycle's and the jumps' own
+(exact) parts. That unconditional covariance is what the node publishes
+(it does not depend on the hidden regime; the Student-t scaling keeps the
+covariance of ``w`` as stated). The lag term is a motion-dependent offset,
+not part of it.
 """
 
-from dataclasses import dataclass
 import math
 
 import numpy as np
 from scipy import special
 
 from gps_error_ros.model import streams
+from gps_error_ros.model import outliers as jumps
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
-from gps_error_ros.model.periodic import (agent_phases, mean_autocovariance, periodic_from_dict,
-                                          periodic_mean)
-
-EFFECT_NAMES = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
-                'variance_regimes', 'street_frame', 'periodic')
-_KEYS = {
-    'cross_axis_coupling': ('innovation_corr',),
-    'motion_lag': ('lag_s',),
-    'heavy_tails': ('dof',),
-    'variance_regimes': ('scales', 'transition'),
-    'street_frame': ('sigma_along', 'sigma_across'),
-    'periodic': ('period_steps', 'scales', 'offsets'),
-}
-#: Metres the truth must move in one second for its direction to count as
-#: the direction of travel (street_frame); slower, the last direction holds.
-MOVING_M = 0.1
-MAX_LAG_S = 10.0
-MAX_DOF = 1000.0
-
-
-class EffectsError(ValueError):
-    """An ``effects`` section that does not match the schema."""
-
-
-def stationary_distribution(transition):
-    """Return the stationary distribution of a row-stochastic matrix."""
-    p = np.asarray(transition, dtype=float)
-    k = p.shape[0]
-    a = np.vstack([p.T - np.eye(k), np.ones(k)])
-    b = np.r_[np.zeros(k), 1.0]
-    pi = np.linalg.lstsq(a, b, rcond=None)[0]
-    return np.clip(pi, 0.0, None) / np.clip(pi, 0.0, None).sum()
-
-
-@dataclass(frozen=True)
-class Effects:
-    """Parsed effects (defaults: none of them)."""
-
-    innovation_corr: float = 0.0
-    lag_s: float = 0.0
-    dof: float = math.inf
-    scales: tuple = (1.0,)
-    transition: tuple = ((1.0,),)
-    street: tuple = None        # (sigma_along, sigma_across), m
-    periodic: object = None     # a periodic.Periodic
-
-    @property
-    def names(self):
-        """Return the names of the effects present, in schema order."""
-        present = (self.innovation_corr != 0.0, self.lag_s != 0.0,
-                   math.isfinite(self.dof), len(self.scales) > 1, self.street is not None,
-                   self.periodic is not None)
-        return tuple(n for n, p in zip(EFFECT_NAMES, present) if p)
-
-    @property
-    def regime_probabilities(self):
-        """Return the regimes' stationary probabilities."""
-        return stationary_distribution(self.transition)
-
-    @property
-    def variance_factor(self):
-        """Return the average innovation variance multiplier (regimes and cycle)."""
-        cycle = 1.0 if self.periodic is None else self.periodic.variance_factor
-        return float(self.regime_probabilities @ np.square(self.scales)) * cycle
-
-    def to_dict(self):
-        """Return the ``effects`` section as plain data (present ones only)."""
-        out = {}
-        if self.innovation_corr:
-            out['cross_axis_coupling'] = {
-                'innovation_corr': round(float(self.innovation_corr), 6)}
-        if self.lag_s:
-            out['motion_lag'] = {'lag_s': round(float(self.lag_s), 4)}
-        if math.isfinite(self.dof):
-            out['heavy_tails'] = {'dof': round(float(self.dof), 4)}
-        if len(self.scales) > 1:
-            rows = []
-            for i, row in enumerate(self.transition):
-                r = [round(float(v), 6) for v in row]
-                r[i] = round(1.0 - sum(v for j, v in enumerate(r) if j != i), 6)
-                rows.append(r)
-            out['variance_regimes'] = {
-                'scales': [round(float(v), 6) for v in self.scales],
-                'transition': rows}
-        if self.street is not None:
-            out['street_frame'] = {'sigma_along': round(float(self.street[0]), 6),
-                                   'sigma_across': round(float(self.street[1]), 6)}
-        if self.periodic is not None:
-            out['periodic'] = self.periodic.to_dict()
-        return out
-
-
-def _num(source, key, value, lo, hi, lo_open=True):
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and \
-        math.isfinite(value) and (value > lo if lo_open else value >= lo) and \
-        value <= hi
-    if not ok:
-        bracket = '(' if lo_open else '['
-        raise EffectsError(f'{source}: key {key!r}: expected a number in '
-                           f'{bracket}{lo}, {hi}], got {value!r}')
-    return float(value)
-
-
-def effects_from_dict(raw, source='<profile>'):
-    """Validate a profile's ``effects`` mapping; return :class:`Effects`."""
-    if raw is None:
-        return Effects()
-    if not isinstance(raw, dict):
-        raise EffectsError(f'{source}: key \'effects\': expected a mapping, '
-                           f'got {raw!r}')
-    kw = {}
-    for name, body in raw.items():
-        key = f'effects.{name}'
-        if name not in _KEYS:
-            raise EffectsError(f'{source}: key {key!r}: unknown effect; '
-                               f'expected one of {list(EFFECT_NAMES)}')
-        want = _KEYS[name]
-        if not isinstance(body, dict) or sorted(body) != sorted(want):
-            raise EffectsError(f'{source}: key {key!r}: expected a mapping with '
-                               f'exactly {list(want)}, got {body!r}')
-        if name == 'cross_axis_coupling':
-            kw['innovation_corr'] = _num(source, f'{key}.innovation_corr',
-                                         body['innovation_corr'], -0.99, 0.99,
-                                         lo_open=False)
-        elif name == 'motion_lag':
-            kw['lag_s'] = _num(source, f'{key}.lag_s', body['lag_s'], 0.0,
-                               MAX_LAG_S)
-        elif name == 'heavy_tails':
-            kw['dof'] = _num(source, f'{key}.dof', body['dof'], 2.0, MAX_DOF)
-        elif name == 'street_frame':
-            kw['street'] = tuple(_num(source, f'{key}.{k}', body[k], 0.0, 1e6)
-                                 for k in ('sigma_along', 'sigma_across'))
-        elif name == 'periodic':
-            try:
-                kw['periodic'] = periodic_from_dict(body, source, key)
-            except ValueError as exc:
-                raise EffectsError(str(exc)) from None
-        else:
-            kw.update(_regimes(source, key, body))
-    if 'street' in kw and kw.get('innovation_corr'):
-        raise EffectsError(f'{source}: key \'effects\': street_frame and '
-                           f'cross_axis_coupling both set the innovation covariance; '
-                           f'expected one of them')
-    return Effects(**kw)
-
-
-def _regimes(source, key, body):
-    scales, trans = body['scales'], body['transition']
-    if not isinstance(scales, list) or len(scales) < 2:
-        raise EffectsError(f'{source}: key {key + ".scales"!r}: expected a list '
-                           f'of at least 2 positive numbers, got {scales!r}')
-    scales = tuple(_num(source, f'{key}.scales[{i}]', v, 0.0, 1e3)
-                   for i, v in enumerate(scales))
-    k = len(scales)
-    if not isinstance(trans, list) or len(trans) != k or not all(
-            isinstance(r, list) and len(r) == k for r in trans):
-        raise EffectsError(f'{source}: key {key + ".transition"!r}: expected a '
-                           f'{k}x{k} list of rows (one per scale), got {trans!r}')
-    rows = tuple(tuple(_num(source, f'{key}.transition[{i}][{j}]', v, 0.0, 1.0,
-                            lo_open=False) for j, v in enumerate(r))
-                 for i, r in enumerate(trans))
-    for i, r in enumerate(rows):
-        if abs(sum(r) - 1.0) > 1e-5:
-            raise EffectsError(f'{source}: key {key}.transition[{i}]: expected '
-                               f'a row summing to 1, got sum {sum(r)!r}')
-    return {'scales': scales, 'transition': rows}
+from gps_error_ros.model.effect_schema import (  # noqa: F401 (the schema, re-exported)
+    EFFECT_NAMES, Effects, effects_from_dict, EffectsError, MAX_DOF, MAX_LAG_S, MOVING_M,
+    stationary_distribution)
+from gps_error_ros.model.periodic import agent_phases, mean_autocovariance, periodic_mean
 
 
 class ExtendedModel:
@@ -238,7 +81,9 @@ class ExtendedModel:
     (the cycle's mean included), ``[:, 0, p]`` the current regime's index,
     ``[:, 1, p]`` the direction of travel (radians from north, clockwise;
     street_frame), ``[:, 0, p + 1]`` the current phase and ``[:, 1, p + 1]``
-    the agent's offset in the cycle (periodic). Draws come from the agents'
+    the agent's offset in the cycle (periodic); with ``outliers`` two more
+    columns, ``[:, :, c]`` the jump's (north, east) offset and ``[:, 0, c + 1]``
+    1.0 while a jump lasts (``c`` the first free column). Draws come from the agents'
     counter-based streams, one position per model step, so an agent's errors
     do not depend on how many agents are simulated together or when its
     state was created.
@@ -271,7 +116,9 @@ class ExtendedModel:
             self.cycle_scales = np.asarray(self.periodic.scales, dtype=float)
             self.cycle_offsets = np.asarray(self.periodic.offsets, dtype=float)
             self.cycle_mean = periodic_mean(self.phi, self.cycle_offsets)
-        self._width = self.order + 1 + (self.periodic is not None)
+        self.outliers = effects.outliers
+        self._jump = self.order + 1 + (self.periodic is not None)
+        self._width = self._jump + 2 * (self.outliers is not None)
 
     @property
     def stationary_cov(self):
@@ -288,6 +135,8 @@ class ExtendedModel:
         out = self.unit.autocovariance(max_lag) * self.effects.variance_factor
         if self.periodic is not None:
             out = out + mean_autocovariance(self.cycle_mean, max_lag)
+        if self.outliers is not None:
+            out = out + self.outliers.autocovariance(max_lag)[:, None, None] * np.eye(2)
         return out
 
     def autocorrelation(self, max_lag):
@@ -329,6 +178,10 @@ class ExtendedModel:
             state[:, 1, p + 1], state[:, 0, p + 1] = offset, phase
             for i in range(p):          # the lags sit at their phases' cycle mean
                 state[:, :, i] += self.cycle_mean[(phase - i) % period]
+        if self.outliers is not None:
+            c = self._jump
+            state[:, 0, c + 1], state[:, :, c] = jumps.initial_offsets(self.outliers, keys,
+                                                                       index)
         return state
 
     def advance(self, state, keys, index, heading=None):
@@ -365,6 +218,13 @@ class ExtendedModel:
             w += self.phi[:, i] * state[:, :, i]
         state[:, :, 1:p] = state[:, :, 0:p - 1]
         state[:, :, 0] = w
+        if self.outliers is not None:
+            c = self._jump
+            off = state[:, :, c].copy()
+            inside = state[:, 0, c + 1].copy()
+            jumps.advance_offsets(self.outliers, inside, off, keys, index)
+            state[:, :, c], state[:, 0, c + 1] = off, inside
+            return w + self.mean + off
         return w + self.mean
 
     def _street_innovations(self, state, z, heading):
@@ -391,7 +251,9 @@ class ExtendedModel:
         return out
 
     def errors(self, state):
-        """Return the current errors, mean included, shape (n, 2)."""
+        """Return the current errors, mean (and any jump) included, shape (n, 2)."""
+        if self.outliers is not None:
+            return state[:, :, 0] + self.mean + state[:, :, self._jump]
         return state[:, :, 0] + self.mean
 
     def predictive_cov(self, state, first=False):
@@ -403,6 +265,8 @@ class ExtendedModel:
         stationary law) and the next phase's squared scale (``first``: the
         cycle's average); heavy tails keep the unit variance. With
         street_frame the covariance is turned to the last direction of travel.
+        With outliers the next offset's covariance given the jump state is
+        added (:func:`~.outliers.offset_cov`).
         """
         n = state.shape[0]
         factor = np.ones(n)
@@ -420,7 +284,12 @@ class ExtendedModel:
                 factor = factor * self.cycle_scales[nxt] ** 2
         base = self.street_cov(state) if self.street is not None else \
             self.unit.innovation_cov[None]
-        return base * factor[:, None, None]
+        cov = base * factor[:, None, None]
+        if self.outliers is not None:
+            c = self._jump
+            cov = cov + jumps.offset_cov(self.outliers, state[:, 0, c + 1], state[:, :, c],
+                                         first)
+        return cov
 
     def regimes(self, state):
         """Return the current regime index of each agent."""

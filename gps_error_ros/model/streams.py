@@ -72,6 +72,15 @@ DOMAIN_INIT_REPORTED = 10
 #: Periodic effect: the agent's phase in the cycle, one uniform at position 0.
 DOMAIN_PERIODIC = 11
 
+#: Outliers: the jump's start-or-end uniform, one per model step.
+DOMAIN_OUTLIER = 12
+#: Outliers: a starting jump's offset, one normal pair per model step.
+DOMAIN_OUTLIER_JUMP = 13
+#: Outliers: whether the initial state is in a jump, one uniform per start step.
+DOMAIN_INIT_OUTLIER = 14
+#: Outliers: the initial jump's offset, one normal pair per start step.
+DOMAIN_INIT_OUTLIER_JUMP = 15
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -81,7 +90,9 @@ DOMAINS = {
     'outage': DOMAIN_OUTAGE, 'init_outage': DOMAIN_INIT_OUTAGE,
     'velocity': DOMAIN_VELOCITY, 'init_velocity': DOMAIN_INIT_VELOCITY,
     'reported': DOMAIN_REPORTED, 'init_reported': DOMAIN_INIT_REPORTED,
-    'periodic': DOMAIN_PERIODIC,
+    'periodic': DOMAIN_PERIODIC, 'outlier': DOMAIN_OUTLIER,
+    'outlier_jump': DOMAIN_OUTLIER_JUMP, 'init_outlier': DOMAIN_INIT_OUTLIER,
+    'init_outlier_jump': DOMAIN_INIT_OUTLIER_JUMP,
 }
 
 

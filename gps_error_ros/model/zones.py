@@ -249,8 +249,12 @@ def zone_models(zone_map, profile):
 
 
 def _no_cycle(model, where):
-    """Refuse a model with the ``periodic`` effect: zones do not carry its phase."""
+    """Refuse the ``periodic`` and ``outliers`` effects: zones do not carry their state."""
     if getattr(model, 'periodic', None) is not None:
         raise ZoneMapError(f'{where}: has the periodic effect; expected none: a zone '
                            f'map does not carry a cycle\'s phase from zone to zone yet '
                            f'(run without zones, or drop effects.periodic)')
+    if getattr(model, 'outliers', None) is not None:
+        raise ZoneMapError(f'{where}: has the outliers effect; expected none: a zone '
+                           f'map does not carry a jump under way from zone to zone yet '
+                           f'(run without zones, or drop effects.outliers)')

@@ -40,7 +40,14 @@ engine_cycle        a position engine that refreshes every 8 s: the refresh
 drifting_wave       the sine of ``periodic`` with its period drifting from
                     12 s to 20 s over the walk: no fixed cycle (outside the
                     list: ``unexplained``)
+reflections         a reflected signal caught for 1-6 fixes (uniform, not
+                    geometric) about 3 % of the time: the reported fix
+                    sits 8-25 m (uniform) away, across the street walked,
+                    and wanders by 1 m a fix while caught; added to the
+                    reported error, so it does not persist (outliers)
 ==================  =========================================================
+
+A pair ``a+b`` has both mechanisms at once (and should be attributed both).
 
 Every walk has the fix stamps jittered by up to 50 ms, 0.5 % of fixes
 dropped at random and one 30 s outage, so segments and gaps are exercised.
@@ -67,23 +74,38 @@ SCENARIOS = {
     'periodic': (('periodic',), False),
     'engine_cycle': (('periodic',), False),
     'drifting_wave': ((), True),
+    'reflections': (('outliers',), False),
+    # pairs: two mechanisms at once, each to be found
+    'reflections+multipath': (('heavy_tails', 'outliers'), False),
+    'engine_cycle+reflections': (('outliers', 'periodic'), False),
+    'receiver_latency+street_ellipse': (('cross_axis_coupling', 'motion_lag'), False),
+    'canyon_levels+receiver_latency': (('motion_lag', 'variance_regimes'), False),
+    'periodic+street_canyon': (('periodic', 'street_frame'), False),
 }
 EFFECT_FREE = ('none', 'ar5', 'quantised')
+#: the scenarios of two mechanisms (``make diagnose-long`` runs them; the
+#: test suite's one-seed subset runs the others)
+PAIRS = tuple(name for name in SCENARIOS if '+' in name)
 #: each scenario's own random stream, fixed so that adding a scenario
 #: leaves every other scenario's walks as they were
 STREAM = {'ar5': 0, 'canyon_gradual': 1, 'canyon_levels': 2, 'drifting_wave': 3,
           'engine_cycle': 4, 'multipath': 5, 'none': 6, 'periodic': 7, 'quantised': 8,
-          'receiver_latency': 9, 'street_canyon': 10, 'street_ellipse': 11}
+          'receiver_latency': 9, 'street_canyon': 10, 'street_ellipse': 11,
+          'reflections': 12, 'reflections+multipath': 13, 'engine_cycle+reflections': 14,
+          'receiver_latency+street_ellipse': 15, 'canyon_levels+receiver_latency': 16,
+          'periodic+street_canyon': 17}
 
 PHI3 = (1.18, -0.06, -0.14)
 PHI5 = (1.05, 0.05, -0.02, -0.18, 0.05)
 SIGMA_W = 1.5
 BIAS = (2.0, -1.0)
+#: reflections: how far the reflected fix drifts per fix while caught, m (SD per axis)
+WANDER_M = 1.0
 
 
-def _innovations(scenario, n, rng, heading_avenue):
+def _innovations(parts, n, rng, heading_avenue):
     w = rng.standard_normal((n, 2)) * SIGMA_W
-    if scenario == 'street_ellipse':
+    if 'street_ellipse' in parts:
         b = np.radians(GRID_BEARING_DEG)
         along = np.array([np.cos(b), np.sin(b)])        # (north, east)
         across = np.array([-np.sin(b), np.cos(b)])
@@ -93,7 +115,7 @@ def _innovations(scenario, n, rng, heading_avenue):
         sc = np.where(heading_avenue, 1.0 / np.sqrt(2.5), 1.0 / np.sqrt(1.625))
         sa, sc = sa * SIGMA_W, sc * SIGMA_W
         w = (z[:, :1] * sa[:, None]) * along + (z[:, 1:] * sc[:, None]) * across
-    elif scenario == 'street_canyon':
+    elif 'street_canyon' in parts:
         b = np.radians(GRID_BEARING_DEG)
         axis = np.where(heading_avenue, b, b + np.pi / 2)   # the street walked
         along = np.stack([np.cos(axis), np.sin(axis)], axis=1)
@@ -104,10 +126,10 @@ def _innovations(scenario, n, rng, heading_avenue):
         sa = SIGMA_W * np.sqrt(2.0 / (1.0 + ratio ** 2))
         z = rng.standard_normal((n, 2))
         w = (z[:, :1] * sa[:, None]) * along + (z[:, 1:] * (ratio * sa)[:, None]) * across
-    elif scenario == 'multipath':
+    if 'multipath' in parts:
         jump = rng.random(n) < 0.03
         w[jump] += rng.standard_normal((int(jump.sum()), 2)) * 4.0
-    elif scenario == 'canyon_levels':
+    if 'canyon_levels' in parts:
         levels = np.array([1.0, 1.8, 3.0])
         scale = np.empty(n)
         i, lv = 0, int(rng.integers(3))
@@ -117,11 +139,11 @@ def _innovations(scenario, n, rng, heading_avenue):
             lv = int(rng.choice([k for k in range(3) if k != lv]))
             i += dwell
         w *= scale[:, None] / np.sqrt(np.mean(levels ** 2))
-    elif scenario == 'engine_cycle':
+    if 'engine_cycle' in parts:
         shape = np.array([2.5, 1.3] + [0.8] * 6)
         scale = shape[(np.arange(n) + int(rng.integers(8))) % 8]
         w *= scale[:, None] / np.sqrt(np.mean(shape ** 2))
-    elif scenario == 'canyon_gradual':
+    if 'canyon_gradual' in parts:
         t = np.arange(n)
         scale = np.exp(0.5 * np.sin(2 * np.pi * t / 600.0 + rng.uniform(0, 6.3)))
         w *= scale[:, None] / np.sqrt(np.mean(scale ** 2))
@@ -144,12 +166,12 @@ def _on_avenue(east, north, hold=False):
     return avenue
 
 
-def _add_wave(scenario, err, t, duration, rng):
+def _add_wave(parts, err, t, duration, rng):
     """Add the sine of ``periodic`` (or ``drifting_wave``) to the reported error, in place."""
-    if scenario not in ('periodic', 'drifting_wave'):
+    if 'periodic' not in parts and 'drifting_wave' not in parts:
         return
     ph = rng.uniform(0, 2 * np.pi, 2)
-    if scenario == 'periodic':
+    if 'periodic' in parts:
         cycles = t / 16.0
     else:               # the period drifts from 12 s to 20 s over the walk
         period = 12.0 + 8.0 * t / duration
@@ -159,10 +181,29 @@ def _add_wave(scenario, err, t, duration, rng):
     err[:, 1] += amp[1] * np.sin(2 * np.pi * cycles + ph[1])
 
 
-def _reported_track(scenario, north, east, t, duration, rng):
+def _add_reflections(parts, err, avenue, rng):
+    """Add the jumps of ``reflections`` to the reported error, in place."""
+    if 'reflections' not in parts:
+        return
+    n, k = len(err), 0
+    b = np.radians(GRID_BEARING_DEG)
+    while True:
+        k += int(rng.geometric(0.008))        # about 1 in 125 steps starts one
+        if k >= n:
+            return
+        length = int(rng.integers(1, 7))
+        axis = b + np.pi / 2 if avenue[k] else b        # across the street walked
+        size = rng.uniform(8.0, 25.0) * rng.choice([-1.0, 1.0])
+        wander = np.cumsum(rng.normal(0.0, WANDER_M, (length, 2)), axis=0)
+        stop = min(n, k + length)
+        err[k:stop] += size * np.array([np.cos(axis), np.sin(axis)]) + wander[:stop - k]
+        k = stop
+
+
+def _reported_track(parts, north, east, t, duration, rng):
     """Return the (north, east) track the receiver reports before its error."""
     rep_n, rep_e = north.copy(), east.copy()
-    if scenario == 'receiver_latency':
+    if 'receiver_latency' in parts:
         # latency wandering between 1.5 and 3 s (processing load), plus a
         # light 2-tap smoothing of the reported track
         lat_s = np.clip(2.2 + np.cumsum(rng.normal(0, 0.05, duration)), 1.5, 3.0)
@@ -186,26 +227,28 @@ def synthetic_trace(scenario, seed, duration=3600):
     if duration < 60:
         raise ValueError(f'duration must be >= 60 s, got {duration}')
     rng = np.random.default_rng([seed, STREAM[scenario]])
+    parts = scenario.split('+')
     # the street-frame scenario is a walk that turns corners: every other one
     walk = manhattan_walk(duration + 10, rng,
-                          turn_probability=0.5 if scenario == 'street_canyon' else 0.25)
+                          turn_probability=0.5 if 'street_canyon' in parts else 0.25)
     t = np.arange(duration, dtype=float)
     east, north = walk.position(t)
-    avenue = _on_avenue(east, north, hold=scenario == 'street_canyon')
+    avenue = _on_avenue(east, north, hold='street_canyon' in parts)
     burn = 600
     n = duration + burn
-    w = _innovations(scenario, n, rng, np.r_[np.zeros(burn, bool), avenue])
-    phi = PHI5 if scenario == 'ar5' else PHI3
+    w = _innovations(parts, n, rng, np.r_[np.zeros(burn, bool), avenue])
+    phi = PHI5 if 'ar5' in parts else PHI3
     a = np.r_[1.0, -np.asarray(phi)]
     err = np.stack([signal.lfilter([1.0], a, w[:, k]) for k in range(2)],
                    axis=1)[burn:]
     err += BIAS
-    _add_wave(scenario, err, t, duration, rng)
-    rep_n, rep_e = _reported_track(scenario, north, east, t, duration, rng)
+    _add_wave(parts, err, t, duration, rng)
+    _add_reflections(parts, err, avenue, rng)
+    rep_n, rep_e = _reported_track(parts, north, east, t, duration, rng)
     lat0, lon0 = MANHATTAN_DATUM[0], MANHATTAN_DATUM[1]
     truth_lat, truth_lon = offset(lat0, lon0, north, east)
     lat, lon = offset(lat0, lon0, rep_n + err[:, 0], rep_e + err[:, 1])
-    if scenario == 'quantised':
+    if 'quantised' in parts:
         lat, lon = np.round(lat, 6), np.round(lon, 6)
     stamp = t + rng.uniform(-0.05, 0.05, duration)
     keep = rng.random(duration) >= 0.005

@@ -88,3 +88,40 @@ def test_periodicity_keeps_its_level_and_finds_cycles():
     mean = np.where(steps % 5 < 2, 0.6, -0.4)[:, None]       # a cycle in the mean
     t = periodicity_test(rng.normal(size=(n, 2)) + mean, seg, steps)
     assert t['p_value'] < 0.01 and t['at_period'] % 5 == 0 and t['in'] == 'mean'
+
+
+def _ar1(w, phi=0.9):
+    x = np.zeros_like(w)
+    for t in range(1, len(w)):
+        x[t] = phi * x[t - 1] + w[t]
+    return x
+
+
+def test_jump_reversal_tells_jumps_that_come_back_from_tails_and_regimes():
+    """Additive jumps pair up in opposite directions; t-innovations and bursts do not."""
+    from gps_error_ros.diagnose.family import jump_reversal_test
+    rng = np.random.default_rng(11)
+    n, seg = 3000, np.zeros(3000, dtype=int)
+    level = {'null': [], 'jumps': []}
+    for rep in range(40):
+        tails = stats.t.rvs(3, size=(n, 2), random_state=rng)
+        loud = np.where((np.arange(n) // 100) % 5 == 0, 4.0, 1.0)
+        burst = rng.normal(size=(n, 2)) * loud[:, None]
+        for w in (tails, burst):
+            level['null'].append(jump_reversal_test(w, seg, seed=rep)['p_value'])
+        x = _ar1(rng.normal(size=(n, 2)))
+        t0 = rng.choice(n - 5, 30, replace=False)
+        for k in t0:                          # jumps of 1-3 steps, 10 SD away
+            x[k:k + rng.integers(1, 4)] += rng.normal(0, 10, 2)
+        r = x[1:] - 0.9 * x[:-1]              # the AR residuals
+        level['jumps'].append(jump_reversal_test(r, seg[1:], seed=rep)['p_value'])
+    # binomial(80, 0.05): P(X > 9) < 0.01
+    assert sum(p <= 0.05 for p in level['null']) <= 9, sorted(level['null'])[:12]
+    assert all(p <= 0.005 for p in level['jumps']), sorted(level['jumps'])[-5:]
+
+
+def test_jump_reversal_without_large_pairs_is_no_evidence():
+    from gps_error_ros.diagnose.family import jump_reversal_test
+    r = np.random.default_rng(3).normal(size=(500, 2))
+    t = jump_reversal_test(r, np.zeros(500, dtype=int))
+    assert t['p_value'] == 1.0 and t['pairs'] == 0

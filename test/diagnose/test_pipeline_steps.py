@@ -17,7 +17,7 @@ from gps_error_ros.sim.synthetic import synthetic_trace
 
 FAMILY = {'motion_dependence', 'cross_axis_correlation', 'kurtosis',
           'squared_persistence', 'squared_oscillation', 'serial_north',
-          'serial_east', 'travel_frame', 'periodicity'}
+          'serial_east', 'travel_frame', 'periodicity', 'jump_reversal'}
 
 
 @pytest.fixture(scope='module')

@@ -25,10 +25,12 @@ def regime_profile(tmp_path, reported=None, cycle=False):
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
     raw['effects'] = {'variance_regimes': {'scales': [1.0, 2.5],
                                            'transition': [[0.9, 0.1], [0.2, 0.8]]}}
-    if cycle:           # the periodic effect: the next phase's scale enters too
+    if cycle:           # the periodic effect: the next phase's scale enters too,
+        # and outliers: the next jump's covariance given the one under way
         raw['effects']['periodic'] = {'period_steps': 4, 'scales': [2.0, 0.5, 1.0, 0.8],
                                       'offsets': [[0.3, 0.0], [-0.3, 0.1], [0.0, -0.1],
                                                   [0.0, 0.0]]}
+        raw['effects']['outliers'] = {'rate': 0.2, 'mean_steps': 2.0, 'sigma_m': 5.0}
     if reported:
         raw['reported_accuracy'] = reported
     path = tmp_path / 'regimes.yaml'
@@ -59,8 +61,8 @@ def expected(path, name):
 @pytest.mark.parametrize('mode,crowd,cycle', [
     ('conditional', False, False), ('conditional', True, False),
     ('conditional', True, True), ('reported', False, False), ('reported', True, False)],
-    ids=['conditional, one agent', 'conditional, crowd', 'conditional, crowd, periodic',
-         'reported, one agent', 'reported, crowd'])
+    ids=['conditional, one agent', 'conditional, crowd',
+         'conditional, crowd, periodic and outliers', 'reported, one agent', 'reported, crowd'])
 def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd, cycle):
     path = regime_profile(tmp_path, REPORTED if mode == 'reported' else None, cycle)
     ns = unique_ns()

@@ -180,7 +180,7 @@ def test_crowd_parameter_errors():
 
 
 def _cycle_profile(tmp_path):
-    """Write DS7 with the periodic effect (8-step cycle) and variance regimes."""
+    """Write DS7 with the periodic effect (8-step cycle), variance regimes and outliers."""
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
     raw = yaml.safe_load((builtin_dir() / 'DS7.yaml').read_text())
@@ -188,13 +188,16 @@ def _cycle_profile(tmp_path):
     raw['effects'] = {
         'periodic': {'period_steps': 8, 'scales': [1.8, 0.6, 0.7, 0.8] * 2,
                      'offsets': (off - off.mean(axis=0)).round(6).tolist()},
-        'variance_regimes': {'scales': [1.0, 2.0], 'transition': [[0.9, 0.1], [0.2, 0.8]]}}
+        'variance_regimes': {'scales': [1.0, 2.0], 'transition': [[0.9, 0.1], [0.2, 0.8]]},
+        # frequent jumps, so that 30 steps of two agents hold several
+        'outliers': {'rate': 0.15, 'mean_steps': 2.0, 'sigma_m': 6.0}}
     path = tmp_path / 'cycle.yaml'
     path.write_text(yaml.safe_dump(raw))
     return str(path)
 
 
-@pytest.mark.parametrize('cycle', [False, True], ids=['DS7', 'DS7 with a periodic cycle'])
+@pytest.mark.parametrize('cycle', [False, True],
+                         ids=['DS7', 'DS7 with a periodic cycle and outliers'])
 def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
     from gps_error_ros.sim.simulate import simulate_csv
     from gps_error_ros.model.geodesy import difference
@@ -247,6 +250,15 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
                                            rtol=0, atol=1e-6, err_msg=f'{a} {k}')
                 compared += 1
     assert compared >= 55
+    if cycle:               # the comparison covered jumps under way, not only clean fixes
+        from gps_error_ros.model.streams import agent_key
+        model = load_profile(profile).model()
+        keys = np.array([agent_key(4, a) for a in agents], dtype=np.uint64)
+        state, jumped = model.initial_state(keys, T0), 0
+        for k in range(T0 + 1, T0 + 30):
+            model.advance(state, keys, k)
+            jumped += int(state[:, 0, model._jump + 1].sum())
+        assert jumped >= 5, jumped
 
 
 def _zone_map(path):

@@ -1,0 +1,255 @@
+"""
+The ``outliers`` effect in the diagnosis: a filter that sets jumps aside.
+
+The model (:mod:`gps_error_ros.model.outliers`): the observed error is the
+AR error plus an offset that is zero on clean steps, starts with
+probability ``rate`` on a clean step (``N(0, sigma^2)`` per axis) and holds
+until it ends, with probability ``q`` per step. A jump contaminates the AR
+prediction of the steps after it, so the mean part predicts from the
+*cleaned* past: the residual against the clean prediction is
+``r(t) = r_obs(t) + sum_i phi_i o(t - i)``, with ``o`` the filter's
+estimate of the offset at each earlier step.
+
+The filter (one pass, causal): at each step three hypotheses, with the
+prior weights of the two-state chain given the last step's probability
+``w`` of being in a jump:
+
+- clean, ``1 - (1 - w) rate - w (1 - q)``: ``r`` has the innovation law;
+- a jump starts, ``(1 - w) rate``: ``r ~ N(0, S + sigma^2 I)``;
+- the jump goes on, ``w (1 - q)``: ``r - o(t - 1) ~ N(0, 2 S)`` (the offset
+  is known up to the innovation of the step it was estimated at);
+
+with ``S`` the innovations' average covariance. The posterior weights give
+the new ``w`` and the offset ``o(t)`` (the jump's start sets it to ``r``,
+its continuation keeps it). Every weight depends on the past only, so the
+per-step densities (a mixture of the three, the clean one being the full
+innovation law) are a proper one-step predictive likelihood, scored as any
+other model's. The collapse to one offset estimate per step (rather than a
+mixture of paths) is the approximation.
+
+Fit: the mean part by least squares on the series with the jumps taken out
+(two passes), the law on the residuals of the clean steps, then ``rate``,
+``q`` and ``sigma`` by maximum likelihood with the rest fixed.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+from scipy import optimize
+
+from gps_error_ros.diagnose.common import LOG2PI
+from gps_error_ros.diagnose.mean import Design
+from gps_error_ros.model.outliers import Outliers
+
+#: Start values of the jump parameters: rate, mean length (steps), sigma in innovation SDs.
+START = (0.01, 2.0, 6.0)
+#: The jump going on: how much its offset may drift per step, in units of S
+#: (the reflected path changes as the walker moves), so the filter follows it.
+DRIFT = 0.5
+#: Bounds of the fitted parameters.
+RATE_BOUNDS = (1e-5, 0.3)
+MEAN_STEPS_BOUNDS = (1.0, 60.0)
+
+
+@dataclass
+class JumpFilter:
+    """What one pass of the filter gives, per scored sample."""
+
+    r: np.ndarray          # (n, 2) residual against the clean prediction
+    prior: np.ndarray      # (n, 3) weights: clean, a jump starts, a jump goes on
+    prev: np.ndarray       # (n, 2) the offset carried into the step, given a jump
+    offset: np.ndarray     # (n, 2) the offset estimated after the step (times inside)
+    inside: np.ndarray     # (n,) probability of being in a jump after the step
+    spread: np.ndarray     # (n,) the jump going on: its density's covariance / S
+    post: np.ndarray       # (n, 3) posterior weights of the three hypotheses
+
+    def innovations(self):
+        """
+        Return the residuals with the jumps out, on the clean steps' scale.
+
+        Clean: ``r``; a jump going on: ``(r - offset) / sqrt(spread)``; a
+        jump starting: nothing of the innovation can be told (zero); weighted
+        by the posterior. What the law's tests see, so that a jump neither
+        passes for a tail nor, by its wider spread, for a burst of variance.
+        """
+        going = (self.r - self.prev) / np.sqrt(self.spread)[:, None]
+        return self.post[:, :1] * self.r + self.post[:, 2:] * going
+
+
+def _gauss2(x0, x1, inv, logdet):
+    return -LOG2PI - 0.5 * logdet - 0.5 * (inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1
+                                           + inv[2] * x1 * x1)
+
+
+def _inv(c):
+    det = c[0, 0] * c[1, 1] - c[0, 1] ** 2
+    return (c[1, 1] / det, -c[0, 1] / det, c[0, 0] / det), math.log(det)
+
+
+def _t_constants(dof):
+    """Return (dof, f, log constant) of the bivariate t with covariance S, or None."""
+    if not math.isfinite(dof):
+        return None
+    f = dof / (dof - 2.0)
+    return dof, f, (math.lgamma(0.5 * (dof + 2)) - math.lgamma(0.5 * dof)
+                    - math.log(dof * math.pi) + math.log(f))
+
+
+def _t2(x0, x1, inv, logdet, tail):
+    dof, f, const = tail
+    q = inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1 + inv[2] * x1 * x1
+    return const - 0.5 * logdet - 0.5 * (dof + 2) * math.log1p(q * f / dof)
+
+
+def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
+    """
+    Return the :class:`JumpFilter` of observed residuals ``r_obs`` (n, 2).
+
+    ``phi``: per axis the AR coefficients; ``cov``: ``S`` (2x2, north/east);
+    ``scale2`` (n,): a known factor of ``S`` per sample (a cycle's phase).
+    A jump's size does not scale with it. ``dof``: the clean innovations are
+    Student-t (heavy tails), so a large innovation is not taken for a jump.
+    Samples of a segment are consecutive steps; a segment starts with the
+    jump probability at its stationary share and no offset in its past.
+
+    Long because the recursion is one loop over the samples, in plain
+    floats (a few microseconds a step).
+    """
+    n = len(r_obs)
+    rate, q, s2, kappa = params.rate, params.end_probability, params.sigma_m ** 2, DRIFT
+    tail = _t_constants(dof)
+    k2 = np.ones(n) if scale2 is None else np.asarray(scale2, dtype=float)
+    levels, which = np.unique(k2, return_inverse=True)
+    inv = [(_inv(k * cov), _inv(k * cov + s2 * np.eye(2))) for k in levels]
+    which = which.tolist()
+    phn, phe = (list(map(float, p)) for p in phi)
+    rn, re = (np.asarray(r_obs, dtype=float)[:, a].tolist() for a in range(2))
+    seg = np.asarray(seg).tolist()
+    on_hist, oe_hist = [0.0] * n, [0.0] * n
+    prior, prev, spread, inside = [None] * n, [None] * n, [0.0] * n, [0.0] * n
+    post = [None] * n
+    w, cn, ce, pc, start = params.share, 0.0, 0.0, 1.0, 0
+    for t in range(n):
+        if t == 0 or seg[t] != seg[t - 1]:
+            w, cn, ce, pc, start = params.share, 0.0, 0.0, 1.0, t
+        xn, xe = rn[t], re[t]
+        for i in range(min(len(phn), t - start)):
+            xn += phn[i] * on_hist[t - 1 - i]
+        for i in range(min(len(phe), t - start)):
+            xe += phe[i] * oe_hist[t - 1 - i]
+        rn[t], re[t] = xn, xe
+        p1, p2 = (1.0 - w) * rate, w * (1.0 - q)
+        p0 = (1.0 - w) * (1.0 - rate) + w * q
+        f = 1.0 + pc + kappa            # the jump goes on: offset known up to pc + kappa
+        prior[t], prev[t], spread[t] = (p0, p1, p2), (cn, ce), f
+        (i0, d0), (i1, d1) = inv[which[t]]
+        l0 = _gauss2(xn, xe, i0, d0) if tail is None else _t2(xn, xe, i0, d0, tail)
+        l1 = _gauss2(xn, xe, i1, d1)
+        l2 = -LOG2PI - 0.5 * d0 - math.log(f) + \
+            (_gauss2(xn - cn, xe - ce, i0, 0.0) + LOG2PI) / f
+        top = max(l0, l1, l2)
+        a0 = p0 * math.exp(l0 - top)
+        a1 = p1 * math.exp(l1 - top)
+        a2 = p2 * math.exp(l2 - top)
+        tot = a0 + a1 + a2
+        a0, a1, a2 = a0 / tot, a1 / tot, a2 / tot
+        post[t] = (a0, a1, a2)
+        w = min(1.0, a1 + a2)
+        g = (pc + kappa) / f            # Kalman gain of the offset, going on
+        gn, ge = cn + g * (xn - cn), ce + g * (xe - ce)
+        if w > 0.0:                     # the offset given a jump: started or going on
+            cn, ce = (a1 * xn + a2 * gn) / w, (a1 * xe + a2 * ge) / w
+            pc = (a1 * 1.0 + a2 * (pc + kappa) * (1.0 - g)) / w
+        on_hist[t], oe_hist[t] = w * cn, w * ce
+        inside[t] = w
+    r = np.stack([np.asarray(rn), np.asarray(re)], axis=1).reshape(n, 2)
+    off = np.stack([np.asarray(on_hist), np.asarray(oe_hist)], axis=1).reshape(n, 2)
+    prior = np.asarray(prior, dtype=float).reshape(n, 3)
+    prev = np.asarray(prev, dtype=float).reshape(n, 2)
+    inside = np.asarray(inside)
+    return JumpFilter(r, prior, prev, off, inside, np.asarray(spread),
+                      np.asarray(post, dtype=float).reshape(n, 3))
+
+
+def mixture_logpdf(jf, clean_ll, cov, params, scale2=None):
+    """Return per-sample log densities: the three hypotheses, weighted by the prior."""
+    r, prev = jf.r, jf.prev
+    k2 = np.ones(len(r)) if scale2 is None else np.asarray(scale2, dtype=float)
+    l1, l2 = np.empty(len(r)), np.empty(len(r))
+    for k in np.unique(k2):
+        at = k2 == k
+        i1, d1 = _inv(k * cov + params.sigma_m ** 2 * np.eye(2))
+        i0, d0 = _inv(k * cov)
+        f = jf.spread[at]
+        l1[at] = _gauss2(r[at, 0], r[at, 1], i1, d1)
+        l2[at] = -LOG2PI - 0.5 * d0 - np.log(f) + \
+            (_gauss2(r[at, 0] - prev[at, 0], r[at, 1] - prev[at, 1], i0, 0.0) + LOG2PI) / f
+    with np.errstate(divide='ignore'):
+        parts = np.log(jf.prior) + np.stack([clean_ll, l1, l2], axis=1)
+    top = parts.max(axis=1)
+    return top + np.log(np.exp(parts - top[:, None]).sum(axis=1))
+
+
+def shifted_offsets(offset, seg, lag):
+    """Return the offset ``lag`` samples back within the segment (0 before its start)."""
+    out = np.zeros_like(offset)
+    if lag < len(offset):
+        same = seg[lag:] == seg[:-lag]
+        out[lag:][same] = offset[:-lag][same]
+    return out
+
+
+def cleaned_design(d, offset):
+    """Return design ``d`` with the offsets taken out of its samples and their lags."""
+    lags = [np.stack([x[:, i] - shifted_offsets(offset, d.seg, i + 1)[:, a]
+                      for i in range(x.shape[1])], axis=1) if x.shape[1] else x
+            for a, x in enumerate(d.lags)]
+    return Design(d.y - offset, lags, d.seg, d.heading, d.steps)
+
+
+def design_subset(d, keep):
+    """Return the samples ``keep`` (boolean) of design ``d``."""
+    return Design(d.y[keep], [x[keep] for x in d.lags], d.seg[keep],
+                  None if d.heading is None else d.heading[keep],
+                  None if d.steps is None else d.steps[keep])
+
+
+def fit_params(loglik, start):
+    """
+    Return the :class:`Outliers` maximising ``loglik(params)``, from ``start``.
+
+    Nelder-Mead over (logit of the rate, log of the mean length - 1, log sigma).
+    """
+    lo, hi = RATE_BOUNDS
+
+    def unpack(x):
+        rate = lo + (hi - lo) / (1.0 + math.exp(-x[0]))
+        steps = min(MEAN_STEPS_BOUNDS[1], 1.0 + math.exp(x[1]))
+        return Outliers(rate, steps, math.exp(x[2]))
+
+    def cost(x):
+        v = loglik(unpack(x))
+        return -v if math.isfinite(v) else 1e300
+
+    frac = (start.rate - lo) / (hi - lo)
+    x0 = [math.log(frac / (1 - frac)), math.log(max(start.mean_steps - 1.0, 1e-3)),
+          math.log(start.sigma_m)]
+    res = optimize.minimize(cost, x0, method='Nelder-Mead',
+                            options={'maxiter': 80, 'xatol': 1e-2, 'fatol': 1e-2})
+    return unpack(res.x)
+
+
+def moment_start(jf, cov):
+    """Return start values from one pass: the posterior starts, lengths and sizes."""
+    w = jf.inside
+    starts = np.maximum(w - np.r_[0.0, w[:-1]], 0.0)
+    n_starts = float(starts.sum())
+    if n_starts < 1.0:
+        return None
+    rate = n_starts / max(float(np.sum(1.0 - w)), 1.0)
+    steps = max(1.0, float(w.sum()) / n_starts)
+    size2 = float(np.sum(starts * np.sum(jf.r ** 2, axis=1)) / (2.0 * n_starts))
+    sigma = math.sqrt(max(size2 - 0.5 * float(np.trace(cov)), float(np.trace(cov))))
+    rate = min(max(rate, RATE_BOUNDS[0] * 2), RATE_BOUNDS[1] / 2)
+    return Outliers(rate, min(steps, MEAN_STEPS_BOUNDS[1] / 2), sigma)

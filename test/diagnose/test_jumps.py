@@ -1,0 +1,77 @@
+"""Fitting the outliers effect: the filter that sets jumps aside, and its likelihood."""
+
+import numpy as np
+import pytest
+
+from gps_error_ros.diagnose.jumps import run_filter
+from gps_error_ros.model.outliers import Outliers
+from gps_error_ros.diagnose.models import fit_model
+from gps_error_ros.diagnose.pipeline import split_step
+from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import AxisParams
+from gps_error_ros.model.effects import build_model, effects_from_dict
+from gps_error_ros.model.geodesy import offset
+from gps_error_ros.traces.trace_io import Trace
+
+TRUE = {'rate': 0.012, 'mean_steps': 2.5, 'sigma_m': 10.0}
+AXIS = AxisParams(0.5, (1.1, -0.05, -0.12), 1.4)
+DATUM = (40.75, -73.99)
+
+
+@pytest.fixture(scope='module')
+def fitted():
+    """Return a fit on a standing walk whose errors the library simulates with jumps."""
+    model = build_model(AXIS, AXIS, effects_from_dict({'outliers': TRUE}))
+    err = model.simulate(np.array([streams.agent_key(21, 'jumpy')], dtype=np.uint64),
+                         4000)[:, 0]
+    t = np.arange(4000, dtype=float)
+    lat, lon = offset(DATUM[0], DATUM[1], err[:, 0], err[:, 1])
+    ones = np.ones(t.size)
+    trace = Trace('jumpy', t, lat, lon, DATUM[0] * ones, DATUM[1] * ones)
+    split = split_step(trace)
+    # the true orders: the PACF rule on a trace with jumps picks others
+    base = fit_model(split.train, (3, 3), (), split.truth)
+    return split, base, fit_model(split.train, (3, 3), ('outliers',), split.truth)
+
+
+def test_the_fit_recovers_the_jumps_and_the_ar_part(fitted):
+    _, base, m = fitted
+    assert m.jumps.rate == pytest.approx(TRUE['rate'], rel=0.35)
+    assert m.jumps.mean_steps == pytest.approx(TRUE['mean_steps'], rel=0.35)
+    assert m.jumps.sigma_m == pytest.approx(TRUE['sigma_m'], rel=0.2)
+    # the base model's AR part is dragged down by the jumps; the filter's is not
+    for a in range(2):
+        assert m.mean.phi[a][0] == pytest.approx(1.1, abs=0.05)
+        assert abs(base.mean.phi[a][0] - 1.1) > abs(m.mean.phi[a][0] - 1.1)
+    assert np.sqrt(m.law.cov[0, 0]) == pytest.approx(1.4, rel=0.1)
+    assert m.bic < base.bic
+    assert m.parameters()['effects']['outliers']['sigma_m'] == pytest.approx(
+        m.jumps.sigma_m, rel=1e-5)
+
+
+def test_heldout_likelihood_is_better_and_a_proper_density(fitted):
+    split, base, m = fitted
+    ll_b = base.score(split.test, split.truth)[0]
+    ll_m, r, d, _ = m.score(split.test, split.truth)
+    assert np.isfinite(ll_m).all() and len(ll_m) == len(ll_b)
+    assert ll_m.mean() > ll_b.mean() + 0.1
+    # the residuals returned have the jumps out: no gross outliers left
+    assert np.max(np.abs(r)) < 8 * np.sqrt(m.law.cov[0, 0])
+
+
+def test_filter_weights_are_a_distribution_and_depend_on_the_past_only():
+    rng = np.random.default_rng(4)
+    r = rng.normal(size=(400, 2))
+    r[100:103] += (15.0, -12.0)          # white noise (phi 0): the jump shows as it is
+    seg = np.r_[np.zeros(250, int), np.ones(150, int)]
+    params = Outliers(0.01, 3.0, 10.0)
+    jf = run_filter(r, seg, [np.array([0.0]), np.array([0.0])], np.eye(2), params)
+    assert np.all(jf.prior >= 0) and np.allclose(jf.prior.sum(axis=1), 1.0)
+    assert jf.inside[100] > 0.99 and jf.inside[101] > 0.9 and jf.inside[103] < 0.1
+    np.testing.assert_allclose(jf.offset[101], (15.0, -12.0), atol=1.5)
+    assert jf.prior[250, 1] == pytest.approx((1 - params.share) * 0.01)   # a new segment
+    changed = r.copy()
+    changed[200:] += 50.0                       # the future does not move the past
+    again = run_filter(changed, seg, [np.array([0.0]), np.array([0.0])], np.eye(2), params)
+    np.testing.assert_array_equal(again.prior[:201], jf.prior[:201])
+    np.testing.assert_array_equal(again.r[:200], jf.r[:200])
