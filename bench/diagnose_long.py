@@ -50,14 +50,17 @@ def main(argv=None):
     p.add_argument('--min-better', type=float, default=0.95)
     p.add_argument('--workers', type=int, default=os.cpu_count() or 1)
     p.add_argument('--json', default=None)
+    p.add_argument('--scenarios', nargs='+', choices=list(SCENARIOS), default=list(SCENARIOS),
+                   help='run only these scenarios (default: all)')
     args = p.parse_args(argv)
-    jobs = [(sc, 1000 + i, args.duration) for sc in SCENARIOS
+    jobs = [(sc, 1000 + i, args.duration) for sc in args.scenarios
             for i in range(args.seeds if sc in EFFECT_FREE else args.effect_seeds)]
     t0 = time.monotonic()
     with ProcessPoolExecutor(args.workers) as ex:
         results = list(ex.map(one, jobs, chunksize=2))
     ok, summary = True, {}
-    for sc, (expected, unexplained) in SCENARIOS.items():
+    for sc in args.scenarios:
+        expected, unexplained = SCENARIOS[sc]
         rows = [r for r in results if r['scenario'] == sc]
         n = len(rows)
         if sc in EFFECT_FREE:
