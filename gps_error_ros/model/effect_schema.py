@@ -153,10 +153,10 @@ def effects_from_dict(raw, source='<profile>'):
             except ValueError as exc:
                 raise EffectsError(str(exc)) from None
         elif name == 'outliers':
-            try:
-                kw['outliers'] = jumps.outliers_from_dict(body, source, key)
-            except ValueError as exc:
-                raise EffectsError(str(exc)) from None
+            kw['outliers'] = jumps.Outliers(
+                _num(source, f'{key}.rate', body['rate'], 0.0, 0.5),
+                _num(source, f'{key}.mean_steps', body['mean_steps'], 1.0, 1e3, lo_open=False),
+                _num(source, f'{key}.sigma_m', body['sigma_m'], 0.0, jumps.MAX_SIGMA_M))
         else:
             kw.update(_regimes(source, key, body))
     if 'street' in kw and kw.get('innovation_corr'):

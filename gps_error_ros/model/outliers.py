@@ -28,7 +28,6 @@ initial state's from ``init_outlier`` and ``init_outlier_jump``.
 """
 
 from dataclasses import dataclass
-import math
 
 import numpy as np
 
@@ -36,10 +35,6 @@ from gps_error_ros.model import streams
 
 #: The largest jump SD a profile may carry (m).
 MAX_SIGMA_M = 1e4
-
-
-class OutliersError(ValueError):
-    """An ``outliers`` section that does not match the schema."""
 
 
 @dataclass(frozen=True)
@@ -70,24 +65,6 @@ class Outliers:
         return {'rate': round(float(self.rate), 8),
                 'mean_steps': round(float(self.mean_steps), 6),
                 'sigma_m': round(float(self.sigma_m), 6)}
-
-
-def _number(source, key, value, lo, hi, lo_open):
-    ok = not isinstance(value, bool) and isinstance(value, (int, float)) and \
-        math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
-    if not ok:
-        raise OutliersError(f'{source}: key {key!r}: expected a number in '
-                            f'{"(" if lo_open else "["}{lo}, {hi}], got {value!r}')
-    return float(value)
-
-
-def outliers_from_dict(body, source='<profile>', key='effects.outliers'):
-    """Validate an ``outliers`` mapping (its keys checked by the caller); return it."""
-    return Outliers(_number(source, f'{key}.rate', body['rate'], 0.0, 0.5, True),
-                    _number(source, f'{key}.mean_steps', body['mean_steps'], 1.0, 1e3,
-                            False),
-                    _number(source, f'{key}.sigma_m', body['sigma_m'], 0.0, MAX_SIGMA_M,
-                            True))
 
 
 def initial_offsets(outliers, keys, index):
