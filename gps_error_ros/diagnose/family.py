@@ -40,7 +40,7 @@ from scipy import stats
 
 from gps_error_ros.diagnose.common import (ALPHA, MOTION_TEST_LAGS, PERIODS,
                                            PERSIST_LAGS, SERIAL_LAGS)
-from gps_error_ros.diagnose.laws import mahalanobis
+from gps_error_ros.diagnose.laws import mahalanobis, robust_cov
 from gps_error_ros.fit.autocorrelation import segment_acf
 from gps_error_ros.model.ar_model import AXES
 
@@ -235,11 +235,7 @@ REVERSAL_DRAWS = 2000
 def robust_whitened(r):
     """Return ``r`` centred and whitened by a covariance that gross outliers do not inflate."""
     d = r - np.median(r, axis=0)
-    dev = np.abs(d)
-    mad = np.maximum(1.4826 * np.median(dev, axis=0), 1e-9)
-    keep = np.all(dev < 3.0 * mad, axis=1)
-    cov = np.cov(d[keep].T, bias=True) / 0.9733        # a Gaussian trimmed at 3 SD
-    return np.linalg.solve(np.linalg.cholesky(cov), d.T).T
+    return np.linalg.solve(np.linalg.cholesky(robust_cov(r)), d.T).T
 
 
 def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, seed=0):

@@ -25,6 +25,14 @@ def mahalanobis(r, cov):
     return np.einsum('ni,ij,nj->n', r, np.linalg.inv(cov), r)
 
 
+def robust_cov(r):
+    """Return the covariance of ``r`` without its gross outliers (3 MADs per axis)."""
+    dev = np.abs(r - np.median(r, axis=0))
+    mad = np.maximum(1.4826 * np.median(dev, axis=0), 1e-9)
+    keep = np.all(dev < 3.0 * mad, axis=1)
+    return np.cov(r[keep].T, bias=True) / 0.9733       # a Gaussian trimmed at 3 SD
+
+
 @dataclass
 class Law:
     """The innovation law: covariance, optional Student-t, optional regimes."""

@@ -21,7 +21,7 @@ import numpy as np
 
 from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
-from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf
+from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf, robust_cov
 from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
                                          fit_mean_lag, least_squares, MeanFit,
                                          to_travel_frame)
@@ -191,14 +191,6 @@ def with_law(effects, orders, mean, r, d, regimes):
                        tuple(orders), mean, law, ll, len(r), scales)
 
 
-def _robust_cov(r):
-    """Return the covariance of ``r`` without its gross outliers (3 MADs per axis)."""
-    dev = np.abs(r - np.median(r, axis=0))
-    mad = 1.4826 * np.median(dev, axis=0)
-    keep = np.all(dev < 3.0 * np.maximum(mad, 1e-9), axis=1)
-    return np.cov(r[keep].T, bias=True) / 0.9733       # a Gaussian trimmed at 3 SD
-
-
 def with_jumps(effects, orders, mean, r, d, regimes):
     """
     Return the :class:`FittedModel` with ``outliers`` (see :mod:`.jumps`).
@@ -207,7 +199,7 @@ def with_jumps(effects, orders, mean, r, d, regimes):
     the law fitted on the clean steps; then the jump parameters by maximum
     likelihood with the rest fixed.
     """
-    cov, scale2, dof = _robust_cov(r), None, math.inf
+    cov, scale2, dof = robust_cov(r), None, math.inf
     params = Outliers(jumps.START[0], jumps.START[1],
                       jumps.START[2] * math.sqrt(0.5 * np.trace(cov)))
     others = tuple(e for e in effects if e != 'outliers')
