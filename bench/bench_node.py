@@ -29,6 +29,7 @@ import os
 from pathlib import Path
 import re
 import signal
+import statistics
 import struct
 import subprocess
 import sys
@@ -295,10 +296,10 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     }
 
 
-def _print_ratios(rows, n, reliability):
+def _print_ratios(rows, n, reliability, repeat):
     """Print the node's CPU against the floor's, measured in this run."""
-    same = {r['mode']: r for r in rows
-            if r['agents'] == n and r['fix_reliability'] == reliability}
+    same = {r['mode']: r for r in rows if r['agents'] == n and
+            r['fix_reliability'] == reliability and r['repeat'] == repeat}
     floor = same['floor']['core_fraction_at_real_time']
     for mode in ('agents', 'agent_pattern'):
         if mode in same and floor > 0:
@@ -307,6 +308,20 @@ def _print_ratios(rows, n, reliability):
             print(f'       {mode}: {ratio:.2f}x the floor\'s CPU '
                   f'({100 * same[mode]["core_fraction_at_real_time"]:.2f} % against '
                   f'{100 * floor:.2f} % of a core at 1x)', flush=True)
+
+
+def _print_repeats(rows):
+    """Print each node mode's ratio to the floor over the repeats: median, range."""
+    keys = sorted({(r['agents'], r['fix_reliability'], r['mode']) for r in rows
+                   if 'cpu_ratio_to_floor' in r})
+    for n, reliability, mode in keys:
+        ratios = sorted(r['cpu_ratio_to_floor'] for r in rows if (
+            r['agents'], r['fix_reliability'], r['mode']) == (n, reliability, mode)
+            and 'cpu_ratio_to_floor' in r)
+        if len(ratios) > 1:
+            print(f'{n:>5} agents, {reliability} fixes, {mode}: ratio to the floor over '
+                  f'{len(ratios)} repeats: median {statistics.median(ratios):.2f}, '
+                  f'range {ratios[0]:.2f}-{ratios[-1]:.2f}', flush=True)
 
 
 def _print_conditional(rows, n, reliability, mode):
@@ -341,6 +356,10 @@ def main():
     p.add_argument('--speed', type=float, default=None,
                    help='simulated seconds per wall second for every case '
                         '(default: per case, 50x for 1 agent down to 2x for 5,000)')
+    p.add_argument('--repeats', type=int, default=1,
+                   help='run each case this many times, its modes interleaved '
+                        '(node, agent_pattern, floor, node, ...), and print the median '
+                        'and range of the ratios to the floor')
     args = p.parse_args()
     if args.counter:
         counter_main(int(args.counter[0]), args.counter[1], args.counter[2])
@@ -355,13 +374,14 @@ def main():
         else:
             cases = [c for c in CASES
                      if args.fix_reliability in (None, c[3])]
-        runs = [(c, mode) for c in cases for mode in MODES if mode in args.modes and (
+        runs = [(c, rep, mode) for c in cases for rep in range(args.repeats)
+                for mode in MODES if mode in args.modes and (
             mode == 'agents' or (mode in ('conditional', 'reported')
                                  and c[0] in CONDITIONAL_SIZES)
             or (c[0] in FLOOR_SIZES and not args.no_floor))]
-        for (n, sim_s, speed, reliability), mode in runs:
+        for (n, sim_s, speed, reliability), rep, mode in runs:
             speed = args.speed or speed
-            r = run_case(n, sim_s, speed, work, reliability, mode)
+            r = dict(run_case(n, sim_s, speed, work, reliability, mode), repeat=rep)
             rows.append(r)
             who = {'agents': 'node', 'agent_pattern': 'node (agent_pattern)',
                    'conditional': 'node (covariance_mode conditional)',
@@ -386,9 +406,10 @@ def main():
             print('       node threads (% of a core at 1x): ' + ', '.join(
                 f'{k} {100 * v:.2f}' for k, v in threads if v >= 0.0005), flush=True)
             if mode == 'floor':
-                _print_ratios(rows, n, reliability)
+                _print_ratios(rows, n, reliability, rep)
             if mode in ('conditional', 'reported'):
                 _print_conditional(rows, n, reliability, mode)
+    _print_repeats(rows)
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 
