@@ -27,16 +27,23 @@ innovation law) are a proper one-step predictive likelihood, scored as any
 other model's. The collapse to one offset estimate per step (rather than a
 mixture of paths) is the approximation.
 
-Fit: the mean part by least squares on the series with the jumps taken out
-(two passes), the law on the residuals of the clean steps, then ``rate``,
-``q`` and ``sigma`` by maximum likelihood with the rest fixed.
+Fit: the mean part by least squares on the series with the jumps taken out,
+the law on the residuals of the clean steps, then ``rate``, ``q`` and
+``sigma`` (with heavy tails also the law's dof: a large innovation that
+persists and a short jump explain the same outlier, so they are weighed
+together) by maximum likelihood over a grid refined around its best
+(:func:`search_params`; the candidates are stepped through the filter side
+by side, :func:`run_filters`), twice: over the whole range, then around the
+best after the mean part and the law are refitted with those jumps aside.
+A local search from one start stays in whichever explanation it started in.
 """
 
 from dataclasses import dataclass
+import itertools
 import math
 
 import numpy as np
-from scipy import optimize
+from scipy import special
 
 from gps_error_ros.diagnose.common import LOG2PI
 from gps_error_ros.diagnose.mean import Design
@@ -50,6 +57,13 @@ DRIFT = 0.5
 #: Bounds of the fitted parameters.
 RATE_BOUNDS = (1e-5, 0.3)
 MEAN_STEPS_BOUNDS = (1.0, 60.0)
+#: The wide search's grid of jump sizes (innovation SDs) and of the tails' dof.
+GRID_SIZES = (3.0, 6.0, 12.0, 24.0)
+GRID_DOFS = (3.0, 5.0, 10.0, 30.0)
+#: Half the wide grid's spacing in the search's coordinates (the first refinement's step).
+GRID_STEP = np.array([0.5, 0.45, 0.35, 0.55])
+#: Rounds of the search's refinement, each around the best so far at half the spacing.
+SEARCH_ROUNDS = 3
 
 
 @dataclass
@@ -77,14 +91,44 @@ class JumpFilter:
         return self.post[:, :1] * self.r + self.post[:, 2:] * going
 
 
+def _quad(inv, x0, x1):
+    return inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1 + inv[2] * x1 * x1
+
+
 def _gauss2(x0, x1, inv, logdet):
-    return -LOG2PI - 0.5 * logdet - 0.5 * (inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1
-                                           + inv[2] * x1 * x1)
+    return -LOG2PI - 0.5 * logdet - 0.5 * _quad(inv, x0, x1)
 
 
 def _inv(c):
     det = c[0, 0] * c[1, 1] - c[0, 1] ** 2
     return (c[1, 1] / det, -c[0, 1] / det, c[0, 0] / det), math.log(det)
+
+
+def _inv_plus(c, s2):
+    """Return the inverse (three entries, each (K,)) and log det of ``c + s2 I`` per ``s2``."""
+    a, b, d = c[0, 0] + s2, c[0, 1], c[1, 1] + s2
+    det = a * d - b * b
+    return (d / det, -b / det, a / det), np.log(det)
+
+
+class _Tails:
+    """The clean innovations' bivariate law per candidate: Gaussian or Student-t (covariance S)."""
+
+    def __init__(self, dofs):
+        dof = np.asarray(dofs, dtype=float)
+        self.heavy = np.isfinite(dof)
+        self.dof = np.where(self.heavy, dof, 4.0)
+        self.f = self.dof / (self.dof - 2.0)
+        self.const = (special.gammaln(0.5 * (self.dof + 2)) - special.gammaln(0.5 * self.dof)
+                      - np.log(self.dof * math.pi) + np.log(self.f))
+
+    def logpdf(self, q, logdet):
+        """Return the log density of squared Mahalanobis radii ``q`` (K,) under S."""
+        gauss = -LOG2PI - 0.5 * logdet - 0.5 * q
+        if not self.heavy.any():
+            return gauss
+        t = self.const - 0.5 * logdet - 0.5 * (self.dof + 2) * np.log1p(q * self.f / self.dof)
+        return np.where(self.heavy, t, gauss)
 
 
 def _t_constants(dof):
@@ -114,7 +158,9 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     jump probability at its stationary share and no offset in its past.
 
     Long because the recursion is one loop over the samples, in plain
-    floats (a few microseconds a step).
+    floats (a few microseconds a step; :func:`run_filters` steps many
+    candidates at once in numpy, at about ten times the cost of one here,
+    and is tested to give the same).
     """
     n = len(r_obs)
     rate, q, s2, kappa = params.rate, params.end_probability, params.sigma_m ** 2, DRIFT
@@ -172,6 +218,69 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
                       np.asarray(post, dtype=float).reshape(n, 3))
 
 
+def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
+    """
+    Return one :class:`JumpFilter` per candidate ``(Outliers, dof)``, in one pass.
+
+    As :func:`run_filter`, the candidates stepped side by side (numpy over
+    the candidates, one loop over the samples), so that a grid of
+    parameters costs little more than one of them.
+
+    Long because the recursion is one loop over the samples.
+    """
+    n, k = len(r_obs), len(cands)
+    rate = np.array([p.rate for p, _ in cands])
+    q = np.array([p.end_probability for p, _ in cands])
+    share = np.array([p.share for p, _ in cands])
+    s2 = np.array([p.sigma_m ** 2 for p, _ in cands])
+    tails = _Tails([d for _, d in cands])
+    k2 = np.ones(n) if scale2 is None else np.asarray(scale2, dtype=float)
+    levels, which = np.unique(k2, return_inverse=True)
+    inv = [(_inv(lev * cov), _inv_plus(lev * cov, s2)) for lev in levels]
+    phn, phe = (np.asarray(p, dtype=float)[::-1] for p in phi)   # oldest lag first
+    r_obs = np.asarray(r_obs, dtype=float)
+    seg = np.asarray(seg)
+    x_out, prev_out = np.empty((n, k, 2)), np.empty((n, k, 2))
+    prior_out, post_out = np.empty((n, k, 3)), np.empty((n, k, 3))
+    spread_out, off = np.empty((n, k)), np.zeros((n, k, 2))
+    w = cn = ce = pc = None
+    start = 0
+    for t in range(n):
+        if t == 0 or seg[t] != seg[t - 1]:
+            w, cn, ce, pc, start = share.copy(), np.zeros(k), np.zeros(k), np.ones(k), t
+        mn, me = min(len(phn), t - start), min(len(phe), t - start)
+        xn = r_obs[t, 0] + (phn[len(phn) - mn:] @ off[t - mn:t, :, 0] if mn else 0.0)
+        xe = r_obs[t, 1] + (phe[len(phe) - me:] @ off[t - me:t, :, 1] if me else 0.0)
+        p1, p2 = (1.0 - w) * rate, w * (1.0 - q)
+        p0 = 1.0 - p1 - p2
+        f = 1.0 + pc + DRIFT            # the jump goes on: offset known up to pc + DRIFT
+        (i0, d0), (i1, d1) = inv[which[t]]
+        l0 = tails.logpdf(_quad(i0, xn, xe), d0)
+        l1 = -LOG2PI - 0.5 * d1 - 0.5 * _quad(i1, xn, xe)
+        l2 = -LOG2PI - 0.5 * d0 - np.log(f) - 0.5 * _quad(i0, xn - cn, xe - ce) / f
+        top = np.maximum(np.maximum(l0, l1), l2)
+        a0, a1, a2 = p0 * np.exp(l0 - top), p1 * np.exp(l1 - top), p2 * np.exp(l2 - top)
+        tot = a0 + a1 + a2
+        a0, a1, a2 = a0 / tot, a1 / tot, a2 / tot
+        x_out[t, :, 0], x_out[t, :, 1] = xn, xe
+        prev_out[t, :, 0], prev_out[t, :, 1] = cn, ce
+        prior_out[t, :, 0], prior_out[t, :, 1], prior_out[t, :, 2] = p0, p1, p2
+        post_out[t, :, 0], post_out[t, :, 1], post_out[t, :, 2] = a0, a1, a2
+        spread_out[t] = f
+        w = np.minimum(1.0, a1 + a2)
+        g = (pc + DRIFT) / f            # Kalman gain of the offset, going on
+        ws = np.where(w > 0.0, w, 1.0)  # the offset given a jump: started or going on
+        kept = w > 0.0
+        cn = np.where(kept, (a1 * xn + a2 * (cn + g * (xn - cn))) / ws, cn)
+        ce = np.where(kept, (a1 * xe + a2 * (ce + g * (xe - ce))) / ws, ce)
+        pc = np.where(kept, (a1 + a2 * (pc + DRIFT) * (1.0 - g)) / ws, pc)
+        off[t, :, 0], off[t, :, 1] = w * cn, w * ce
+    inside = post_out[:, :, 1] + post_out[:, :, 2]
+    return [JumpFilter(x_out[:, j], prior_out[:, j], prev_out[:, j], off[:, j],
+                       np.minimum(1.0, inside[:, j]), spread_out[:, j], post_out[:, j])
+            for j in range(k)]
+
+
 def mixture_logpdf(jf, clean_ll, cov, params, scale2=None):
     """Return per-sample log densities: the three hypotheses, weighted by the prior."""
     r, prev = jf.r, jf.prev
@@ -215,29 +324,64 @@ def design_subset(d, keep):
                   None if d.steps is None else d.steps[keep])
 
 
-def fit_params(loglik, start):
+def _unpack(x):
     """
-    Return the :class:`Outliers` maximising ``loglik(params)``, from ``start``.
+    Return ``(Outliers, dof)`` of search coordinates.
 
-    Nelder-Mead over (logit of the rate, log of the mean length - 1, log sigma).
+    The coordinates: logit of the rate in its bounds, log(mean length - 1),
+    log sigma and, with tails, log(dof - 2).
     """
     lo, hi = RATE_BOUNDS
+    rate = lo + (hi - lo) / (1.0 + math.exp(-x[0]))
+    steps = min(MEAN_STEPS_BOUNDS[1], 1.0 + math.exp(x[1]))
+    dof = 2.0 + math.exp(x[3]) if len(x) > 3 else math.inf
+    return Outliers(rate, steps, math.exp(x[2])), dof
 
-    def unpack(x):
-        rate = lo + (hi - lo) / (1.0 + math.exp(-x[0]))
-        steps = min(MEAN_STEPS_BOUNDS[1], 1.0 + math.exp(x[1]))
-        return Outliers(rate, steps, math.exp(x[2]))
 
-    def cost(x):
-        v = loglik(unpack(x))
-        return -v if math.isfinite(v) else 1e300
+def _pack(params, dof=math.inf):
+    lo, hi = RATE_BOUNDS
+    frac = (params.rate - lo) / (hi - lo)
+    x = [math.log(frac / (1 - frac)), math.log(max(params.mean_steps - 1.0, 1e-3)),
+         math.log(params.sigma_m)]
+    return np.array(x + ([math.log(dof - 2.0)] if math.isfinite(dof) else []))
 
-    frac = (start.rate - lo) / (hi - lo)
-    x0 = [math.log(frac / (1 - frac)), math.log(max(start.mean_steps - 1.0, 1e-3)),
-          math.log(start.sigma_m)]
-    res = optimize.minimize(cost, x0, method='Nelder-Mead',
-                            options={'maxiter': 80, 'xatol': 1e-2, 'fatol': 1e-2})
-    return unpack(res.x)
+
+def search_params(loglik_many, sd, start=None, start_dof=math.inf, tails=False, wide=True):
+    """
+    Return ``(Outliers, dof)`` maximising the likelihood, by a grid refined around its best.
+
+    ``loglik_many(cands)``: the training log likelihood of each candidate
+    ``(Outliers, dof)``; ``sd``: the innovations' SD per axis (sizes are
+    searched in its units); ``tails``: the clean innovations are Student-t
+    and their dof is searched with the jumps (a persisting large innovation
+    and a short jump explain the same outlier: they are weighed together,
+    or the first fitted takes it). ``wide``: start from a grid over the whole
+    range (rates 0.1-5 %, mean lengths 1.5-12 steps, sizes 3-24 SDs, dof
+    3-30), which a local search from a poor start would not leave; else
+    from ``start``. Each round halves the grid's spacing.
+    """
+    dof0 = start_dof if tails else math.inf
+    if wide:
+        axes = [np.geomspace(0.001, 0.05, 5), (1.5, 3.0, 6.0, 12.0), sd * np.array(GRID_SIZES)]
+        axes += [GRID_DOFS] if tails else []
+        pts = [_pack(Outliers(*c[:3]), c[3] if tails else math.inf)
+               for c in itertools.product(*axes)]
+        step = GRID_STEP[:len(axes)].copy()
+    else:
+        step = 0.5 * GRID_STEP[:3 + bool(tails)]
+        pts = []
+    if start is not None:
+        pts.append(_pack(start, dof0 if tails else math.inf))
+    best, best_ll = None, -math.inf
+    for _ in range(SEARCH_ROUNDS + 1):
+        lls = np.asarray(loglik_many([_unpack(x) for x in pts]), dtype=float)
+        lls = np.where(np.isfinite(lls), lls, -np.inf)
+        if lls.size and lls.max() > best_ll:
+            best, best_ll = pts[int(np.argmax(lls))], float(lls.max())
+        pts = [best + step * np.array(o) for o in itertools.product((-1, 0, 1), repeat=len(best))
+               if any(o)]
+        step = 0.5 * step
+    return _unpack(best)
 
 
 def moment_start(jf, cov):

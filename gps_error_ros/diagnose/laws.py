@@ -102,9 +102,14 @@ def _prefix_products(mats):
         d *= 2
 
 
-def scan_loglik(logf, trans, pi, smooth=False):
+def scan_loglik(logf, trans, pi, smooth=False, starts=None):
     """
     Forward filter of a K-state HMM with emission log densities ``logf`` (n, K).
+
+    ``starts`` (n,) bool, forward only: the chain restarts from ``pi`` at
+    these samples (segments in one scan: the step into a restart is the
+    rank-one matrix ``1 (pi f_t)'``, so each segment's densities are those
+    of a scan of its own).
 
     Returns the one-step predictive log density of each sample and the
     predictive regime probabilities (n, K); with ``smooth`` also the
@@ -117,12 +122,19 @@ def scan_loglik(logf, trans, pi, smooth=False):
     f = np.exp(logf - m[:, None])
     mats = trans[:, :, None] * f.T[None, :, :]         # P[i, j] f_t[j]
     mats[:, :, 0] = np.diag(pi * f[0])
+    restart = np.zeros(n, dtype=bool) if starts is None else np.asarray(starts, dtype=bool)
+    restart[0] = False
+    if restart.any():
+        if smooth:
+            raise ValueError('scan_loglik: starts is for the forward filter only')
+        mats[:, :, restart] = (pi[:, None] * f[restart].T)[None]
     q, logc = _prefix_products(mats)
     alpha = q.sum(axis=0).T                            # (n, k), up to scale
     tot = np.log(alpha.sum(axis=1)) + logc + np.cumsum(m)
     pred_ll = np.diff(np.r_[0.0, tot])
     filt = alpha / alpha.sum(axis=1, keepdims=True)
     pred = np.vstack([pi[None, :], filt[:-1] @ trans])
+    pred[restart] = pi
     if not smooth:
         return pred_ll, pred
     # backward: beta_t' = 1' N_{n-1} ... N_{t+1}, N_j = diag(f_j) P'
@@ -154,11 +166,13 @@ def law_logpdf(law, r, seg):
     pi = stationary_distribution(law.transition)
     logf = np.stack([component_logpdf(r, law.cov, law.dof, s * s)
                      for s in law.scales], axis=1)
-    out = np.empty(len(r))
-    pred = np.empty((len(r), k))
-    for s in np.unique(seg):
-        sel = np.flatnonzero(seg == s)
-        out[sel], pred[sel] = scan_loglik(logf[sel], law.transition, pi)
+    seg = np.asarray(seg)
+    order = np.argsort(seg, kind='stable')          # each segment's samples together
+    ordered = seg[order]
+    starts = np.r_[True, ordered[1:] != ordered[:-1]]
+    ll, p = scan_loglik(logf[order], law.transition, pi, starts=starts)
+    out, pred = np.empty(len(r)), np.empty((len(r), k))
+    out[order], pred[order] = ll, p
     return out, pred
 
 

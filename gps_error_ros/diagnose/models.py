@@ -139,12 +139,25 @@ class FittedModel:
         scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
         jf = jumps.run_filter(r_obs, d.seg, self.mean.phi, cov, self.jumps, scale2,
                               self.law.dof)
-        clean_ll, _, pred = self._law_score(jf.r, d)
-        ll = jumps.mixture_logpdf(jf, clean_ll, cov, self.jumps, scale2)
+        ll, pred = self._jump_loglik(jf, d, cov, scale2)
         if not residuals:
             return ll
         _, r, _ = self._law_score(jf.innovations(), d)
         return ll, r, d, pred
+
+    def _jump_loglik(self, jf, d, cov, scale2):
+        """Return (per-sample log densities, regime probabilities) of one filter pass."""
+        clean_ll, _, pred = self._law_score(jf.r, d)
+        return jumps.mixture_logpdf(jf, clean_ll, cov, self.jumps, scale2), pred
+
+    def jump_logliks(self, r_obs, d, cands):
+        """Return the training log likelihood of each candidate ``(Outliers, dof)``."""
+        cov = average_cov(self.law, self.effects)
+        scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
+        jfs = jumps.run_filters(r_obs, d.seg, self.mean.phi, cov, cands, scale2)
+        return [float(np.sum(replace(self, jumps=p, law=replace(self.law, dof=dof))
+                             ._jump_loglik(jf, d, cov, scale2)[0]))
+                for (p, dof), jf in zip(cands, jfs)]
 
 
 def average_cov(law, effects):
@@ -195,17 +208,21 @@ def with_jumps(effects, orders, mean, r, d, regimes):
     """
     Return the :class:`FittedModel` with ``outliers`` (see :mod:`.jumps`).
 
-    Twice: the jumps are set aside, the mean part refitted on the rest and
-    the law fitted on the clean steps; then the jump parameters by maximum
-    likelihood with the rest fixed.
+    The jumps are set aside by the filter, the mean part refitted on the
+    rest and the law fitted on the clean steps; the jump parameters (and
+    with ``heavy_tails`` the tails' dof, weighed with them) are then
+    searched over a wide grid; with them the jumps are set aside again, the
+    mean part and the law refitted, and the search refined around the best.
     """
     cov, scale2, dof = robust_cov(r), None, math.inf
-    params = Outliers(jumps.START[0], jumps.START[1],
-                      jumps.START[2] * math.sqrt(0.5 * np.trace(cov)))
+    sd = math.sqrt(0.5 * np.trace(cov))
+    params = Outliers(jumps.START[0], jumps.START[1], jumps.START[2] * sd)
     others = tuple(e for e in effects if e != 'outliers')
-    for _ in range(2):
+    tails = 'heavy_tails' in effects
+    for wide in (True, False):
         jf = jumps.run_filter(r, d.seg, mean.phi, cov, params, scale2, dof)
-        params = jumps.moment_start(jf, cov) or params
+        if wide:
+            params = jumps.moment_start(jf, cov) or params
         mean, _ = least_squares(jumps.cleaned_design(d, jf.offset), mean.lag_s, mean.gain,
                                 mean.period)
         r = mean.residuals(d)
@@ -214,15 +231,15 @@ def with_jumps(effects, orders, mean, r, d, regimes):
         # the law of the clean steps: the filter's next pass knows its scale by
         # phase (or a cycle's bursts pass for jumps) and its tails (or a large
         # innovation, which persists, passes for a jump, which does not)
-        model = with_law(others, orders, mean, jf.r[keep], jumps.design_subset(d, keep),
-                         regimes)
-        cov, dof = average_cov(model.law, others), model.law.dof
+        model = replace(with_law(others, orders, mean, jf.r[keep],
+                                 jumps.design_subset(d, keep), regimes),
+                        effects=tuple(e for e in EFFECT_ORDER if e in effects))
+        cov = average_cov(model.law, others)
         scale2 = cycle_scale2(d, mean.period, model.cycle_scales)
-    model = replace(model, effects=tuple(e for e in EFFECT_ORDER if e in effects),
-                    jumps=params)
-    params = jumps.fit_params(
-        lambda p: float(np.sum(replace(model, jumps=p)._score_jumps(r, d, False))), params)
-    model = replace(model, jumps=params)
+        sd = math.sqrt(0.5 * np.trace(cov))
+        params, dof = jumps.search_params(lambda c: model.jump_logliks(r, d, c), sd, params,
+                                          model.law.dof, tails, wide)
+    model = replace(model, jumps=params, law=replace(model.law, dof=dof))
     return replace(model, train_loglik=float(np.sum(model._score_jumps(r, d, False))),
                    n_train=len(r))
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from gps_error_ros.diagnose.jumps import run_filter
+from gps_error_ros.diagnose.jumps import run_filter, run_filters
 from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.diagnose.models import fit_model
 from gps_error_ros.diagnose.pipeline import split_step
@@ -75,3 +75,45 @@ def test_filter_weights_are_a_distribution_and_depend_on_the_past_only():
     again = run_filter(changed, seg, [np.array([0.0]), np.array([0.0])], np.eye(2), params)
     np.testing.assert_array_equal(again.prior[:201], jf.prior[:201])
     np.testing.assert_array_equal(again.r[:200], jf.r[:200])
+
+
+def test_candidates_stepped_together_match_each_run_alone():
+    rng = np.random.default_rng(7)
+    r = rng.standard_t(5, size=(600, 2))
+    r[200:203] += (9.0, 11.0)
+    seg = np.r_[np.zeros(300, int), np.ones(300, int)]
+    phi = [np.array([1.1, -0.05, -0.12]), np.array([0.9])]
+    cov = np.array([[1.0, 0.3], [0.3, 2.0]])
+    scale2 = rng.choice([0.5, 1.0, 2.0], 600)
+    cands = [(Outliers(0.01, 3.0, 10.0), np.inf), (Outliers(0.002, 1.5, 5.0), 4.0),
+             (Outliers(0.05, 12.0, 20.0), 30.0)]
+    together = run_filters(r, seg, phi, cov, cands, scale2)
+    for (params, dof), jf in zip(cands, together):
+        alone = run_filter(r, seg, phi, cov, params, scale2, dof)
+        for name in ('r', 'prior', 'prev', 'offset', 'inside', 'spread', 'post'):
+            np.testing.assert_allclose(getattr(jf, name), getattr(alone, name),
+                                       rtol=1e-12, atol=1e-12, err_msg=name)
+    # the candidates differ: the batch does not hand one candidate's pass to all
+    assert not np.allclose(together[0].post, together[2].post)
+
+
+def test_tails_and_jumps_are_fitted_together():
+    """Student-t innovations (which persist) and jumps (which come back) in one walk."""
+    model = build_model(AXIS, AXIS, effects_from_dict(
+        {'heavy_tails': {'dof': 4.0}, 'outliers': TRUE}))
+    err = model.simulate(np.array([streams.agent_key(22, 'both')], dtype=np.uint64),
+                         4000)[:, 0]
+    t = np.arange(4000, dtype=float)
+    lat, lon = offset(DATUM[0], DATUM[1], err[:, 0], err[:, 1])
+    ones = np.ones(t.size)
+    split = split_step(Trace('both', t, lat, lon, DATUM[0] * ones, DATUM[1] * ones))
+    m = fit_model(split.train, (3, 3), ('heavy_tails', 'outliers'), split.truth)
+    assert m.law.dof == pytest.approx(4.0, rel=0.25)
+    # with tails beside them, the time spent in jumps and their size are found;
+    # how that time splits into rate and length is weakly told apart (short jumps
+    # close together, or fewer longer ones), so the split is held to a factor 2.5
+    assert m.jumps.share == pytest.approx(Outliers(**TRUE).share, rel=0.4)
+    assert m.jumps.sigma_m == pytest.approx(TRUE['sigma_m'], rel=0.3)
+    assert TRUE['rate'] / 2.5 < m.jumps.rate < TRUE['rate'] * 2.5
+    tails_only = fit_model(split.train, (3, 3), ('heavy_tails',), split.truth)
+    assert m.bic < tails_only.bic

@@ -6,7 +6,7 @@ from scipy import optimize, stats
 
 from gps_error_ros.diagnose.laws import (component_logpdf, fit_law, Law,
                                          law_from_vector, law_logpdf, law_vector,
-                                         scan_loglik)
+                                         scan_loglik, stationary_distribution)
 
 
 def test_densities_match_scipy():
@@ -82,3 +82,21 @@ def test_em_reaches_the_likelihood_maximum():
 
     best = optimize.minimize(nll, x, method='L-BFGS-B')
     assert nll(x) - best.fun < 0.5
+
+
+def test_segments_in_one_scan_are_each_a_scan_of_their_own():
+    rng = np.random.default_rng(1)
+    n = 1500
+    r = rng.standard_t(5, size=(n, 2))
+    seg = np.repeat(np.arange(8), n // 8 + 1)[:n]
+    seg[600:700] = 99                          # a segment's samples apart from its order
+    law = fit_law(r, seg, coupled=True, tails=True, regimes=3)
+    ll, pred = law_logpdf(law, r, seg)
+    pi = stationary_distribution(law.transition)
+    logf = np.stack([component_logpdf(r, law.cov, law.dof, s * s) for s in law.scales], axis=1)
+    for s in np.unique(seg):
+        sel = np.flatnonzero(seg == s)
+        alone, alone_pred = scan_loglik(logf[sel], law.transition, pi)
+        np.testing.assert_allclose(ll[sel], alone, atol=1e-10, rtol=0)
+        np.testing.assert_allclose(pred[sel], alone_pred, atol=1e-10, rtol=0)
+        np.testing.assert_allclose(pred[sel[0]], pi)
