@@ -91,8 +91,10 @@ def main(argv=None):
     print(f'{len(jobs)} diagnoses in {wall:.0f} s: {"PASSED" if ok else "FAILED"}')
     if args.json:
         with open(args.json, 'w') as f:
-            json.dump({'summary': summary, 'wall_s': wall, 'runs': results}, f,
-                      indent=1)
+            json.dump({'summary': summary, 'wall_s': wall, 'runs': results,
+                       'command': ' '.join(['python bench/diagnose_long.py']
+                                           + list(sys.argv[1:] if argv is None else argv))},
+                      f, indent=1)
     return 0 if ok else 1
 
 
