@@ -15,7 +15,10 @@ The floor (``floor_node.py``): at 1,000 and 5,000 agents each case runs
 three times in the same run: the node with ``agents``, the node with
 ``agent_pattern`` (the agents found in the graph), and a bare rclpy process
 with the same subscriptions and publishers that publishes a pre-serialized
-fix per truth message. The node's CPU is reported as a ratio to the floor's.
+fix per truth message (best effort paced as the node paces it). The node's
+CPU is reported as a ratio to the floor's; with ``--repeats R`` each case's
+modes run R times interleaved and the median and range of the ratios are
+printed (one run per mode puts a ratio no closer than about +-0.2).
 At 1,000 agents the node also runs with ``covariance_mode: conditional``
 (a covariance per fix) and ``covariance_mode: reported`` (DS5 with a
 ``reported_accuracy`` section whose radius follows the predictive scale, so
