@@ -84,11 +84,16 @@ class JumpFilter:
 
         Clean: ``r``; a jump going on: ``(r - offset) / sqrt(spread)``; a
         jump starting: nothing of the innovation can be told (zero); weighted
-        by the posterior. What the law's tests see, so that a jump neither
+        by the posterior. The clean step at which a jump ends is set aside
+        likewise, by the probability that the step before was in a jump: its
+        residual carries the error of the tracked offset through the AR
+        coefficients, which a wandering jump makes larger than the filter's
+        own uncertainty. What the law's tests see, so that a jump neither
         passes for a tail nor, by its wider spread, for a burst of variance.
         """
         going = (self.r - self.prev) / np.sqrt(self.spread)[:, None]
-        return self.post[:, :1] * self.r + self.post[:, 2:] * going
+        before = np.r_[0.0, self.inside[:-1]]
+        return (1.0 - before)[:, None] * self.post[:, :1] * self.r + self.post[:, 2:] * going
 
 
 def _quad(inv, x0, x1):

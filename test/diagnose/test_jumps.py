@@ -117,3 +117,21 @@ def test_tails_and_jumps_are_fitted_together():
     assert TRUE['rate'] / 2.5 < m.jumps.rate < TRUE['rate'] * 2.5
     tails_only = fit_model(split.train, (3, 3), ('heavy_tails',), split.truth)
     assert m.bic < tails_only.bic
+
+
+def test_the_tests_see_neither_end_of_a_jump():
+    """A jump's start and the step at which it ends carry no innovation the filter can tell."""
+    rng = np.random.default_rng(4)
+    r = rng.normal(size=(400, 2))
+    phi = [np.array([0.9]), np.array([0.9])]
+    o = np.array([15.0, -12.0])      # an offset on steps 100-102, residuals against the
+    r[100] += o                      # uncleaned AR(1) prediction: the start shows whole,
+    r[101:103] += 0.1 * o            # the steps inside by 1 - phi, the return by -phi
+    r[103] -= 0.9 * o
+    seg = np.zeros(400, int)
+    jf = run_filter(r, seg, phi, np.eye(2), Outliers(0.01, 3.0, 10.0))
+    x = jf.innovations()
+    assert jf.inside[102] > 0.9 and jf.inside[103] < 0.1
+    np.testing.assert_allclose(x[100], 0.0, atol=0.1)         # the start
+    np.testing.assert_allclose(x[103], 0.0, atol=0.5)         # the end
+    np.testing.assert_allclose(x[300], jf.r[300], rtol=0.05)  # clean, far from a jump
