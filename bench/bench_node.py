@@ -315,16 +315,17 @@ def _print_ratios(rows, n, reliability, repeat):
 
 def _print_repeats(rows):
     """Print each node mode's ratio to the floor over the repeats: median, range."""
-    keys = sorted({(r['agents'], r['fix_reliability'], r['mode']) for r in rows
-                   if 'cpu_ratio_to_floor' in r})
-    for n, reliability, mode in keys:
-        ratios = sorted(r['cpu_ratio_to_floor'] for r in rows if (
-            r['agents'], r['fix_reliability'], r['mode']) == (n, reliability, mode)
-            and 'cpu_ratio_to_floor' in r)
-        if len(ratios) > 1:
+    ratios = {}
+    for r in rows:
+        if 'cpu_ratio_to_floor' in r:
+            key = (r['agents'], r['fix_reliability'], r['mode'])
+            ratios.setdefault(key, []).append(r['cpu_ratio_to_floor'])
+    for (n, reliability, mode), got in sorted(ratios.items()):
+        got.sort()
+        if len(got) > 1:
             print(f'{n:>5} agents, {reliability} fixes, {mode}: ratio to the floor over '
-                  f'{len(ratios)} repeats: median {statistics.median(ratios):.2f}, '
-                  f'range {ratios[0]:.2f}-{ratios[-1]:.2f}', flush=True)
+                  f'{len(got)} repeats: median {statistics.median(got):.2f}, '
+                  f'range {got[0]:.2f}-{got[-1]:.2f}', flush=True)
 
 
 def _print_conditional(rows, n, reliability, mode):

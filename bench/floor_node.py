@@ -8,8 +8,8 @@ clock one pre-serialized ``NavSatFix`` per agent with a truth message
 (only the stamp's eight bytes are written per step). Its CPU is what the
 node could not go below with rclpy and Fast DDS; ``bench_node.py``
 runs it in place of the node and reports the node's CPU as a ratio to it.
-Best-effort fixes go out as the node sends them, in bursts of
-``FIX_BURST`` with ``FIX_BURST_PAUSE_S`` between (an unpaced burst of 1,000
+Best-effort fixes go out as the node sends them (``send_paced``), in
+bursts of ``FIX_BURST`` with ``FIX_BURST_PAUSE_S`` between (an unpaced burst of 1,000
 overruns a subscriber's shared-memory queue, so a floor that did not pace
 would lose fixes and do less work than the node it is the floor of).
 
@@ -31,7 +31,7 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from gps_error_ros.ros.fix_output import FIX_BURST, FIX_BURST_PAUSE_S
+from gps_error_ros.ros.fix_output import FIX_BURST, send_paced
 from gps_error_ros.ros.topics import FIX_QOS, TRUTH_QOS
 
 NS = 1_000_000_000
@@ -83,12 +83,7 @@ class FloorNode(Node):
             self.last_step = step
             raw = self.head + struct.pack('<iI', step, 0) + self.tail
             order = sorted(got)
-            burst = self.burst or max(len(order), 1)
-            for start in range(0, len(order), burst):
-                if start:
-                    time.sleep(FIX_BURST_PAUSE_S)
-                for i in order[start:start + burst]:
-                    self.pubs[i].publish_raw(raw)
+            send_paced([self.pubs[i] for i in order], [raw] * len(order), self.burst)
             self.fixes += len(got)
         dt = time.perf_counter() - t0
         self.ticks += 1

@@ -376,7 +376,7 @@ def search_params(loglik_many, sd, start=None, start_dof=math.inf, tails=False, 
         step = 0.5 * GRID_STEP[:3 + bool(tails)]
         pts = []
     if start is not None:
-        pts.append(_pack(start, dof0 if tails else math.inf))
+        pts.append(_pack(start, dof0))
     best, best_ll = None, -math.inf
     for _ in range(SEARCH_ROUNDS + 1):
         lls = np.asarray(loglik_many([_unpack(x) for x in pts]), dtype=float)

@@ -29,6 +29,16 @@ FIX_BURST_PAUSE_S = 0.001
 NO_COVARIANCE = [0.0] * 9
 
 
+def send_paced(handles, raws, burst=None):
+    """Publish ``raws[i]`` on ``handles[i]``, ``burst`` at a time ``FIX_BURST_PAUSE_S`` apart."""
+    burst = burst or max(len(raws), 1)
+    for start in range(0, len(raws), burst):
+        if start:
+            time.sleep(FIX_BURST_PAUSE_S)
+        for handle, raw in zip(handles[start:start + burst], raws[start:start + burst]):
+            handle.publish_raw(raw)
+
+
 class FixOutput:
     """Publish the engine's fix batches on the node's per-agent publishers."""
 
@@ -126,9 +136,4 @@ class FixOutput:
                     variance))
 
     def _send(self, handles, raws):
-        burst = self.burst or max(len(raws), 1)
-        for start in range(0, len(raws), burst):
-            if start:
-                time.sleep(FIX_BURST_PAUSE_S)
-            for handle, raw in zip(handles[start:start + burst], raws[start:start + burst]):
-                handle.publish_raw(raw)
+        send_paced(handles, raws, self.burst)
