@@ -224,8 +224,16 @@ def render(records, synth, long_run=None):
           'jumps\' rate, length and size, with the tails\' dof, searched '
           'together over a grid refined around its best; '
           '`gps_error_ros/diagnose/jumps.py`); when it rejects on its own, the '
-          'other tests run with the jumps set aside, so a jump does not pass '
-          'for a heavy tail. '
+          'other tests run with the jumps set aside (the steps more likely in '
+          'a jump than not and the one after each dropped, the segment broken '
+          'there), so a jump '
+          'does not pass for a heavy tail, and the motion test is taken again '
+          'on the series with the jumps taken out (a few jumps of metres sway '
+          'its Gaussian likelihood ratio); the models with `outliers` have the '
+          'AR orders the PACF rule picks on that series (to the rule, a jump '
+          'looks like a loss of persistence: on a library trace with AR(3) '
+          'errors and jumps it picks orders 10 and 1, and 3 and 3 with the '
+          'jumps out). '
           'Tails and '
           'regimes compete: both '
           'fatten the marginal tails, only regimes make the squares persist. '
@@ -340,7 +348,11 @@ def render(records, synth, long_run=None):
         md += [f'{s["samples"]} samples: {s["train_samples"]} train, '
                f'{s["test_samples"]} held out ({s["scored_test_samples"]} '
                f'scored). Base orders: north {s["base"]["order"]["north"]}, '
-               f'east {s["base"]["order"]["east"]}.', '']
+               f'east {s["base"]["order"]["east"]}'
+               + ('' if s['extended'].get('order', s['base']['order']) == s['base']['order']
+                  else f'; extended: north {s["extended"]["order"]["north"]}, east '
+                       f'{s["extended"]["order"]["east"]} (chosen without the jumps)')
+               + '.', '']
         md += _tests_table(s) + ['']
         md += _effect_lines(s) + ['']
         eff = s['extended']['parameters'].get('effects', {})

@@ -31,7 +31,13 @@ class Attribution:
     regimes: int = 2
     lag_s: float = None
     period: int = 0             # periodic: the cycle's length, steps
+    orders: tuple = ()          # the base model's AR orders
+    jump_orders: tuple = ()     # with outliers: those of the series without its jumps
     approximations: list = field(default_factory=list)
+
+    def orders_for(self, effects):
+        """Return the AR orders of a model with ``effects``."""
+        return self.jump_orders if 'outliers' in effects and self.jump_orders else self.orders
 
 
 def travel_axes_win(r, d):
@@ -54,7 +60,7 @@ def _pick(test):
 def _attribute_law(split, base, family, att):
     """Tails against regimes: add the winner to ``att`` (training BIC)."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
-    train, truth, orders = split.train, split.truth, base.orders
+    train, truth, orders = split.train, split.truth, att.orders_for(att.effects)
     common = tuple(att.effects)
     cands = {'heavy_tails': (('heavy_tails',), 2),
              'variance_regimes (2 levels)': (('variance_regimes',), 2),
@@ -105,7 +111,8 @@ def _attribute_cycle(split, base, family, att):
     """
     t = family.tests['periodicity']
     common = tuple(att.effects)
-    bics = {p: fit_model(split.train, base.orders, common + ('periodic',), split.truth,
+    bics = {p: fit_model(split.train, att.orders_for(common), common + ('periodic',),
+                         split.truth,
                          att.lag_s, att.regimes, period=p).bic
             for p in range(2, t['at_period'] + 1) if t['at_period'] % p == 0}
     att.period = min(bics, key=bics.get)
@@ -126,7 +133,7 @@ def _attribute_frame(split, base, family, att):
     lower BIC decides.
     """
     common = tuple(e for e in att.effects if e != 'cross_axis_coupling')
-    bics = {name: fit_model(split.train, base.orders, common + (name,), split.truth,
+    bics = {name: fit_model(split.train, att.orders_for(common), common + (name,), split.truth,
                             att.lag_s).bic
             for name in ('cross_axis_coupling', 'street_frame')}
     pick = min(bics, key=bics.get)
@@ -147,7 +154,7 @@ def _attribute_frame(split, base, family, att):
 def attribute(split, base, family):
     """Step 4: turn the rejected tests into effects, or ``unexplained``."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
-    att = Attribution([], {}, [], [])
+    att = Attribution([], {}, [], [], orders=base.orders, jump_orders=family.jump_orders)
     for test, effect in (('cross_axis_correlation', 'cross_axis_coupling'),
                          ('motion_dependence', 'motion_lag')):
         if reject[test]:

@@ -144,7 +144,7 @@ def _classes(diag, sims, seed):
     :class:`~.pipeline.FittedModels`.
     """
     train, test, truth = diag.split.train, diag.split.test, diag.split.truth
-    m0 = condition_count(diag.base.orders)
+    m0 = condition_count(diag.base.orders, diag.extended.orders)
     rng = np.random.default_rng(seed)
     wb = WhiteBias().fit(train)
     arma = Arma11().fit(train, m0)

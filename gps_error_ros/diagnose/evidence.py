@@ -79,7 +79,7 @@ def _heldout(model, split, m0, sims, seed):
 def effect_ablation(fitted, sims=100, seed=0):
     """Return, for every subset of the effects found, the held-out measures."""
     split, base, att = fitted.split, fitted.base, fitted.attribution
-    m0 = condition_count(base.orders)
+    m0 = condition_count(*(att.orders_for(sub) for sub in subsets(tuple(att.effects))))
     return [{'effects': list(sub),
              **_heldout(fit_extended(split, base, att, sub), split, m0, sims, seed)}
             for sub in subsets(tuple(att.effects))]

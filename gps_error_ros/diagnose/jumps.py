@@ -38,7 +38,7 @@ best after the mean part and the law are refitted with those jumps aside.
 A local search from one start stays in whichever explanation it started in.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import itertools
 import math
 
@@ -54,6 +54,9 @@ START = (0.01, 2.0, 6.0)
 #: The jump going on: how much its offset may drift per step, in units of S
 #: (the reflected path changes as the walker moves), so the filter follows it.
 DRIFT = 0.5
+#: The probability of a jump at or just before a step that sets it aside from the
+#: law's tests: more likely in a jump than not (as the law's fit sets steps aside).
+ASIDE = 0.5
 #: Bounds of the fitted parameters.
 RATE_BOUNDS = (1e-5, 0.3)
 MEAN_STEPS_BOUNDS = (1.0, 60.0)
@@ -77,23 +80,28 @@ class JumpFilter:
     inside: np.ndarray     # (n,) probability of being in a jump after the step
     spread: np.ndarray     # (n,) the jump going on: its density's covariance / S
     post: np.ndarray       # (n, 3) posterior weights of the three hypotheses
+    jump_ll: np.ndarray    # (n, 2) log densities: a jump starts, a jump goes on
 
-    def innovations(self):
+    def aside(self):
         """
-        Return the residuals with the jumps out, on the clean steps' scale.
+        Return, per step, whether the law's tests set it aside.
 
-        Clean: ``r``; a jump going on: ``(r - offset) / sqrt(spread)``; a
-        jump starting: nothing of the innovation can be told (zero); weighted
-        by the posterior. The clean step at which a jump ends is set aside
-        likewise, by the probability that the step before was in a jump: its
-        residual carries the error of the tracked offset through the AR
-        coefficients, which a wandering jump makes larger than the filter's
-        own uncertainty. What the law's tests see, so that a jump neither
-        passes for a tail nor, by its wider spread, for a burst of variance.
+        A step is set aside when it is in a jump (a start or a continuation)
+        with probability ``ASIDE`` or more, or when the step before was: the
+        residual at which a jump ends carries the error of the tracked offset
+        through the AR coefficients, which a wandering jump makes larger than
+        the filter's own uncertainty. The tests drop these steps and break
+        their segments there (:func:`broken_segments`) rather than see them
+        as zeros, which would pass for a burst of low variance.
         """
-        going = (self.r - self.prev) / np.sqrt(self.spread)[:, None]
         before = np.r_[0.0, self.inside[:-1]]
-        return (1.0 - before)[:, None] * self.post[:, :1] * self.r + self.post[:, 2:] * going
+        return (self.inside >= ASIDE) | (before >= ASIDE)
+
+
+def broken_segments(seg, keep):
+    """Return the segment index of the samples ``keep``, a new segment after each dropped run."""
+    start = np.r_[True, seg[1:] != seg[:-1]] | np.r_[False, ~keep[:-1]]
+    return np.cumsum(start & keep)[keep] - 1
 
 
 def _quad(inv, x0, x1):
@@ -136,15 +144,6 @@ class _Tails:
         return np.where(self.heavy, t, gauss)
 
 
-def _t_constants(dof):
-    """Return (dof, f, log constant) of the bivariate t with covariance S, or None."""
-    if not math.isfinite(dof):
-        return None
-    f = dof / (dof - 2.0)
-    return dof, f, (math.lgamma(0.5 * (dof + 2)) - math.lgamma(0.5 * dof)
-                    - math.log(dof * math.pi) + math.log(f))
-
-
 def _t2(x0, x1, inv, logdet, tail):
     dof, f, const = tail
     q = inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1 + inv[2] * x1 * x1
@@ -169,7 +168,9 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     """
     n = len(r_obs)
     rate, q, s2, kappa = params.rate, params.end_probability, params.sigma_m ** 2, DRIFT
-    tail = _t_constants(dof)
+    tails = _Tails([dof])
+    tail = (float(tails.dof[0]), float(tails.f[0]), float(tails.const[0])) \
+        if tails.heavy[0] else None
     k2 = np.ones(n) if scale2 is None else np.asarray(scale2, dtype=float)
     levels, which = np.unique(k2, return_inverse=True)
     inv = [(_inv(k * cov), _inv(k * cov + s2 * np.eye(2))) for k in levels]
@@ -179,7 +180,7 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     seg = np.asarray(seg).tolist()
     on_hist, oe_hist = [0.0] * n, [0.0] * n
     prior, prev, spread, inside = [None] * n, [None] * n, [0.0] * n, [0.0] * n
-    post = [None] * n
+    post, jump_ll = [None] * n, [None] * n
     w, cn, ce, pc, start = params.share, 0.0, 0.0, 1.0, 0
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
@@ -205,7 +206,7 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
         a2 = p2 * math.exp(l2 - top)
         tot = a0 + a1 + a2
         a0, a1, a2 = a0 / tot, a1 / tot, a2 / tot
-        post[t] = (a0, a1, a2)
+        post[t], jump_ll[t] = (a0, a1, a2), (l1, l2)
         w = min(1.0, a1 + a2)
         g = (pc + kappa) / f            # Kalman gain of the offset, going on
         gn, ge = cn + g * (xn - cn), ce + g * (xe - ce)
@@ -220,7 +221,8 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     prev = np.asarray(prev, dtype=float).reshape(n, 2)
     inside = np.asarray(inside)
     return JumpFilter(r, prior, prev, off, inside, np.asarray(spread),
-                      np.asarray(post, dtype=float).reshape(n, 3))
+                      np.asarray(post, dtype=float).reshape(n, 3),
+                      np.asarray(jump_ll, dtype=float).reshape(n, 2))
 
 
 def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
@@ -247,6 +249,7 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
     seg = np.asarray(seg)
     x_out, prev_out = np.empty((n, k, 2)), np.empty((n, k, 2))
     prior_out, post_out = np.empty((n, k, 3)), np.empty((n, k, 3))
+    ll_out = np.empty((n, k, 2))
     spread_out, off = np.empty((n, k)), np.zeros((n, k, 2))
     w = cn = ce = pc = None
     start = 0
@@ -271,7 +274,7 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
         prev_out[t, :, 0], prev_out[t, :, 1] = cn, ce
         prior_out[t, :, 0], prior_out[t, :, 1], prior_out[t, :, 2] = p0, p1, p2
         post_out[t, :, 0], post_out[t, :, 1], post_out[t, :, 2] = a0, a1, a2
-        spread_out[t] = f
+        spread_out[t], ll_out[t, :, 0], ll_out[t, :, 1] = f, l1, l2
         w = np.minimum(1.0, a1 + a2)
         g = (pc + DRIFT) / f            # Kalman gain of the offset, going on
         ws = np.where(w > 0.0, w, 1.0)  # the offset given a jump: started or going on
@@ -282,25 +285,14 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
         off[t, :, 0], off[t, :, 1] = w * cn, w * ce
     inside = post_out[:, :, 1] + post_out[:, :, 2]
     return [JumpFilter(x_out[:, j], prior_out[:, j], prev_out[:, j], off[:, j],
-                       np.minimum(1.0, inside[:, j]), spread_out[:, j], post_out[:, j])
-            for j in range(k)]
+                       np.minimum(1.0, inside[:, j]), spread_out[:, j], post_out[:, j],
+                       ll_out[:, j]) for j in range(k)]
 
 
-def mixture_logpdf(jf, clean_ll, cov, params, scale2=None):
+def mixture_logpdf(jf, clean_ll):
     """Return per-sample log densities: the three hypotheses, weighted by the prior."""
-    r, prev = jf.r, jf.prev
-    k2 = np.ones(len(r)) if scale2 is None else np.asarray(scale2, dtype=float)
-    l1, l2 = np.empty(len(r)), np.empty(len(r))
-    for k in np.unique(k2):
-        at = k2 == k
-        i1, d1 = _inv(k * cov + params.sigma_m ** 2 * np.eye(2))
-        i0, d0 = _inv(k * cov)
-        f = jf.spread[at]
-        l1[at] = _gauss2(r[at, 0], r[at, 1], i1, d1)
-        l2[at] = -LOG2PI - 0.5 * d0 - np.log(f) + \
-            (_gauss2(r[at, 0] - prev[at, 0], r[at, 1] - prev[at, 1], i0, 0.0) + LOG2PI) / f
     with np.errstate(divide='ignore'):
-        parts = np.log(jf.prior) + np.stack([clean_ll, l1, l2], axis=1)
+        parts = np.log(jf.prior) + np.column_stack([clean_ll, jf.jump_ll])
     top = parts.max(axis=1)
     return top + np.log(np.exp(parts - top[:, None]).sum(axis=1))
 
@@ -320,6 +312,25 @@ def cleaned_design(d, offset):
                       for i in range(x.shape[1])], axis=1) if x.shape[1] else x
             for a, x in enumerate(d.lags)]
     return Design(d.y - offset, lags, d.seg, d.heading, d.steps)
+
+
+def cleaned_part(part, offset, m0):
+    """
+    Return ``part`` with the offsets taken out of its errors.
+
+    ``offset`` (n, 2) is per sample of the part's design with ``m0`` samples
+    per segment conditioned on (those keep their error).
+    """
+    errs, k = [], 0
+    for e in part.err:
+        m = max(0, len(e) - m0)
+        e = e.copy()
+        e[m0:] -= offset[k:k + m]
+        errs.append(e)
+        k += m
+    if k != len(offset):
+        raise ValueError(f'{len(offset)} offsets for a design of {k} samples')
+    return replace(part, err=errs)
 
 
 def design_subset(d, keep):

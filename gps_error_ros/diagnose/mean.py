@@ -67,9 +67,9 @@ def to_travel_frame(r, heading):
     return np.stack([r[:, 0] * c + r[:, 1] * s, -r[:, 0] * s + r[:, 1] * c], axis=1)
 
 
-def condition_count(orders):
-    """Return how many samples per segment are conditioned on, not scored."""
-    return max(max(orders), int(math.ceil(MAX_LAG_S)))
+def condition_count(*orders):
+    """Return how many samples per segment are conditioned on, not scored (by all ``orders``)."""
+    return max(max(max(o) for o in orders), int(math.ceil(MAX_LAG_S)))
 
 
 @dataclass
@@ -172,8 +172,16 @@ def _profile_minimum(loss, hi):
     return best
 
 
-def _log_det_loss(part, orders, truth, lag_s, gain, period=0):
-    _, r = least_squares(design(part, orders, truth, lag_s, gain), period=period)
+def log_det_loss(part, orders, truth, lag_s, gain, period=0, clean=None):
+    """
+    Return the sum over the axes of the log mean square least-squares residual.
+
+    The mean part's profile loss: ``n/2`` times it is minus the Gaussian log
+    likelihood with independent axes, up to a constant. ``clean``: a function
+    of the design that the loss is taken on.
+    """
+    d = design(part, orders, truth, lag_s, gain)
+    _, r = least_squares(d if clean is None else clean(d), period=period)
     return float(np.sum(np.log(np.mean(r * r, axis=0))))
 
 
@@ -183,15 +191,30 @@ def fit_mean(part, orders, truth, lag_s=0.0, gain=1.0, period=0):
     return least_squares(d, lag_s, gain, period) + (d,)
 
 
+def fit_lag(part, orders, truth, period=0, clean=None):
+    """
+    Return the lag (s, in [0, MAX_LAG_S], gain 1) of least log-det loss.
+
+    ``clean``: a function of the design that the loss is taken on (the
+    diagnosis passes one that sets jumps aside).
+    """
+    return _profile_minimum(
+        lambda tau: log_det_loss(part, orders, truth, tau, 1.0, period, clean), MAX_LAG_S)
+
+
 def fit_mean_lag(part, orders, truth, period=0):
     """Fit the mean part with ``lag_s`` in [0, MAX_LAG_S] estimated (gain 1)."""
-    best = _profile_minimum(
-        lambda tau: _log_det_loss(part, orders, truth, tau, 1.0, period), MAX_LAG_S)
-    return fit_mean(part, orders, truth, best, 1.0, period)
+    return fit_mean(part, orders, truth, fit_lag(part, orders, truth, period), 1.0, period)
+
+
+def gain_loss(part, orders, truth, lag_s, clean=None):
+    """Return (least log-det loss over the gain in [0, 5] at ``lag_s``, the gain)."""
+    def loss(g):
+        return log_det_loss(part, orders, truth, lag_s, g, clean=clean)
+    best = _profile_minimum(loss, MAX_LAG_S)
+    return loss(best), best
 
 
 def fit_mean_gain(part, orders, truth, lag_s):
     """Fit the mean part at a fixed ``lag_s`` with the gain in [0, 5] estimated."""
-    best = _profile_minimum(
-        lambda g: _log_det_loss(part, orders, truth, lag_s, g), MAX_LAG_S)
-    return fit_mean(part, orders, truth, lag_s, best)
+    return fit_mean(part, orders, truth, lag_s, gain_loss(part, orders, truth, lag_s)[1])

@@ -112,7 +112,10 @@ class FittedModel:
         Return (per-sample predictive log densities, residuals, design, pred).
 
         With ``street_frame`` the residuals are along and across the
-        direction of travel (the axes of the law).
+        direction of travel (the axes of the law). With ``outliers`` the log
+        densities are of every scored sample, the residuals, design and
+        ``pred`` of the steps the jumps leave clean, with a new segment after
+        each jump (:meth:`~.jumps.JumpFilter.aside`).
 
         ``m0``: samples per segment conditioned on, not scored (default: the
         model's own :func:`~.mean.condition_count`); ``pred`` holds the
@@ -133,22 +136,34 @@ class FittedModel:
         ll, pred = law_logpdf(self.law, r, d.seg)
         return ll - log_jac, r, pred
 
-    def _score_jumps(self, r_obs, d, residuals=True):
-        """Score through the jump filter; the residuals returned have the jumps out."""
+    def jump_filter(self, part, truth):
+        """Return (the jump filter's pass over ``part``, its design); needs ``outliers``."""
+        d = design(part, self.orders, truth, self.mean.lag_s, self.mean.gain)
+        return self._jump_pass(self.mean.residuals(d), d), d
+
+    def _jump_pass(self, r_obs, d):
         cov = average_cov(self.law, self.effects)
         scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
-        jf = jumps.run_filter(r_obs, d.seg, self.mean.phi, cov, self.jumps, scale2,
-                              self.law.dof)
-        ll, pred = self._jump_loglik(jf, d, cov, scale2)
+        return jumps.run_filter(r_obs, d.seg, self.mean.phi, cov, self.jumps, scale2,
+                                self.law.dof)
+
+    def _score_jumps(self, r_obs, d, residuals=True):
+        """Score through the jump filter; the residuals returned are the clean steps'."""
+        jf = self._jump_pass(r_obs, d)
+        ll, pred = self._jump_loglik(jf, d)
         if not residuals:
             return ll
-        _, r, _ = self._law_score(jf.innovations(), d)
-        return ll, r, d, pred
+        # the tests see the clean steps only, with a segment break at each jump;
+        # the regimes run over them as the law was fitted, without the breaks
+        keep = ~jf.aside()
+        dk = jumps.design_subset(d, keep)
+        _, r, pred = self._law_score(jf.r[keep], dk)
+        return ll, r, replace(dk, seg=jumps.broken_segments(d.seg, keep)), pred
 
-    def _jump_loglik(self, jf, d, cov, scale2):
+    def _jump_loglik(self, jf, d):
         """Return (per-sample log densities, regime probabilities) of one filter pass."""
         clean_ll, _, pred = self._law_score(jf.r, d)
-        return jumps.mixture_logpdf(jf, clean_ll, cov, self.jumps, scale2), pred
+        return jumps.mixture_logpdf(jf, clean_ll), pred
 
     def jump_logliks(self, r_obs, d, cands):
         """Return the training log likelihood of each candidate ``(Outliers, dof)``."""
@@ -156,7 +171,7 @@ class FittedModel:
         scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
         jfs = jumps.run_filters(r_obs, d.seg, self.mean.phi, cov, cands, scale2)
         return [float(np.sum(replace(self, jumps=p, law=replace(self.law, dof=dof))
-                             ._jump_loglik(jf, d, cov, scale2)[0]))
+                             ._jump_loglik(jf, d)[0]))
                 for (p, dof), jf in zip(cands, jfs)]
 
 

@@ -7,7 +7,8 @@ choice made on the training part alone:
 1. :func:`split_step`: the errors on the 1 Hz grid, cut in time (the first
    70 % of the span trains, the rest is held out and used once, to report;
    :mod:`.split`). The first ``condition_count`` samples of every segment
-   are conditioned on and not scored, by every model.
+   are conditioned on and not scored, by every model compared (the largest
+   order among them counts).
 2. :func:`fit_base`: the paper's model, per axis AR(p) with the order the
    PACF rule of calibration picks on the training part, independent
    Gaussian innovations (:mod:`.models`).
@@ -23,7 +24,11 @@ choice made on the training part alone:
    ``heavy_tails`` too); with excess kurtosis and no persistence,
    ``heavy_tails``. When the motion test rejects on its own, the law is
    tested on the innovations with the lag removed (lag transients would
-   otherwise look like tails). Serial correlation that no effect explains,
+   otherwise look like tails). ``jump_reversal`` -> ``outliers``; the
+   models with it have the AR orders the PACF rule picks on the series with
+   its jumps taken out (a jump looks like a loss of persistence), and the
+   law's and the motion test see the steps the jumps leave clean.
+   Serial correlation that no effect explains,
    and periodic variance, are reported under ``unexplained``.
 5. :func:`~.selection.select_effects` and :func:`fit_extended`: every
    subset of the attributed effects is scored by blocked cross-validation
@@ -53,7 +58,9 @@ from gps_error_ros.diagnose.family import (holm, innovation_tests, jump_reversal
                                            motion_test, periodicity_test, retest,
                                            travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
-from gps_error_ros.diagnose.mean import to_travel_frame
+from gps_error_ros.diagnose import jumps
+from gps_error_ros.diagnose.mean import (condition_count, fit_lag, gain_loss, log_det_loss,
+                                         to_travel_frame)
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
@@ -123,6 +130,7 @@ class FamilyResult:
     reject: dict
     adjusted: dict
     lag_s: float = None    # the lag removed before the law's tests, if any
+    jump_orders: tuple = ()     # with jumps: the AR orders without them (see run_family)
     base_residuals: tuple = ()      # (r, seg) of the base model on the training part
 
 
@@ -144,13 +152,76 @@ def fit_base(split):
 
 def _motion_family(split, base):
     """Return the motion test: likelihood ratios of the probes at 1..5 s."""
-    moving = any(np.any(np.abs(np.diff(tr, axis=0)) > 0.05)
-                 for tr in split.train.truth)
+    moving = _moving(split)
     lrs = []
     for lag in MOTION_TEST_LAGS:
         probe = fit_motion_probe(split.train, base.orders, split.truth, lag)
         lrs.append(2.0 * (probe.train_loglik - base.train_loglik) if moving else 0.0)
     return motion_test(lrs)
+
+
+def _moving(split):
+    """Return whether the truth of the training part moves at all."""
+    return any(np.any(np.abs(np.diff(tr, axis=0)) > 0.05) for tr in split.train.truth)
+
+
+def _orders_without_jumps(split, jumpy):
+    """Return the PACF-rule orders of the training part with ``jumpy``'s jumps taken out."""
+    jf, _ = jumpy.jump_filter(split.train, split.truth)
+    return select_orders(jumps.cleaned_part(split.train, jf.offset,
+                                            condition_count(jumpy.orders)))
+
+
+def _motion_without_jumps(split, jumpy, alpha):
+    """
+    Return the motion test on the training part with the jumps set aside, and its lag.
+
+    The jumps ``jumpy``'s filter finds are taken out of the samples and
+    their lags, and the steps it sets aside dropped; the likelihood ratios
+    at 1..5 s are then those of the Gaussian profile (log-det) loss, as the
+    probes'. The lag (gain 1, estimated on the same steps) is None unless
+    the test rejects on its own (alpha / m).
+    """
+    jf, _ = jumpy.jump_filter(split.train, split.truth)
+    keep = ~jf.aside()
+
+    def clean(d):
+        return jumps.design_subset(jumps.cleaned_design(d, jf.offset), keep)
+
+    def loss(lag_s):
+        return gain_loss(split.train, jumpy.orders, split.truth, lag_s, clean)[0]
+
+    null = log_det_loss(split.train, jumpy.orders, split.truth, 0.0, 0.0, clean=clean)
+    test = motion_test([keep.sum() * max(0.0, null - loss(lag)) if _moving(split) else 0.0
+                        for lag in MOTION_TEST_LAGS])
+    test['test'] += ', with the jumps set aside'
+    if test['p_value'] > alpha / N_TESTS:
+        return test, None
+    return test, fit_lag(split.train, jumpy.orders, split.truth, clean=clean)
+
+
+def _set_jumps_aside(split, base, effects, lag_s, period, alpha):
+    """
+    Return (the model the law's tests see, the motion test, the lag) with the jumps aside.
+
+    The model has the mean part found so far (``effects``, ``lag_s``,
+    ``period``), Student-t innovations (a large innovation persists, a jump
+    does not) and ``outliers``; its AR orders are those the PACF rule picks
+    on the series with the jumps out (a jump looks like a loss of
+    persistence), and the motion test is taken again on that series (a few
+    jumps of metres sway its likelihood ratio): its decision stands for the
+    lag.
+    """
+    fx = effects + ('heavy_tails', 'outliers')
+    jumpy = fit_model(split.train, base.orders, fx, split.truth, lag_s, period=period)
+    orders = _orders_without_jumps(split, jumpy)
+    if orders != base.orders:
+        jumpy = fit_model(split.train, orders, fx, split.truth, lag_s, period=period)
+    motion, clean_lag = _motion_without_jumps(split, jumpy, alpha)
+    if clean_lag != lag_s:
+        fx = tuple(e for e in fx if e != 'motion_lag') + ('motion_lag',) * (clean_lag is not None)
+        jumpy = fit_model(split.train, orders, fx, split.truth, clean_lag, period=period)
+    return jumpy, motion, clean_lag
 
 
 def run_family(split, base, alpha=ALPHA):
@@ -163,8 +234,9 @@ def run_family(split, base, alpha=ALPHA):
     Likewise a cycle (or periodic variance passes for tails; the scale of
     the cycle's phases is taken out before the jumps are looked for, or its
     bursts drown them), jumps that come back (or a jump passes for a heavy
-    tail), and the frame: when the travel-frame test rejects on its own and
-    axes along/across the travel fit better than fixed ones, the other
+    tail; :func:`_set_jumps_aside`), and the frame: when the travel-frame
+    test rejects on its own and axes along/across the travel fit better
+    than fixed ones, the other
     tests run on the innovations in that frame (a turning ellipse seen in
     fixed axes is a mixture, with the kurtosis of heavy tails).
     """
@@ -184,11 +256,10 @@ def run_family(split, base, alpha=ALPHA):
         cyc = fit_model(split.train, base.orders, effects, split.truth, lag_s, period=period)
         _, r_law, d_law, _ = cyc.score(split.train, split.truth)
     reversal = jump_reversal_test(r_law, d_law.seg)
+    orders = base.orders
     if reversal['p_value'] <= alpha / N_TESTS:
-        # the law's tests with the jumps set aside, or a jump passes for a tail;
-        # the filter allows tails (a large innovation persists, a jump does not)
-        jumpy = fit_model(split.train, base.orders, effects + ('heavy_tails', 'outliers'),
-                          split.truth, lag_s, period=period)
+        jumpy, motion, lag_s = _set_jumps_aside(split, base, effects, lag_s, period, alpha)
+        orders = jumpy.orders
         _, r_law, d_law, _ = jumpy.score(split.train, split.truth)
     frame = travel_frame_test(r_law, d_law.heading)
     r_tests = r_law
@@ -196,13 +267,14 @@ def run_family(split, base, alpha=ALPHA):
         # the law's tests in the travel frame, or a turning ellipse passes for tails
         r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
-             **innovation_tests(r_tests, d_law.seg, base.orders), 'travel_frame': frame,
+             **innovation_tests(r_tests, d_law.seg, orders), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k in tests:
         tests[k]['holm_adjusted_p'] = adjusted[k]
         tests[k]['rejected'] = reject[k]
-    return FamilyResult(tests, reject, adjusted, lag_s, base_residuals)
+    return FamilyResult(tests, reject, adjusted, lag_s, base_residuals=base_residuals,
+                        jump_orders=orders if orders != base.orders else ())
 
 
 def fit_extended(split, base, att, kept=None):
@@ -215,7 +287,7 @@ def fit_extended(split, base, att, kept=None):
     kept = tuple(att.effects) if kept is None else tuple(kept)
     if not kept:
         return base
-    return fit_model(split.train, base.orders, kept, split.truth,
+    return fit_model(split.train, att.orders_for(kept), kept, split.truth,
                      att.lag_s if 'motion_lag' in kept else None,
                      regimes=att.regimes, period=att.period)
 
@@ -261,8 +333,9 @@ def heldout_measures(split, base, extended, sims, seed, name):
 
     Returns (error_before, error_after, improvement, scored samples).
     """
-    ll_b = base.score(split.test, split.truth)[0]
-    ll_e = extended.score(split.test, split.truth)[0]
+    m0 = condition_count(base.orders, extended.orders)
+    ll_b = base.score(split.test, split.truth, m0)[0]
+    ll_e = extended.score(split.test, split.truth, m0)[0]
     if len(ll_b) < MIN_TEST // 2:
         raise DiagnosisError(f'{name}: only {len(ll_b)} held-out samples '
                              f'can be scored')
@@ -303,7 +376,7 @@ def fit_split(name, split, alpha=ALPHA, seed=0):
     base = fit_base(split)
     family = run_family(split, base, alpha)
     att = attribute(split, base, family)
-    sel = select_effects(split, base.orders, att.effects, att.regimes, seed, att.period)
+    sel = select_effects(split, att.orders_for, att.effects, att.regimes, seed, att.period)
     return FittedModels(name, split, base, family, att, sel,
                         fit_extended(split, base, att, sel.kept))
 
@@ -329,7 +402,8 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
         'effects': [{'name': e, 'evidence': att.evidence[e]} for e in att.effects],
         'alternatives_rejected': att.alternatives_rejected,
         'selection': fitted.selection.to_dict(),
-        'extended': {'parameters': extended.parameters(),
+        'extended': {'order': dict(zip(AXES, extended.orders)),
+                     'parameters': extended.parameters(),
                      'train_bic': extended.bic, 'retest': retests},
         'unexplained': att.unexplained,
         'approximations': att.approximations,

@@ -112,10 +112,14 @@ class Candidate:
 
 
 def cross_validate(split, orders, effects, regimes, seed=0, folds=FOLDS,
-                   sims=CV_SIMS, period=0):
-    """Return the :class:`Candidate` of ``effects`` scored over the blocks."""
+                   sims=CV_SIMS, period=0, m0=None):
+    """
+    Return the :class:`Candidate` of ``effects`` scored over the blocks.
+
+    ``m0``: samples per segment not scored (at least the orders' own count).
+    """
     blocks = time_blocks(split.train, folds)
-    m0 = condition_count(orders)
+    m0 = condition_count(orders, (m0 or 0,))
     cand = Candidate(tuple(effects))
     for i, held in enumerate(blocks):
         rest = join_parts(b for j, b in enumerate(blocks) if j != i)
@@ -188,9 +192,12 @@ def subsets(effects):
             for sub in itertools.combinations(effects, k)]
 
 
-def select_effects(split, orders, effects, regimes, seed=0, period=0):
+def select_effects(split, orders_for, effects, regimes, seed=0, period=0):
     """
     Return the :class:`Selection` among all subsets of ``effects``.
+
+    ``orders_for``: a function of a subset that gives its AR orders; every
+    subset is scored on the same samples.
 
     Without effects there is nothing to choose: the base model, no record.
     When no subset can be cross-validated (every fold's fit fails, e.g. not
@@ -200,8 +207,10 @@ def select_effects(split, orders, effects, regimes, seed=0, period=0):
     effects = tuple(e for e in EFFECT_ORDER if e in effects)
     if not effects:
         return Selection((), [])
-    cands = [cross_validate(split, orders, sub, regimes, seed, period=period)
-             for sub in subsets(effects)]
+    subs = subsets(effects)
+    m0 = condition_count(*(orders_for(sub) for sub in subs))
+    cands = [cross_validate(split, orders_for(sub), sub, regimes, seed, period=period, m0=m0)
+             for sub in subs]
     try:
         return Selection(choose(cands, effects).effects, cands)
     except DiagnosisError as exc:

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from gps_error_ros.diagnose.jumps import run_filter, run_filters
+from gps_error_ros.diagnose.jumps import broken_segments, run_filter, run_filters
 from gps_error_ros.model.outliers import Outliers
-from gps_error_ros.diagnose.models import fit_model
-from gps_error_ros.diagnose.pipeline import split_step
+from gps_error_ros.diagnose.models import fit_model, select_orders
+from gps_error_ros.diagnose.pipeline import _orders_without_jumps, split_step
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AxisParams
 from gps_error_ros.model.effects import build_model, effects_from_dict
@@ -90,7 +90,7 @@ def test_candidates_stepped_together_match_each_run_alone():
     together = run_filters(r, seg, phi, cov, cands, scale2)
     for (params, dof), jf in zip(cands, together):
         alone = run_filter(r, seg, phi, cov, params, scale2, dof)
-        for name in ('r', 'prior', 'prev', 'offset', 'inside', 'spread', 'post'):
+        for name in ('r', 'prior', 'prev', 'offset', 'inside', 'spread', 'post', 'jump_ll'):
             np.testing.assert_allclose(getattr(jf, name), getattr(alone, name),
                                        rtol=1e-12, atol=1e-12, err_msg=name)
     # the candidates differ: the batch does not hand one candidate's pass to all
@@ -120,7 +120,7 @@ def test_tails_and_jumps_are_fitted_together():
 
 
 def test_the_tests_see_neither_end_of_a_jump():
-    """A jump's start and the step at which it ends carry no innovation the filter can tell."""
+    """A jump's start and the step at which it ends are set aside, the segment broken there."""
     rng = np.random.default_rng(4)
     r = rng.normal(size=(400, 2))
     phi = [np.array([0.9]), np.array([0.9])]
@@ -128,10 +128,26 @@ def test_the_tests_see_neither_end_of_a_jump():
     r[100] += o                      # uncleaned AR(1) prediction: the start shows whole,
     r[101:103] += 0.1 * o            # the steps inside by 1 - phi, the return by -phi
     r[103] -= 0.9 * o
-    seg = np.zeros(400, int)
+    seg = np.r_[np.zeros(250, int), np.ones(150, int)]
     jf = run_filter(r, seg, phi, np.eye(2), Outliers(0.01, 3.0, 10.0))
-    x = jf.innovations()
+    aside = jf.aside()
     assert jf.inside[102] > 0.9 and jf.inside[103] < 0.1
-    np.testing.assert_allclose(x[100], 0.0, atol=0.1)         # the start
-    np.testing.assert_allclose(x[103], 0.0, atol=0.5)         # the end
-    np.testing.assert_allclose(x[300], jf.r[300], rtol=0.05)  # clean, far from a jump
+    assert aside[100:104].all()                      # start, inside, and the end
+    assert not aside[99] and not aside[104:110].any()
+    assert aside.sum() < 12                          # nothing much besides
+    keep = ~aside
+    new = np.full(400, -1)
+    new[keep] = broken_segments(seg, keep)
+    assert new[104] == new[99] + 1                   # a break after the jump
+    assert new[250] == new[249] + 1                  # and at the trace's own
+    assert (np.diff(new[keep]) >= 0).all() and (np.diff(new[keep]) <= 1).all()
+    assert new[keep].max() == 2 + (np.diff(np.flatnonzero(keep)) > 1).sum() - 1
+
+
+def test_the_orders_are_chosen_on_the_series_without_its_jumps(fitted):
+    """A jump looks like a loss of persistence to the PACF rule; with the jumps out it is not."""
+    split, _, _ = fitted
+    raw = select_orders(split.train)
+    assert raw != (3, 3)
+    jumpy = fit_model(split.train, raw, ('outliers',), split.truth)   # as the diagnosis does
+    assert _orders_without_jumps(split, jumpy) == (3, 3)

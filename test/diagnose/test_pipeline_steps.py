@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from gps_error_ros.diagnose import DiagnosisError
-from gps_error_ros.diagnose.common import ALPHA, MIN_TEST, TRAIN_FRACTION
+from gps_error_ros.diagnose.common import ALPHA, MIN_TEST, N_TESTS, TRAIN_FRACTION
 from gps_error_ros.diagnose.family import holm
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import select_orders
-from gps_error_ros.diagnose.pipeline import (attribute, fit_base, fit_extended,
+from gps_error_ros.diagnose.pipeline import (_motion_family, attribute, fit_base, fit_extended,
                                              heldout_measures, retest_extended,
                                              split_step, run_family, FamilyResult)
 from gps_error_ros.fit.calibration import errors_on_grid
@@ -121,3 +121,32 @@ def test_heldout_measures_score_the_same_samples(coupled):
     assert after['heldout_nll_per_sample'] < before['heldout_nll_per_sample']
     assert before['sims'] == after['sims'] == 10
     assert np.isfinite(after['acf_distance'])
+
+
+def test_with_jumps_the_motion_test_and_the_orders_see_the_series_without_them():
+    """
+    Reflections and multipath, no motion: the jumps sway the motion test.
+
+    On the base innovations it rejects on its own; taken again with the
+    jumps out it does not, and the models with jumps have the orders of
+    that series.
+    """
+    trace = synthetic_trace('reflections+multipath', 1003, 3600)
+    split = split_step(trace)
+    base = fit_base(split)
+    assert _motion_family(split, base)['p_value'] <= ALPHA / N_TESTS
+    family = run_family(split, base)
+    assert family.reject['jump_reversal']
+    motion = family.tests['motion_dependence']
+    assert motion['p_value'] > 0.05 and family.lag_s is None
+    assert 'with the jumps set aside' in motion['test']
+    # the walk's errors are AR(3); the jumps pass for lost persistence to the PACF rule
+    assert sum(abs(p - 3) for p in family.jump_orders) < sum(abs(p - 3) for p in base.orders)
+    att = attribute(split, base, family)
+    assert att.effects == ['heavy_tails', 'outliers']
+    ext = fit_extended(split, base, att)
+    assert ext.orders == family.jump_orders
+    before, after, _, scored = heldout_measures(split, base, ext, 5, 0, trace.name)
+    assert scored == len(base.score(split.test, split.truth,
+                                    condition_count(base.orders, ext.orders))[0])
+    assert after['heldout_nll_per_sample'] < before['heldout_nll_per_sample']
