@@ -271,8 +271,15 @@ def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, see
             'p_value': float(p)}
 
 
-def innovation_tests(r, seg, orders):
-    """Return the first-round test statistics and p-values (dict by name)."""
+def innovation_tests(r, seg, orders, r_axes=None):
+    """
+    Return the first-round test statistics and p-values (dict by name).
+
+    ``r_axes``: the innovations north/east when ``r`` is in another frame
+    (the travel's). The serial tests run on them: the AR part is fitted per
+    north/east axis, so only there are its first autocorrelations held near
+    zero, which the tests' degrees of freedom allow for.
+    """
     n = len(r)
     out = {}
     rho, p = robust_correlation_test(r[:, 0], r[:, 1])
@@ -303,6 +310,13 @@ def innovation_tests(r, seg, orders):
         'p_value': float(1.0 - (1.0 - p_one) ** PERSIST_LAGS),
         'test': f'most negative autocorrelation of the ranks of the squared '
                 f'innovations, lags 1-{PERSIST_LAGS}, one-sided, Sidak over lags'}
+    out.update(serial_tests(r if r_axes is None else r_axes, seg, orders))
+    return out
+
+
+def serial_tests(r, seg, orders):
+    """Return the serial tests of north/east innovations ``r`` (an AR of ``orders`` fitted)."""
+    out = {}
     for a, ax in enumerate(AXES):
         q, p, acf = robust_portmanteau(r[:, a], seg, SERIAL_LAGS,
                                        SERIAL_LAGS - orders[a])
@@ -338,8 +352,14 @@ def pit_radial(model, r, pred):
     return u
 
 
-def retest(model, r, seg, pred):
-    """Test the extended model's own innovations; return the test dict."""
+def retest(model, r, seg, pred, r_axes=None, serial=True):
+    """
+    Test the extended model's own innovations; return the test dict.
+
+    ``r_axes``: its innovations north/east when ``r`` is in the law's frame
+    along/across the travel (the serial tests run on them, as in the first
+    round); ``serial``: whether to run the serial tests at all.
+    """
     z = standardised(model, r, pred)
     out = {}
     rho, p = robust_correlation_test(z[:, 0], z[:, 1])
@@ -353,10 +373,8 @@ def retest(model, r, seg, pred):
                              'p_value': float(ks.pvalue),
                              'test': 'Kolmogorov-Smirnov of the PIT of the '
                                      'Mahalanobis radius'}
-    for a, ax in enumerate(AXES):
-        q, p, acf = robust_portmanteau(z[:, a], seg, SERIAL_LAGS,
-                                       SERIAL_LAGS - model.orders[a])
-        top = np.argsort(-np.abs(acf))[:3] + 1
-        out[f'serial_{ax}'] = {'statistic': q, 'p_value': p,
-                               'largest_acf_lags': [int(v) for v in top]}
+    if r_axes is not None:
+        z = r_axes / np.sqrt(pred @ (model.law.scales ** 2))[:, None]
+    if serial:
+        out.update(serial_tests(z, seg, model.orders))
     return out

@@ -67,6 +67,12 @@ def to_travel_frame(r, heading):
     return np.stack([r[:, 0] * c + r[:, 1] * s, -r[:, 0] * s + r[:, 1] * c], axis=1)
 
 
+def from_travel_frame(r, heading):
+    """Return (along, across) innovations ``r`` (n, 2) as north/east."""
+    c, s = np.cos(heading), np.sin(heading)
+    return np.stack([r[:, 0] * c - r[:, 1] * s, r[:, 0] * s + r[:, 1] * c], axis=1)
+
+
 def condition_count(*orders):
     """Return how many samples per segment are conditioned on, not scored (by all ``orders``)."""
     return max(max(max(o) for o in orders), int(math.ceil(MAX_LAG_S)))

@@ -59,8 +59,8 @@ from gps_error_ros.diagnose.family import (holm, innovation_tests, jump_reversal
                                            travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose import jumps
-from gps_error_ros.diagnose.mean import (condition_count, fit_lag, gain_loss, log_det_loss,
-                                         to_travel_frame)
+from gps_error_ros.diagnose.mean import (condition_count, fit_lag, from_travel_frame, gain_loss,
+                                         log_det_loss, to_travel_frame)
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
@@ -120,6 +120,10 @@ class Diagnosis:
     def to_dict(self):
         """Return the findings as plain data (floats to 6 significant digits)."""
         return rounded(self.summary)
+
+
+#: The effects that change the mean part (the AR residuals north/east); the others change the law.
+MEAN_EFFECTS = ('motion_lag', 'periodic', 'outliers')
 
 
 @dataclass
@@ -267,7 +271,7 @@ def run_family(split, base, alpha=ALPHA):
         # the law's tests in the travel frame, or a turning ellipse passes for tails
         r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
-             **innovation_tests(r_tests, d_law.seg, orders), 'travel_frame': frame,
+             **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k in tests:
@@ -300,12 +304,19 @@ def retest_extended(split, extended, att, alpha=ALPHA):
     decisions (empty without effects), and (r, seg, pred) of the training
     part. Structure left is appended to ``att.unexplained`` (nothing in the
     model targets it) or ``att.approximations`` (an effect in the model
-    does, but its fitted form only approximates the data's).
+    does, but its fitted form only approximates the data's). The serial
+    tests run north/east, and only when the extended model's mean part is
+    not the base's (different orders, or a lag, a cycle or jumps).
     """
     _, r, d, pred = extended.score(split.train, split.truth)
     if not extended.effects:
         return {}, (r, d.seg, pred)
-    tests = retest(extended, r, d.seg, pred)
+    # the serial tests again only if the mean part changed: on the same
+    # residuals they would test the first round's hypothesis in a smaller family
+    moved = extended.orders != att.orders or any(e in extended.effects for e in MEAN_EFFECTS)
+    tests = retest(extended, r, d.seg, pred,
+                   from_travel_frame(r, d.heading) if 'street_frame' in extended.effects
+                   else None, serial=moved)
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k, t in tests.items():
         t['holm_adjusted_p'] = adjusted[k]

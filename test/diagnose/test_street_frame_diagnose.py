@@ -13,8 +13,12 @@ import numpy as np
 from scipy import signal
 
 from gps_error_ros.diagnose import diagnose
-from gps_error_ros.diagnose.family import travel_frame_test
+from gps_error_ros.diagnose.family import innovation_tests, travel_frame_test
+from gps_error_ros.diagnose.mean import to_travel_frame
+from gps_error_ros.diagnose.models import fit_model
+from gps_error_ros.diagnose.pipeline import fit_base, run_family, split_step
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.sim.walker import GRID_BEARING_DEG, MANHATTAN_DATUM, manhattan_walk
 from gps_error_ros.traces.trace_io import Trace
 
@@ -93,3 +97,27 @@ def test_one_avenue_cannot_tell_a_walk_that_turns_can():
     assert bic['street_frame'] < bic['cross_axis_coupling'], bic
     assert any(a['effect'] == 'cross_axis_coupling' and 'turns with the direction' in
                a['reason'] for a in s['alternatives_rejected'])
+
+
+def test_the_serial_tests_stay_in_the_axes_the_ar_part_is_fitted_in():
+    """
+    Turned to the travel frame, an AR fitted per north/east axis shows correlation.
+
+    A 16 s wave and the street's ellipse: the PACF rule picks orders 10 and
+    10, and the innovations turned along/across the travel fail the serial
+    test with 20 degrees of freedom (30 lags less the order), though north
+    and east, where the AR part is fitted, pass it.
+    """
+    split = split_step(synthetic_trace('periodic+street_canyon', 1000, 3600))
+    base = fit_base(split)
+    family = run_family(split, base)
+    assert family.reject['travel_frame'] and family.reject['periodicity']
+    cyc = fit_model(split.train, base.orders, ('periodic',), split.truth,
+                    period=family.tests['periodicity']['at_period'])
+    _, r, d, _ = cyc.score(split.train, split.truth)
+    turned = innovation_tests(to_travel_frame(r, d.heading), d.seg, base.orders)
+    assert turned['serial_north']['p_value'] < 0.01
+    for ax in ('north', 'east'):
+        assert family.tests[f'serial_{ax}']['statistic'] == \
+            innovation_tests(r, d.seg, base.orders)[f'serial_{ax}']['statistic']
+        assert family.tests[f'serial_{ax}']['p_value'] > 0.05
