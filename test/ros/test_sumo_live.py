@@ -73,7 +73,10 @@ def test_sumo_people_get_the_errors_simulate_gives_their_fcd(tmp_path, peer):
         rc, bridge_log = bridge.wait_exit()
         assert rc == 0, bridge_log
         assert 'SUMO ended' in bridge_log, bridge_log
-        peer.spin_for(2.0)
+        # the last steps' fixes may still be on their way on a loaded machine
+        steps = len(read_fcd(fcd))
+        peer.spin_until(lambda: sum(len(b) for b in fixes.values()) >= steps, 20.0)
+        peer.spin_for(1.0)
         statuses = node_statuses(diag, f'{ns}/gps_error_node')
         rc, log = node.stop()
         assert rc == 0, log
