@@ -164,18 +164,18 @@ def least_squares(d, lag_s=0.0, gain=1.0, period=0):
 
 
 def _profile_minimum(loss, hi):
-    """Return the minimiser of ``loss`` on [0, hi]: a grid, then refined."""
+    """Return (the minimiser of ``loss`` on [0, hi], the minimum): a grid, then refined."""
     grid = np.linspace(0.0, hi, 26)
     vals = [loss(g) for g in grid]
     i = int(np.argmin(vals))
     lo, up = grid[max(0, i - 1)], grid[min(len(grid) - 1, i + 1)]
-    best = grid[i]
+    best, low = grid[i], vals[i]
     if up > lo:
         res = optimize.minimize_scalar(loss, bounds=(lo, up), method='bounded',
                                        options={'xatol': 1e-3})
         if res.fun < vals[i]:
-            best = float(res.x)
-    return best
+            best, low = float(res.x), float(res.fun)
+    return best, low
 
 
 def log_det_loss(part, orders, truth, lag_s, gain, period=0, clean=None):
@@ -205,7 +205,7 @@ def fit_lag(part, orders, truth, period=0, clean=None):
     diagnosis passes one that sets jumps aside).
     """
     return _profile_minimum(
-        lambda tau: log_det_loss(part, orders, truth, tau, 1.0, period, clean), MAX_LAG_S)
+        lambda tau: log_det_loss(part, orders, truth, tau, 1.0, period, clean), MAX_LAG_S)[0]
 
 
 def fit_mean_lag(part, orders, truth, period=0):
@@ -215,10 +215,9 @@ def fit_mean_lag(part, orders, truth, period=0):
 
 def gain_loss(part, orders, truth, lag_s, clean=None):
     """Return (least log-det loss over the gain in [0, 5] at ``lag_s``, the gain)."""
-    def loss(g):
-        return log_det_loss(part, orders, truth, lag_s, g, clean=clean)
-    best = _profile_minimum(loss, MAX_LAG_S)
-    return loss(best), best
+    best, low = _profile_minimum(
+        lambda g: log_det_loss(part, orders, truth, lag_s, g, clean=clean), MAX_LAG_S)
+    return low, best
 
 
 def fit_mean_gain(part, orders, truth, lag_s):

@@ -242,7 +242,7 @@ def with_jumps(effects, orders, mean, r, d, regimes):
                                 mean.period)
         r = mean.residuals(d)
         jf = jumps.run_filter(r, d.seg, mean.phi, cov, params, scale2, dof)
-        keep = jf.inside < 0.5
+        keep = jf.inside < jumps.ASIDE
         # the law of the clean steps: the filter's next pass knows its scale by
         # phase (or a cycle's bursts pass for jumps) and its tails (or a large
         # innovation, which persists, passes for a jump, which does not)

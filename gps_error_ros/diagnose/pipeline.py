@@ -169,24 +169,22 @@ def _moving(split):
     return any(np.any(np.abs(np.diff(tr, axis=0)) > 0.05) for tr in split.train.truth)
 
 
-def _orders_without_jumps(split, jumpy):
-    """Return the PACF-rule orders of the training part with ``jumpy``'s jumps taken out."""
-    jf, _ = jumpy.jump_filter(split.train, split.truth)
+def _orders_without_jumps(split, jumpy, jf):
+    """Return the PACF-rule orders of the training part with the jumps of pass ``jf`` out."""
     return select_orders(jumps.cleaned_part(split.train, jf.offset,
                                             condition_count(jumpy.orders)))
 
 
-def _motion_without_jumps(split, jumpy, alpha):
+def _motion_without_jumps(split, jumpy, jf, alpha):
     """
     Return the motion test on the training part with the jumps set aside, and its lag.
 
-    The jumps ``jumpy``'s filter finds are taken out of the samples and
+    The jumps ``jumpy``'s filter pass ``jf`` finds are taken out of the samples and
     their lags, and the steps it sets aside dropped; the likelihood ratios
     at 1..5 s are then those of the Gaussian profile (log-det) loss, as the
     probes'. The lag (gain 1, estimated on the same steps) is None unless
     the test rejects on its own (alpha / m).
     """
-    jf, _ = jumpy.jump_filter(split.train, split.truth)
     keep = ~jf.aside()
 
     def clean(d):
@@ -196,7 +194,8 @@ def _motion_without_jumps(split, jumpy, alpha):
         return gain_loss(split.train, jumpy.orders, split.truth, lag_s, clean)[0]
 
     null = log_det_loss(split.train, jumpy.orders, split.truth, 0.0, 0.0, clean=clean)
-    test = motion_test([keep.sum() * max(0.0, null - loss(lag)) if _moving(split) else 0.0
+    moving = _moving(split)
+    test = motion_test([keep.sum() * max(0.0, null - loss(lag)) if moving else 0.0
                         for lag in MOTION_TEST_LAGS])
     test['test'] += ', with the jumps set aside'
     if test['p_value'] > alpha / N_TESTS:
@@ -218,10 +217,12 @@ def _set_jumps_aside(split, base, effects, lag_s, period, alpha):
     """
     fx = effects + ('heavy_tails', 'outliers')
     jumpy = fit_model(split.train, base.orders, fx, split.truth, lag_s, period=period)
-    orders = _orders_without_jumps(split, jumpy)
+    jf, _ = jumpy.jump_filter(split.train, split.truth)
+    orders = _orders_without_jumps(split, jumpy, jf)
     if orders != base.orders:
         jumpy = fit_model(split.train, orders, fx, split.truth, lag_s, period=period)
-    motion, clean_lag = _motion_without_jumps(split, jumpy, alpha)
+        jf, _ = jumpy.jump_filter(split.train, split.truth)
+    motion, clean_lag = _motion_without_jumps(split, jumpy, jf, alpha)
     if clean_lag != lag_s:
         fx = tuple(e for e in fx if e != 'motion_lag') + ('motion_lag',) * (clean_lag is not None)
         jumpy = fit_model(split.train, orders, fx, split.truth, clean_lag, period=period)

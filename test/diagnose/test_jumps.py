@@ -150,4 +150,5 @@ def test_the_orders_are_chosen_on_the_series_without_its_jumps(fitted):
     raw = select_orders(split.train)
     assert raw != (3, 3)
     jumpy = fit_model(split.train, raw, ('outliers',), split.truth)   # as the diagnosis does
-    assert _orders_without_jumps(split, jumpy) == (3, 3)
+    assert _orders_without_jumps(split, jumpy, jumpy.jump_filter(split.train, split.truth)[0]) \
+        == (3, 3)
