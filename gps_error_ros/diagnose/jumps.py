@@ -7,25 +7,49 @@ probability ``rate`` on a clean step (``N(0, sigma^2)`` per axis) and holds
 until it ends, with probability ``q`` per step. A jump contaminates the AR
 prediction of the steps after it, so the mean part predicts from the
 *cleaned* past: the residual against the clean prediction is
-``r(t) = r_obs(t) + sum_i phi_i o(t - i)``, with ``o`` the filter's
-estimate of the offset at each earlier step.
+``r(t) = r_obs(t) + sum_i phi_i o(t - i)``, with ``o`` the offsets of the
+last ``p`` steps.
 
-The filter (one pass, causal): at each step three hypotheses, with the
-prior weights of the two-state chain given the last step's probability
-``w`` of being in a jump:
+The filter (one pass, causal) carries two states, clean and in a jump,
+each with its own estimate of the last ``p`` offsets (an interacting
+multiple-model filter): the clean state's past may hold a jump that has
+ended, the jump state's the jump's offset ``c``. At each step four
+transitions, with the chain's prior weights given the states' weights
+``1 - w`` and ``w``:
 
-- clean, ``1 - (1 - w) rate - w (1 - q)``: ``r`` has the innovation law;
-- a jump starts, ``(1 - w) rate``: ``r ~ N(0, S + sigma^2 I)``;
-- the jump goes on, ``w (1 - q)``: ``r - o(t - 1) ~ N(0, 2 S)`` (the offset
-  is known up to the innovation of the step it was estimated at);
+- clean goes on, ``(1 - w)(1 - rate)``: ``r_c``, the residual from the
+  clean state's past, has the innovation law;
+- a jump starts, ``(1 - w) rate``: ``r_c ~ N(0, S + sigma^2 I)``;
+- the jump ends, ``w (1 - (1 - q) h)``: ``r_j``, the residual from the jump
+  state's past, has the innovation law;
+- the jump goes on, ``w (1 - q) h``: ``r_j - c ~ N(0, (1 + u) S)`` (the
+  offset is known up to ``u``, the innovation of the step it was estimated
+  at and its drift since);
 
-with ``S`` the innovations' average covariance. The posterior weights give
-the new ``w`` and the offset ``o(t)`` (the jump's start sets it to ``r``,
-its continuation keeps it). Every weight depends on the past only, so the
-per-step densities (a mixture of the three, the clean one being the full
-innovation law) are a proper one-step predictive likelihood, scored as any
-other model's. The collapse to one offset estimate per step (rather than a
-mixture of paths) is the approximation.
+with ``S`` the innovations' average covariance and ``h = 1 - exp(-m / (2
+HOLD_SD^2))``, ``m`` the tracked offset's squared Mahalanobis length under
+the step's innovation covariance: an offset that has drifted back to within
+about ``HOLD_SD`` innovation SDs of zero is no longer told apart from a
+clean step, so the jump ends there (else going on costs only a wider
+density, which the prior to go on outweighs). The simulated offset is held,
+``N(0, sigma^2)`` with ``sigma`` several innovation SDs, so the rule seldom
+ends a simulated jump early.
+
+Two states rather than one collapsed estimate, because the AR error is
+close to a unit root: a jump that goes on is then, step after step, nearly
+as likely as the same step having been a large innovation that persists.
+A filter that kept only the jump's path after a large step could not go
+back, and a jump would follow the AR error for tens of steps; the clean
+state keeps the path on which the step was no jump, and takes over when
+the jump fails to end.
+
+Each state's new past is the posterior-weighted mean of the pasts of the
+transitions into it (the jump's start sets its offset to ``r_c``, its
+continuation updates ``c``). Every weight depends on the past only, so the
+per-step densities (the four transitions' mixture, the clean ones under
+the full innovation law) are a proper one-step predictive likelihood,
+scored as any other model's. The merge of each state's transitions into
+one past is the approximation.
 
 Fit: the mean part by least squares on the series with the jumps taken out,
 the law on the residuals of the clean steps, then ``rate``, ``q`` and
@@ -54,6 +78,9 @@ START = (0.01, 2.0, 6.0)
 #: The jump going on: how much its offset may drift per step, in units of S
 #: (the reflected path changes as the walker moves), so the filter follows it.
 DRIFT = 0.5
+#: A jump whose tracked offset is within about this many innovation SDs of
+#: zero ends (see the module docstring: ``h``).
+HOLD_SD = 1.0
 #: The probability of a jump at or just before a step that sets it aside from the
 #: law's tests: more likely in a jump than not (as the law's fit sets steps aside).
 ASIDE = 0.5
@@ -71,15 +98,21 @@ SEARCH_ROUNDS = 3
 
 @dataclass
 class JumpFilter:
-    """What one pass of the filter gives, per scored sample."""
+    """
+    What one pass of the filter gives, per scored sample.
 
-    r: np.ndarray          # (n, 2) residual against the clean prediction
-    prior: np.ndarray      # (n, 3) weights: clean, a jump starts, a jump goes on
-    prev: np.ndarray       # (n, 2) the offset carried into the step, given a jump
+    The transitions' columns, in order: clean goes on, the jump ends, a jump
+    starts, the jump goes on.
+    """
+
+    r: np.ndarray          # (n, 2) residual given clean: r_c and r_j by their posterior
+    r_from: np.ndarray     # (n, 2, 2) residual from the clean state's past, the jump's
+    prior: np.ndarray      # (n, 4) the transitions' prior weights
+    prev: np.ndarray       # (n, 2) the jump state's offset carried into the step
     offset: np.ndarray     # (n, 2) the offset estimated after the step (times inside)
     inside: np.ndarray     # (n,) probability of being in a jump after the step
     spread: np.ndarray     # (n,) the jump going on: its density's covariance / S
-    post: np.ndarray       # (n, 3) posterior weights of the three hypotheses
+    post: np.ndarray       # (n, 4) the transitions' posterior weights
     jump_ll: np.ndarray    # (n, 2) log densities: a jump starts, a jump goes on
 
     def aside(self):
@@ -158,8 +191,8 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     ``scale2`` (n,): a known factor of ``S`` per sample (a cycle's phase).
     A jump's size does not scale with it. ``dof``: the clean innovations are
     Student-t (heavy tails), so a large innovation is not taken for a jump.
-    Samples of a segment are consecutive steps; a segment starts with the
-    jump probability at its stationary share and no offset in its past.
+    Samples of a segment are consecutive steps; a segment starts clean, with
+    no offset in its past (a jump under way across a gap is taken as a new one).
 
     Long because the recursion is one loop over the samples, in plain
     floats (a few microseconds a step; :func:`run_filters` steps many
@@ -175,54 +208,64 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     levels, which = np.unique(k2, return_inverse=True)
     inv = [(_inv(k * cov), _inv(k * cov + s2 * np.eye(2))) for k in levels]
     which = which.tolist()
-    phn, phe = (list(map(float, p)) for p in phi)
-    rn, re = (np.asarray(r_obs, dtype=float)[:, a].tolist() for a in range(2))
+    coef = [list(map(float, p))[::-1] for p in phi]     # oldest lag first
+    lag = max(len(c) for c in coef + [[0.0]])
+    coef = [[0.0] * (lag - len(c)) + c for c in coef]
+    obs = np.asarray(r_obs, dtype=float).tolist()
     seg = np.asarray(seg).tolist()
-    on_hist, oe_hist = [0.0] * n, [0.0] * n
-    prior, prev, spread, inside = [None] * n, [None] * n, [0.0] * n, [0.0] * n
-    post, jump_ll = [None] * n, [None] * n
-    w, cn, ce, pc, start = params.share, 0.0, 0.0, 1.0, 0
+    rows = []
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
-            w, cn, ce, pc, start = params.share, 0.0, 0.0, 1.0, t
-        xn, xe = rn[t], re[t]
-        for i in range(min(len(phn), t - start)):
-            xn += phn[i] * on_hist[t - 1 - i]
-        for i in range(min(len(phe), t - start)):
-            xe += phe[i] * oe_hist[t - 1 - i]
-        rn[t], re[t] = xn, xe
-        p1, p2 = (1.0 - w) * rate, w * (1.0 - q)
-        p0 = (1.0 - w) * (1.0 - rate) + w * q
-        f = 1.0 + pc + kappa            # the jump goes on: offset known up to pc + kappa
-        prior[t], prev[t], spread[t] = (p0, p1, p2), (cn, ce), f
+            wc, wj, cn, ce, pc = 1.0, 0.0, 0.0, 0.0, 1.0
+            past_c, past_j = [[0.0] * lag, [0.0] * lag], [[0.0] * lag, [0.0] * lag]
+        rc = [obs[t][a] + sum(map(float.__mul__, coef[a], past_c[a])) for a in (0, 1)]
+        rj = [obs[t][a] + sum(map(float.__mul__, coef[a], past_j[a])) for a in (0, 1)]
         (i0, d0), (i1, d1) = inv[which[t]]
-        l0 = _gauss2(xn, xe, i0, d0) if tail is None else _t2(xn, xe, i0, d0, tail)
-        l1 = _gauss2(xn, xe, i1, d1)
-        l2 = -LOG2PI - 0.5 * d0 - math.log(f) + \
-            (_gauss2(xn - cn, xe - ce, i0, 0.0) + LOG2PI) / f
-        top = max(l0, l1, l2)
-        a0 = p0 * math.exp(l0 - top)
-        a1 = p1 * math.exp(l1 - top)
-        a2 = p2 * math.exp(l2 - top)
-        tot = a0 + a1 + a2
-        a0, a1, a2 = a0 / tot, a1 / tot, a2 / tot
-        post[t], jump_ll[t] = (a0, a1, a2), (l1, l2)
-        w = min(1.0, a1 + a2)
+        hold = 1.0 - math.exp(-0.5 * _quad(i0, cn, ce) / HOLD_SD ** 2)
+        prior = (wc * (1.0 - rate), wj * (1.0 - (1.0 - q) * hold), wc * rate,
+                 wj * (1.0 - q) * hold)
+        f = 1.0 + pc + kappa            # the jump goes on: offset known up to pc + kappa
+
+        def clean(x):
+            return _gauss2(x[0], x[1], i0, d0) if tail is None else _t2(x[0], x[1], i0, d0, tail)
+        ll = (clean(rc), clean(rj), _gauss2(rc[0], rc[1], i1, d1),
+              -LOG2PI - 0.5 * d0 - math.log(f)
+              + (_gauss2(rj[0] - cn, rj[1] - ce, i0, 0.0) + LOG2PI) / f)
+        top = max(ll)
+        a = [p * math.exp(x - top) for p, x in zip(prior, ll)]
+        tot = sum(a)
+        a = [x / tot for x in a]
+        rows.append((rc, rj, prior, (cn, ce), f, a, ll[2:]))
+        wc, wj = a[0] + a[1], a[2] + a[3]
         g = (pc + kappa) / f            # Kalman gain of the offset, going on
-        gn, ge = cn + g * (xn - cn), ce + g * (xe - ce)
-        if w > 0.0:                     # the offset given a jump: started or going on
-            cn, ce = (a1 * xn + a2 * gn) / w, (a1 * xe + a2 * ge) / w
-            pc = (a1 * 1.0 + a2 * (pc + kappa) * (1.0 - g)) / w
-        on_hist[t], oe_hist[t] = w * cn, w * ce
-        inside[t] = w
-    r = np.stack([np.asarray(rn), np.asarray(re)], axis=1).reshape(n, 2)
-    off = np.stack([np.asarray(on_hist), np.asarray(oe_hist)], axis=1).reshape(n, 2)
-    prior = np.asarray(prior, dtype=float).reshape(n, 3)
-    prev = np.asarray(prev, dtype=float).reshape(n, 2)
-    inside = np.asarray(inside)
-    return JumpFilter(r, prior, prev, off, inside, np.asarray(spread),
-                      np.asarray(post, dtype=float).reshape(n, 3),
-                      np.asarray(jump_ll, dtype=float).reshape(n, 2))
+        gn, ge = cn + g * (rj[0] - cn), ce + g * (rj[1] - ce)
+        if wc > 0.0:                    # the clean state: went on or a jump ended
+            merged = [[(a[0] * x + a[1] * y) / wc for x, y in zip(past_c[i], past_j[i])]
+                      for i in (0, 1)]
+        else:
+            merged = past_c
+        if wj > 0.0:                    # the jump state: started or going on
+            cn, ce = (a[2] * rc[0] + a[3] * gn) / wj, (a[2] * rc[1] + a[3] * ge) / wj
+            pc = (a[2] + a[3] * (pc + kappa) * (1.0 - g)) / wj
+            past_j = [[(a[2] * x + a[3] * y) / wj for x, y in zip(past_c[i], past_j[i])]
+                      for i in (0, 1)]
+        past_j = [past_j[0][1:] + [cn], past_j[1][1:] + [ce]]
+        past_c = [merged[0][1:] + [0.0], merged[1][1:] + [0.0]]
+        rows[-1] += (min(1.0, wj), wj * cn, wj * ce)
+    return _collect(rows, n)
+
+
+def _collect(rows, n):
+    """Return the :class:`JumpFilter` of :func:`run_filter`'s per-step rows."""
+    cols = list(zip(*rows)) if rows else [()] * 10
+    rc, rj, prior, prev, spread, post, jll, inside, on, oe = (
+        np.asarray(col, dtype=float).reshape((n,) + shape) for col, shape in
+        zip(cols, [(2,), (2,), (4,), (2,), (), (4,), (2,), (), (), ()]))
+    clean = post[:, 0] + post[:, 1]
+    safe = np.where(clean > 1e-300, clean, 1.0)[:, None]
+    r = np.where(clean[:, None] > 1e-300, (post[:, :1] * rc + post[:, 1:2] * rj) / safe, rc)
+    return JumpFilter(r, np.stack([rc, rj], axis=1), prior, prev,
+                      np.column_stack([on, oe]), inside, spread, post, jll)
 
 
 def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
@@ -238,59 +281,74 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
     n, k = len(r_obs), len(cands)
     rate = np.array([p.rate for p, _ in cands])
     q = np.array([p.end_probability for p, _ in cands])
-    share = np.array([p.share for p, _ in cands])
     s2 = np.array([p.sigma_m ** 2 for p, _ in cands])
     tails = _Tails([d for _, d in cands])
     k2 = np.ones(n) if scale2 is None else np.asarray(scale2, dtype=float)
     levels, which = np.unique(k2, return_inverse=True)
     inv = [(_inv(lev * cov), _inv_plus(lev * cov, s2)) for lev in levels]
-    phn, phe = (np.asarray(p, dtype=float)[::-1] for p in phi)   # oldest lag first
-    r_obs = np.asarray(r_obs, dtype=float)
-    seg = np.asarray(seg)
-    x_out, prev_out = np.empty((n, k, 2)), np.empty((n, k, 2))
-    prior_out, post_out = np.empty((n, k, 3)), np.empty((n, k, 3))
-    ll_out = np.empty((n, k, 2))
-    spread_out, off = np.empty((n, k)), np.zeros((n, k, 2))
-    w = cn = ce = pc = None
-    start = 0
+    lag = max(1, *(len(p) for p in phi))
+    coef = np.zeros((lag, lag, 2))          # per t % lag: the coefficient at each ring slot
+    for a, p in enumerate(phi):
+        for i, v in enumerate(np.asarray(p, dtype=float)):   # lag i + 1 sits at (t - i - 1) % lag
+            for m in range(lag):
+                coef[m, (m - i - 1) % lag, a] = v
+    r_obs, seg = np.asarray(r_obs, dtype=float), np.asarray(seg)
+    rf_out, prev_out = np.empty((n, 2, k, 2)), np.empty((n, k, 2))
+    prior_out, post_out = np.empty((n, 4, k)), np.empty((n, 4, k))
+    ll_out, spread_out, off = np.empty((n, 2, k)), np.empty((n, k)), np.empty((n, k, 2))
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
-            w, cn, ce, pc, start = share.copy(), np.zeros(k), np.zeros(k), np.ones(k), t
-        mn, me = min(len(phn), t - start), min(len(phe), t - start)
-        xn = r_obs[t, 0] + (phn[len(phn) - mn:] @ off[t - mn:t, :, 0] if mn else 0.0)
-        xe = r_obs[t, 1] + (phe[len(phe) - me:] @ off[t - me:t, :, 1] if me else 0.0)
-        p1, p2 = (1.0 - w) * rate, w * (1.0 - q)
-        p0 = 1.0 - p1 - p2
-        f = 1.0 + pc + DRIFT            # the jump goes on: offset known up to pc + DRIFT
+            wc, wj, c, pc = np.ones(k), np.zeros(k), np.zeros((k, 2)), np.ones(k)
+            past = np.zeros((2, k, lag, 2))     # the states' last offsets: clean, jump (a ring)
+        slot = t % lag
+        rs = r_obs[t] + (past * coef[slot]).sum(axis=2)     # (2, k, 2): r_c, r_j
         (i0, d0), (i1, d1) = inv[which[t]]
-        l0 = tails.logpdf(_quad(i0, xn, xe), d0)
-        l1 = -LOG2PI - 0.5 * d1 - 0.5 * _quad(i1, xn, xe)
-        l2 = -LOG2PI - 0.5 * d0 - np.log(f) - 0.5 * _quad(i0, xn - cn, xe - ce) / f
-        top = np.maximum(np.maximum(l0, l1), l2)
-        a0, a1, a2 = p0 * np.exp(l0 - top), p1 * np.exp(l1 - top), p2 * np.exp(l2 - top)
-        tot = a0 + a1 + a2
-        a0, a1, a2 = a0 / tot, a1 / tot, a2 / tot
-        x_out[t, :, 0], x_out[t, :, 1] = xn, xe
-        prev_out[t, :, 0], prev_out[t, :, 1] = cn, ce
-        prior_out[t, :, 0], prior_out[t, :, 1], prior_out[t, :, 2] = p0, p1, p2
-        post_out[t, :, 0], post_out[t, :, 1], post_out[t, :, 2] = a0, a1, a2
-        spread_out[t], ll_out[t, :, 0], ll_out[t, :, 1] = f, l1, l2
-        w = np.minimum(1.0, a1 + a2)
+        y = np.concatenate([rs, (rs[1] - c)[None], c[None]])  # r_c, r_j, r_j - c, c
+        q0 = _quad(i0, y[..., 0], y[..., 1])
+        hold = 1.0 - np.exp(q0[3] * (-0.5 / HOLD_SD ** 2))
+        goon = wj * (1.0 - q) * hold
+        prior = np.array([wc * (1.0 - rate), wj - goon, wc * rate, goon])
+        f = 1.0 + pc + DRIFT            # the jump goes on: offset known up to pc + DRIFT
+        ll = np.empty((4, k))
+        ll[:2] = tails.logpdf(q0[:2], d0)
+        ll[2] = -LOG2PI - 0.5 * d1 - 0.5 * _quad(i1, y[0, :, 0], y[0, :, 1])
+        ll[3] = -LOG2PI - 0.5 * d0 - np.log(f) - 0.5 * q0[2] / f
+        x = np.log(np.maximum(prior, 1e-300)) + ll
+        a = np.exp(x - x.max(axis=0))
+        a /= a.sum(axis=0)
+        rf_out[t], prev_out[t], prior_out[t], post_out[t] = rs, c, prior, a
+        spread_out[t], ll_out[t] = f, ll[2:]
+        wc, wj = a[0] + a[1], a[2] + a[3]
         g = (pc + DRIFT) / f            # Kalman gain of the offset, going on
-        ws = np.where(w > 0.0, w, 1.0)  # the offset given a jump: started or going on
-        kept = w > 0.0
-        cn = np.where(kept, (a1 * xn + a2 * (cn + g * (xn - cn))) / ws, cn)
-        ce = np.where(kept, (a1 * xe + a2 * (ce + g * (xe - ce))) / ws, ce)
-        pc = np.where(kept, (a1 + a2 * (pc + DRIFT) * (1.0 - g)) / ws, pc)
-        off[t, :, 0], off[t, :, 1] = w * cn, w * ce
-    inside = post_out[:, :, 1] + post_out[:, :, 2]
-    return [JumpFilter(x_out[:, j], prior_out[:, j], prev_out[:, j], off[:, j],
-                       np.minimum(1.0, inside[:, j]), spread_out[:, j], post_out[:, j],
-                       ll_out[:, j]) for j in range(k)]
+        lost_c, lost_j = wc <= 0.0, wj <= 0.0     # a state with no weight keeps its past
+        w = a / np.array([wc + lost_c, wc + lost_c, wj + lost_j, wj + lost_j])
+        new_c = (w[:2, :, None, None] * past).sum(axis=0) + lost_c[:, None, None] * past[0]
+        new_j = (w[2:, :, None, None] * past).sum(axis=0) + lost_j[:, None, None] * past[1]
+        c = w[2, :, None] * y[0] + w[3, :, None] * (c + g[:, None] * y[2]) + lost_j[:, None] * c
+        pc = w[2] + w[3] * (pc + DRIFT) * (1.0 - g) + lost_j * pc
+        new_c[:, slot], new_j[:, slot] = 0.0, c     # the oldest slot takes this step's offset
+        past[0], past[1] = new_c, new_j
+        off[t] = wj[:, None] * c
+    rf_out, prior_out = rf_out.transpose(0, 2, 1, 3), prior_out.transpose(0, 2, 1)
+    post_out, ll_out = post_out.transpose(0, 2, 1), ll_out.transpose(0, 2, 1)
+    inside = np.minimum(1.0, post_out[:, :, 2] + post_out[:, :, 3])
+    clean = post_out[:, :, 0] + post_out[:, :, 1]
+    safe = np.where(clean > 1e-300, clean, 1.0)[..., None]
+    r = np.where(clean[..., None] > 1e-300,
+                 (post_out[:, :, :1] * rf_out[:, :, 0] + post_out[:, :, 1:2] * rf_out[:, :, 1])
+                 / safe, rf_out[:, :, 0])
+    return [JumpFilter(r[:, j], rf_out[:, j], prior_out[:, j], prev_out[:, j], off[:, j],
+                       inside[:, j], spread_out[:, j], post_out[:, j], ll_out[:, j])
+            for j in range(k)]
 
 
 def mixture_logpdf(jf, clean_ll):
-    """Return per-sample log densities: the three hypotheses, weighted by the prior."""
+    """
+    Return per-sample log densities: the four transitions, weighted by the prior.
+
+    ``clean_ll`` (n, 2): the innovation law's log densities of the residuals
+    from the clean state's past and from the jump's (``jf.r_from``).
+    """
     with np.errstate(divide='ignore'):
         parts = np.log(jf.prior) + np.column_stack([clean_ll, jf.jump_ll])
     top = parts.max(axis=1)
@@ -401,7 +459,7 @@ def search_params(loglik_many, sd, start=None, start_dof=math.inf, tails=False, 
 
 
 def moment_start(jf, cov):
-    """Return start values from one pass: the posterior starts, lengths and sizes."""
+    """Return start values from one pass: the posterior starts, lengths and sizes (of r_c)."""
     w = jf.inside
     starts = np.maximum(w - np.r_[0.0, w[:-1]], 0.0)
     n_starts = float(starts.sum())
@@ -409,7 +467,7 @@ def moment_start(jf, cov):
         return None
     rate = n_starts / max(float(np.sum(1.0 - w)), 1.0)
     steps = max(1.0, float(w.sum()) / n_starts)
-    size2 = float(np.sum(starts * np.sum(jf.r ** 2, axis=1)) / (2.0 * n_starts))
+    size2 = float(np.sum(starts * np.sum(jf.r_from[:, 0] ** 2, axis=1)) / (2.0 * n_starts))
     sigma = math.sqrt(max(size2 - 0.5 * float(np.trace(cov)), float(np.trace(cov))))
     rate = min(max(rate, RATE_BOUNDS[0] * 2), RATE_BOUNDS[1] / 2)
     return Outliers(rate, min(steps, MEAN_STEPS_BOUNDS[1] / 2), sigma)

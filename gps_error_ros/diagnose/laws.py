@@ -176,6 +176,15 @@ def law_logpdf(law, r, seg):
     return out, pred
 
 
+def law_logpdf_given(law, r, pred):
+    """Return the log densities of ``r`` given the predictive regime probabilities ``pred``."""
+    if law.scales.size == 1:
+        return component_logpdf(r, law.cov, law.dof, 1.0)
+    logf = np.stack([component_logpdf(r, law.cov, law.dof, s * s) for s in law.scales], axis=1)
+    with np.errstate(divide='ignore'):
+        return special.logsumexp(logf + np.log(pred), axis=1)
+
+
 def law_from_vector(x, coupled, tails, regimes):
     """Return the :class:`Law` of a parameter vector (``regimes``: 0 or K)."""
     sn, se = math.exp(x[0]), math.exp(x[1])

@@ -21,7 +21,7 @@ import numpy as np
 
 from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
-from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf, robust_cov
+from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf, law_logpdf_given, robust_cov
 from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
                                          fit_mean_lag, least_squares, MeanFit,
                                          to_travel_frame)
@@ -128,12 +128,20 @@ class FittedModel:
         ll, r, pred = self._law_score(r, d)
         return ll, r, d, pred
 
-    def _law_score(self, r, d):
-        """Return (log densities, residuals in the law's frame and scale, pred)."""
+    def _law_score(self, r, d, pred=None):
+        """
+        Return (log densities, residuals in the law's frame and scale, pred).
+
+        ``pred``: the predictive regime probabilities to score with (by
+        default those of the regimes' own pass over ``r``).
+        """
         if 'street_frame' in self.effects:      # the law is along/across the travel
             r = to_travel_frame(r, d.heading)
         r, log_jac = cycle_scaled(r, d, self.mean.period, self.cycle_scales)
-        ll, pred = law_logpdf(self.law, r, d.seg)
+        if pred is None:
+            ll, pred = law_logpdf(self.law, r, d.seg)
+        else:
+            ll = law_logpdf_given(self.law, r, pred)
         return ll - log_jac, r, pred
 
     def jump_filter(self, part, truth):
@@ -161,9 +169,16 @@ class FittedModel:
         return ll, r, replace(dk, seg=jumps.broken_segments(d.seg, keep)), pred
 
     def _jump_loglik(self, jf, d):
-        """Return (per-sample log densities, regime probabilities) of one filter pass."""
-        clean_ll, _, pred = self._law_score(jf.r, d)
-        return jumps.mixture_logpdf(jf, clean_ll), pred
+        """
+        Return (per-sample log densities, regime probabilities) of one filter pass.
+
+        The regimes run over the residuals given clean; the residuals from
+        each state's past are scored with their predictive probabilities.
+        """
+        pred = self._law_score(jf.r, d)[2] if self.law.scales.size > 1 else \
+            np.ones((len(jf.r), 1))
+        clean_ll = [self._law_score(jf.r_from[:, s], d, pred)[0] for s in (0, 1)]
+        return jumps.mixture_logpdf(jf, np.column_stack(clean_ll)), pred
 
     def jump_logliks(self, r_obs, d, cands):
         """Return the training log likelihood of each candidate ``(Outliers, dof)``."""

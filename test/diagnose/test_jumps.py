@@ -69,7 +69,7 @@ def test_filter_weights_are_a_distribution_and_depend_on_the_past_only():
     assert np.all(jf.prior >= 0) and np.allclose(jf.prior.sum(axis=1), 1.0)
     assert jf.inside[100] > 0.99 and jf.inside[101] > 0.9 and jf.inside[103] < 0.1
     np.testing.assert_allclose(jf.offset[101], (15.0, -12.0), atol=1.5)
-    assert jf.prior[250, 1] == pytest.approx((1 - params.share) * 0.01)   # a new segment
+    assert jf.prior[250, 2] == 0.01 and jf.prior[250, 1] == jf.prior[250, 3] == 0.0  # starts clean
     changed = r.copy()
     changed[200:] += 50.0                       # the future does not move the past
     again = run_filter(changed, seg, [np.array([0.0]), np.array([0.0])], np.eye(2), params)
@@ -90,7 +90,8 @@ def test_candidates_stepped_together_match_each_run_alone():
     together = run_filters(r, seg, phi, cov, cands, scale2)
     for (params, dof), jf in zip(cands, together):
         alone = run_filter(r, seg, phi, cov, params, scale2, dof)
-        for name in ('r', 'prior', 'prev', 'offset', 'inside', 'spread', 'post', 'jump_ll'):
+        for name in ('r', 'r_from', 'prior', 'prev', 'offset', 'inside', 'spread', 'post',
+                     'jump_ll'):
             np.testing.assert_allclose(getattr(jf, name), getattr(alone, name),
                                        rtol=1e-12, atol=1e-12, err_msg=name)
     # the candidates differ: the batch does not hand one candidate's pass to all
@@ -152,3 +153,24 @@ def test_the_orders_are_chosen_on_the_series_without_its_jumps(fitted):
     jumpy = fit_model(split.train, raw, ('outliers',), split.truth)   # as the diagnosis does
     assert _orders_without_jumps(split, jumpy, jumpy.jump_filter(split.train, split.truth)[0]) \
         == (3, 3)
+
+
+def test_a_large_innovation_that_persists_is_not_followed_as_a_long_jump():
+    # near a unit root a jump that goes on is, step after step, nearly as likely as a
+    # large innovation that persists; the clean state keeps the second path and takes
+    # over (a filter that kept only the jump's path followed it for all 61 steps)
+    rng = np.random.default_rng(11)
+    n, phi = 400, 0.98
+    w = rng.normal(size=(n, 2))
+    w[100] += (9.0, -7.0)
+    x = np.zeros((n, 2))
+    for t in range(1, n):
+        x[t] = phi * x[t - 1] + w[t]
+    e = x.copy()
+    e[250:253] += (-10.0, 8.0)                  # a jump of three fixes
+    r_obs = e[1:] - phi * e[:-1]
+    jf = run_filter(r_obs, np.zeros(n - 1, int), [np.array([phi])] * 2, np.eye(2),
+                    Outliers(0.01, 5.0, 10.0), dof=4.0)
+    assert (jf.inside[99:160] > 0.5).sum() <= 5
+    assert np.all(jf.inside[249:252] > 0.5) and np.all(jf.inside[252:256] < 0.1)
+    np.testing.assert_allclose(jf.offset[250], (-10.0, 8.0), atol=3.0)
