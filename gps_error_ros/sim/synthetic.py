@@ -39,7 +39,10 @@ engine_cycle        a position engine that refreshes every 8 s: the refresh
                     is a burst, not a sine)
 drifting_wave       the sine of ``periodic`` with its period drifting from
                     12 s to 20 s over the walk: no fixed cycle (outside the
-                    list: ``unexplained``)
+                    list: ``unexplained``); east a quarter period behind
+                    north, so the wave adds no north-east correlation (with
+                    both phases at random it did, by the cosine of their
+                    difference: coupling, which is in the list)
 reflections         a reflected signal caught for 1-6 fixes (uniform, not
                     geometric) about 3 % of the time: the reported fix
                     sits 8-25 m (uniform) away, across the street walked,
@@ -176,6 +179,7 @@ def _add_wave(parts, err, t, duration, rng):
     else:               # the period drifts from 12 s to 20 s over the walk
         period = 12.0 + 8.0 * t / duration
         cycles = np.cumsum(1.0 / period)
+        ph[1] = ph[0] - 0.5 * np.pi     # in quadrature: no lag-0 correlation
     amp = (4.0, 3.5)
     err[:, 0] += amp[0] * np.sin(2 * np.pi * cycles + ph[0])
     err[:, 1] += amp[1] * np.sin(2 * np.pi * cycles + ph[1])
