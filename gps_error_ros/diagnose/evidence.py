@@ -29,7 +29,8 @@ from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, measure_vector
 from gps_error_ros.diagnose.mean import condition_count, design, MeanFit
 from gps_error_ros.diagnose.models import fit_model, with_law
 from gps_error_ros.diagnose.pipeline import fit_extended
-from gps_error_ros.diagnose.selection import FOLDS, subsets, time_blocks
+from gps_error_ros.diagnose.selection import (FOLDS, shared_condition_count, subsets,
+                                              time_blocks)
 from gps_error_ros.diagnose.split import Split, split_trace
 from gps_error_ros.fit.yule_walker import fit_axis
 
@@ -79,10 +80,11 @@ def _heldout(model, split, m0, sims, seed):
 def effect_ablation(fitted, sims=100, seed=0):
     """Return, for every subset of the effects found, the held-out measures."""
     split, base, att = fitted.split, fitted.base, fitted.attribution
-    m0 = condition_count(*(att.orders_for(sub) for sub in subsets(tuple(att.effects))))
+    subs = subsets(tuple(att.effects))
+    m0 = shared_condition_count(att.orders_for, subs)
     return [{'effects': list(sub),
              **_heldout(fit_extended(split, base, att, sub), split, m0, sims, seed)}
-            for sub in subsets(tuple(att.effects))]
+            for sub in subs]
 
 
 def yule_walker_model(split, orders):

@@ -108,10 +108,8 @@ class JumpFilter:
     r: np.ndarray          # (n, 2) residual given clean: r_c and r_j by their posterior
     r_from: np.ndarray     # (n, 2, 2) residual from the clean state's past, the jump's
     prior: np.ndarray      # (n, 4) the transitions' prior weights
-    prev: np.ndarray       # (n, 2) the jump state's offset carried into the step
     offset: np.ndarray     # (n, 2) the offset estimated after the step (times inside)
     inside: np.ndarray     # (n,) probability of being in a jump after the step
-    spread: np.ndarray     # (n,) the jump going on: its density's covariance / S
     post: np.ndarray       # (n, 4) the transitions' posterior weights
     jump_ll: np.ndarray    # (n, 2) log densities: a jump starts, a jump goes on
 
@@ -235,7 +233,7 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
         a = [p * math.exp(x - top) for p, x in zip(prior, ll)]
         tot = sum(a)
         a = [x / tot for x in a]
-        rows.append((rc, rj, prior, (cn, ce), f, a, ll[2:]))
+        rows.append((rc, rj, prior, a, ll[2:]))
         wc, wj = a[0] + a[1], a[2] + a[3]
         g = (pc + kappa) / f            # Kalman gain of the offset, going on
         gn, ge = cn + g * (rj[0] - cn), ce + g * (rj[1] - ce)
@@ -257,15 +255,27 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
 
 def _collect(rows, n):
     """Return the :class:`JumpFilter` of :func:`run_filter`'s per-step rows."""
-    cols = list(zip(*rows)) if rows else [()] * 10
-    rc, rj, prior, prev, spread, post, jll, inside, on, oe = (
+    cols = list(zip(*rows)) if rows else [()] * 8
+    rc, rj, prior, post, jll, inside, on, oe = (
         np.asarray(col, dtype=float).reshape((n,) + shape) for col, shape in
-        zip(cols, [(2,), (2,), (4,), (2,), (), (4,), (2,), (), (), ()]))
-    clean = post[:, 0] + post[:, 1]
-    safe = np.where(clean > 1e-300, clean, 1.0)[:, None]
-    r = np.where(clean[:, None] > 1e-300, (post[:, :1] * rc + post[:, 1:2] * rj) / safe, rc)
-    return JumpFilter(r, np.stack([rc, rj], axis=1), prior, prev,
-                      np.column_stack([on, oe]), inside, spread, post, jll)
+        zip(cols, [(2,), (2,), (4,), (4,), (2,), (), (), ()]))
+    r_from = np.stack([rc, rj], axis=1)
+    return JumpFilter(_given_clean(post, r_from), r_from, prior, np.column_stack([on, oe]),
+                      inside, post, jll)
+
+
+def _given_clean(post, r_from):
+    """
+    Return the residual given clean: ``r_c`` and ``r_j`` weighted by their transitions.
+
+    ``post`` (..., 4), ``r_from`` (..., 2, 2); where neither clean transition
+    has any weight (a step surely in a jump), ``r_c``.
+    """
+    clean = post[..., 0] + post[..., 1]
+    some = clean > 1e-300
+    both = post[..., :1] * r_from[..., 0, :] + post[..., 1:2] * r_from[..., 1, :]
+    return np.where(some[..., None], both / np.where(some, clean, 1.0)[..., None],
+                    r_from[..., 0, :])
 
 
 def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
@@ -287,15 +297,14 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
     levels, which = np.unique(k2, return_inverse=True)
     inv = [(_inv(lev * cov), _inv_plus(lev * cov, s2)) for lev in levels]
     lag = max(1, *(len(p) for p in phi))
-    coef = np.zeros((lag, lag, 2))          # per t % lag: the coefficient at each ring slot
+    first = np.zeros((lag, 2))              # the coefficient at each ring slot when t % lag is 0
     for a, p in enumerate(phi):
         for i, v in enumerate(np.asarray(p, dtype=float)):   # lag i + 1 sits at (t - i - 1) % lag
-            for m in range(lag):
-                coef[m, (m - i - 1) % lag, a] = v
+            first[(-i - 1) % lag, a] = v
+    coef = np.stack([np.roll(first, m, axis=0) for m in range(lag)])   # per t % lag
     r_obs, seg = np.asarray(r_obs, dtype=float), np.asarray(seg)
-    rf_out, prev_out = np.empty((n, 2, k, 2)), np.empty((n, k, 2))
-    prior_out, post_out = np.empty((n, 4, k)), np.empty((n, 4, k))
-    ll_out, spread_out, off = np.empty((n, 2, k)), np.empty((n, k)), np.empty((n, k, 2))
+    rf_out, prior_out, post_out = np.empty((n, 2, k, 2)), np.empty((n, 4, k)), np.empty((n, 4, k))
+    ll_out, off = np.empty((n, 2, k)), np.empty((n, k, 2))
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
             wc, wj, c, pc = np.ones(k), np.zeros(k), np.zeros((k, 2)), np.ones(k)
@@ -316,8 +325,7 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
         x = np.log(np.maximum(prior, 1e-300)) + ll
         a = np.exp(x - x.max(axis=0))
         a /= a.sum(axis=0)
-        rf_out[t], prev_out[t], prior_out[t], post_out[t] = rs, c, prior, a
-        spread_out[t], ll_out[t] = f, ll[2:]
+        rf_out[t], prior_out[t], post_out[t], ll_out[t] = rs, prior, a, ll[2:]
         wc, wj = a[0] + a[1], a[2] + a[3]
         g = (pc + DRIFT) / f            # Kalman gain of the offset, going on
         lost_c, lost_j = wc <= 0.0, wj <= 0.0     # a state with no weight keeps its past
@@ -332,14 +340,9 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
     rf_out, prior_out = rf_out.transpose(0, 2, 1, 3), prior_out.transpose(0, 2, 1)
     post_out, ll_out = post_out.transpose(0, 2, 1), ll_out.transpose(0, 2, 1)
     inside = np.minimum(1.0, post_out[:, :, 2] + post_out[:, :, 3])
-    clean = post_out[:, :, 0] + post_out[:, :, 1]
-    safe = np.where(clean > 1e-300, clean, 1.0)[..., None]
-    r = np.where(clean[..., None] > 1e-300,
-                 (post_out[:, :, :1] * rf_out[:, :, 0] + post_out[:, :, 1:2] * rf_out[:, :, 1])
-                 / safe, rf_out[:, :, 0])
-    return [JumpFilter(r[:, j], rf_out[:, j], prior_out[:, j], prev_out[:, j], off[:, j],
-                       inside[:, j], spread_out[:, j], post_out[:, j], ll_out[:, j])
-            for j in range(k)]
+    r = _given_clean(post_out, rf_out)
+    return [JumpFilter(r[:, j], rf_out[:, j], prior_out[:, j], off[:, j], inside[:, j],
+                       post_out[:, j], ll_out[:, j]) for j in range(k)]
 
 
 def mixture_logpdf(jf, clean_ll):

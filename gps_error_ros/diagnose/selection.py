@@ -192,6 +192,11 @@ def subsets(effects):
             for sub in itertools.combinations(effects, k)]
 
 
+def shared_condition_count(orders_for, subs):
+    """Return the samples per segment left unscored so that every subset scores the same."""
+    return condition_count(*(orders_for(sub) for sub in subs))
+
+
 def select_effects(split, orders_for, effects, regimes, seed=0, period=0):
     """
     Return the :class:`Selection` among all subsets of ``effects``.
@@ -208,7 +213,7 @@ def select_effects(split, orders_for, effects, regimes, seed=0, period=0):
     if not effects:
         return Selection((), [])
     subs = subsets(effects)
-    m0 = condition_count(*(orders_for(sub) for sub in subs))
+    m0 = shared_condition_count(orders_for, subs)
     cands = [cross_validate(split, orders_for(sub), sub, regimes, seed, period=period, m0=m0)
              for sub in subs]
     try:
