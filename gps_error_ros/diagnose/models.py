@@ -207,6 +207,21 @@ def phase_scales(r, phase, period):
     return np.sqrt(ms / ms.mean())
 
 
+def robust_phase_scales(r, phase, period):
+    """
+    Return the innovations' SD by phase as :func:`phase_scales`, from medians of squares.
+
+    A jump of the fix leaves a squared innovation hundreds of times the
+    others': in the mean square of its phase it is that phase's burst, in
+    the median it is one sample among hundreds.
+    """
+    q = np.mean(r * r / np.median(r * r, axis=0), axis=1)
+    med = np.array([np.median(q[phase == k]) if np.any(phase == k) else 0.0
+                    for k in range(period)])
+    med = np.where(med > 0, med, 1.0)
+    return np.sqrt(med / med.mean())
+
+
 def cycle_scale2(d, period, scales):
     """Return each sample's squared phase scale (None without a cycle)."""
     return scales[d.phase(period)] ** 2 if period else None

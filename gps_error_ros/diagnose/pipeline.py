@@ -44,7 +44,7 @@ Estimation is conditional quasi-maximum likelihood in two stages (mean part
 by least squares, innovation law by maximum likelihood; :mod:`.models`).
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
 
 import numpy as np
@@ -61,7 +61,7 @@ from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.mean import (condition_count, fit_lag, from_travel_frame, gain_loss,
                                          log_det_loss, to_travel_frame)
-from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe,
+from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe, robust_phase_scales,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
 from gps_error_ros.diagnose.split import Split, split_trace
@@ -229,6 +229,20 @@ def _set_jumps_aside(split, base, effects, lag_s, period, alpha):
     return jumpy, motion, clean_lag
 
 
+def _robust_cycle(r, d, period, cyc):
+    """
+    Return ``r`` (scaled by ``cyc``'s phase scales) scaled by robust ones instead.
+
+    The cycle's scales are mean squares by phase, and a few jumps of metres
+    inflate the phases they fall in: the other phases' bursts then stay
+    large and pair up at random, diluting the reversal test (seen on the
+    cycle-and-reflections walks); medians of squares are not moved.
+    """
+    ph = d.phase(period)
+    raw = r * cyc.cycle_scales[ph][:, None]
+    return raw / robust_phase_scales(raw, ph, period)[ph][:, None]
+
+
 def run_family(split, base, alpha=ALPHA):
     """
     Step 3: run the first-round family on the base model's innovations.
@@ -239,11 +253,8 @@ def run_family(split, base, alpha=ALPHA):
     Likewise a cycle (or periodic variance passes for tails; the scale of
     the cycle's phases is taken out before the jumps are looked for, or its
     bursts drown them), jumps that come back (or a jump passes for a heavy
-    tail; :func:`_set_jumps_aside`), and the frame: when the travel-frame
-    test rejects on its own and axes along/across the travel fit better
-    than fixed ones, the other
-    tests run on the innovations in that frame (a turning ellipse seen in
-    fixed axes is a mixture, with the kurtosis of heavy tails).
+    tail; :func:`_set_jumps_aside`: when the family with the jumps aside
+    rejects the reversal), and the frame (:func:`_family`).
     """
     motion = _motion_family(split, base)
     _, r_law, d_law, _ = base.score(split.train, split.truth)
@@ -260,26 +271,43 @@ def run_family(split, base, alpha=ALPHA):
         effects, period = effects + ('periodic',), cycle['at_period']
         cyc = fit_model(split.train, base.orders, effects, split.truth, lag_s, period=period)
         _, r_law, d_law, _ = cyc.score(split.train, split.truth)
-    reversal = jump_reversal_test(r_law, d_law.seg)
-    orders = base.orders
-    if reversal['p_value'] <= alpha / N_TESTS:
-        jumpy, motion, lag_s = _set_jumps_aside(split, base, effects, lag_s, period, alpha)
-        orders = jumpy.orders
-        _, r_law, d_law, _ = jumpy.score(split.train, split.truth)
+    reversal = jump_reversal_test(_robust_cycle(r_law, d_law, period, cyc) if period else r_law,
+                                  d_law.seg)
+    if reversal['p_value'] <= alpha:
+        # the jumps are set aside when the family that sees them aside rejects
+        # the reversal: at Holm's first step (alpha / m) it always does
+        jumpy, motion_j, lag_j = _set_jumps_aside(split, base, effects, lag_s, period, alpha)
+        _, r_j, d_j, _ = jumpy.score(split.train, split.truth)
+        out = _family(motion_j, (r_j, d_j, jumpy.orders), cycle, reversal, alpha, lag_j)
+        if out.reject['jump_reversal']:
+            return replace(out, base_residuals=base_residuals,
+                           jump_orders=jumpy.orders if jumpy.orders != base.orders else ())
+    return replace(_family(motion, (r_law, d_law, base.orders), cycle, reversal, alpha, lag_s),
+                   base_residuals=base_residuals)
+
+
+def _family(motion, law_input, cycle, reversal, alpha, lag_s):
+    """
+    Return the :class:`FamilyResult` of the tests on the innovations ``law_input``.
+
+    ``law_input``: (innovations, their design, the AR orders). When the
+    travel-frame test rejects on its own and axes along/across the travel
+    fit better than fixed ones, the law's tests run on the innovations in
+    that frame (a turning ellipse seen in fixed axes is a mixture, with the
+    kurtosis of heavy tails).
+    """
+    r_law, d_law, orders = law_input
     frame = travel_frame_test(r_law, d_law.heading)
     r_tests = r_law
     if frame['p_value'] <= alpha / N_TESTS and travel_axes_win(r_law, d_law):
-        # the law's tests in the travel frame, or a turning ellipse passes for tails
         r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
     reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
     for k in tests:
-        tests[k]['holm_adjusted_p'] = adjusted[k]
-        tests[k]['rejected'] = reject[k]
-    return FamilyResult(tests, reject, adjusted, lag_s, base_residuals=base_residuals,
-                        jump_orders=orders if orders != base.orders else ())
+        tests[k] = dict(tests[k], holm_adjusted_p=adjusted[k], rejected=reject[k])
+    return FamilyResult(tests, reject, adjusted, lag_s)
 
 
 def fit_extended(split, base, att, kept=None):

@@ -125,3 +125,19 @@ def test_jump_reversal_without_large_pairs_is_no_evidence():
     r = np.random.default_rng(3).normal(size=(500, 2))
     t = jump_reversal_test(r, np.zeros(500, dtype=int))
     assert t['p_value'] == 1.0 and t['pairs'] == 0
+
+
+def test_robust_phase_scales_are_not_moved_by_a_few_jumps():
+    """A cycle of variance with jumps of metres: the medians keep its shape, the means do not."""
+    from gps_error_ros.diagnose.models import phase_scales, robust_phase_scales
+    rng = np.random.default_rng(5)
+    shape = np.array([2.5, 1.3] + [0.8] * 6)
+    n = 2400
+    phase = np.arange(n) % 8
+    r = rng.normal(size=(n, 2)) * shape[phase][:, None]
+    for k in rng.choice(n, 20, replace=False):      # 20 jumps of 15 SDs, at any phase
+        r[k] += rng.choice([-1.0, 1.0], 2) * 15.0
+    truth = shape / np.sqrt(np.mean(shape ** 2))
+    robust = robust_phase_scales(r, phase, 8)
+    assert np.max(np.abs(robust / truth - 1.0)) < 0.15, (robust, truth)
+    assert np.max(np.abs(phase_scales(r, phase, 8) / truth - 1.0)) > 0.3
