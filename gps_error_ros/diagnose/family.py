@@ -105,6 +105,18 @@ def holm(pvalues, alpha=ALPHA):
     return reject, adjusted
 
 
+def holm_tests(tests, alpha=ALPHA):
+    """
+    Return (``tests`` each with its Holm-adjusted p and decision, reject, adjusted).
+
+    ``tests``: name -> a test's dict with its ``p_value``; the dicts returned
+    are copies (a test shared by two families keeps each family's decision).
+    """
+    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
+    return ({k: dict(v, holm_adjusted_p=adjusted[k], rejected=reject[k])
+             for k, v in tests.items()}, reject, adjusted)
+
+
 def motion_test(lrs):
     """Return the motion-dependence test from the likelihood ratios per lag."""
     ps = [0.5 * float(stats.chi2.sf(lr, 1)) if lr > 1e-9 else 1.0 for lr in lrs]

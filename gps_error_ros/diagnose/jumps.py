@@ -211,6 +211,9 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     coef = [[0.0] * (lag - len(c)) + c for c in coef]
     obs = np.asarray(r_obs, dtype=float).tolist()
     seg = np.asarray(seg).tolist()
+
+    def clean(x, i0, d0):                   # the innovation law's log density
+        return _gauss2(x[0], x[1], i0, d0) if tail is None else _t2(x[0], x[1], i0, d0, tail)
     rows = []
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
@@ -223,10 +226,7 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
         prior = (wc * (1.0 - rate), wj * (1.0 - (1.0 - q) * hold), wc * rate,
                  wj * (1.0 - q) * hold)
         f = 1.0 + pc + kappa            # the jump goes on: offset known up to pc + kappa
-
-        def clean(x):
-            return _gauss2(x[0], x[1], i0, d0) if tail is None else _t2(x[0], x[1], i0, d0, tail)
-        ll = (clean(rc), clean(rj), _gauss2(rc[0], rc[1], i1, d1),
+        ll = (clean(rc, i0, d0), clean(rj, i0, d0), _gauss2(rc[0], rc[1], i1, d1),
               -LOG2PI - 0.5 * d0 - math.log(f)
               + (_gauss2(rj[0] - cn, rj[1] - ce, i0, 0.0) + LOG2PI) / f)
         top = max(ll)

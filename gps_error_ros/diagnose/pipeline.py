@@ -54,7 +54,7 @@ from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_E
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
                                            N_TESTS, TRAIN_FRACTION)
-from gps_error_ros.diagnose.family import (holm, innovation_tests, jump_reversal_test,
+from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_reversal_test,
                                            motion_test, periodicity_test, retest,
                                            travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
@@ -304,10 +304,7 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s):
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
-    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
-    for k in tests:
-        tests[k] = dict(tests[k], holm_adjusted_p=adjusted[k], rejected=reject[k])
-    return FamilyResult(tests, reject, adjusted, lag_s)
+    return FamilyResult(*holm_tests(tests, alpha), lag_s)
 
 
 def fit_extended(split, base, att, kept=None):
@@ -346,10 +343,8 @@ def retest_extended(split, extended, att, alpha=ALPHA):
     tests = retest(extended, r, d.seg, pred,
                    from_travel_frame(r, d.heading) if 'street_frame' in extended.effects
                    else None, serial=moved)
-    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
+    tests, reject, adjusted = holm_tests(tests, alpha)
     for k, t in tests.items():
-        t['holm_adjusted_p'] = adjusted[k]
-        t['rejected'] = reject[k]
         covered = [e for e in RETEST_EFFECTS[k] if e in extended.effects]
         seen = any(u['structure'] == RETEST_LABEL[k] for u in att.unexplained)
         t['explained_by'] = covered
