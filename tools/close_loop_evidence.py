@@ -99,11 +99,13 @@ def _ablation(ev):
     sel = ev['selection']
     md += ['', '**The selection** (training part only; '
            f'{sel["rule"]}):', '',
-           '| effects | CV NLL | CV inside_95 | inside_95 by block |', '|---|---|---|---|']
+           '| effects | CV NLL | CV inside_95 | inside_95 by block | CRPS by block |',
+           '|---|---|---|---|---|']
     for c in sel['candidates']:
         blocks = ', '.join(_v(v) for v in c['inside_95_by_block']) or c.get('failed', '')
+        score = ', '.join(_v(v) for v in c.get('crps_by_block', [])) or '-'
         md.append(f'| {_eff(c["effects"])} | {_v(c["cv_nll_per_sample"], 3)} | '
-                  f'{_v(c["cv_inside_95"])} | {blocks} |')
+                  f'{_v(c["cv_inside_95"])} | {blocks} | {score} |')
     if sel.get('note'):
         md.append(f'\nNote: {sel["note"]}')
     md.append('')

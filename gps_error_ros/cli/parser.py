@@ -182,8 +182,8 @@ def _add_diagnose(sub):
                     'periodic or outliers (or report '
                     'it as unexplained), keep the subset of those effects '
                     'that simulates best by blocked cross-validation over '
-                    'the training part (NLL, with a veto on simulation '
-                    'fidelity), fit the '
+                    'the training part (NLL, with a veto on the CRPS of '
+                    'simulated measures), fit the '
                     'extended model with it and report the error before '
                     'and after on the held-out part. See '
                     'docs/close-the-loop.md.')

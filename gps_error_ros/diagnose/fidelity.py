@@ -152,7 +152,7 @@ def measure_vector(err_segments, max_lag=FIDELITY_MAX_LAG):
     return out
 
 
-def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG):
+def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG, draws=None):
     """
     Return whether the held-out ``part`` is a plausible draw of the simulations.
 
@@ -160,14 +160,27 @@ def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG):
     simulated median and central 95 % range, and the measured value's
     percentile among the simulated ones (ties count half). ``inside_95`` is
     the share of measures inside their central 95 % range: near 0.95 for a
-    calibrated simulator.
+    calibrated simulator. ``draws``: the :func:`measure_draws` of ``part``
+    and ``simulated`` when already computed.
     """
-    measured = measure_vector(part.err, max_lag)
-    sims = [measure_vector(s, max_lag) for s in simulated]
-    out = {name: envelope(value, [m[name] for m in sims])
-           for name, value in measured.items()}
+    names, y, x = draws or measure_draws(part, simulated, max_lag)
+    out = {name: envelope(y[j], x[:, j]) for j, name in enumerate(names)}
     return {'inside_95': float(np.mean([inside(r) for r in out.values()])),
             'sims': len(simulated), 'measures': out}
+
+
+def measure_draws(part, simulated, max_lag=FIDELITY_MAX_LAG):
+    """
+    Return the measures of ``part`` and of every simulated trace, as arrays.
+
+    (names, measured (measures,), simulated (traces, measures)), the
+    measures of :func:`measure_vector` in its order.
+    """
+    measured = measure_vector(part.err, max_lag)
+    names = list(measured)
+    sims = [measure_vector(s, max_lag) for s in simulated]
+    return (names, np.array([measured[n] for n in names]),
+            np.array([[m[n] for n in names] for m in sims]).reshape(len(sims), len(names)))
 
 
 def part_fix_mask(part):

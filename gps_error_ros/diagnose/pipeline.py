@@ -32,8 +32,8 @@ choice made on the training part alone:
    and periodic variance, are reported under ``unexplained``.
 5. :func:`~.selection.select_effects` and :func:`fit_extended`: every
    subset of the attributed effects is scored by blocked cross-validation
-   over the training part (one-step NLL, with a veto on simulation fidelity;
-   :mod:`.selection`), and the extended model has the subset kept.
+   over the training part (one-step NLL, with a veto on the CRPS of the
+   simulated measures; :mod:`.selection`), and the extended model has the subset kept.
 6. :func:`retest_extended`: its own innovations tested again; what remains
    is ``unexplained`` (or an approximation of an effect already present).
 7. :func:`heldout_measures`: one-step predictive NLL per held-out sample
