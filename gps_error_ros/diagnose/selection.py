@@ -238,6 +238,9 @@ def choose(candidates, found=None, tolerance=FIDELITY_TOLERANCE):
 
     ``found``: the effects the tests attributed (default: the largest
     candidate), the choice that stands unless the blocks agree against it.
+    Sets every candidate's ``fidelity_score``: each measure is scaled by a
+    spread common to the candidates scored together, so the scores compare
+    within one call only.
     """
     ok = [c for c in candidates if not c.failed]
     if not ok:
