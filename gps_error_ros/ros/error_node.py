@@ -83,6 +83,7 @@ class GpsErrorNode(PatternAgents, Node):
         self.late_reported, self.late_reported_start = 0, False
         self.input_type = cfg['input_type']
         self.fix_reliability = cfg['fix_reliability']
+        self.truth_qos = TRUTH_QOS[cfg['input_reliability']]
         pattern = self._agent_pattern(cfg)
         if pattern is None:
             self.agents = self._agent_names(cfg['agents'])
@@ -199,7 +200,7 @@ class GpsErrorNode(PatternAgents, Node):
         """Create agent ``i``'s truth subscription and fix publisher."""
         msg_type = conversions.TRUTH_INPUTS[self.input_type][1]
         sub = self.create_subscription(
-            msg_type, truth_topic, partial(self._on_truth, i), TRUTH_QOS,
+            msg_type, truth_topic, partial(self._on_truth, i), self.truth_qos,
             raw=self.polled, event_callbacks=self.sub_events)
         if self.polled:
             # A crowd's truth subscriptions are taken off the node's list that

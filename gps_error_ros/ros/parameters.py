@@ -107,6 +107,13 @@ ERROR_NODE_PARAMS = (
               'CPU; a crowd then publishes its fixes in bursts of 100, 1 ms '
               'apart, so that a subscriber\'s queue is not overrun.',
               choices=('reliable', 'best_effort')),
+    ParamSpec('input_reliability', 'best_effort', ParameterType.PARAMETER_STRING,
+              'QoS reliability of the truth subscriptions. best_effort (as '
+              'sensor-data QoS): every publisher matches, but a message lost in '
+              'transport is gone, and its step may get no fix; reliable: only '
+              'reliable publishers match (gps_error_sumo, ros2 bag play by '
+              'default), and lost messages are re-sent.',
+              choices=('best_effort', 'reliable')),
     ParamSpec('covariance_mode', 'stationary', ParameterType.PARAMETER_STRING,
               'The fix covariance: stationary, the profile\'s unconditional error '
               'covariance (the same for every fix); conditional, the model\'s '

@@ -10,12 +10,14 @@ Runs SUMO (the ``eclipse-sumo`` wheel, the optional extra ``sumo``) on a
   (NavSatFix), stamped with SUMO's time of the step;
 * then publishes that time on ``/clock``.
 
-A topic appears when its agent enters SUMO and is destroyed when it leaves, so
-the error node's ``agent_pattern`` (``/peds/*/pose``) serves the people as
-they walk. The time a position carries is the one SUMO's FCD output gives it:
-the simulation time before ``simulationStep()`` (TraCI's ``getTime()`` is one
-step later after it), so ``gps_error simulate`` on the run's own FCD output
-gives the node's errors (same seed and profile).
+A topic appears when its agent enters SUMO and is destroyed when it leaves
+(once its reliable subscribers have acknowledged its last positions, or
+after ``RETIRE_TIMEOUT_S``), so the error node's ``agent_pattern``
+(``/peds/*/pose``) serves the people as they walk. The time a position
+carries is the one SUMO's FCD output gives it: the simulation time before
+``simulationStep()`` (TraCI's ``getTime()`` is one step later after it), so
+``gps_error simulate`` on the run's own FCD output gives the node's errors
+(same seed and profile).
 
 Georeference: with a projected network (``<location projParameter>``) a
 position goes network x/y -> lon/lat -> ENU about ``datum`` (default: the
@@ -39,6 +41,7 @@ import time
 
 import numpy as np
 import rclpy
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
@@ -56,6 +59,9 @@ from gps_error_ros.sim.sumo_scenario import (Georeference, INSTALL_HINT, net_fil
 NS = 1_000_000_000
 #: Wall seconds waited after a new agent's topic is matched (see _wait_for_match).
 MATCH_SETTLE_S = 0.2
+#: Wall seconds a departed agent's publisher is kept, at most, for its last
+#: poses to be acknowledged before it is destroyed (see _retire).
+RETIRE_TIMEOUT_S = 2.0
 _TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*\Z')
 
 
@@ -111,6 +117,7 @@ class SumoBridge(Node):
             self.kinds.append(Kind(traci.vehicle, cfg['vehicle_prefix'], msg_type, leaf))
         self.clock = self.create_publisher(Clock, '/clock', CLOCK_PUB_QOS)
         self.steps = self.published = 0
+        self.retiring = []          # (wall deadline, publisher) of departed agents
         lat, lon, alt = self.geo.datum
         self.get_logger().info(f'datum of the poses: [{lat:.9f}, {lon:.9f}, {alt:.3f}] '
                                f'(give the error node the same)')
@@ -168,9 +175,13 @@ class SumoBridge(Node):
         except Exception:       # SUMO already gone: nothing left to close
             pass
         for kind in self.kinds:
-            for pub in kind.pubs.values():
-                self.destroy_publisher(pub)
+            self._retire(list(kind.pubs.values()))
             kind.pubs.clear()
+        # the last ones: wait for their acknowledgements up to their deadlines
+        for deadline, pub in self.retiring:
+            pub.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
+            self.destroy_publisher(pub)
+        self.retiring = []
 
     # --- internals -------------------------------------------------------
 
@@ -184,9 +195,10 @@ class SumoBridge(Node):
     def _publish_kind(self, kind, stamp):
         ids = list(kind.domain.getIDList())
         present = set(ids)
-        for gone in [i for i in kind.pubs if i not in present]:
-            self.destroy_publisher(kind.pubs.pop(gone))
-            del kind.names[ros_name(gone)]
+        gone = [i for i in kind.pubs if i not in present]
+        self._retire([kind.pubs.pop(i) for i in gone])
+        for i in gone:
+            del kind.names[ros_name(i)]
         new = [i for i in ids if i not in kind.pubs]
         for i in new:
             kind.pubs[i] = self._create_agent(kind, i)
@@ -204,6 +216,27 @@ class SumoBridge(Node):
             kind.pubs[i].publish(self._message(kind, stamp, east[j], north[j], up[j],
                                                lat[j], lon[j], angle[j]))
         self.published += len(ids)
+
+    def _retire(self, pubs):
+        """
+        Destroy departed agents' publishers once their last poses are acknowledged.
+
+        A writer destroyed with poses not yet acknowledged takes them with it:
+        on a loaded machine a person's last one or two poses were lost so, and
+        their steps got no fix. ``pubs`` join the publishers waiting; every
+        call destroys those whose reliable subscribers have acknowledged all
+        (best-effort ones send no acknowledgements: at once) or whose
+        ``RETIRE_TIMEOUT_S`` has passed. Nothing waits: SUMO steps on.
+        """
+        now = time.monotonic()
+        self.retiring += [(now + RETIRE_TIMEOUT_S, pub) for pub in pubs]
+        keep = []
+        for deadline, pub in self.retiring:
+            if now < deadline and not pub.wait_for_all_acked(Duration(seconds=0)):
+                keep.append((deadline, pub))
+            else:
+                self.destroy_publisher(pub)
+        self.retiring = keep
 
     def _create_agent(self, kind, sumo_id):
         name = ros_name(sumo_id)

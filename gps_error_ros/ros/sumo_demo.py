@@ -151,6 +151,7 @@ def run(args):
     node = _spawn(['gps_error_node', '--ros-args', '-p', 'use_sim_time:=true',
                    '-p', f'profile:={args.profile}', '-p', f'datum:={datum}',
                    '-p', f'seed:={args.seed}', '-p', 'max_pose_age:=0.5',
+                   '-p', 'input_reliability:=reliable',
                    '-p', f'start_time:={sc.begin!r}',
                    '-p', 'agent_pattern:=/peds/*/pose', '-p', 'agent_timeout:=5.0'], log)
     rclpy.init()

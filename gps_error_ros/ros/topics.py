@@ -14,8 +14,15 @@ from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSProfile,
 
 # Sensor-data QoS (best effort, volatile) with a deeper history than the
 # stock profile's 5, so a burst of truth messages is buffered, not dropped.
-TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
-                       reliability=ReliabilityPolicy.BEST_EFFORT)
+# Reliable on request (parameter input_reliability): lost messages are
+# re-sent, and a publisher that waits for acknowledgements before it goes
+# (gps_error_sumo, as a person leaves) can know its last poses arrived; best
+# effort sends none, and a departing person's last poses were lost on a
+# loaded machine (no fix for their steps).
+TRUTH_QOS = {
+    name: QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=policy)
+    for name, policy in (('best_effort', ReliabilityPolicy.BEST_EFFORT),
+                         ('reliable', ReliabilityPolicy.RELIABLE))}
 # Reliable (the default), with a history long enough that a fix lost in a
 # burst can still be repaired (Fast DDS re-sends after ~3 s; a crowd run
 # faster than real time publishes many steps in that time, and depth 10 let 16
@@ -94,7 +101,7 @@ _RCL = Endpoint('out', '/rosout, /parameter_events', 'rcl_interfaces/Log, Parame
 NODE_TOPICS = {
     'gps_error_node': (
         Endpoint('in', 'pose', 'geometry_msgs/PoseStamped', TRUTH_QOS,
-                 'truth, input_type pose'),
+                 'truth, input_type pose (QoS by input_reliability)'),
         Endpoint('in', 'odom', 'nav_msgs/Odometry', TRUTH_QOS, 'truth, input_type odometry'),
         Endpoint('in', 'fix_truth', 'sensor_msgs/NavSatFix', TRUTH_QOS,
                  'truth, input_type navsatfix'),

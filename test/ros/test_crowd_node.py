@@ -165,13 +165,35 @@ def test_best_effort_fixes_reach_every_agent_in_paced_bursts():
     assert reliable_box == []
 
 
+@pytest.mark.parametrize('choice, policy', [(None, ReliabilityPolicy.BEST_EFFORT),
+                                            ('reliable', ReliabilityPolicy.RELIABLE)])
+def test_truth_subscriptions_have_the_reliability_asked_for(choice, policy):
+    """input_reliability: the agents' truth subscriptions are best effort or reliable."""
+    ns = unique_ns()
+    args = ['--ros-args', '-r', f'__ns:={ns}', '-p', DATUM_ARG, '-p', 'agents:=["a","b"]']
+    node = NodeProcess(args + (['-p', f'input_reliability:={choice}'] if choice else []))
+    peer = Peer()
+    try:
+        topics = [f'{ns}/a/pose', f'{ns}/b/pose']
+        assert peer.spin_until(lambda: all(peer.node.count_subscribers(t) for t in topics), 30)
+        for t in topics:
+            info = peer.node.get_subscriptions_info_by_topic(t)
+            assert [i.qos_profile.reliability for i in info] == [policy], t
+        rc, out = node.stop()
+        assert rc == 0, out
+    finally:
+        node.stop()
+        peer.destroy()
+
+
 def test_crowd_parameter_errors():
     for params, hint in (
             (['agents:=["a","a"]'], 'duplicate'),
             (['agents:=["1bad"]'], 'invalid agent name'),
             (['agents:=["a","b"]', 'agent_profiles:=["DS1"]'], 'one per agent'),
             (['agents:=["a"]', 'agent_profiles:=["DS4"]'], 'no published fit'),
-            (['agents:=["a"]', 'fix_reliability:=lossy'], "expected one of ['reliable'")):
+            (['agents:=["a"]', 'fix_reliability:=lossy'], "expected one of ['reliable'"),
+            (['agents:=["a"]', 'input_reliability:=lossy'], "expected one of ['best_effort'")):
         args = ['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', DATUM_ARG]
         for p in params:
             args += ['-p', p]
