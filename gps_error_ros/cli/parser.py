@@ -176,7 +176,7 @@ def _add_diagnose(sub):
                     'correlation, tails, persistence of the squares, '
                     'dependence on the motion of the truth, a covariance '
                     'that turns with the direction of travel, a cycle, '
-                    'jumps that come back; Holm at 5 %), '
+                    'jumps that come back; Holm, the whole diagnosis at 5 %), '
                     'attribute the structure to cross_axis_coupling, '
                     'motion_lag, heavy_tails, variance_regimes, street_frame, '
                     'periodic or outliers (or report '

@@ -2,7 +2,8 @@
 The test family of the diagnosis: what the innovations still carry.
 
 First round, on the base model's training innovations (ten tests, Holm's
-step-down procedure at family-wise level ``ALPHA``):
+step-down procedure at family-wise level ``FAMILY_ALPHA``, ten fifteenths
+of the diagnosis's ``ALPHA``; the retest has the rest):
 
 - ``cross_axis_correlation``: lag-0 north-east correlation
   (heteroscedasticity-robust z: changing variance alone does not reject);
@@ -38,7 +39,7 @@ import math
 import numpy as np
 from scipy import stats
 
-from gps_error_ros.diagnose.common import (ALPHA, MOTION_TEST_LAGS, PERIODS,
+from gps_error_ros.diagnose.common import (FAMILY_ALPHA, MOTION_TEST_LAGS, PERIODS,
                                            PERSIST_LAGS, SERIAL_LAGS)
 from gps_error_ros.diagnose.laws import mahalanobis, robust_cov
 from gps_error_ros.fit.autocorrelation import segment_acf
@@ -92,7 +93,7 @@ def robust_correlation_test(x, y):
     return rho, float(2 * stats.norm.sf(abs(z)))
 
 
-def holm(pvalues, alpha=ALPHA):
+def holm(pvalues, alpha=FAMILY_ALPHA):
     """Return Holm's reject decisions and adjusted p-values (dict by name)."""
     names = sorted(pvalues, key=lambda k: pvalues[k])
     m = len(names)
@@ -105,7 +106,7 @@ def holm(pvalues, alpha=ALPHA):
     return reject, adjusted
 
 
-def holm_tests(tests, alpha=ALPHA):
+def holm_tests(tests, alpha=FAMILY_ALPHA):
     """
     Return (``tests`` each with its Holm-adjusted p and decision, reject, adjusted).
 
