@@ -20,9 +20,15 @@ N_RETESTS = 5
 #: same share). At ALPHA each, an effect found and then a leftover each had
 #: their own 5 %, and a walk with an effect got a false report in about 8 %.
 FIRST_SHARE = N_TESTS / (N_TESTS + N_RETESTS)
-#: Family-wise levels of the first round and of the retest.
-FAMILY_ALPHA = ALPHA * FIRST_SHARE
-RETEST_ALPHA = ALPHA - FAMILY_ALPHA
+
+
+def round_levels(alpha):
+    """Return the family-wise levels (first round, retest) of a diagnosis at ``alpha``."""
+    return alpha * FIRST_SHARE, alpha * (1.0 - FIRST_SHARE)
+
+
+#: Family-wise levels of the first round and of the retest at ALPHA.
+FAMILY_ALPHA, RETEST_ALPHA = round_levels(ALPHA)
 #: Largest motion lag searched, s; also the samples conditioned on per segment.
 MAX_LAG_S = 5.0
 #: Lags of the serial-correlation (portmanteau) tests.

@@ -56,7 +56,8 @@ from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_E
                                                 RETEST_LABEL, travel_axes_win)
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, FIRST_SHARE,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
-                                           N_TESTS, RETEST_ALPHA, TRAIN_FRACTION)
+                                           N_TESTS, RETEST_ALPHA, round_levels,
+                                           TRAIN_FRACTION)
 from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_reversal_test,
                                            motion_test, periodicity_test, retest,
                                            travel_frame_test)
@@ -412,7 +413,7 @@ def fit_models(trace, alpha=ALPHA, seed=0):
 def fit_split(name, split, alpha=ALPHA, seed=0):
     """Run steps 2-5 on a given :class:`Split`; return :class:`FittedModels`."""
     base = fit_base(split)
-    family = run_family(split, base, alpha * FIRST_SHARE)
+    family = run_family(split, base, round_levels(alpha)[0])
     att = attribute(split, base, family)
     sel = select_effects(split, att.orders_for, att.effects, att.regimes, seed, att.period)
     return FittedModels(name, split, base, family, att, sel,
@@ -424,8 +425,7 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
     fitted = fit_models(trace, alpha, seed)
     split, base, family = fitted.split, fitted.base, fitted.family
     att, extended = fitted.attribution, fitted.extended
-    retest_alpha = alpha * (1.0 - FIRST_SHARE)
-    retests, ext_residuals = retest_extended(split, extended, att, retest_alpha)
+    retests, ext_residuals = retest_extended(split, extended, att, round_levels(alpha)[1])
     before, after, improvement, scored = heldout_measures(
         split, base, extended, sims, seed, trace.name)
     summary = {

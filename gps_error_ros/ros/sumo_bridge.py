@@ -175,13 +175,8 @@ class SumoBridge(Node):
         except Exception:       # SUMO already gone: nothing left to close
             pass
         for kind in self.kinds:
-            self._retire(list(kind.pubs.values()))
+            self._retire(list(kind.pubs.values()), wait=True)
             kind.pubs.clear()
-        # the last ones: wait for their acknowledgements up to their deadlines
-        for deadline, pub in self.retiring:
-            pub.wait_for_all_acked(Duration(seconds=max(0.0, deadline - time.monotonic())))
-            self.destroy_publisher(pub)
-        self.retiring = []
 
     # --- internals -------------------------------------------------------
 
@@ -217,7 +212,7 @@ class SumoBridge(Node):
                                                lat[j], lon[j], angle[j]))
         self.published += len(ids)
 
-    def _retire(self, pubs):
+    def _retire(self, pubs, wait=False):
         """
         Destroy departed agents' publishers once their last poses are acknowledged.
 
@@ -226,16 +221,19 @@ class SumoBridge(Node):
         their steps got no fix. ``pubs`` join the publishers waiting; every
         call destroys those whose reliable subscribers have acknowledged all
         (best-effort ones send no acknowledgements: at once) or whose
-        ``RETIRE_TIMEOUT_S`` has passed. Nothing waits: SUMO steps on.
+        ``RETIRE_TIMEOUT_S`` has passed. Nothing waits, so SUMO steps on;
+        with ``wait`` (the bridge closing) each waits up to its deadline and
+        all are destroyed.
         """
         now = time.monotonic()
         self.retiring += [(now + RETIRE_TIMEOUT_S, pub) for pub in pubs]
         keep = []
         for deadline, pub in self.retiring:
-            if now < deadline and not pub.wait_for_all_acked(Duration(seconds=0)):
-                keep.append((deadline, pub))
-            else:
+            left = max(0.0, deadline - time.monotonic()) if wait else 0.0
+            if pub.wait_for_all_acked(Duration(seconds=left)) or wait or now >= deadline:
                 self.destroy_publisher(pub)
+            else:
+                keep.append((deadline, pub))
         self.retiring = keep
 
     def _create_agent(self, kind, sumo_id):

@@ -106,7 +106,8 @@ def test_sumo_people_get_the_errors_simulate_gives_their_fcd(tmp_path, peer):
     first = {}
     for p, k in sorted(truth):
         first.setdefault(p, k)
-    # each person's first step beside the misses: a lost first fix is a discovery race
+    # each missing person's first and last steps (a lost first fix is a discovery race, a
+    # lost last one a publisher gone too soon) and the node's own counters
     assert missing == [], '\n'.join(
         [f'person-steps without a fix: {missing} ({len(truth)} person-steps in the FCD, '
          f'{len(got)} fixes received)',
