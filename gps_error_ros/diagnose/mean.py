@@ -22,7 +22,7 @@ import math
 import numpy as np
 from scipy import optimize
 
-from gps_error_ros.diagnose.common import MAX_LAG_S
+from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS
 from gps_error_ros.model.effects import MOVING_M
 from gps_error_ros.model.motion_lag import lag_offsets
 
@@ -223,3 +223,28 @@ def gain_loss(part, orders, truth, lag_s, clean=None):
 def fit_mean_gain(part, orders, truth, lag_s):
     """Fit the mean part at a fixed ``lag_s`` with the gain in [0, 5] estimated."""
     return fit_mean(part, orders, truth, lag_s, gain_loss(part, orders, truth, lag_s)[1])
+
+
+def motion_correlation(part, orders, truth, phi, weights, clean=None):
+    """
+    Return the correlation of the motion probes' score statistics across the lags.
+
+    The probe at lag L adds ``gain x (truth(t - L) - truth(t))``; through the
+    AR filter ``phi`` its regressor in the innovations is that offset minus
+    ``phi`` times its past, centred per axis (the constant is fitted too)
+    and weighted per axis by ``weights`` (inverse innovation variances).
+    Under no motion term the scores are asymptotically Gaussian with these
+    correlations, whatever the lag. ``clean``: as for :func:`log_det_loss`.
+    """
+    def build(lag_s, gain):
+        d = design(part, orders, truth, lag_s, gain)
+        return d if clean is None else clean(d)
+
+    d0, cols = build(0.0, 0.0), []
+    for lag in MOTION_TEST_LAGS:
+        d = build(float(lag), 1.0)
+        x = [(d0.y[:, a] - d.y[:, a]) - (d0.lags[a] - d.lags[a]) @ phi[a] for a in range(2)]
+        cols.append(np.concatenate([(v - v.mean()) * math.sqrt(w) for v, w in zip(x, weights)]))
+    gram = np.array(cols) @ np.array(cols).T
+    scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))
+    return gram / np.outer(scale, scale)

@@ -63,8 +63,9 @@ from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_re
                                            travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose import jumps
-from gps_error_ros.diagnose.mean import (condition_count, fit_lag, from_travel_frame, gain_loss,
-                                         log_det_loss, to_travel_frame)
+from gps_error_ros.diagnose.mean import (condition_count, design, fit_lag, from_travel_frame,
+                                         gain_loss, least_squares, log_det_loss,
+                                         motion_correlation, to_travel_frame)
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe, robust_phase_scales,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
@@ -160,12 +161,13 @@ def fit_base(split):
 
 def _motion_family(split, base):
     """Return the motion test: likelihood ratios of the probes at 1..5 s."""
-    moving = _moving(split)
-    lrs = []
-    for lag in MOTION_TEST_LAGS:
-        probe = fit_motion_probe(split.train, base.orders, split.truth, lag)
-        lrs.append(2.0 * (probe.train_loglik - base.train_loglik) if moving else 0.0)
-    return motion_test(lrs)
+    if not _moving(split):
+        return motion_test([0.0] * len(MOTION_TEST_LAGS))
+    lrs = [2.0 * (fit_motion_probe(split.train, base.orders, split.truth, lag).train_loglik
+                  - base.train_loglik) for lag in MOTION_TEST_LAGS]
+    _, r, _, _ = base.score(split.train, split.truth)
+    return motion_test(lrs, motion_correlation(split.train, base.orders, split.truth,
+                                               base.mean.phi, 1.0 / np.var(r, axis=0)))
 
 
 def _moving(split):
@@ -198,9 +200,13 @@ def _motion_without_jumps(split, jumpy, jf, alpha):
         return gain_loss(split.train, jumpy.orders, split.truth, lag_s, clean)[0]
 
     null = log_det_loss(split.train, jumpy.orders, split.truth, 0.0, 0.0, clean=clean)
-    moving = _moving(split)
-    test = motion_test([keep.sum() * max(0.0, null - loss(lag)) if moving else 0.0
-                        for lag in MOTION_TEST_LAGS])
+    if _moving(split):
+        mf, r = least_squares(clean(design(split.train, jumpy.orders, split.truth)))
+        test = motion_test([keep.sum() * max(0.0, null - loss(lag)) for lag in MOTION_TEST_LAGS],
+                           motion_correlation(split.train, jumpy.orders, split.truth, mf.phi,
+                                              1.0 / np.var(r, axis=0), clean))
+    else:
+        test = motion_test([0.0] * len(MOTION_TEST_LAGS))
     test['test'] += ', with the jumps set aside'
     if test['p_value'] > alpha / N_TESTS:
         return test, None

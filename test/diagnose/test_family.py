@@ -141,3 +141,34 @@ def test_robust_phase_scales_are_not_moved_by_a_few_jumps():
     robust = robust_phase_scales(r, phase, 8)
     assert np.max(np.abs(robust / truth - 1.0)) < 0.15, (robust, truth)
     assert np.max(np.abs(phase_scales(r, phase, 8) / truth - 1.0)) > 0.3
+
+
+def test_motion_max_t_lies_between_one_lag_and_bonferroni():
+    """Identical scores: the p of one lag; independent ones: Sidak; Bonferroni bounds both."""
+    from gps_error_ros.diagnose.family import motion_test
+    lrs = [9.0, 8.0, 7.0, 6.0, 5.0]
+    one = 0.5 * stats.chi2.sf(9.0, 1)
+    bonferroni = motion_test(lrs)['p_value']
+    assert bonferroni == pytest.approx(5 * one)
+    same = motion_test(lrs, np.ones((5, 5)))['p_value']
+    apart = motion_test(lrs, np.eye(5))['p_value']
+    lag = np.abs(np.subtract.outer(np.arange(5), np.arange(5)))
+    near = motion_test(lrs, 0.8 ** lag)['p_value']
+    assert same == pytest.approx(one, rel=0.15)
+    assert apart == pytest.approx(1 - (1 - one) ** 5, rel=0.1)
+    assert same < near < apart <= bonferroni
+    assert motion_test([0.0] * 5, np.eye(5))['p_value'] == 1.0
+
+
+def test_motion_scores_correlate_across_lags_on_a_walk():
+    """The probes' regressors overlap: neighbouring lags correlate, far ones less."""
+    from gps_error_ros.diagnose.mean import motion_correlation
+    from gps_error_ros.diagnose.pipeline import fit_base, split_step
+    from gps_error_ros.sim.synthetic import synthetic_trace
+    split = split_step(synthetic_trace('none', 7, 1200))
+    base = fit_base(split)
+    c = motion_correlation(split.train, base.orders, split.truth, base.mean.phi, (1.0, 1.0))
+    assert c.shape == (5, 5) and np.allclose(c, c.T) and np.allclose(np.diag(c), 1.0)
+    assert np.linalg.eigvalsh(c).min() > -1e-9
+    assert np.all((np.diag(c, 1) > 0.3) & (np.diag(c, 1) < 0.99)), c
+    assert c[0, 4] < c[0, 1], c
