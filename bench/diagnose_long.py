@@ -14,7 +14,9 @@ below ``--min-power`` (default 90 %) or, where an effect is expected, the
 held-out NLL is lower after in less than ``--min-better`` (default 95 %).
 
 Prints one line per scenario and a JSON summary (``--json``); exits non-zero
-on a failed check. Seeds start at 1000, apart from the test suite's.
+on a failed check. Seeds start at 1000 (``--first-seed``), apart from the
+test suite's. Each share is printed with its Clopper-Pearson 95 % interval,
+and the shares pooled over the effect scenarios beside them.
 """
 
 import argparse
@@ -27,6 +29,7 @@ import time
 from scipy import stats
 
 from gps_error_ros.diagnose import ALPHA, diagnose
+from gps_error_ros.diagnose.fidelity import binomial_interval
 from gps_error_ros.sim.synthetic import EFFECT_FREE, SCENARIOS, synthetic_trace
 
 
@@ -41,10 +44,60 @@ def one(job):
             'after': s['error_after']['heldout_nll_per_sample']}
 
 
+def _share(k, n):
+    """Return 'k of n (p %, 95 % CI lo-hi %)' with the Clopper-Pearson interval."""
+    lo, hi = binomial_interval(k, n)
+    return f'{k} of {n} ({100 * k / n:.0f} %, 95 % CI {100 * lo:.0f}-{100 * hi:.0f} %)'
+
+
+def _effect_free_row(sc, rows):
+    n = len(rows)
+    alarms = sum(bool(r['effects'] or r['unexplained']) for r in rows)
+    bound = int(stats.binom.ppf(0.99, n, ALPHA))
+    line = (f'{sc:32s} {n} seeds: false alarms {alarms} ({100 * alarms / n:.1f} %), '
+            f'bound {bound} (binomial({n}, {ALPHA}) 99 % quantile)')
+    return line, {'seeds': n, 'false_alarms': alarms, 'bound': bound,
+                  'passed': alarms <= bound}
+
+
+def _effect_row(sc, rows, args):
+    expected, unexplained = SCENARIOS[sc]
+    n = len(rows)
+    right = sum(sorted(r['effects']) == sorted(expected)
+                and bool(r['unexplained']) == unexplained for r in rows)
+    better = sum(r['after'] < r['before'] for r in rows)
+    kept = sum(sorted(r['kept']) == sorted(expected) for r in rows)
+    passed = right / n >= args.min_power and \
+        (not expected or better / n >= args.min_better)
+    line = (f'{sc:32s} {n} seeds: right attribution {_share(right, n)}, '
+            f'kept for simulation {kept}, held-out NLL lower after {_share(better, n)}')
+    return line, {'seeds': n, 'right': right, 'kept_right': kept, 'after_better': better,
+                  'passed': passed, 'found': sorted({tuple(r['effects']) for r in rows})}
+
+
+def _pooled(summary):
+    """Return the lines and the record of the shares pooled over the effect scenarios."""
+    rows = {sc: v for sc, v in summary.items() if 'right' in v}
+    if not rows:
+        return [], {}
+    n = sum(v['seeds'] for v in rows.values())
+    right = sum(v['right'] for v in rows.values())
+    fitted = [v for sc, v in rows.items() if SCENARIOS[sc][0]]
+    nb, better = sum(v['seeds'] for v in fitted), sum(v['after_better'] for v in fitted)
+    lines = [f'{"pooled over the effect scenarios":32s} right attribution {_share(right, n)}']
+    if nb:
+        lines.append(f'{"":32s} held-out NLL lower after {_share(better, nb)} '
+                     f'(scenarios with an effect to fit)')
+    return lines, {'seeds': n, 'right': right, 'after_better': better,
+                   'after_better_seeds': nb}
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--seeds', type=int, default=100)
     p.add_argument('--effect-seeds', type=int, default=20)
+    p.add_argument('--first-seed', type=int, default=1000,
+                   help='seed of the first walk of every scenario (default 1000)')
     p.add_argument('--duration', type=int, default=3600)
     p.add_argument('--min-power', type=float, default=0.9)
     p.add_argument('--min-better', type=float, default=0.95)
@@ -53,45 +106,26 @@ def main(argv=None):
     p.add_argument('--scenarios', nargs='+', choices=list(SCENARIOS), default=list(SCENARIOS),
                    help='run only these scenarios (default: all)')
     args = p.parse_args(argv)
-    jobs = [(sc, 1000 + i, args.duration) for sc in args.scenarios
+    jobs = [(sc, args.first_seed + i, args.duration) for sc in args.scenarios
             for i in range(args.seeds if sc in EFFECT_FREE else args.effect_seeds)]
     t0 = time.monotonic()
     with ProcessPoolExecutor(args.workers) as ex:
         results = list(ex.map(one, jobs, chunksize=2))
     ok, summary = True, {}
     for sc in args.scenarios:
-        expected, unexplained = SCENARIOS[sc]
         rows = [r for r in results if r['scenario'] == sc]
-        n = len(rows)
-        if sc in EFFECT_FREE:
-            alarms = sum(bool(r['effects'] or r['unexplained']) for r in rows)
-            bound = int(stats.binom.ppf(0.99, n, ALPHA))
-            passed = alarms <= bound
-            line = (f'{sc:32s} {n} seeds: false alarms {alarms} ({100 * alarms / n:.1f} %), '
-                    f'bound {bound} (binomial({n}, {ALPHA}) 99 % quantile)')
-            summary[sc] = {'seeds': n, 'false_alarms': alarms, 'bound': bound,
-                           'passed': passed}
-        else:
-            right = sum(sorted(r['effects']) == sorted(expected)
-                        and bool(r['unexplained']) == unexplained for r in rows)
-            better = sum(r['after'] < r['before'] for r in rows)
-            kept = sum(sorted(r['kept']) == sorted(expected) for r in rows)
-            passed = right / n >= args.min_power and \
-                (not expected or better / n >= args.min_better)
-            line = (f'{sc:32s} {n} seeds: right attribution {right} ({100 * right / n:.0f} %), '
-                    f'kept for simulation {kept}, '
-                    f'held-out NLL lower after {better} ({100 * better / n:.0f} %)')
-            summary[sc] = {'seeds': n, 'right': right, 'kept_right': kept,
-                           'after_better': better,
-                           'passed': passed,
-                           'found': sorted({tuple(r['effects']) for r in rows})}
-        ok &= passed
-        print(line + ('' if passed else '  FAILED'))
+        line, summary[sc] = (_effect_free_row(sc, rows) if sc in EFFECT_FREE
+                             else _effect_row(sc, rows, args))
+        ok &= summary[sc]['passed']
+        print(line + ('' if summary[sc]['passed'] else '  FAILED'))
+    lines, pooled = _pooled(summary)
+    print('\n'.join(lines))
     wall = time.monotonic() - t0
     print(f'{len(jobs)} diagnoses in {wall:.0f} s: {"PASSED" if ok else "FAILED"}')
     if args.json:
         with open(args.json, 'w') as f:
-            json.dump({'summary': summary, 'wall_s': wall, 'runs': results,
+            json.dump({'summary': summary, 'pooled': pooled, 'wall_s': wall,
+                       'runs': results,
                        'command': ' '.join(['python bench/diagnose_long.py']
                                            + list(sys.argv[1:] if argv is None else argv))},
                       f, indent=1)

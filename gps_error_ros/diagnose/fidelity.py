@@ -10,6 +10,7 @@ simulated median and central 95 % range beside it.
 """
 
 import numpy as np
+from scipy import stats
 
 from gps_error_ros.diagnose.common import FIDELITY_MAX_LAG
 from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
@@ -124,6 +125,16 @@ def block_bootstrap_mean(x, seed=0, block=30, reps=2000):
     means = x[idx].mean(axis=1)
     lo, hi = np.quantile(means, [0.025, 0.975])
     return float(x.mean()), float(lo), float(hi)
+
+
+def binomial_interval(k, n, level=0.95):
+    """Return the Clopper-Pearson interval (lo, hi) of a share ``k`` of ``n``."""
+    if n <= 0:
+        raise ValueError(f'a share needs n > 0 trials, got n = {n}')
+    a = (1.0 - level) / 2.0
+    lo = float(stats.beta.ppf(a, k, n - k + 1)) if k > 0 else 0.0
+    hi = float(stats.beta.ppf(1.0 - a, k + 1, n - k)) if k < n else 1.0
+    return lo, hi
 
 
 #: Horizontal-error quantiles of the calibrated measures.
