@@ -279,14 +279,17 @@ def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, see
     A jump of the reported fix by ``o`` leaves an innovation of about ``o``
     where it starts and about ``-o`` (times the AR's sum) where it ends, so
     large innovations pair up with opposite directions. The statistic is
-    ``-sum cos`` over pairs of large innovations (squared radius above
+    ``-sum w cos`` over pairs of large innovations (squared radius above
     ``REVERSAL_THRESHOLD`` robust units) at most ``window`` samples apart in
-    one segment. Its null multiplies every large innovation by an
+    one segment, ``w = 1 / sqrt(d_a d_b)`` with ``d`` the number of pairs
+    an innovation is in: a burst of m large innovations makes m(m - 1) / 2
+    pairs of signs at random, and unweighted they outweighed the isolated
+    pairs of single jumps. Its null multiplies every large innovation by an
     independent random sign: exact for any centrally symmetric law of the
     innovations, however their variance clusters in time (tails, regimes).
     """
-    out = {'test': f'large innovations in opposite directions within {window} samples, '
-                   f'against random signs ({draws} draws)'}
+    out = {'test': f'large innovations in opposite directions within {window} samples '
+                   f'(pairs in bursts weighted down), against random signs ({draws} draws)'}
     z = robust_whitened(r)
     q = np.sum(z * z, axis=1)
     big = np.flatnonzero(q > REVERSAL_THRESHOLD * np.median(q) / math.log(4.0))
@@ -296,7 +299,8 @@ def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, see
     if not i.size:
         return {**out, 'statistic': 0.0, 'pairs': 0, 'large': int(big.size), 'p_value': 1.0}
     u = z[big] / np.sqrt(q[big])[:, None]
-    cos = np.sum(u[i] * u[j], axis=1)
+    degree = np.bincount(np.r_[i, j], minlength=big.size)
+    cos = np.sum(u[i] * u[j], axis=1) / np.sqrt(degree[i] * degree[j])
     stat = float(-cos.sum())
     signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(draws, big.size))
     null = -(signs[:, i] * signs[:, j]) @ cos

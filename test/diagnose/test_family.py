@@ -120,6 +120,25 @@ def test_jump_reversal_tells_jumps_that_come_back_from_tails_and_regimes():
     assert all(p <= 0.005 for p in level['jumps']), sorted(level['jumps'])[-5:]
 
 
+def test_jump_reversal_sees_single_jumps_beside_bursts():
+    """Bursts of loud steps pair at random many times; weighted down, they do not drown jumps."""
+    from gps_error_ros.diagnose.family import jump_reversal_test
+    ps = []
+    for rep in range(20):
+        rng = np.random.default_rng(rep)
+        n = 2000
+        r = rng.normal(size=(n, 2))
+        for k in rng.choice(np.arange(50, n - 50, 100), 8, replace=False):
+            o, length = rng.normal(0, 8, 2), rng.integers(1, 5)
+            r[k] += o                       # 8 jumps of 1-4 steps that come back
+            r[k + length] -= o
+        for k in (20, 520, 1020, 1520):     # four bursts of 8 steps at 10x
+            r[k + 3:k + 11] *= 10
+        ps.append(jump_reversal_test(r, np.zeros(n, dtype=int), seed=rep)['p_value'])
+    # unweighted (every pair the same say): median p 0.10, and 5 of 20 at most 0.05
+    assert np.median(ps) <= 0.01 and sum(p <= 0.05 for p in ps) >= 19, sorted(ps)
+
+
 def test_jump_reversal_without_large_pairs_is_no_evidence():
     from gps_error_ros.diagnose.family import jump_reversal_test
     r = np.random.default_rng(3).normal(size=(500, 2))
