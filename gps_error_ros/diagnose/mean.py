@@ -187,7 +187,11 @@ def log_det_loss(part, orders, truth, lag_s, gain, period=0, clean=None):
     of the design that the loss is taken on.
     """
     d = design(part, orders, truth, lag_s, gain)
-    _, r = least_squares(d if clean is None else clean(d), period=period)
+    return log_det(least_squares(d if clean is None else clean(d), period=period)[1])
+
+
+def log_det(r):
+    """Return the sum over the axes of the log mean square of residuals ``r`` (n, 2)."""
     return float(np.sum(np.log(np.mean(r * r, axis=0))))
 
 

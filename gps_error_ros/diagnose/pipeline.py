@@ -64,7 +64,7 @@ from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_re
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.mean import (condition_count, design, fit_lag, from_travel_frame,
-                                         gain_loss, least_squares, log_det_loss,
+                                         gain_loss, least_squares, log_det,
                                          motion_correlation, to_travel_frame)
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe, robust_phase_scales,
                                            FittedModel, select_orders)
@@ -159,13 +159,12 @@ def fit_base(split):
     return fit_model(split.train, select_orders(split.train), (), split.truth)
 
 
-def _motion_family(split, base):
-    """Return the motion test: likelihood ratios of the probes at 1..5 s."""
+def _motion_family(split, base, r):
+    """Return the motion test from the probes at 1..5 s (``r``: the base's innovations)."""
     if not _moving(split):
         return motion_test([0.0] * len(MOTION_TEST_LAGS))
     lrs = [2.0 * (fit_motion_probe(split.train, base.orders, split.truth, lag).train_loglik
                   - base.train_loglik) for lag in MOTION_TEST_LAGS]
-    _, r, _, _ = base.score(split.train, split.truth)
     return motion_test(lrs, motion_correlation(split.train, base.orders, split.truth,
                                                base.mean.phi, 1.0 / np.var(r, axis=0)))
 
@@ -199,9 +198,9 @@ def _motion_without_jumps(split, jumpy, jf, alpha):
     def loss(lag_s):
         return gain_loss(split.train, jumpy.orders, split.truth, lag_s, clean)[0]
 
-    null = log_det_loss(split.train, jumpy.orders, split.truth, 0.0, 0.0, clean=clean)
     if _moving(split):
         mf, r = least_squares(clean(design(split.train, jumpy.orders, split.truth)))
+        null = log_det(r)
         test = motion_test([keep.sum() * max(0.0, null - loss(lag)) for lag in MOTION_TEST_LAGS],
                            motion_correlation(split.train, jumpy.orders, split.truth, mf.phi,
                                               1.0 / np.var(r, axis=0), clean))
@@ -266,8 +265,8 @@ def run_family(split, base, alpha=FAMILY_ALPHA):
     tail; :func:`_set_jumps_aside`: when the family with the jumps aside
     rejects the reversal), and the frame (:func:`_family`).
     """
-    motion = _motion_family(split, base)
     _, r_law, d_law, _ = base.score(split.train, split.truth)
+    motion = _motion_family(split, base, r_law)
     base_residuals = (r_law, d_law.seg)
     lag_s = None
     if motion['p_value'] <= alpha / N_TESTS:
