@@ -247,7 +247,8 @@ def cmd_diagnose(args):
     print(f'  base: AR orders north {s["base"]["order"]["north"]}, east '
           f'{s["base"]["order"]["east"]}')
     for name, t in s['tests'].items():
-        flag = 'REJECTED' if t['rejected'] else 'ok'
+        flag = ('REJECTED' if t['rejected'] else 'ok') + \
+            (' (by the family with the jumps in)' if t.get('given') else '')
         print(f'  test {name:24s} p={t["p_value"]:.3g} (Holm {t["holm_adjusted_p"]:.3g}) '
               f'{flag}')
     print('  effects found: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))

@@ -94,11 +94,24 @@ def robust_correlation_test(x, y):
     return rho, float(2 * stats.norm.sf(abs(z)))
 
 
-def holm(pvalues, alpha=FAMILY_ALPHA):
-    """Return Holm's reject decisions and adjusted p-values (dict by name)."""
-    names = sorted(pvalues, key=lambda k: pvalues[k])
+def holm(pvalues, alpha=FAMILY_ALPHA, given=None):
+    """
+    Return Holm's reject decisions and adjusted p-values (dict by name).
+
+    ``given``: name -> adjusted p of tests already rejected by the same
+    step-down over the same tests on other innovations (the family with the
+    jumps in, :func:`~.pipeline.run_family`). They count as the first steps
+    taken: the others are stepped down over the ``m - g`` left, and their
+    adjusted p is at least the givens' (rejected iff adjusted <= alpha holds
+    throughout). A given test whose null is false costs nothing; one whose
+    null is true was already a family-wise error where it was rejected.
+    """
+    given = dict(given or {})
+    names = sorted((k for k in pvalues if k not in given), key=lambda k: pvalues[k])
     m = len(names)
-    adjusted, reject, running, stop = {}, {}, 0.0, False
+    adjusted = dict(given)
+    reject = {k: True for k in given}
+    running, stop = max(given.values(), default=0.0), False
     for i, k in enumerate(names):
         running = max(running, min(1.0, (m - i) * pvalues[k]))
         adjusted[k] = running
@@ -107,15 +120,17 @@ def holm(pvalues, alpha=FAMILY_ALPHA):
     return reject, adjusted
 
 
-def holm_tests(tests, alpha=FAMILY_ALPHA):
+def holm_tests(tests, alpha=FAMILY_ALPHA, given=None):
     """
     Return (``tests`` each with its Holm-adjusted p and decision, reject, adjusted).
 
     ``tests``: name -> a test's dict with its ``p_value``; the dicts returned
     are copies (a test shared by two families keeps each family's decision).
+    ``given``: as :func:`holm`; those tests are marked ``given``.
     """
-    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha)
-    return ({k: dict(v, holm_adjusted_p=adjusted[k], rejected=reject[k])
+    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha, given)
+    return ({k: dict(v, holm_adjusted_p=adjusted[k], rejected=reject[k],
+                     **({'given': True} if k in (given or {}) else {}))
              for k, v in tests.items()}, reject, adjusted)
 
 

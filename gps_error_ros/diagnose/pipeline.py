@@ -262,8 +262,9 @@ def run_family(split, base, alpha=FAMILY_ALPHA):
     Likewise a cycle (or periodic variance passes for tails; the scale of
     the cycle's phases is taken out before the jumps are looked for, or its
     bursts drown them), jumps that come back (or a jump passes for a heavy
-    tail; :func:`_set_jumps_aside`: when the family with the jumps aside
-    rejects the reversal), and the frame (:func:`_family`).
+    tail; :func:`_set_jumps_aside`: when a family rejects the reversal,
+    the law's tests are those with the jumps aside), and the frame
+    (:func:`_family`).
     """
     _, r_law, d_law, _ = base.score(split.train, split.truth)
     motion = _motion_family(split, base, r_law)
@@ -282,20 +283,27 @@ def run_family(split, base, alpha=FAMILY_ALPHA):
         _, r_law, d_law, _ = cyc.score(split.train, split.truth)
     reversal = jump_reversal_test(_robust_cycle(r_law, d_law, period, cyc) if period else r_law,
                                   d_law.seg)
+    jumps_in = _family(motion, (r_law, d_law, base.orders), cycle, reversal, alpha, lag_s)
     if reversal['p_value'] <= alpha:
-        # the jumps are set aside when the family that sees them aside rejects
-        # the reversal: at Holm's first step (alpha / m) it always does
+        # the jumps are set aside when a family rejects the reversal: the one
+        # that sees them aside (at Holm's first step, alpha / m, it always
+        # does), or else the one with them in, whose rejection is then a
+        # step already taken in the family aside (its law's tests on
+        # innovations that still hold the jumps would find their tails and
+        # their axis)
         jumpy, motion_j, lag_j = _set_jumps_aside(split, base, effects, lag_s, period, alpha)
         _, r_j, d_j, _ = jumpy.score(split.train, split.truth)
-        out = _family(motion_j, (r_j, d_j, jumpy.orders), cycle, reversal, alpha, lag_j)
+        aside = (motion_j, (r_j, d_j, jumpy.orders), cycle, reversal, alpha, lag_j)
+        out = _family(*aside)
+        if not out.reject['jump_reversal'] and jumps_in.reject['jump_reversal']:
+            out = _family(*aside, given={'jump_reversal': jumps_in.adjusted['jump_reversal']})
         if out.reject['jump_reversal']:
             return replace(out, base_residuals=base_residuals,
                            jump_orders=jumpy.orders if jumpy.orders != base.orders else ())
-    return replace(_family(motion, (r_law, d_law, base.orders), cycle, reversal, alpha, lag_s),
-                   base_residuals=base_residuals)
+    return replace(jumps_in, base_residuals=base_residuals)
 
 
-def _family(motion, law_input, cycle, reversal, alpha, lag_s):
+def _family(motion, law_input, cycle, reversal, alpha, lag_s, given=None):
     """
     Return the :class:`FamilyResult` of the tests on the innovations ``law_input``.
 
@@ -303,7 +311,7 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s):
     travel-frame test rejects on its own and axes along/across the travel
     fit better than fixed ones, the law's tests run on the innovations in
     that frame (a turning ellipse seen in fixed axes is a mixture, with the
-    kurtosis of heavy tails).
+    kurtosis of heavy tails). ``given``: as :func:`~.family.holm`.
     """
     r_law, d_law, orders = law_input
     frame = travel_frame_test(r_law, d_law.heading)
@@ -313,7 +321,7 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s):
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
-    return FamilyResult(*holm_tests(tests, alpha), lag_s)
+    return FamilyResult(*holm_tests(tests, alpha, given), lag_s)
 
 
 def fit_extended(split, base, att, kept=None):

@@ -42,6 +42,22 @@ def test_holm_matches_the_step_down_rule():
     assert reject == {'a': True, 'b': True}
 
 
+def test_holm_with_a_given_rejection_steps_down_over_the_rest():
+    """A test rejected in another family is a step taken: the rest start at alpha / (m - 1)."""
+    p = {'a': 0.02, 'b': 0.024, 'g': 0.3}
+    reject, adj = holm(p, 0.05)
+    assert not any(reject.values())                 # 0.02 > 0.05 / 3
+    reject, adj = holm(p, 0.05, given={'g': 0.03})
+    assert reject == {'g': True, 'a': True, 'b': True}     # 0.02 <= 0.05 / 2, 0.024 <= 0.05
+    assert adj == pytest.approx({'g': 0.03, 'a': 0.04, 'b': 0.04})
+    reject, adj = holm(p, 0.05, given={'g': 0.045})
+    assert adj == pytest.approx({'g': 0.045, 'a': 0.045, 'b': 0.045})   # at least the given's
+    reject, adj = holm({'a': 0.03, 'g': 0.3}, 0.05, given={'g': 0.01})
+    assert reject == {'g': True, 'a': True} and adj['a'] == pytest.approx(0.03)
+    reject, adj = holm({'a': 0.06, 'g': 0.3}, 0.05, given={'g': 0.01})
+    assert reject == {'g': True, 'a': False} and adj['a'] == pytest.approx(0.06)
+
+
 def test_robust_tests_keep_their_level_under_changing_variance():
     rng = np.random.default_rng(2)
     rej_lb = rej_cc = 0
