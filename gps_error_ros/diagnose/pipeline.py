@@ -293,17 +293,18 @@ def run_family(split, base, alpha=FAMILY_ALPHA):
         # their axis)
         jumpy, motion_j, lag_j = _set_jumps_aside(split, base, effects, lag_s, period, alpha)
         _, r_j, d_j, _ = jumpy.score(split.train, split.truth)
-        aside = (motion_j, (r_j, d_j, jumpy.orders), cycle, reversal, alpha, lag_j)
-        out = _family(*aside)
+        out = _family(motion_j, (r_j, d_j, jumpy.orders), cycle, reversal, alpha, lag_j)
         if not out.reject['jump_reversal'] and jumps_in.reject['jump_reversal']:
-            out = _family(*aside, given={'jump_reversal': jumps_in.adjusted['jump_reversal']})
+            # the same tests, Holm again with that step taken
+            given = {'jump_reversal': jumps_in.adjusted['jump_reversal']}
+            out = FamilyResult(*holm_tests(out.tests, alpha, given), lag_j)
         if out.reject['jump_reversal']:
             return replace(out, base_residuals=base_residuals,
                            jump_orders=jumpy.orders if jumpy.orders != base.orders else ())
     return replace(jumps_in, base_residuals=base_residuals)
 
 
-def _family(motion, law_input, cycle, reversal, alpha, lag_s, given=None):
+def _family(motion, law_input, cycle, reversal, alpha, lag_s):
     """
     Return the :class:`FamilyResult` of the tests on the innovations ``law_input``.
 
@@ -311,7 +312,7 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s, given=None):
     travel-frame test rejects on its own and axes along/across the travel
     fit better than fixed ones, the law's tests run on the innovations in
     that frame (a turning ellipse seen in fixed axes is a mixture, with the
-    kurtosis of heavy tails). ``given``: as :func:`~.family.holm`.
+    kurtosis of heavy tails).
     """
     r_law, d_law, orders = law_input
     frame = travel_frame_test(r_law, d_law.heading)
@@ -321,7 +322,7 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s, given=None):
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
-    return FamilyResult(*holm_tests(tests, alpha, given), lag_s)
+    return FamilyResult(*holm_tests(tests, alpha), lag_s)
 
 
 def fit_extended(split, base, att, kept=None):
