@@ -17,6 +17,8 @@ import sys
 
 from gps_error_ros.cli.parser import build_parser
 from gps_error_ros.fit.calibration import calibrate, CalibrationError
+from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
 from gps_error_ros.traces.bag_io import BagError
@@ -24,22 +26,40 @@ from gps_error_ros.traces.gnsslogger import GnssLoggerError
 from gps_error_ros.traces.gpx import GpxError
 from gps_error_ros.traces.landmarks import LandmarkError
 from gps_error_ros.traces.nmea import NmeaError
-from gps_error_ros.traces.loading import load_trace, parse_datum
+from gps_error_ros.traces.loading import expand_inputs, load_trace, parse_datum
 from gps_error_ros.traces.pairing import PairingError
-from gps_error_ros.traces.trace_io import TraceError
+from gps_error_ros.traces.trace_io import join_recordings, TraceError
 
 # DiagnosisError is a ValueError
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
           NmeaError, GnssLoggerError, GpxError, LandmarkError, ValueError, OSError)
 
 
+def _load_inputs(args):
+    """Load every INPUT (files, or folders of them); print how it went; return the traces."""
+    traces = []
+    for path in expand_inputs(args.input):
+        trace, notes = load_trace(path, args.fix_topic, args.truth_topic,
+                                  parse_datum(args.datum), args.max_truth_gap, args.agent)
+        for line in notes:
+            print(line)
+        traces.append(trace)
+    return traces
+
+
 def _load_input(args):
-    """Load INPUT with the options of _add_input_options; print how it went."""
-    trace, notes = load_trace(args.input, args.fix_topic, args.truth_topic,
-                              parse_datum(args.datum), args.max_truth_gap, args.agent)
-    for line in notes:
-        print(line)
-    return trace
+    """
+    Load the INPUTs as one trace without their gross failures; print what was found.
+
+    Each recording's gross failures are found on its own and left out; several
+    recordings are joined, each after the last (:func:`join_recordings`).
+    """
+    traces = []
+    for trace in _load_inputs(args):
+        found = find_gross_failures(trace)
+        print(found.describe())
+        traces.append(without_rows(trace, found.mask))
+    return join_recordings(traces)
 
 
 def cmd_simulate(args):
@@ -168,21 +188,24 @@ def cmd_calibrate(args):
     if args.zones:
         return _calibrate_zones(args)
     _check_output_dir(args.output, '-o')
-    trace = _load_input(args)
-    result = calibrate(trace, order=args.order, max_order=args.max_order)
+    traces = _load_inputs(args)
+    result = calibrate(traces, order=args.order, max_order=args.max_order)
     out = Path(args.output)
     profile = result.profile_dict(args.name or out.stem)
     write_profile(out, profile)
     load_profile_file(out)          # what we write must load as it is
+    for found in result.failures:
+        print(found.describe())
     g = result.grid
-    print(f'{trace.name}: {g.n} samples in {len(g.segments)} segment(s), '
+    print(f'{result.input}: {g.n} samples in {len(g.segments)} segment(s), '
           f'{g.span_s:.0f} s')
-
-    for ax, fit in (('north', result.north), ('east', result.east)):
+    sd = ARErrorModel(result.north.params, result.east.params).stationary_sd
+    for i, (ax, fit) in enumerate((('north', result.north), ('east', result.east))):
         p = fit.params
         print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
               f'{fit.bic_order}) delta={p.delta:.4f} '
-              f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}')
+              f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}; '
+              f'mean error {p.mean:.3f} m, stationary SD {sd[i]:.3f} m')
         if not fit.fixed_order and fit.pacf_order == args.max_order:
             print(f'  note: the {ax} PACF is significant up to the largest order '
                   f'allowed (--max-order {args.max_order}); a larger --max-order '

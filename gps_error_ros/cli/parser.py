@@ -77,7 +77,9 @@ def _add_calibrate(sub):
                     'INPUT is a trace CSV (columns t, lat, lon, truth_lat, '
                     'truth_lon; see shared/data/README.md) or a rosbag2 '
                     '(MCAP or SQLite3) with fixes and truth.')
-    c.add_argument('input', help='trace CSV or rosbag2 directory')
+    c.add_argument('input', nargs='+',
+                   help='trace CSV or rosbag2 directory; several, or a folder of them, '
+                        'are recordings of one receiver (each keeps its own segments)')
     _add_input_options(c)
     c.add_argument('-o', '--output', required=True,
                    help='profile YAML to write (with --zones: a directory)')
@@ -105,7 +107,9 @@ def _add_validate(sub):
                     'DIR/validation.png and DIR/validation.json.')
     v.add_argument('profile', help='profile: DS1, DS2, DS5, DS7 (the published '
                                    'fits) or a profile YAML path')
-    v.add_argument('input', help='trace CSV or rosbag2 directory')
+    v.add_argument('input', nargs='+',
+                   help='trace CSV or rosbag2 directory; several, or a folder of them, '
+                        'are recordings of one receiver')
     v.add_argument('--zones', default=None,
                    help='zone map (GeoJSON): simulate with each zone\'s profile where the '
                         'truth is (PROFILE outside, unless the map has a default_profile) '
@@ -187,7 +191,9 @@ def _add_diagnose(sub):
                     'extended model with it and report the error before '
                     'and after on the held-out part. See '
                     'docs/close-the-loop.md.')
-    d.add_argument('input', help='trace CSV or rosbag2 directory')
+    d.add_argument('input', nargs='+',
+                   help='trace CSV or rosbag2 directory; several, or a folder of them, '
+                        'are recordings of one receiver (each keeps its own segments)')
     _add_input_options(d)
     d.add_argument('--json', dest='json_out', help='write the findings as JSON')
     d.add_argument('--report', help='directory for the figures (PNG)')
@@ -216,7 +222,9 @@ def _add_compare(sub):
                     'simulated median, central 95 % range and the '
                     'measured value\'s percentile; inside_95 is the share of '
                     'measures inside their range (near 0.95 when calibrated).')
-    c.add_argument('input', help='trace CSV or rosbag2 directory')
+    c.add_argument('input', nargs='+',
+                   help='trace CSV or rosbag2 directory; several, or a folder of them, '
+                        'are recordings of one receiver (each keeps its own segments)')
     _add_input_options(c)
     c.add_argument('--json', dest='json_out', help='write the comparison as JSON')
     c.add_argument('--zones', default=None,

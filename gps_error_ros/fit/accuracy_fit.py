@@ -165,10 +165,30 @@ def _stated(trace):
 
 
 def estimate_reported(trace):
-    """Return (reported_accuracy section or None, evidence) for ``trace`` (see module doc)."""
+    """
+    Return (reported_accuracy section or None, evidence) for ``trace`` (see module doc).
+
+    Times are taken on the 1 s grid (a receiver's stamps jitter about whole
+    seconds). A fit that cannot be made gives None and the reason, never a
+    NaN.
+    """
     source, stated = _stated(trace)
     if source is None:
         return None, {'fitted': False, 'reason': stated}
+    with np.errstate(all='ignore'):
+        section, evidence = _estimate(trace, source, stated)
+    bad = [k for k, v in section.items() if isinstance(v, float) and not math.isfinite(v)]
+    if bad:
+        return None, {'fitted': False,
+                      'reason': f'the fit of {", ".join(bad)} is not finite '
+                                f'({evidence["rows"]} rows with a stated value and a '
+                                f'local error scale)'}
+    return section, evidence
+
+
+def _estimate(trace, source, stated):
+    """Return (section, evidence) of :func:`estimate_reported` (values may be NaN)."""
+    t = np.rint(trace.t - trace.t[0])
     north, east = difference(trace.lat, trace.lon, trace.truth_lat, trace.truth_lon)
     err = np.stack([north, east], axis=1)
     h = np.hypot(north, east)
@@ -176,7 +196,7 @@ def estimate_reported(trace):
     scale_m = float(np.quantile(h[rows] / stated[rows], 0.68)) if source == 'hdop' else 0.0
     r = stated * (scale_m if source == 'hdop' else 1.0)
     q = quantum(stated[rows]) * (scale_m if source == 'hdop' else 1.0)
-    ls = np.log(local_scale(trace.t, err))
+    ls = np.log(local_scale(t, err))
     use = rows & np.isfinite(ls)
     lo, hi = _bounds(r[use], q)
     if np.unique(r[use]).size == 1:
@@ -185,7 +205,9 @@ def estimate_reported(trace):
         c, follow, sigma = _censored_fit(lo, hi, ls[use])
         follow = float(min(max(follow, -3.0), 3.0))
     x = _latent_mean(lo, hi, c + follow * ls[use], sigma)
-    tu = trace.t[use]
+    if not use.any():
+        return {'sigma_log': math.nan}, {'rows': 0}
+    tu = t[use]
     pair = np.flatnonzero(np.isclose(np.diff(tu), 1.0))
     phi = 0.0
     if sigma > 0 and pair.size and q <= 0:
@@ -209,5 +231,5 @@ def estimate_reported(trace):
                 'most_common': [[float(v), int(n)] for v, n in
                                 sorted(zip(values, counts), key=lambda p: -p[1])[:5]],
                 'corr_log_radius_log_scale_by_delay_s':
-                    _follow_lags(trace.t, np.log(np.where(rows, r, np.nan)), ls)}
+                    _follow_lags(t, np.log(np.where(rows, r, np.nan)), ls)}
     return section, evidence

@@ -13,6 +13,14 @@ Calibrate a profile from measured errors: the paper's procedure, with gaps.
    bound ``z / sqrt(n)`` (z = 1.96, 5 %). BIC's choice is recorded beside it.
 4. Yule-Walker gives phi and sigma_w; ``delta = (1 - sum phi) * mean``
    (Eq. 3). A non-stationary fit, or too few samples for the order, is refused.
+
+Before step 1, each recording's gross failures (:mod:`gross_failures`: fixes
+far from both the recording's median error and their neighbours) are taken
+out, so the fit sees them as missing steps; they are counted in the ``fit``
+section. Several recordings of one receiver give one profile: each keeps its
+own segments (no product spans two recordings), the autocovariance is pooled
+over all of them, and a recording too short for a fit alone still adds its
+samples. Outages are counted within each recording.
 """
 
 from dataclasses import dataclass
@@ -21,6 +29,7 @@ import numpy as np
 
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
+from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -28,6 +37,7 @@ from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.availability import runs_without_fix
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import profile_mapping
+from gps_error_ros.traces.trace_io import join_recordings, recordings_of
 
 __all__ = ['AxisFit', 'calibrate', 'CalibrationError', 'CalibrationResult',
            'DEFAULT_MAX_ORDER', 'errors_on_grid', 'fit_axis', 'GriddedErrors']
@@ -93,17 +103,21 @@ def availability_from_mask(mask, min_outage_steps=MIN_OUTAGE_STEPS):
     """
     Return (availability section or None, evidence) from a fix mask on the grid.
 
+    ``mask`` may be a list of masks, one per recording: outages are counted
+    within each, never across the time between two recordings.
+
     The outage rate is outages per step with a fix that has a next step
     (maximum likelihood for the profile's process); the durations are the
     outages' lengths in steps, as an empirical distribution. With no outage
     the section is None and the evidence gives the rate's 95 % upper bound
     (3 / steps, the rule of three).
     """
-    mask = np.asarray(mask, dtype=bool)
-    gaps = runs_without_fix(mask)
+    masks = [np.asarray(m, dtype=bool) for m in
+             (mask if isinstance(mask, (list, tuple)) else [mask])]
+    gaps = [g for m in masks for g in runs_without_fix(m)]
     outages = [g for g in gaps if g >= min_outage_steps]
-    n = int(mask.sum())
-    chances = max(n - 1, 1)
+    n = int(sum(m.sum() for m in masks))
+    chances = max(sum(max(int(m.sum()) - 1, 0) for m in masks), 1)
     evidence = {'min_outage_steps': int(min_outage_steps), 'outages': len(outages),
                 'dropped_steps': int(sum(g for g in gaps if g < min_outage_steps)),
                 'steps_with_fix': n}
@@ -129,11 +143,27 @@ class CalibrationResult:
     input: str
     velocity: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
     reported: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
+    failures: tuple = ()        # GrossFailures per recording
+    fix_masks: tuple = None     # per recording, every grid step: a fix (failures too)
 
     @property
     def availability(self):
-        """Return (availability section or None, evidence) of the trace's gaps."""
-        return estimate_availability(self.grid)
+        """Return (availability section or None, evidence) of the recordings' gaps."""
+        if self.fix_masks is None:
+            return estimate_availability(self.grid)
+        return availability_from_mask(list(self.fix_masks))
+
+    def failures_summary(self):
+        """Return the gross failures of every recording as plain data."""
+        return {'count': sum(f.count for f in self.failures),
+                'fixes': sum(f.rows for f in self.failures),
+                'recordings': {name: f.summary() for name, f in
+                               zip(self.names, self.failures)}}
+
+    @property
+    def names(self):
+        """Return the recordings' names."""
+        return tuple(f.name for f in self.failures)
 
     def profile_dict(self, name, description=None, source=None):
         """Return the profile (schema 1) with a ``fit`` section, as plain data."""
@@ -152,6 +182,7 @@ class CalibrationResult:
                 'order_selection': {ax: f.evidence() for ax, f in
                                     zip(AXES, (self.north, self.east))},
                 'availability': evidence,
+                'gross_failures': self.failures_summary(),
                 'velocity': self.velocity[1],
                 'reported_accuracy': self.reported[1],
             }, availability=availability, velocity=self.velocity[0],
@@ -159,12 +190,39 @@ class CalibrationResult:
 
 
 def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
-    """Fit both axes of ``trace``; return a :class:`CalibrationResult`."""
-    grid = errors_on_grid(trace, rate_hz)
+    """
+    Fit both axes; return a :class:`CalibrationResult`.
+
+    Parameters
+    ----------
+    trace : Trace or sequence of Trace
+        One recording, or several of one receiver (see the module docstring).
+    order : int, optional
+        The AR order of both axes (default: chosen per axis by the PACF).
+    max_order : int
+        The largest order the PACF may choose.
+    rate_hz : float
+        The model grid's rate.
+
+    Returns
+    -------
+    CalibrationResult
+
+    Raises
+    ------
+    CalibrationError
+        Too few samples for the order, constant or non-stationary errors.
+
+    """
+    traces = recordings_of(trace)
+    failures = [find_gross_failures(t) for t in traces]
+    masks = tuple(errors_on_grid(t, rate_hz).fix_mask() for t in traces)
+    clean = join_recordings([without_rows(t, f.mask) for t, f in zip(traces, failures)])
+    grid = errors_on_grid(clean, rate_hz)
     fits = [fit_axis(grid.axis(a), order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
-    return CalibrationResult(fits[0], fits[1], grid, trace.name, estimate_velocity(trace),
-                             estimate_reported(trace))
+    return CalibrationResult(fits[0], fits[1], grid, clean.name, estimate_velocity(clean),
+                             estimate_reported(clean), tuple(failures), masks)
 
 
 #: Share of fixes in truth gaps, or of missing grid steps, that marks a

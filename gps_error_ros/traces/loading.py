@@ -11,7 +11,7 @@ from pathlib import Path
 from gps_error_ros.traces import bag_io
 from gps_error_ros.traces.pairing import pair
 from gps_error_ros.traces.progress import Progress
-from gps_error_ros.traces.trace_io import read_trace_csv
+from gps_error_ros.traces.trace_io import read_trace_csv, TraceError
 
 
 def is_bag(path):
@@ -30,6 +30,30 @@ def is_bag(path):
         raise bag_io.BagError(f'{path}: a rosbag2 storage file without its '
                               f'metadata.yaml beside it: pass the bag directory')
     return None
+
+
+def expand_inputs(paths):
+    """
+    Return the recordings named by ``paths``, folders expanded, in order.
+
+    A rosbag2 directory is one recording; any other folder stands for its
+    trace CSVs and the rosbag2 directories in it, sorted by name. Raises
+    :class:`TraceError` for a folder that holds neither.
+    """
+    out = []
+    for path in ([paths] if isinstance(paths, (str, Path)) else paths):
+        path = Path(path)
+        if not path.is_dir() or (path / 'metadata.yaml').exists():
+            out.append(path)
+            continue
+        found = sorted(p for p in path.iterdir()
+                       if (p.is_file() and p.suffix.lower() == '.csv')
+                       or (p.is_dir() and (p / 'metadata.yaml').exists()))
+        if not found:
+            raise TraceError(f'{path}: a folder with no trace CSV (*.csv) and no '
+                             f'rosbag2 directory in it: expected recordings')
+        out.extend(found)
+    return out
 
 
 def parse_datum(text):

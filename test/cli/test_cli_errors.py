@@ -44,8 +44,13 @@ def test_mode_and_output_errors_name_the_option(tmp_path, capsys):
     walk = write_trace_csv(synthetic_trace('none', 1, 600), tmp_path / 'w.csv')
     assert cli(['calibrate', str(walk), '-o', str(tmp_path / 'no' / 'p.yaml')]) == 2
     assert 'does not exist' in capsys.readouterr().err
-    assert cli(['calibrate', str(tmp_path), '-o', str(tmp_path / 'p.yaml')]) == 2
-    assert 'not a rosbag2 (no metadata.yaml' in capsys.readouterr().err
+    empty = tmp_path / 'empty'
+    empty.mkdir()
+    assert cli(['calibrate', str(empty), '-o', str(tmp_path / 'p.yaml')]) == 2
+    assert 'a folder with no trace CSV (*.csv) and no rosbag2' in capsys.readouterr().err
+    # a folder of recordings is its recordings
+    assert cli(['calibrate', str(tmp_path), '-o', str(tmp_path / 'p.yaml')]) == 0
+    assert 'w.csv: no gross failures' in capsys.readouterr().out
 
 
 def test_seed_minus_one_draws_a_seed_and_says_which(tmp_path, capsys):

@@ -1,0 +1,121 @@
+"""Gross failures: the rule, its false positives, and the walks of ../shared/data."""
+
+from pathlib import Path
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from gps_error_ros.fit.calibration import calibrate
+from gps_error_ros.fit.gross_failures import (failure_mask, find_gross_failures,
+                                              robust_centre_scale, without_rows)
+from gps_error_ros.model.ar_model import ARErrorModel
+from gps_error_ros.model.geodesy import difference, offset
+from gps_error_ros.traces.trace_io import read_trace_csv, Trace
+
+DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+WALKS = sorted(DATA.glob('snapper-walk-*.csv'))
+
+
+def _white_trace(n, seed, sd=10.0):
+    rng = np.random.default_rng(seed)
+    err = rng.normal(0.0, sd, (n, 2))
+    lat, lon = offset(51.76, -1.25, err[:, 0], err[:, 1])
+    ones = np.ones(n)
+    return Trace('white', np.arange(n, dtype=float), lat, lon, 51.76 * ones, -1.25 * ones), err
+
+
+def test_planted_failures_are_found_and_nothing_else():
+    trace, err = _white_trace(600, 1)
+    bad = np.array([50, 51, 300, 599])
+    lat, lon = trace.lat.copy(), trace.lon.copy()
+    lat[bad], lon[bad] = offset(51.76, -1.25, np.array([900.0, -2500.0, 24000.0, 400.0]),
+                                np.array([300.0, 100.0, -50.0, 700.0]))
+    planted = Trace('planted', trace.t, lat, lon, trace.truth_lat, trace.truth_lon)
+    found = find_gross_failures(planted)
+    assert np.flatnonzero(found.mask).tolist() == bad.tolist()
+    assert found.size_m.max() == pytest.approx(np.hypot(24000.0, 50.0), rel=1e-6)
+    assert found.t.tolist() == [50.0, 51.0, 300.0, 599.0]
+    summary = found.summary()
+    assert summary['count'] == 4 and summary['fixes'] == 600
+    assert 'robust distance > 5' in summary['rule']
+    assert found.describe().startswith('planted: 4 gross failure(s) of 600 fixes')
+
+
+def test_a_persistent_excursion_is_not_a_failure():
+    """Fixes far from the median, each beside the last: the process, not failures."""
+    rng = np.random.default_rng(3)
+    x = signal.lfilter([1.0], [1.0, -0.9], rng.normal(0.0, 0.3, (2, 1000)), axis=-1)
+    x[:, 400:460] += 12.0 * np.std(x) * np.sin(np.linspace(0.0, np.pi, 60))
+    assert not failure_mask(x[0], x[1]).any()
+    x[:, 700] += 40.0 * np.std(x)       # one isolated jump among them is
+    assert np.flatnonzero(failure_mask(x[0], x[1])).tolist() == [700]
+
+
+@pytest.mark.parametrize('phi', [0.0, 0.9, 0.995])
+def test_false_positives_on_clean_ar_traces(phi):
+    """The docstring's figure: clean Gaussian AR(1) traces are (almost) never flagged."""
+    rng = np.random.default_rng(int(phi * 1000) + 7)
+    flagged = 0
+    for _ in range(100):
+        z = rng.standard_normal((2, 2600))
+        x = signal.lfilter([1.0], [1.0, -phi], z, axis=-1)[:, 2000:]
+        flagged += int(failure_mask(x[0], x[1]).sum())
+    assert flagged <= 1            # of 60 000 fixes; the rule's nominal rate is 3.7e-6
+
+
+def test_scale_falls_back_when_the_mad_is_zero():
+    x = np.r_[np.zeros(60), np.ones(20), [5.0]]
+    m, s = robust_centre_scale(x)
+    assert m == 0.0 and s == pytest.approx(1.2533 * 25.0 / 81)
+    assert robust_centre_scale(np.ones(10))[1] == 0.0
+    assert not failure_mask(np.ones(10), np.ones(10)).any()
+
+
+def test_without_rows_keeps_the_rest():
+    trace, _ = _white_trace(10, 2)
+    trace.extra['accuracy'] = np.arange(10.0)
+    out = without_rows(trace, np.arange(10) % 3 == 0)
+    assert out.t.tolist() == [1.0, 2.0, 4.0, 5.0, 7.0, 8.0]
+    assert out.extra['accuracy'].tolist() == out.t.tolist()
+    assert without_rows(trace, np.zeros(10, bool)) is trace
+
+
+@pytest.mark.skipif(not WALKS, reason='needs ../shared/data/snapper-walk-*.csv')
+@pytest.mark.parametrize('path', WALKS, ids=[p.stem for p in WALKS])
+def test_walk_fit_is_not_set_by_its_failures(path):
+    """The issue's check: fitted per-axis SD within 30 % of the robust SD (beyond 200 m out)."""
+    trace = read_trace_csv(path)
+    north, east = difference(trace.lat, trace.lon, trace.truth_lat, trace.truth_lon)
+    near = np.hypot(north, east) <= 200.0
+    result = calibrate(trace)
+    assert result.reported[0] is not None, result.reported[1]
+    sd = ARErrorModel(result.north.params, result.east.params).stationary_sd
+    for i, axis in enumerate((north, east)):
+        robust = robust_centre_scale(axis[near])[1]
+        assert abs(sd[i] / robust - 1.0) < 0.30, (path.name, i, sd[i], robust)
+    far = np.flatnonzero(~near)
+    assert set(far) <= set(np.flatnonzero(result.failures[0].mask))
+    fit = result.profile_dict('w')['fit']
+    assert fit['gross_failures']['count'] == result.failures[0].count
+
+
+@pytest.mark.skipif(len(WALKS) < 2, reason='needs ../shared/data/snapper-walk-*.csv')
+def test_calibrate_command_on_walks_prints_no_warning(tmp_path):
+    """Every visible walk and all of them together: exit 0, no warning on the terminal."""
+    folder = tmp_path / 'walks'
+    folder.mkdir()
+    for p in WALKS:
+        (folder / p.name).symlink_to(p)
+    runs = [[str(p)] for p in WALKS] + [[str(folder)]]
+    for inputs in runs:
+        out = tmp_path / 'p.yaml'
+        proc = subprocess.run([sys.executable, '-m', 'gps_error_ros.cli', 'calibrate',
+                               *inputs, '-o', str(out)], capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        assert proc.stderr == '', proc.stderr
+        assert 'Warning' not in proc.stdout
+        assert 'gross failure' in proc.stdout
+    assert f'{len(WALKS)} recordings' in proc.stdout
