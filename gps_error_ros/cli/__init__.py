@@ -48,18 +48,41 @@ def _load_inputs(args):
 
 
 def _load_input(args):
+    """Return :func:`_load_clean`'s trace alone."""
+    return _load_clean(args)[0]
+
+
+def _load_clean(args, mark=None):
     """
     Load the INPUTs as one trace without their gross failures; print what was found.
 
-    Each recording's gross failures are found on its own and left out; several
-    recordings are joined, each after the last (:func:`join_recordings`).
+    Each recording's gross failures are found on its own and left out (or,
+    with ``mark``, kept and flagged 1.0 in the extra column of that name);
+    several recordings are joined, each after the last
+    (:func:`join_recordings`). Returns (trace, the recordings'
+    :class:`GrossFailures`).
     """
-    traces = []
+    traces, found = [], []
     for trace in _load_inputs(args):
-        found = find_gross_failures(trace)
-        print(found.describe())
-        traces.append(without_rows(trace, found.mask))
-    return join_recordings(traces)
+        found.append(find_gross_failures(trace))
+        print(found[-1].describe())
+        if mark:
+            trace.extra[mark] = found[-1].mask.astype(float)
+            traces.append(trace)
+        else:
+            traces.append(without_rows(trace, found[-1].mask))
+    return join_recordings(traces), found
+
+
+def _failure_check(profile, found):
+    """Return a line: the failures measured against the profile's rate (binomial 95 % range)."""
+    from scipy import stats
+    count, fixes = sum(f.count for f in found), sum(f.rows for f in found)
+    rate = profile.gross_failures.rate if profile.gross_failures is not None else 0.0
+    lo, hi = (int(v) for v in stats.binom.ppf([0.025, 0.975], fixes, rate))
+    inside = 'inside' if lo <= count <= hi else 'OUTSIDE'
+    return (f'  gross failures: measured {count} of {fixes} fixes; the profile\'s rate '
+            f'{rate:.4g} gives {lo}-{hi} (95 %): {inside}')
 
 
 def cmd_simulate(args):
@@ -133,7 +156,7 @@ def cmd_validate(args):
     """Run ``gps_error validate``; return the exit code."""
     from gps_error_ros.model.profiles import load_profile
     from gps_error_ros.reports.jsonfile import write_json
-    from gps_error_ros.fit.validation import slice_trace, validate
+    from gps_error_ros.fit.validation import FAILURE_COLUMN, slice_trace, validate
     from gps_error_ros.reports.validation_figure import validation_figure
 
     lo, hi = _part(args.part)
@@ -143,8 +166,10 @@ def cmd_validate(args):
         from gps_error_ros.model.zones import load_zone_map
         profile, model, zones = zoned_errors(load_zone_map(args.zones), profile)
     else:
-        model = profile.model()
-    trace = slice_trace(_load_input(args), lo, hi)
+        # the measured failures are left out, so the simulated ones are too
+        model = profile.model(gross_failures=False)
+    whole, found = _load_clean(args, mark=FAILURE_COLUMN)
+    trace = slice_trace(whole, lo, hi)
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
                    seed=args.seed, zones=zones, reported=profile.reported_accuracy)
     out = Path(args.out)
@@ -179,6 +204,7 @@ def cmd_validate(args):
         print(f'  {name.replace("_", " ")}: measured {d["measured"]:g}, simulated median '
               f'{d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), percentile '
               f'{d["percentile"]:.0f}')
+    print(_failure_check(profile, found))
     print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
     return 0
 

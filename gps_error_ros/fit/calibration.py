@@ -35,6 +35,7 @@ from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.availability import runs_without_fix
+from gps_error_ros.model.failures import failures_from_sizes
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import profile_mapping
 from gps_error_ros.traces.trace_io import join_recordings, recordings_of
@@ -186,7 +187,14 @@ class CalibrationResult:
                 'velocity': self.velocity[1],
                 'reported_accuracy': self.reported[1],
             }, availability=availability, velocity=self.velocity[0],
-            reported_accuracy=self.reported[0])
+            reported_accuracy=self.reported[0], gross_failures=self.failure_process())
+
+    def failure_process(self):
+        """Return the profile's ``gross_failures`` section fitted from every recording, or None."""
+        return failures_from_sizes(sum(f.count for f in self.failures),
+                                   sum(f.rows for f in self.failures),
+                                   np.concatenate([f.size_m for f in self.failures])
+                                   if self.failures else [])
 
 
 def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):

@@ -22,6 +22,7 @@ import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_acf
 from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.envelope import outage_envelopes
 from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
@@ -30,6 +31,8 @@ from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.zoned import simulate_along
 from gps_error_ros.traces.trace_io import Trace
 QQ_PROBS = np.linspace(0.01, 0.99, 99)
+#: The extra column that marks a trace's gross failures (1.0) for :func:`validate`.
+FAILURE_COLUMN = 'gross_failure'
 
 
 def slice_trace(trace, start_frac=0.0, end_frac=1.0):
@@ -110,7 +113,14 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
     With ``zones`` (``(ZoneMap, ZonedErrors)``) the traces follow the zone of
     the truth at every sample (:func:`~gps_error_ros.model.zoned.simulate_along`)
     and the checks are also made on each zone's samples alone (``per_zone``).
+
+    Rows that the trace's extra column ``gross_failure`` marks (1.0) are
+    left out of the error checks and count as fixes in the outage check.
     """
+    with_failures = errors_on_grid(trace)
+    failed = trace.extra.get(FAILURE_COLUMN)
+    if failed is not None:
+        trace = without_rows(trace, failed > 0.5)
     grid = errors_on_grid(trace)
     steps = np.concatenate([s + np.arange(len(seg)) for s, seg in
                             zip(grid.starts, grid.segments)])
@@ -147,7 +157,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
     return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
                             acf, acf_env, quant, quant_env, steps, measured,
                             sim[:, 0, :], truth,
-                            availability_check(model, grid, keys), per_zone, stated)
+                            availability_check(model, with_failures, keys), per_zone, stated)
 
 
 #: Fewest samples a zone needs for its own checks in ``validate --zones``.

@@ -19,7 +19,8 @@ profile was calibrated) and ``effects`` (model extensions written by
 without them behaves exactly as the paper's model) and ``availability``
 (fix outages, :mod:`availability`; without it every step has a fix) and
 ``velocity`` (reported speed and course, :mod:`velocity`) and
-``reported_accuracy`` (the accuracy the phone states, :mod:`reported`). A
+``reported_accuracy`` (the accuracy the phone states, :mod:`reported`) and
+``gross_failures`` (fixes that failed, :mod:`failures`). A
 profile without
 ``axes`` is a placeholder for a data set with no published fit; it loads, but
 :meth:`Profile.model` refuses it. Any other key is an error.
@@ -38,6 +39,8 @@ from gps_error_ros.model.availability import (Availability, availability_from_di
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
+from gps_error_ros.model.failures import (failures_from_dict, FailuresError,
+                                          GrossFailureProcess, WithFailures)
 from gps_error_ros.model.reported import ReportedAccuracy, reported_from_dict, ReportedError
 from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
 
@@ -47,7 +50,7 @@ PROFILE_SUBDIR = ('config', 'profiles')
 
 _TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
 _TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability',
-                 'velocity', 'reported_accuracy')
+                 'velocity', 'reported_accuracy', 'gross_failures')
 _AXIS_KEYS = ('delta', 'phi', 'sigma_w')
 _NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
 
@@ -77,15 +80,19 @@ class Profile:
     availability: Availability = None
     velocity: Velocity = None
     reported_accuracy: ReportedAccuracy = None
+    gross_failures: GrossFailureProcess = None
 
     @property
     def fitted(self):
         """Return True when the profile carries AR parameters."""
         return self.axes is not None
 
-    def model(self):
+    def model(self, gross_failures=True):
         """
         Return the :class:`ARErrorModel` of this profile.
+
+        With its effects, gross failures (unless ``gross_failures`` is False)
+        and availability, each wrapped around the one before.
 
         Raises
         ------
@@ -106,6 +113,8 @@ class Profile:
             model = build_model(self.axes['north'], self.axes['east'], self.effects)
         except ModelError as exc:
             raise ProfileError(f'{self.path}: {exc}') from None
+        if gross_failures and self.gross_failures is not None:
+            model = WithFailures(model, self.gross_failures)
         if self.availability is not None:
             model = WithAvailability(model, self.availability)
         return model
@@ -174,7 +183,7 @@ def _section(raw, key, parse, source):
         return None
     try:
         return parse(raw[key], source)
-    except (AvailabilityError, VelocityError, ReportedError) as exc:
+    except (AvailabilityError, VelocityError, ReportedError, FailuresError) as exc:
         raise ProfileError(str(exc)) from None
 
 
@@ -215,6 +224,7 @@ def profile_from_dict(raw, source='<profile>'):
     availability = _section(raw, 'availability', availability_from_dict, source)
     velocity = _section(raw, 'velocity', velocity_from_dict, source)
     reported = _section(raw, 'reported_accuracy', reported_from_dict, source)
+    failures = _section(raw, 'gross_failures', failures_from_dict, source)
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
@@ -231,7 +241,8 @@ def profile_from_dict(raw, source='<profile>'):
         path=source,
         availability=availability,
         velocity=velocity,
-        reported_accuracy=reported)
+        reported_accuracy=reported,
+        gross_failures=failures)
 
 
 def load_profile_file(path):
@@ -326,7 +337,8 @@ def axes_mapping(north, east, digits=6):
 
 
 def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
-                    fit=None, availability=None, velocity=None, reported_accuracy=None):
+                    fit=None, availability=None, velocity=None, reported_accuracy=None,
+                    gross_failures=None):
     """
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
@@ -354,6 +366,10 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
         reported_accuracy = reported_accuracy.to_dict()
     if reported_accuracy:
         prof['reported_accuracy'] = reported_accuracy
+    if isinstance(gross_failures, GrossFailureProcess):
+        gross_failures = gross_failures.to_dict()
+    if gross_failures:
+        prof['gross_failures'] = gross_failures
     if fit is not None:
         prof['fit'] = fit
     return prof

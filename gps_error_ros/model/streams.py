@@ -81,6 +81,11 @@ DOMAIN_INIT_OUTLIER = 14
 #: Outliers: the initial jump's offset, one normal pair per start step.
 DOMAIN_INIT_OUTLIER_JUMP = 15
 
+#: Gross failures: whether the fix failed and its size, one uniform pair per model step.
+DOMAIN_FAILURE = 16
+#: Gross failures: a failed fix's direction, one uniform per model step.
+DOMAIN_FAILURE_DIRECTION = 17
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -93,6 +98,7 @@ DOMAINS = {
     'periodic': DOMAIN_PERIODIC, 'outlier': DOMAIN_OUTLIER,
     'outlier_jump': DOMAIN_OUTLIER_JUMP, 'init_outlier': DOMAIN_INIT_OUTLIER,
     'init_outlier_jump': DOMAIN_INIT_OUTLIER_JUMP,
+    'failure': DOMAIN_FAILURE, 'failure_direction': DOMAIN_FAILURE_DIRECTION,
 }
 
 

@@ -202,7 +202,7 @@ def test_crowd_parameter_errors():
 
 
 def _cycle_profile(tmp_path):
-    """Write DS7 with the periodic effect (8-step cycle), variance regimes and outliers."""
+    """Write DS7 with the periodic effect (8-step cycle), variance regimes, outliers, failures."""
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
     raw = yaml.safe_load((builtin_dir() / 'DS7.yaml').read_text())
@@ -213,13 +213,14 @@ def _cycle_profile(tmp_path):
         'variance_regimes': {'scales': [1.0, 2.0], 'transition': [[0.9, 0.1], [0.2, 0.8]]},
         # frequent jumps, so that 30 steps of two agents hold several
         'outliers': {'rate': 0.15, 'mean_steps': 2.0, 'sigma_m': 6.0}}
+    raw['gross_failures'] = {'rate': 0.1, 'sizes_m': [60.0, 400.0, 9000.0]}
     path = tmp_path / 'cycle.yaml'
     path.write_text(yaml.safe_dump(raw))
     return str(path)
 
 
 @pytest.mark.parametrize('cycle', [False, True],
-                         ids=['DS7', 'DS7 with a periodic cycle and outliers'])
+                         ids=['DS7', 'DS7 with a periodic cycle, outliers and failures'])
 def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
     from gps_error_ros.sim.simulate import simulate_csv
     from gps_error_ros.model.geodesy import difference
@@ -276,11 +277,13 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
         from gps_error_ros.model.streams import agent_key
         model = load_profile(profile).model()
         keys = np.array([agent_key(4, a) for a in agents], dtype=np.uint64)
-        state, jumped = model.initial_state(keys, T0), 0
+        state, jumped, failed = model.initial_state(keys, T0), 0, 0
         for k in range(T0 + 1, T0 + 30):
             model.advance(state, keys, k)
             jumped += int(state[:, 0, model._jump + 1].sum())
+            failed += int(np.any(state[:, :, -1] != 0.0, axis=1).sum())
         assert jumped >= 5, jumped
+        assert failed >= 2, failed
 
 
 def _zone_map(path):

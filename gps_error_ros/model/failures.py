@@ -1,0 +1,190 @@
+"""
+Gross failures in simulation: a fix that is not an estimate of the position.
+
+A profile's optional ``gross_failures`` section (``gps_error calibrate``
+writes it when a recording had some; the rule that finds them is in
+:mod:`gps_error_ros.fit.gross_failures`)::
+
+    gross_failures:
+      rate: 0.012            # per model step, the chance that the fix failed
+      sizes_m: [40, 62, 95, 180, 820, 24000]   # distance from the truth, m: quantiles
+
+At each model step, independently, the fix fails with probability ``rate``.
+A failed fix lies at a distance drawn from ``sizes_m`` (quantiles at evenly
+spaced probabilities from 0 to 1, interpolated in the logarithm of the
+distance) in a direction uniform on the circle, from the truth: it replaces
+the error of that step. The error process runs on beneath it (a failed
+solution does not move the receiver's state), so the next step's error is
+what it would have been.
+
+Draws: the failure's and its size's uniforms from the stream domain
+``failure``, the direction's from ``failure_direction``, one pair each per
+model step. They depend on nothing but (seed, agent, step), so an agent's
+failures are the same alone, in a crowd, in a shard, whenever it started.
+
+The published covariance does not cover a failure (a receiver does not know
+that its solution failed); the section leaves a profile's covariance as it
+was.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from gps_error_ros.model import streams
+
+#: The largest failure distance a profile may carry, m (a fix on the wrong continent).
+MAX_SIZE_M = 2.0e7
+SECTION_KEYS = ('rate', 'sizes_m')
+
+
+class FailuresError(ValueError):
+    """A ``gross_failures`` section that is not valid."""
+
+
+@dataclass(frozen=True)
+class GrossFailureProcess:
+    """The parsed section (see the module docstring)."""
+
+    rate: float
+    sizes_m: tuple
+
+    def to_dict(self):
+        """Return the section as plain data."""
+        return {'rate': round(float(self.rate), 8),
+                'sizes_m': [round(float(v), 3) for v in self.sizes_m]}
+
+    def offsets(self, keys, index):
+        """
+        Return the failures of model step ``index``: (n, 2) north/east m and a mask.
+
+        The offsets are zero where the fix did not fail.
+        """
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        u = streams.uniform_pairs(keys, streams.DOMAIN_FAILURE, index)
+        fails = u[:, 0] < self.rate
+        out = np.zeros((keys.size, 2))
+        if fails.any():
+            sizes = np.asarray(self.sizes_m, dtype=float)
+            if sizes.size == 1:
+                r = np.full(int(fails.sum()), sizes[0])
+            else:
+                r = np.exp(np.interp(u[fails, 1], np.linspace(0.0, 1.0, sizes.size),
+                                     np.log(sizes)))
+            theta = 2.0 * math.pi * streams.uniform_pairs(
+                keys[fails], streams.DOMAIN_FAILURE_DIRECTION, index)[:, 0]
+            out[fails, 0] = r * np.cos(theta)
+            out[fails, 1] = r * np.sin(theta)
+        return out, fails
+
+
+def failures_from_dict(raw, source='<profile>'):
+    """Validate a ``gross_failures`` mapping; return :class:`GrossFailureProcess`."""
+    key = 'gross_failures'
+    if not isinstance(raw, dict) or sorted(raw) != sorted(SECTION_KEYS):
+        raise FailuresError(f'{source}: key {key!r}: expected a mapping with exactly '
+                            f'{list(SECTION_KEYS)}, got {raw!r}')
+    rate = raw['rate']
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 <= rate < 1:
+        raise FailuresError(f'{source}: key {key}.rate: expected a number in [0, 1), '
+                            f'got {rate!r}')
+    sizes = raw['sizes_m']
+    ok = isinstance(sizes, list) and sizes and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        and 0 < v <= MAX_SIZE_M for v in sizes)
+    if not ok or any(b < a for a, b in zip(sizes, sizes[1:])):
+        raise FailuresError(f'{source}: key {key}.sizes_m: expected a non-empty, '
+                            f'non-decreasing list of distances in (0, {MAX_SIZE_M:g}] m, '
+                            f'got {sizes!r}')
+    return GrossFailureProcess(float(rate), tuple(float(v) for v in sizes))
+
+
+def failures_from_sizes(count, fixes, sizes_m, quantiles=11):
+    """
+    Return the section fitted from failures found, or None when there were none.
+
+    ``rate`` is ``count / fixes`` (maximum likelihood); ``sizes_m`` the
+    found distances' quantiles at ``quantiles`` evenly spaced probabilities
+    (all of them, sorted, when fewer).
+    """
+    if count == 0 or fixes == 0:
+        return None
+    sizes = np.sort(np.asarray(sizes_m, dtype=float))
+    if sizes.size > quantiles:
+        sizes = np.exp(np.quantile(np.log(sizes), np.linspace(0.0, 1.0, quantiles)))
+    return GrossFailureProcess(count / fixes, tuple(float(v) for v in sizes))
+
+
+class WithFailures:
+    """
+    An error model with gross failures: the inner model's errors, replaced where a fix failed.
+
+    The state is the inner model's with one more column: ``[:, :, -1]`` this
+    step's failure offset (north, east; zero: no failure). Everything else
+    is the inner model's.
+    """
+
+    def __init__(self, inner, failures):
+        self.inner = inner
+        self.failures = failures
+
+    def __getattr__(self, name):
+        # moments, lag_s, order, axes, predictive_cov's inputs ... are the inner model's
+        return getattr(self.inner, name)
+
+    def _wider(self, inner):
+        state = np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
+        state[:, :, :-1] = inner
+        return state
+
+    def empty_state(self, n):
+        """Return a state array for ``n`` agents (zeros: no failure)."""
+        return self._wider(self.inner.empty_state(n))
+
+    def initial_state(self, keys, index):
+        """Draw the inner state and this step's failure at model step ``index``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        state = self._wider(self.inner.initial_state(keys, index))
+        state[:, :, -1] = self.failures.offsets(keys, index)[0]
+        return state
+
+    def advance(self, state, keys, index, *args, **kwargs):
+        """Advance in place to model step ``index``; return the errors."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        err = self.inner.advance(state[:, :, :-1], keys, index, *args, **kwargs)
+        off, fails = self.failures.offsets(keys, index)
+        state[:, :, -1] = off
+        return np.where(fails[:, None], off, err)
+
+    def errors(self, state):
+        """Return the current errors (n, 2): the inner model's, or the failure's."""
+        err = self.inner.errors(state[:, :, :-1])
+        off = state[:, :, -1]
+        return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)
+
+    def predictive_cov(self, state, first=False):
+        """Return the inner model's covariance of the next error (failures not covered)."""
+        return self.inner.predictive_cov(state[:, :, :-1], first)
+
+    def state_after(self, keys, start, step, *args, **kwargs):
+        """Return the state at model step ``step`` of a run started at ``start``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        state = self._wider(self.inner.state_after(keys, start, step, *args, **kwargs))
+        state[:, :, -1] = self.failures.offsets(keys, step)[0]
+        return state
+
+    def simulate(self, keys, n_steps, start=0, out=None):
+        """Return the inner model's simulation with the failures in, (n_steps, n, 2)."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        out = self.inner.simulate(keys, n_steps, start=start, out=out)
+        for k in range(n_steps):
+            off, fails = self.failures.offsets(keys, start + k)
+            if fails.any():
+                out[k, fails] = off[fails]
+        return out
+
+
+def without_failures(model):
+    """Return ``model`` without its gross failures (itself when it has none)."""
+    return model.inner if isinstance(model, WithFailures) else model
