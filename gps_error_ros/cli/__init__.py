@@ -74,6 +74,11 @@ def _load_clean(args, mark=None):
     return join_recordings(traces), found
 
 
+def _failures_doc(found):
+    """Return the recordings' gross failures as plain data (the JSON reports' key)."""
+    return {f.name: f.summary() for f in found}
+
+
 def _failure_check(profile, found):
     """Return a line: the failures measured against the profile's rate (binomial 95 % range)."""
     from scipy import stats
@@ -288,7 +293,7 @@ def cmd_diagnose(args):
     for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
         if path:
             _check_output_dir(path, option)
-    trace = _load_input(args)
+    trace, found = _load_clean(args)
     diag = diagnose(trace, sims=args.sims, seed=args.seed)
     s = diag.summary
     print(f'{trace.name}: {s["samples"]} samples, {s["train_samples"]} train / '
@@ -314,7 +319,8 @@ def cmd_diagnose(args):
     note = improvement_note(s)
     if note:
         print('  note: ' + note)
-    _write_results(args, diag.to_dict(), 'diagnosis.png',
+    _write_results(args, dict(diag.to_dict(), gross_failures=_failures_doc(found)),
+                   'diagnosis.png',
                    lambda path: diagnosis_figure(diag, path, trace.name))
     if args.profile_out:
         out = Path(args.profile_out)
@@ -345,10 +351,11 @@ def cmd_compare(args):
 
     if args.json_out:
         _check_output_dir(args.json_out, '--json')
-    trace = _load_input(args)
+    trace, found = _load_clean(args)
     fitted = fit_models(trace)      # the held-out simulation is compare's own
     doc = compare_json(trace.name, fitted.split,
                        compare(fitted, sims=args.sims, seed=args.seed))
+    doc['gross_failures'] = _failures_doc(found)
     print(f'{trace.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
           f'out; {args.sims} simulated traces per class')
     print(f'  {"class":12} {"held-out NLL":>13} {"inside_95":>10}')
@@ -399,6 +406,9 @@ def cmd_import(args):
                                     args.max_truth_gap, args.provider, args.truth_date)
     for line in notes:
         print(line)
+    found = find_gross_failures(trace)
+    print(found.describe().replace(', kept out of the error fit', '')
+          + ('; kept in the trace, calibrate leaves them out' if found.count else ''))
     write_trace_csv(trace, args.output)
     print(f'wrote {args.output}: {len(trace)} rows')
     return 0

@@ -158,7 +158,7 @@ class WithFailures:
         return np.where(fails[:, None], off, err)
 
     def errors(self, state):
-        """Return the current errors (n, 2): the inner model's, or the failure's."""
+        """Return the current north/east errors, a failed fix's where one failed."""
         err = self.inner.errors(state[:, :, :-1])
         off = state[:, :, -1]
         return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)

@@ -17,7 +17,9 @@ TRUTH = '37.422578,-122.081678,-28'          # the test site, as the data's READ
 def test_the_demo_log_against_its_point_reproduces_the_shared_trace(tmp_path, capsys):
     out = tmp_path / 'static.csv'
     assert cli(['import', 'gnsslogger', str(LOG), '--truth', TRUTH, '-o', str(out)]) == 0
-    assert '207 of 207 fixes paired' in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert '207 of 207 fixes paired' in said
+    assert 'no gross failures (more than 5 robust SDs' in said
     ours, ref = read_trace_csv(out), read_trace_csv(DATA / 'gmt-static-phone-2016-08-22.csv')
     np.testing.assert_array_equal(ours.t, ref.t)
     for k in ('lat', 'lon', 'truth_lat', 'truth_lon'):
