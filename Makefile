@@ -17,7 +17,8 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc
+.PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
+	walks-profile
 
 DATA ?= ../shared/data
 
@@ -46,6 +47,11 @@ test: setup
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup
 	$(PY) tools/calibration_doc.py --data $(DATA) --out docs
+
+# The built-in profile snapshot-receiver-on-foot and docs/walks.md, from the
+# SnapperGPS walks of ../shared/data (about 5 s).
+walks-profile: setup
+	$(PY) tools/walks_profile.py --data $(DATA) --out .
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
 # 10-13 minutes on a 2-core machine; see docs/performance.md.

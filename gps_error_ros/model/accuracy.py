@@ -39,8 +39,35 @@ def _inside(a, major, minor):
     return f.mean(axis=-1)
 
 
+#: Radii already found, by (covariance, p): a crowd's covariances repeat at every step.
+_KNOWN = {}
+_KNOWN_MAX = 4096
+
+
 def radius68(cov, p=0.68):
-    """Return the radius holding ``p`` of a zero-mean error with covariance ``cov``."""
+    """
+    Return the radius holding ``p`` of a zero-mean error with covariance ``cov``.
+
+    Solved once per distinct covariance (a crowd in stationary mode has one
+    for every agent and step): the distinct ones are found, those not met
+    before are solved by bisection, and the answers are remembered.
+    """
+    cov = np.asarray(cov, dtype=float)
+    flat = cov.reshape(-1, 4)
+    uniq, inverse = np.unique(flat, axis=0, return_inverse=True)
+    keys = [(row.tobytes(), p) for row in uniq]
+    radii = np.array([_KNOWN.get(k, np.nan) for k in keys])
+    todo = np.flatnonzero(np.isnan(radii))
+    if todo.size:
+        radii[todo] = _bisect(uniq[todo].reshape(-1, 2, 2), p)
+        if len(_KNOWN) + todo.size > _KNOWN_MAX:
+            _KNOWN.clear()
+        _KNOWN.update((keys[i], float(radii[i])) for i in todo)
+    return radii[np.ravel(inverse)].reshape(cov.shape[:-2])
+
+
+def _bisect(cov, p):
+    """Return the radius holding ``p`` of each covariance (n, 2, 2), by bisection."""
     major, minor, _ = ellipse(cov)
     minor = np.maximum(minor, 1e-9 * np.maximum(major, 1e-12))
     lo, hi = np.zeros_like(major), 4.0 * np.maximum(major, 1e-12)

@@ -296,7 +296,7 @@ def builtin_dir():
 
 
 def builtin_names():
-    """Return the names of the built-in profiles (DS1..DS7)."""
+    """Return the names of the built-in profiles (DS1..DS7, then the receivers')."""
     return sorted((p.stem for p in builtin_dir().glob('*.yaml')),
                   key=lambda s: (len(s), s))
 
@@ -313,6 +313,9 @@ def _choices():
 def load_profile(spec):
     """Load a profile by built-in name (case-insensitive) or by file path."""
     spec = str(spec).strip()
+    named = {n.lower(): n for n in builtin_names()}
+    if spec.lower() in named and not _NAME_RE.match(spec) and not Path(spec).exists():
+        return load_profile_file(builtin_dir() / f'{named[spec.lower()]}.yaml')
     if _NAME_RE.match(spec):
         path = builtin_dir() / f'{spec.upper()}.yaml'
         if not path.exists():

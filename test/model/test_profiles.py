@@ -15,7 +15,15 @@ TABLE_II = {
 
 
 def test_builtin_names():
-    assert builtin_names() == [f'DS{i}' for i in range(1, 8)]
+    assert builtin_names() == [f'DS{i}' for i in range(1, 8)] + ['snapshot-receiver-on-foot']
+
+
+def test_the_receiver_profile_loads_by_name_and_carries_its_failures():
+    prof = load_profile('Snapshot-Receiver-On-Foot')
+    assert prof.name == 'snapshot-receiver-on-foot' and prof.gross_failures.rate > 0.01
+    assert prof.fit['gross_failures']['count'] > 100
+    err = prof.model().simulate(np.array([1, 2], dtype=np.uint64), 600)
+    assert np.isfinite(err).all() and np.hypot(*err.T).max() > 30.0
 
 
 @pytest.mark.parametrize('name', sorted(TABLE_II))

@@ -1,0 +1,154 @@
+"""
+The built-in profile of a low-cost snapshot receiver on foot, and its fit report.
+
+Calibrates one profile from every SnapperGPS walk in ``--data``
+(``snapper-walk-*.csv``), writes it to
+``config/profiles/snapshot-receiver-on-foot.yaml``, and writes
+``docs/walks.md``: each walk's gross failures, its fitted SD against its
+robust SD, and the profile fitted without each walk validated on that walk
+(leave one recording out). ``make walks-profile`` runs it.
+"""
+
+import argparse
+import datetime as dt
+from pathlib import Path
+import platform
+
+import numpy as np
+
+from gps_error_ros.fit.calibration import calibrate
+from gps_error_ros.fit.gross_failures import robust_centre_scale, without_rows
+from gps_error_ros.fit.validation import validate
+from gps_error_ros.model.ar_model import ARErrorModel
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.profiles import load_profile_file, profile_from_dict, write_profile
+from gps_error_ros.traces.trace_io import read_trace_csv
+
+NAME = 'snapshot-receiver-on-foot'
+SIMS = 200
+
+
+def _walk_rows(traces):
+    """Return the per-walk table rows: failures and fitted SD against the robust SD."""
+    rows = []
+    for tr in traces:
+        res = calibrate(tr)
+        north, east = difference(tr.lat, tr.lon, tr.truth_lat, tr.truth_lon)
+        near = np.hypot(north, east) <= 200.0
+        sd = ARErrorModel(res.north.params, res.east.params).stationary_sd
+        robust = [robust_centre_scale(v[near])[1] for v in (north, east)]
+        f = res.failures[0]
+        big = f'{f.size_m.max():.0f}' if f.count else '-'
+        rows.append(f'| {tr.name} | {len(tr)} | {f.count} | {big} | '
+                    f'{np.median(north[near]):.1f} / {np.median(east[near]):.1f} | '
+                    f'{sd[0]:.1f} / {sd[1]:.1f} | {robust[0]:.1f} / {robust[1]:.1f} | '
+                    f'{sd[0] / robust[0]:.2f} / {sd[1] / robust[1]:.2f} |')
+    return rows
+
+
+def _left_out_rows(traces, seed=1):
+    """Return the leave-one-walk-out validation rows."""
+    rows = []
+    for i, tr in enumerate(traces):
+        rest = traces[:i] + traces[i + 1:]
+        res = calibrate(rest)
+        prof = res.profile_dict('left-out')
+        model = profile_from_dict(prof).model(gross_failures=False)
+        found = calibrate(tr).failures[0]
+        v = validate(model, without_rows(tr, found.mask), sims=SIMS, seed=seed).summary()
+        rate = prof.get('gross_failures', {}).get('rate', 0.0)
+        rows.append(f'| {tr.name} | {100 * v["north"]["acf_lags_inside_envelope"]:.0f} / '
+                    f'{100 * v["east"]["acf_lags_inside_envelope"]:.0f} | '
+                    f'{100 * v["north"]["quantiles_inside_envelope"]:.0f} / '
+                    f'{100 * v["east"]["quantiles_inside_envelope"]:.0f} | '
+                    f'{v["north"]["mean_m"]:.1f} / {v["east"]["mean_m"]:.1f} | '
+                    f'{found.count} of {len(tr)} | {rate * len(tr):.1f} |')
+    return rows
+
+
+def main():
+    """Write the profile and the report."""
+    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p.add_argument('--data', default='../shared/data')
+    p.add_argument('--out', default='.', help='the repository root')
+    args = p.parse_args()
+    paths = sorted(Path(args.data).glob('snapper-walk-*.csv'))
+    if not paths:
+        raise SystemExit(f'{args.data}: no snapper-walk-*.csv')
+    traces = [read_trace_csv(path) for path in paths]
+    res = calibrate(traces)
+    prof = res.profile_dict(
+        NAME, 'a low-cost L1 snapshot receiver (SnapperGPS) carried on foot, Oxford',
+        f'gps_error calibrate {" ".join(p.name for p in paths)} (SnapperGPS walks, '
+        f'CC BY 4.0, J. Beuchert 2023, doi:10.5287/ora-xq5b8xva7)')
+    dst = Path(args.out) / 'config' / 'profiles' / f'{NAME}.yaml'
+    write_profile(dst, prof)
+    load_profile_file(dst)
+    sd = ARErrorModel(res.north.params, res.east.params).stationary_sd
+    f = res.failure_process()
+    lines = [
+        '# Pedestrian walks: a snapshot receiver on foot',
+        '',
+        f'Measured on {platform.node() or "this machine"} ({platform.machine()}, '
+        f'Python {platform.python_version()}), {dt.date.today().isoformat()}, with '
+        '`make walks-profile` (`python tools/walks_profile.py --data ../shared/data`).',
+        '',
+        f'The built-in profile `{NAME}` is fitted from the {len(paths)} SnapperGPS walks '
+        'of `../shared/data/` together (`gps_error calibrate` with several recordings): '
+        'a low-cost L1 snapshot receiver, each fix an independent single-epoch solution, '
+        'carried on foot in Oxford with RTK truth.',
+        '',
+        f'- north AR({res.north.params.order}), east AR({res.east.params.order}); stationary SD '
+        f'{sd[0]:.1f} m north, {sd[1]:.1f} m east; mean error {res.north.params.mean:.1f} m '
+        f'north, {res.east.params.mean:.1f} m east.',
+        f'- gross failures: {sum(x.count for x in res.failures)} of '
+        f'{sum(x.rows for x in res.failures)} fixes (rate {f.rate:.4f}), '
+        f'{f.sizes_m[0]:.0f} m to {f.sizes_m[-1]:.0f} m from the truth.',
+        '',
+        '## What the receiver does, and how it differs from a phone',
+        '',
+        '- **Nearly white errors.** A snapshot fix does not filter: lag-1 autocorrelations '
+        'are small (the PACF picks low orders on each walk alone), where a phone\'s fix '
+        'is strongly persistent (lag 1 about 0.98 on the GSDC phones).',
+        '- **A bias per walk.** The walks\' median errors differ by several metres (table '
+        'below). Pooled over walks about one mean, that difference shows as small positive '
+        'autocorrelations at every lag, which is why the pooled fit picks higher orders '
+        'with small coefficients than any walk alone.',
+        '- **Gross failures.** Failed solutions hundreds of metres to kilometres off, often '
+        'within a few fixes of good ones. The rule (README, *Gross failures*) finds them '
+        'relative to each walk\'s robust spread; they are kept out of the error fit and '
+        'carried by the profile\'s `gross_failures` section.',
+        '',
+        '## Each walk alone',
+        '',
+        'Fitted SD: the stationary SD of `gps_error calibrate` on the walk alone; robust SD: '
+        '1.4826 x MAD of the errors after removing fixes beyond 200 m.',
+        '',
+        '| walk | fixes | gross failures | largest (m) | median error N / E (m) | '
+        'fitted SD N / E (m) | robust SD N / E (m) | ratio N / E |',
+        '|---|---|---|---|---|---|---|---|',
+        *_walk_rows(traces),
+        '',
+        '## Each walk left out',
+        '',
+        f'The profile fitted from the other walks, validated on the walk left out '
+        f'(`gps_error validate`, {SIMS} simulated traces, its gross failures left out on '
+        'both sides): the share of autocorrelation lags 1-60 and of the 99 quantiles inside '
+        'the simulated 95 % envelopes, the walk\'s mean error, and its failures against the '
+        'number the profile\'s rate expects.',
+        '',
+        '| walk left out | ACF inside N / E (%) | quantiles inside N / E (%) | '
+        'mean error N / E (m) | gross failures | expected |',
+        '|---|---|---|---|---|---|',
+        *_left_out_rows(traces),
+        '',
+        'The quantiles miss where a walk\'s own bias lies outside what one mean for all '
+        'walks can simulate: a stationary profile with one fixed mean cannot cover a '
+        'receiver whose bias moves from walk to walk.',
+        '']
+    (Path(args.out) / 'docs' / 'walks.md').write_text('\n'.join(lines))
+    print(f'wrote {dst} and docs/walks.md')
+
+
+if __name__ == '__main__':
+    main()
