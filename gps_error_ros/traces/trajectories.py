@@ -175,12 +175,18 @@ class FcdWriter:
                      'gps_error simulate -->\n<fcd-export>\n')
 
     def timestep(self, elem, children):
-        """Write a timestep: ``children`` are (element, attribute overrides)."""
+        """
+        Write a timestep: ``children`` are (element, attribute overrides).
+
+        The overrides are formatted numbers, written as they are; the
+        element's own attributes are escaped.
+        """
         self.f.write(f'    <timestep time="{elem.get("time")}">\n')
         for child, over in children:
-            attrs = dict(child.attrib)
+            attrs = {k: over[k] if k in over else _xml_escape(v)
+                     for k, v in child.attrib.items()}
             attrs.update(over)
-            text = ' '.join(f'{k}="{_xml_escape(v)}"' for k, v in attrs.items())
+            text = ' '.join(f'{k}="{v}"' for k, v in attrs.items())
             self.f.write(f'        <{child.tag} {text}/>\n')
         self.f.write('    </timestep>\n')
 

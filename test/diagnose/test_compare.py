@@ -86,7 +86,8 @@ def test_compare_writes_the_documented_json_and_a_figure(tmp_path, kind):
     assert cli(['compare', str(src), *extra, '--json', str(out), '--report',
                 str(tmp_path / 'r'), '--sims', '20']) == 0
     doc = json.loads(out.read_text())
-    assert set(doc) == {'input', 'train_samples', 'test_samples', 'classes'}
+    assert set(doc) == {'input', 'train_samples', 'test_samples', 'classes', 'gross_failures'}
+    assert list(doc['gross_failures'].values())[0]['count'] == 0
     assert list(doc['classes']) == CLASSES
     for c in doc['classes'].values():
         assert np.isfinite(c['heldout_nll_per_sample'])
