@@ -24,6 +24,7 @@ accuracy columns follow the zone.
 
 import math
 import os
+import re
 from pathlib import Path
 import zipfile
 
@@ -200,9 +201,9 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
             acc = {k: (v, '{:.3f}') for k, v in accuracy_columns(cov, fix, radius).items()}
             if vel is not None:
                 acc.update(_fcd_velocity(vel, mode, proj, names, t, m, agents))
+            cols = {k: formatted(*vf) for k, vf in {'x': (nx, fmt), 'y': (ny, fmt), **acc}.items()}
             writer.timestep(elem, [
-                (a[3], {'x': fmt.format(nx[i]), 'y': fmt.format(ny[i]),
-                        **{k: f.format(v[i]) for k, (v, f) in acc.items() if np.isfinite(v[i])}})
+                (a[3], {k: c[i] for k, c in cols.items() if c[i] is not None})
                 for i, a in enumerate(agents) if fix[i]])
             rows += int(fix.sum())
             no_fix += int((~fix).sum())
@@ -213,6 +214,26 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     if isinstance(model, WithAvailability):
         out['positions_without_fix'] = no_fix
     return out
+
+
+def formatted(values, fmt):
+    """
+    Return ``values`` as strings in ``fmt`` ('{:.Nf}'), None where not finite.
+
+    One %-format over the whole array (done in C) instead of a call per
+    value: the same digits, at a fraction of the cost for a crowd's
+    timestep.
+    """
+    values = np.asarray(values, dtype=float)
+    ok = np.isfinite(values)
+    digits = re.fullmatch(r'\{:\.(\d+)f\}', fmt)
+    if digits is None:
+        return [fmt.format(v) if o else None for v, o in zip(values.tolist(), ok.tolist())]
+    text = ('\x1f'.join([f'%.{digits.group(1)}f'] * values.size)
+            % tuple(values.tolist())).split('\x1f') if values.size else []
+    if ok.all():
+        return text
+    return [v if o else None for v, o in zip(text, ok.tolist())]
 
 
 def _fcd_velocity(vel, mode, proj, names, t, step, agents):

@@ -182,18 +182,24 @@ class FcdWriter:
         element's own attributes are escaped.
         """
         self.f.write(f'    <timestep time="{elem.get("time")}">\n')
+        lines = []
         for child, over in children:
-            attrs = {k: over[k] if k in over else _xml_escape(v)
-                     for k, v in child.attrib.items()}
-            attrs.update(over)
-            text = ' '.join(f'{k}="{v}"' for k, v in attrs.items())
-            self.f.write(f'        <{child.tag} {text}/>\n')
+            own = child.attrib
+            if _SPECIAL.search(''.join(own.values())):
+                own = {k: _xml_escape(v) for k, v in own.items()}
+            attrs = {**own, **over}
+            text = ' '.join([f'{k}="{v}"' for k, v in attrs.items()])
+            lines.append(f'        <{child.tag} {text}/>\n')
+        self.f.write(''.join(lines))
         self.f.write('    </timestep>\n')
 
     def close(self):
         """Finish the file."""
         self.f.write('</fcd-export>\n')
         self.f.close()
+
+
+_SPECIAL = re.compile('[&"<>]')
 
 
 def _xml_escape(v):
