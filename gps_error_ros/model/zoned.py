@@ -91,6 +91,8 @@ class ZonedErrors:
         self.order = max(m.order for m in self.models)
         self.conditional_cov = conditional_cov
         self.stationary = np.array([m.stationary_cov for m in self.models])
+        #: whether any zone's innovations turn with the direction of travel
+        self.needs_heading = any(m.needs_heading for m in self.models)
         self.start = None
         self._alloc(n)
 

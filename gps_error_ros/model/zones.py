@@ -83,8 +83,7 @@ class ZoneMap:
         self.profiles = list(profiles)
         self.default = default
         self.path = str(path)
-        self._tree = shapely.STRtree(self.polygons)
-        self._points = shapely.points
+        self._index = _CellIndex(self.polygons, shapely)
 
     def __len__(self):
         return len(self.names)
@@ -102,11 +101,57 @@ class ZoneMap:
         ok = np.isfinite(lat) & np.isfinite(lon)
         if ok.any():
             rows = np.flatnonzero(ok)
-            hit_pt, hit_zone = self._tree.query(self._points(lon[rows], lat[rows]),
-                                                predicate='intersects')
+            hit_pt, hit_zone = self._index.hits(lon[rows], lat[rows])
             np.minimum.at(out, rows[hit_pt], hit_zone)
         out[out == len(self)] = OUTSIDE
         return out
+
+
+class _CellIndex:
+    """
+    Point-in-polygon for many points at once, without building point geometries.
+
+    The map's bounding box is cut into ``cells`` x ``cells`` cells, each
+    listing the polygons whose bounding box meets it. A point's candidates
+    are its cell's polygons, tested with shapely's vectorised
+    ``intersects_xy`` on prepared polygons (a point on an edge is inside).
+    """
+
+    def __init__(self, polygons, shapely, cells=64):
+        self.polygons, self.shapely = polygons, shapely
+        shapely.prepare(polygons)
+        b = shapely.bounds(polygons).reshape(-1, 4)
+        self.x0, self.y0 = float(b[:, 0].min()), float(b[:, 1].min())
+        self.cells = cells
+        self.dx = max((float(b[:, 2].max()) - self.x0) / cells, 1e-12)
+        self.dy = max((float(b[:, 3].max()) - self.y0) / cells, 1e-12)
+        lo_x, hi_x = self._cell(b[:, 0], self.x0, self.dx), self._cell(b[:, 2], self.x0, self.dx)
+        lo_y, hi_y = self._cell(b[:, 1], self.y0, self.dy), self._cell(b[:, 3], self.y0, self.dy)
+        lists = [[] for _ in range(cells * cells)]
+        for z in range(len(polygons)):
+            for i in range(lo_x[z], hi_x[z] + 1):
+                for j in range(lo_y[z], hi_y[z] + 1):
+                    lists[i * cells + j].append(z)
+        width = max(1, max(len(c) for c in lists))
+        self.candidates = np.full((cells * cells, width), -1, dtype=np.int64)
+        for c, zs in enumerate(lists):
+            self.candidates[c, :len(zs)] = zs
+
+    def _cell(self, v, v0, dv):
+        return np.clip(np.floor((v - v0) / dv), 0, self.cells - 1).astype(np.int64)
+
+    def hits(self, x, y):
+        """Return (point index, polygon index) of every point inside a polygon."""
+        inside_box = (x >= self.x0) & (x <= self.x0 + self.cells * self.dx) & \
+            (y >= self.y0) & (y <= self.y0 + self.cells * self.dy)
+        pts = np.flatnonzero(inside_box)
+        cell = self._cell(x[pts], self.x0, self.dx) * self.cells + \
+            self._cell(y[pts], self.y0, self.dy)
+        cand = self.candidates[cell]                    # (m, width)
+        pi, k = np.nonzero(cand >= 0)
+        zi = cand[pi, k]
+        inside = self.shapely.intersects_xy(self.polygons[zi], x[pts[pi]], y[pts[pi]])
+        return pts[pi[inside]], zi[inside]
 
 
 def _fail(path, where, expected, got):
@@ -217,6 +262,11 @@ def zone_models(zone_map, profile):
     profile the run cannot mix with the default (see the module doc).
     """
     default = zone_map.default or profile
+    for zp in [default] + list(zone_map.profiles):
+        if zp.gross_failures is not None:
+            raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a gross_failures '
+                               f'section; zone maps do not simulate gross failures yet: '
+                               f'expected profiles without it')
     base = default.model()
     models, built = [], {}
     inner = getattr(base, 'inner', base)

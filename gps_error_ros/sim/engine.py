@@ -448,8 +448,9 @@ class FixEngine:
         if self.zoned is not None:
             zones = np.full(agents.size, OUTSIDE) if self.zone_map is None else \
                 self.zone_map.lookup(coords[:, 0], coords[:, 1])
+            heading = self._headings(agents, step.t_ns) if self.zoned.needs_heading else None
             err, cov = self.zoned.errors(agents, self.keys[agents], step.model_step, zones,
-                                         self._headings(agents, step.t_ns))
+                                         heading)
         lat, lon = offset(coords[:, 0], coords[:, 1], err[:, 0], err[:, 1])
         lat, lon = np.asarray(lat), np.asarray(lon)
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position

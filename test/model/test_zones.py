@@ -121,9 +121,11 @@ def test_zone_profiles_that_cannot_mix_with_the_default(tmp_path):
     (tmp_path / 'fast.yaml').write_text(text.replace('rate_hz: 1.0', 'rate_hz: 2.0'))
     (tmp_path / 'outages.yaml').write_text(
         text + 'availability: {outage_rate: 0.01, durations: [[2, 0.5], [5, 0.5]]}\n')
+    (tmp_path / 'fails.yaml').write_text(text + 'gross_failures: {rate: 0.01, sizes_m: [90]}\n')
     for name, expected in (('lag', 'motion_lag 0.5 s differs'),
                            ('fast', 'rate_hz 2.0 differs'),
-                           ('outages', 'has an availability section')):
+                           ('outages', 'has an availability section'),
+                           ('fails', 'do not simulate gross failures yet')):
         path = write_map(tmp_path / f'{name}.geojson',
                          [feature(square(LON0, LAT0, 0.01), profile=f'{name}.yaml')])
         with pytest.raises(ZoneMapError, match=expected):
@@ -213,3 +215,27 @@ def test_an_agents_errors_do_not_depend_on_who_else_is_served(tmp_path):
         np.testing.assert_allclose(e, e_all[4 + rows], rtol=0, atol=1e-9)
         np.testing.assert_allclose(c, c_all[4 + rows], rtol=0, atol=1e-9)
     assert set(zones.tolist()) == {1}        # everyone ended in the east zone
+
+
+def test_lookup_agrees_with_shapely_point_by_point():
+    """The cell index gives what a plain test of every point against every polygon gives."""
+    import shapely
+    from gps_error_ros.model.zones import ZoneMap
+    rng = np.random.default_rng(4)
+    polys = []
+    for _ in range(30):                 # overlapping stars of 5-9 points, one with a hole
+        c = rng.uniform(0, 1, 2)
+        k = rng.integers(5, 10)
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        r = rng.uniform(0.02, 0.2, k)
+        polys.append(shapely.Polygon(np.c_[c[0] + r * np.cos(ang), c[1] + r * np.sin(ang)]))
+    polys.append(shapely.box(0.3, 0.3, 0.7, 0.7).difference(shapely.box(0.4, 0.4, 0.6, 0.6)))
+    prof = load_profile('DS5')
+    zmap = ZoneMap(polys, [f'z{i}' for i in range(len(polys))], [prof] * len(polys))
+    x, y = rng.uniform(-0.2, 1.2, 5000), rng.uniform(-0.2, 1.2, 5000)
+    x[:3], y[:3] = 0.3, 0.5                   # on an edge of the holed box: inside
+    want = np.full(x.size, OUTSIDE)
+    for i in range(len(polys) - 1, -1, -1):   # the first feature wins an overlap
+        want[shapely.intersects_xy(polys[i], x, y)] = i
+    np.testing.assert_array_equal(zmap.lookup(y, x), want)
+    assert (want != OUTSIDE).sum() > 1000 and (want == OUTSIDE).sum() > 1000
