@@ -49,7 +49,8 @@ class FloorNode(Node):
         self.burst = FIX_BURST if reliability == 'best_effort' else None
         for name in agents:
             sub = self.create_subscription(PoseStamped, f'{name}/pose', lambda m: None,
-                                           TRUTH_QOS, raw=True, event_callbacks=no_events_sub)
+                                           TRUTH_QOS['best_effort'], raw=True,
+                                           event_callbacks=no_events_sub)
             self._subscriptions.remove(sub)       # drained by hand, as the node does
             self.subs.append((sub, sub.handle))
             self.pubs.append(self.create_publisher(

@@ -1,0 +1,29 @@
+"""The node benchmark's floor, short: it starts, serves its agents' topics and stops cleanly."""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.integration
+FLOOR = Path(__file__).resolve().parents[2] / 'bench' / 'floor_node.py'
+
+
+@pytest.mark.parametrize('reliability', ['reliable', 'best_effort'])
+def test_floor_node_runs_and_reports(reliability):
+    proc = subprocess.Popen([sys.executable, str(FLOOR), '3', reliability, '--ros-args',
+                             '-r', '__ns:=/floor_smoke'],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        time.sleep(3.0)
+        assert proc.poll() is None, proc.communicate()[0]
+        proc.send_signal(signal.SIGINT)       # as bench_node.py stops it
+        out = proc.communicate(timeout=20)[0]
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert 'at shutdown:' in out and 'fixes published' in out, out
