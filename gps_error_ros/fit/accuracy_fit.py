@@ -38,6 +38,7 @@ import numpy as np
 from scipy import optimize, signal, special
 
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.reported import reported_from_dict, ReportedError
 
 MIN_ROWS = 30
 WINDOW = 31
@@ -182,7 +183,11 @@ def estimate_reported(trace):
         return None, {'fitted': False,
                       'reason': f'the fit of {", ".join(bad)} is not finite '
                                 f'({evidence["rows"]} rows with a stated value and a '
-                                f'local error scale)'}
+                                f'local error scale; {MIN_ROWS} needed)'}
+    try:
+        reported_from_dict(section, 'the fit')
+    except ReportedError as exc:
+        return None, {'fitted': False, 'reason': f'outside the profile schema: {exc}'}
     return section, evidence
 
 
@@ -198,6 +203,8 @@ def _estimate(trace, source, stated):
     q = quantum(stated[rows]) * (scale_m if source == 'hdop' else 1.0)
     ls = np.log(local_scale(t, err))
     use = rows & np.isfinite(ls)
+    if use.sum() < MIN_ROWS:
+        return {'sigma_log': math.nan}, {'rows': int(use.sum())}
     lo, hi = _bounds(r[use], q)
     if np.unique(r[use]).size == 1:
         c, follow, sigma = math.log(r[use][0]), 0.0, 0.0
@@ -205,8 +212,6 @@ def _estimate(trace, source, stated):
         c, follow, sigma = _censored_fit(lo, hi, ls[use])
         follow = float(min(max(follow, -3.0), 3.0))
     x = _latent_mean(lo, hi, c + follow * ls[use], sigma)
-    if not use.any():
-        return {'sigma_log': math.nan}, {'rows': 0}
     tu = t[use]
     pair = np.flatnonzero(np.isclose(np.diff(tu), 1.0))
     phi = 0.0

@@ -36,6 +36,8 @@ from gps_error_ros.model import streams
 
 #: The largest failure distance a profile may carry, m (a fix on the wrong continent).
 MAX_SIZE_M = 2.0e7
+#: The smallest a fitted failure distance is written, m.
+MIN_SIZE_M = 1e-3
 SECTION_KEYS = ('rate', 'sizes_m')
 
 
@@ -106,11 +108,12 @@ def failures_from_sizes(count, fixes, sizes_m, quantiles=11):
 
     ``rate`` is ``count / fixes`` (maximum likelihood); ``sizes_m`` the
     found distances' quantiles at ``quantiles`` evenly spaced probabilities
-    (all of them, sorted, when fewer).
+    (all of them, sorted, when fewer), at least 1 mm (a fix far from the
+    recording's median error can lie on the truth itself).
     """
     if count == 0 or fixes == 0:
         return None
-    sizes = np.sort(np.asarray(sizes_m, dtype=float))
+    sizes = np.clip(np.sort(np.asarray(sizes_m, dtype=float)), MIN_SIZE_M, MAX_SIZE_M)
     if sizes.size > quantiles:
         sizes = np.exp(np.quantile(np.log(sizes), np.linspace(0.0, 1.0, quantiles)))
     return GrossFailureProcess(count / fixes, tuple(float(v) for v in sizes))

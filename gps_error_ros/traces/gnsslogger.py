@@ -14,9 +14,8 @@ Android's ``Accuracy`` is the 68 % horizontal radius in metres.
 import math
 from pathlib import Path
 
-import numpy as np
 
-from gps_error_ros.traces.recording import Recording
+from gps_error_ros.traces.recording import Recording, time_ordered
 
 #: field -> the names the two layouts give it
 FIELDS = {
@@ -91,7 +90,7 @@ def read_gnsslogger(path, provider='gps'):
     if not rows:
         raise GnssLoggerError(f'{path}: no usable Fix record of provider {provider!r} '
                               f'(skipped: {skipped})')
-    a = np.array(sorted(rows, key=lambda r: r[0]), dtype=float)
+    a = time_ordered(rows, skipped)
     extra = {'speed': a[:, 4], 'accuracy': a[:, 5]}
     if 'bearing' in cols:
         extra['bearing'] = a[:, 6]

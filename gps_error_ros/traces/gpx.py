@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gps_error_ros.traces.recording import Recording
+from gps_error_ros.traces.recording import Recording, time_ordered
 
 
 class GpxError(ValueError):
@@ -52,12 +52,16 @@ def read_gpx(path):
                 if p.time is None:
                     skipped['no time'] += 1
                     continue
+                if not (abs(p.latitude) <= 90 and abs(p.longitude) <= 180):
+                    skipped['position out of range'] = skipped.get('position out of range',
+                                                                   0) + 1
+                    continue
                 rows.append((p.time.timestamp(), p.latitude, p.longitude,
                              _num(p.elevation), _num(p.speed), _num(p.course),
                              _num(p.horizontal_dilution)))
     if not rows:
         raise GpxError(f'{path}: no track point with a time (skipped: {skipped})')
-    a = np.array(sorted(rows, key=lambda r: r[0]), dtype=float)
+    a = time_ordered(rows, skipped)
     extra = {}
     for i, name in ((4, 'speed'), (5, 'bearing'), (6, 'hdop')):
         if np.isfinite(a[:, i]).any():

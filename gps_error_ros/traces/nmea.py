@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gps_error_ros.traces.recording import Recording
+from gps_error_ros.traces.recording import Recording, time_ordered
 
 KNOT = 0.514444                 # m/s per knot (as the data's README uses)
 
@@ -82,16 +82,24 @@ def read_nmea(path, date=None):
     epochs, order = {}, []          # (day offset, time of day) -> fields
     base, last, day = None, None, 0
     for msg in _sentences(path, pynmea2, skipped):
-        tod = msg.timestamp
-        if tod is None:
+        try:
+            tod = msg.timestamp
+        except (ValueError, TypeError):
+            tod = None
+        if not isinstance(tod, dt.time):        # pynmea2 hands back the text it could not read
             skipped['unparsable'] += 1
             continue
         secs = tod.hour * 3600 + tod.minute * 60 + tod.second + tod.microsecond * 1e-6
         if last is not None and secs < last - 43200:
             day += 1                  # the time of day went round midnight
         last = secs
-        if msg.sentence_type == 'RMC' and msg.datestamp is not None and base is None:
-            base = msg.datestamp - dt.timedelta(days=day)
+        if msg.sentence_type == 'RMC' and base is None:
+            try:
+                stamp = msg.datestamp
+            except (ValueError, TypeError):
+                stamp = None
+            if isinstance(stamp, dt.date):
+                base = stamp - dt.timedelta(days=day)
         key = (day, round(secs, 3))
         if key not in epochs:
             epochs[key] = {}
@@ -108,7 +116,7 @@ def read_nmea(path, date=None):
             for (d, secs) in order for e in (epochs[(d, secs)],) if 'lat' in e]
     if not rows:
         raise NmeaError(f'{path}: no usable GGA fix in the file; skipped {skipped}')
-    a = np.array(sorted(rows, key=lambda r: r[0]), dtype=float)
+    a = time_ordered(rows, skipped)
     course = a[:, 5].copy()
     course[a[:, 4] == 0.0] = np.nan             # a placeholder, not a heading
     return Recording(a[:, 0], a[:, 1], a[:, 2], a[:, 3],
@@ -123,6 +131,13 @@ def _add(epoch, msg, skipped):
     if _num(msg.gps_qual) == 0 or msg.lat == '':
         skipped['no fix'] += 1
         return
+    try:
+        lat, lon = float(msg.latitude), float(msg.longitude)
+    except (ValueError, TypeError):
+        lat = lon = math.nan
+    if not (math.isfinite(lat) and math.isfinite(lon) and abs(lat) <= 90 and abs(lon) <= 180):
+        skipped['unparsable'] += 1
+        return
     sep = _num(msg.geo_sep) if msg.geo_sep else 0.0
-    epoch.update(lat=msg.latitude, lon=msg.longitude, alt=_num(msg.altitude) + sep,
+    epoch.update(lat=lat, lon=lon, alt=_num(msg.altitude) + sep,
                  hdop=_num(msg.horizontal_dil))

@@ -25,3 +25,18 @@ class Recording:
         """Return a line for people: fixes kept and what was skipped."""
         sk = ', '.join(f'{v} {k}' for k, v in self.skipped.items() if v)
         return f'{self.t.size} fixes' + (f' ({sk} skipped)' if sk else '')
+
+
+def time_ordered(rows, skipped):
+    """
+    Return ``rows`` (t first) as an array sorted by time, one row per time.
+
+    A second fix at a time already seen is dropped and counted in
+    ``skipped['duplicate time']`` (the first in the file is kept).
+    """
+    a = np.array(rows, dtype=float).reshape(len(rows), -1)
+    a = a[np.argsort(a[:, 0], kind='stable')]
+    keep = np.r_[True, np.diff(a[:, 0]) > 0]
+    if not keep.all():
+        skipped['duplicate time'] = skipped.get('duplicate time', 0) + int((~keep).sum())
+    return a[keep]
