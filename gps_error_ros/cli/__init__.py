@@ -104,6 +104,9 @@ def cmd_simulate(args):
     _check_output_dir(args.out, '--out')
     profile = load_profile(args.profile)
     zones = None
+    # covariances about the truth; reported: the phone's radius, the mean added after
+    about = args.covariance_about == 'truth' and args.covariance_mode != 'reported' \
+        and bool(args.trajectories)
     if args.zones:
         from gps_error_ros.model.zoned import zoned_errors
         from gps_error_ros.model.zones import load_zone_map
@@ -111,9 +114,10 @@ def cmd_simulate(args):
             raise ValueError('--zones needs --trajectories: the raw mode (--agents) '
                              'has no positions to place in zones')
         profile, model, zones = zoned_errors(load_zone_map(args.zones), profile,
-                                             args.covariance_mode)
+                                             args.covariance_mode, about)
     else:
-        model = profile.model()
+        model = profile.model(about_truth=about)
+    bias = model.mean if args.covariance_about == 'truth' else None
     if args.covariance_mode == 'reported' and profile.reported_accuracy is None:
         raise ValueError(f'--covariance-mode reported: profile {profile.name} '
                          f'({profile.path}) has no reported_accuracy section; calibrate '
@@ -127,12 +131,12 @@ def cmd_simulate(args):
         if src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
                                      profile.velocity, args.covariance_mode, zones,
-                                     profile.reported_accuracy)
+                                     profile.reported_accuracy, bias)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits,
                                      zones, args.covariance_mode,
-                                     profile.reported_accuracy, profile.velocity)
+                                     profile.reported_accuracy, profile.velocity, bias)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)

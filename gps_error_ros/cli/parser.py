@@ -158,6 +158,11 @@ def _add_simulate(sub):
                         'accuracy_minor, accuracy_orientation (CSV columns, FCD '
                         'attributes), as the node\'s covariance_mode (default stationary; '
                         'reported: the radius the profile\'s reported_accuracy states)')
+    s.add_argument('--covariance-about', choices=('truth', 'mean'), default='truth',
+                   help='what that covariance covers, as the node\'s covariance_about: '
+                        'truth (default), the error about the truth, its mean included '
+                        '(C + m m^T); mean, its spread about its mean alone (C). The '
+                        'accuracy attribute in reported mode stays what the phone states')
     s.add_argument('--zones', default=None,
                    help='zone map (GeoJSON polygons with a "profile" property): each '
                         'agent gets the error process of the zone its truth is in, '

@@ -7,9 +7,11 @@ Accuracy as a phone or a V2P message states it, from a 2x2 error covariance.
 * :func:`radius68`: the radius (m) of the circle about the mean that holds
   68 % of the error, Android's ``Location.getAccuracy()``.
 
-Both describe the spread about the error's mean: a bias (the profile's mean
-error) is not part of a stated accuracy. Covariances are north/east (m^2),
-arrays of shape (..., 2, 2).
+Both read the covariance they are given as a zero-mean error's: given the
+mean square error matrix about the truth (``covariance_about`` truth, the
+default of the node and ``simulate``), they describe the error about the
+truth, bias included; given the covariance alone, the spread about the
+error's mean. Covariances are north/east (m^2), arrays of shape (..., 2, 2).
 """
 
 import numpy as np

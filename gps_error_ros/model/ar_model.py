@@ -246,6 +246,20 @@ class ARErrorModel:
         """
         return np.repeat(self.innovation_cov[None], state.shape[0], axis=0)
 
+    def predictive_mean(self, state, first=False):
+        """
+        Return each agent's expected next error (n, 2) given ``state``, mean included.
+
+        ``delta``'s mean plus the AR part of the deviations held
+        (``first``: the stationary mean).
+        """
+        if first:
+            return np.repeat(self.mean[None], state.shape[0], axis=0)
+        out = np.repeat(self.mean[None], state.shape[0], axis=0)
+        for i in range(self.order):
+            out += self.phi[:, i] * state[:, :, i]
+        return out
+
     def empty_state(self, n):
         """Return a state array for ``n`` agents (zeros)."""
         return np.zeros((n, 2, self.order))

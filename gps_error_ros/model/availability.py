@@ -180,6 +180,10 @@ class WithAvailability:
         """Return the inner model's covariance of the next error (n, 2, 2)."""
         return self.inner.predictive_cov(state[:, :, :-1], first)
 
+    def predictive_mean(self, state, first=False):
+        """Return the inner model's expected next error (n, 2)."""
+        return self.inner.predictive_mean(state[:, :, :-1], first)
+
     def available(self, state):
         """Return which agents have a fix at the current step."""
         return state[:, 0, -1] == 0

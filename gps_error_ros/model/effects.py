@@ -291,6 +291,30 @@ class ExtendedModel:
                                          first)
         return cov
 
+    def predictive_mean(self, state, first=False):
+        """
+        Return each agent's expected next error (n, 2) given ``state``, mean included.
+
+        The AR part of the deviations held, the next phase's cycle offset
+        (periodic) and what is left of a jump under way (outliers, kept with
+        probability ``1 - q``; a new jump's offset has mean zero). ``first``:
+        the stationary mean. The motion lag is not in it (it needs the truth).
+        """
+        n = state.shape[0]
+        out = np.repeat(self.mean[None], n, axis=0)
+        if first:
+            return out
+        for i in range(self.order):
+            out += self.phi[:, i] * state[:, :, i]
+        if self.periodic is not None:
+            nxt = (state[:, 0, self.order + 1].astype(np.int64) + 1) % self.periodic.period
+            out += self.cycle_offsets[nxt]
+        if self.outliers is not None:
+            c = self._jump
+            out += (1.0 - self.outliers.end_probability) * \
+                (state[:, 0, c + 1] > 0.5)[:, None] * state[:, :, c]
+        return out
+
     def regimes(self, state):
         """Return the current regime index of each agent."""
         return state[:, 0, self.order].astype(np.int64)

@@ -170,6 +170,10 @@ class WithFailures:
         """Return the inner model's covariance of the next error (failures not covered)."""
         return self.inner.predictive_cov(state[:, :, :-1], first)
 
+    def predictive_mean(self, state, first=False):
+        """Return the inner model's expected next error (n, 2)."""
+        return self.inner.predictive_mean(state[:, :, :-1], first)
+
     def state_after(self, keys, start, step, *args, **kwargs):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))

@@ -34,6 +34,7 @@ import re
 
 import yaml
 
+from gps_error_ros.model.about_truth import AboutTruth
 from gps_error_ros.model.availability import (Availability, availability_from_dict,
                                               AvailabilityError, WithAvailability)
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
@@ -87,12 +88,14 @@ class Profile:
         """Return True when the profile carries AR parameters."""
         return self.axes is not None
 
-    def model(self, gross_failures=True):
+    def model(self, gross_failures=True, about_truth=False):
         """
         Return the :class:`ARErrorModel` of this profile.
 
         With its effects, gross failures (unless ``gross_failures`` is False)
-        and availability, each wrapped around the one before.
+        and availability, each wrapped around the one before. ``about_truth``:
+        its stated covariances are the error's mean square about the truth
+        (:mod:`about_truth`), not its covariance about its mean.
 
         Raises
         ------
@@ -113,6 +116,8 @@ class Profile:
             model = build_model(self.axes['north'], self.axes['east'], self.effects)
         except ModelError as exc:
             raise ProfileError(f'{self.path}: {exc}') from None
+        if about_truth:
+            model = AboutTruth(model)
         if gross_failures and self.gross_failures is not None:
             model = WithFailures(model, self.gross_failures)
         if self.availability is not None:

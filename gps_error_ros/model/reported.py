@@ -110,11 +110,18 @@ class ReportedAccuracy:
             r = np.maximum(np.round(r / q), 1.0) * q
         return r
 
-    def covariance(self, radius):
-        """Return the north/east covariances, (..., 2, 2), that stated radii imply."""
+    def covariance(self, radius, bias=None):
+        """
+        Return the north/east covariances, (..., 2, 2), that stated radii imply.
+
+        ``bias`` (2,): an error mean the phone does not know of, added as
+        ``bias bias^T`` so that the matrix is about the truth.
+        """
         sd2 = (np.asarray(radius, dtype=float) / R68_PER_SD) ** 2
         out = np.zeros(sd2.shape + (2, 2))
         out[..., 0, 0] = out[..., 1, 1] = sd2
+        if bias is not None:
+            out += np.outer(bias, bias)
         return out
 
     def stated(self, radius):

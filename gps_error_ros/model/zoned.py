@@ -231,16 +231,17 @@ class ZonedErrors:
             self.step[r] = step
 
 
-def zoned_errors(zone_map, profile, covariance_mode='stationary'):
+def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=False):
     """
     Return (default profile, its model, ``(zone_map, ZonedErrors)``) for a run.
 
     The default profile is the map's ``default_profile``, else ``profile``;
     its model gives what is not the error process (availability) and the
-    error outside every zone.
+    error outside every zone. ``about_truth``: the stated covariances are
+    the error's mean square about the truth (:mod:`about_truth`).
     """
-    default, models = zone_models(zone_map, profile)
-    return default, default.model(), (zone_map, ZonedErrors(
+    default, models = zone_models(zone_map, profile, about_truth)
+    return default, default.model(about_truth=about_truth), (zone_map, ZonedErrors(
         models, conditional_cov=needs_predictive(covariance_mode,
                                                  default.reported_accuracy)))
 

@@ -253,13 +253,15 @@ def load_zone_map(path):
     return zone_map_from_dict(raw, str(path))
 
 
-def zone_models(zone_map, profile):
+def zone_models(zone_map, profile, about_truth=False):
     """
     Return (the default profile, the error models of the zones then the default).
 
     ``profile`` is the run's own profile; the map's ``default_profile``
-    replaces it when the map has one. Raises :class:`ZoneMapError` for a zone
-    profile the run cannot mix with the default (see the module doc).
+    replaces it when the map has one. ``about_truth``: the models state the
+    error's mean square about the truth (:meth:`Profile.model`). Raises
+    :class:`ZoneMapError` for a zone profile the run cannot mix with the
+    default (see the module doc).
     """
     default = zone_map.default or profile
     for zp in [default] + list(zone_map.profiles):
@@ -267,7 +269,7 @@ def zone_models(zone_map, profile):
             raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a gross_failures '
                                f'section; zone maps do not simulate gross failures yet: '
                                f'expected profiles without it')
-    base = default.model()
+    base = default.model(about_truth=about_truth)
     models, built = [], {}
     inner = getattr(base, 'inner', base)
     _no_cycle(inner, f'{zone_map.path}: default profile {default.name}')
@@ -287,7 +289,7 @@ def zone_models(zone_map, profile):
                     f'{where}: has {article} {section} section; expected none: '
                     f'{section} comes from the default profile ({default.name}) '
                     f'everywhere')
-        model = built.setdefault(zp.path, zp.model())   # zones may share a profile
+        model = built.setdefault(zp.path, zp.model(about_truth=about_truth))   # may be shared
         _no_cycle(model, where)
         if model.lag_s != base.lag_s:
             raise ZoneMapError(f'{where}: motion_lag {model.lag_s} s differs from the '

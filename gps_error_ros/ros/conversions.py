@@ -53,15 +53,25 @@ def navsatfix_position(msg):
     return msg.latitude, msg.longitude, alt
 
 
+#: Off-diagonal (as a correlation) below which a covariance is diagonal: round-off.
+DIAGONAL_TOLERANCE = 1e-9
+
+
 def enu_covariance(cov_ne, vertical_var):
     """
     Return the row-major ENU 3x3 covariance (9 floats) and its type.
 
-    ``cov_ne`` is the 2x2 (north, east) horizontal covariance in m^2.
+    ``cov_ne`` is the 2x2 (north, east) horizontal covariance in m^2. An
+    off-diagonal below :data:`DIAGONAL_TOLERANCE` of the diagonal's geometric
+    mean is round-off (a correlation of 1e-9): it is written as 0 and the
+    type is ``COVARIANCE_TYPE_DIAGONAL_KNOWN``.
     """
     cov = enu_covariances(np.asarray(cov_ne, dtype=float)[None], vertical_var)[0]
-    kind = NavSatFix.COVARIANCE_TYPE_KNOWN if cov[1] != 0.0 else \
-        NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
+    if abs(cov[1]) <= DIAGONAL_TOLERANCE * math.sqrt(abs(cov[0] * cov[4])):
+        cov[1] = cov[3] = 0.0
+        kind = NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
+    else:
+        kind = NavSatFix.COVARIANCE_TYPE_KNOWN
     return [float(v) for v in cov], kind
 
 

@@ -36,7 +36,7 @@ from gps_error_ros.ros import conversions
 from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
 from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR, OK,
                                            Report, WARN)
-from gps_error_ros.ros.fix_output import FixOutput
+from gps_error_ros.ros.fix_output import FixOutput, start_summary
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
 from gps_error_ros.traces.validity import usable_fix, usable_pose
@@ -131,11 +131,14 @@ class GpsErrorNode(PatternAgents, Node):
             zones = None
             try:
                 profile = load_profile(spec)
+                # reported: the phone's radius follows the plain predictive scale
+                about = cfg['covariance_about'] == 'truth' and \
+                    cfg['covariance_mode'] != 'reported'
                 if zone_map is None:
-                    model = profile.model()
+                    model = profile.model(about_truth=about)
                 else:
                     profile, model, zones = zoned_errors(zone_map, profile,
-                                                         cfg['covariance_mode'])
+                                                         cfg['covariance_mode'], about)
             except ProfileError as exc:
                 name = 'agent_profiles' if cfg['agent_profiles'] else 'profile'
                 raise ConfigError(f'parameter {name!r} ({spec!r}): {exc}') from None
@@ -158,7 +161,9 @@ class GpsErrorNode(PatternAgents, Node):
                                          else int(round(cfg['start_time'] * NS))),
                                velocity=profile.velocity,
                                conditional_cov=cfg['covariance_mode'] == 'conditional',
-                               zones=zones, reported=reported)
+                               zones=zones, reported=reported,
+                               reported_bias=model.mean if reported is not None and
+                               cfg['covariance_about'] == 'truth' else None)
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
@@ -223,17 +228,7 @@ class GpsErrorNode(PatternAgents, Node):
         topic = conversions.TRUTH_INPUTS[self.input_type][0]
         who = (f'{len(self.agents)} agents' if self.polled else
                f'input {self.input_type} on {self.resolve_topic_name(topic)}')
-        parts = []
-        for group in self.groups:
-            sd = group.engine.model.stationary_sd
-            agents = f' ({group.members.size} agents)' if self.polled else ''
-            parts.append(f'profile {group.profile}{agents}: stationary sd north '
-                         f'{sd[0]:.2f} m, east {sd[1]:.2f} m')
-        zmap = self.groups[0].engine.zone_map
-        zones = '' if zmap is None else (f'; zones {cfg["zones"]} ({len(zmap)}: '
-                                         f'{", ".join(zmap.names)}) over the default')
-        self.get_logger().info(f'{"; ".join(parts)}{zones}; {who}; fixes at '
-                               f'{cfg["rate"]} Hz, seed {self.seed}')
+        self.get_logger().info(start_summary(self.groups, cfg, who, self.polled, self.seed))
 
     def destroy_node(self):
         """Destroy the node, the truth subscriptions it drains itself included."""

@@ -137,3 +137,30 @@ class FixOutput:
 
     def _send(self, handles, raws):
         send_paced(handles, raws, self.burst)
+
+
+def start_summary(groups, cfg, who, polled, seed):
+    """
+    Return the node's start-up line: what serves each group, its error's size, the zones.
+
+    With a zone map, the profile named is the one that serves outside the
+    zones (the map's ``default_profile`` when it has one), and each zone is
+    listed with its own profile. The size is the root mean square error about
+    the truth (``covariance_about`` truth) or the SD about the mean.
+    """
+    zmap = groups[0].engine.zone_map
+    what = 'rms error about the truth' if cfg['covariance_about'] == 'truth' else \
+        'stationary sd about the mean'
+    parts = []
+    for group in groups:
+        sd = group.engine.model.stationary_sd
+        agents = f' ({group.members.size} agents)' if polled else ''
+        name = group.profile
+        if zmap is not None:
+            name = (f'{zmap.default.name} (the map\'s default_profile)'
+                    if zmap.default is not None else name) + ' outside the zones'
+        parts.append(f'profile {name}{agents}: {what} north {sd[0]:.2f} m, east {sd[1]:.2f} m')
+    zones = '' if zmap is None else (
+        f'; zones {cfg["zones"]} ({len(zmap)}: ' + ', '.join(
+            f'{z} profile {p.name}' for z, p in zip(zmap.names, zmap.profiles)) + ')')
+    return f'{"; ".join(parts)}{zones}; {who}; fixes at {cfg["rate"]} Hz, seed {seed}'

@@ -124,6 +124,15 @@ ERROR_NODE_PARAMS = (
               'covariance (per-axis SD radius / 1.51), per fix, '
               'COVARIANCE_TYPE_APPROXIMATED.',
               choices=('stationary', 'conditional', 'reported')),
+    ParamSpec('covariance_about', 'truth', ParameterType.PARAMETER_STRING,
+              'What the fix covariance covers. truth: the error about the truth, '
+              'its mean included (the mean square error matrix C + m m^T: in '
+              'stationary mode m is the profile\'s mean error, in conditional mode '
+              'the error expected given the state a step before, in reported mode '
+              'the profile\'s mean added to the stated circle), so that a consumer '
+              'that takes the fix as truth plus zero-mean noise is right; mean: the '
+              'error\'s spread about its mean alone (C).',
+              choices=('truth', 'mean')),
     ParamSpec('zones', '', ParameterType.PARAMETER_STRING,
               'Zone map (GeoJSON polygons, each with a "profile" property): each '
               'agent\'s error follows the zone its truth is in, step by step, the '

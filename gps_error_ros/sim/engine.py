@@ -105,12 +105,25 @@ class FixEngine:
         Clock time of the streams' first step (rounded up to a step); None:
         the first clock reading. Fixed, it makes the fixes independent of
         when the engine saw its first reading (see :meth:`on_clock`).
+    velocity : Velocity or None
+        The profile's velocity section: each fix carries a reported velocity.
+    conditional_cov : bool
+        Each fix carries the model's covariance of its error given the state
+        a step before (else the node states the stationary one).
+    zones : tuple or None
+        ``(ZoneMap, ZonedErrors)``: the errors follow each fix's zone.
+    reported : ReportedAccuracy or None
+        The profile's reported_accuracy: each fix carries the radius the
+        phone states and the covariance it implies.
+    reported_bias : array of 2 floats or None
+        With ``reported``: the error's mean, added to the stated covariance
+        as ``m m^T`` (covariance about the truth).
 
     """
 
     def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
                  history=64, max_pending=1000, active=True, start_ns=None, velocity=None,
-                 conditional_cov=False, zones=None, reported=None):
+                 conditional_cov=False, zones=None, reported=None, reported_bias=None):
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -145,6 +158,7 @@ class FixEngine:
             self.side['vel'] = VelocityState(velocity, self.n)
         self.vel = self.side.get('vel')
         self.reported, self.ref_cov = reported, None
+        self.reported_bias = reported_bias      # about the truth: the mean, added
         if reported is not None:
             self.side['rep'] = SideStream(reported, self.n)
             if reported.follow != 0.0:      # the radius follows the predictive scale
@@ -462,7 +476,7 @@ class FixEngine:
                                          step.side['vel'][agents], self.max_gap_ns)
         if self.reported is not None:       # the phone's stated radius, and its covariance
             accuracy = self.reported.radius(step.side['rep'][agents], cov, self.ref_cov)
-            cov = self.reported.covariance(accuracy)
+            cov = self.reported.covariance(accuracy, self.reported_bias)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
                         alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
                         cov=cov, accuracy=accuracy)

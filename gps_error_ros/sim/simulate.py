@@ -56,7 +56,8 @@ def _per_fix(model, zones, conditional=False):
 
 
 def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                 zones=None, covariance_mode='stationary', reported=None, velocity=None):
+                 zones=None, covariance_mode='stationary', reported=None, velocity=None,
+                 reported_bias=None):
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
@@ -74,11 +75,11 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, dig
     """
     with atomic_output(dst) as tmp:
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits,
-                             zones, covariance_mode, reported, velocity)
+                             zones, covariance_mode, reported, velocity, reported_bias)
 
 
 def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
-                 zones=None, reported=None):
+                 zones=None, reported=None, reported_bias=None):
     """
     Add errors to a CSV of true positions; write a trace CSV; return counts.
 
@@ -88,11 +89,12 @@ def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode=
     accuracy (:mod:`accuracy`) from the error covariance of
     ``covariance_mode``, as the node's: ``stationary``, ``conditional``, or
     ``reported`` (the radius ``reported``, a profile's
-    :class:`ReportedAccuracy`, states, and the circular covariance it implies).
+    :class:`ReportedAccuracy`, states, and the circular covariance it implies,
+    plus ``reported_bias`` (the error's mean) as ``m m^T`` when given).
     """
     with atomic_output(dst) as tmp:
         return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode,
-                             zones, reported)
+                             zones, reported, reported_bias)
 
 
 def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
@@ -155,16 +157,16 @@ def _moved(mode, proj, src, t, x, y, err):
 
 
 def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                  zones=None, covariance_mode='stationary', reported=None, velocity=None):
+                  zones=None, covariance_mode='stationary', reported=None, velocity=None,
+                  reported_bias=None):
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
     conditional = needs_predictive(covariance_mode, reported)
-    stated = _Stated(model, reported, seed) if covariance_mode == 'reported' else None
+    stated = _stated(covariance_mode, model, reported, seed, reported_bias)
     zones = _per_fix(model, zones, conditional)
     stationary = np.asarray(model.stationary_cov)
     _check_georeferenced(src, zones, mode)
-    size = os.path.getsize(src)
-    progress = Progress(size, f'simulating {Path(src).name}', min_total=20 << 20)
+    progress = Progress(os.path.getsize(src), f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
     crowd, rows, steps, seen, no_fix = None, 0, 0, set(), 0
     lag = LagBuffer(model.lag_s)
@@ -257,7 +259,7 @@ def _check_georeferenced(src, zones, mode):
 
 
 def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
-                  zones=None, reported=None):
+                  zones=None, reported=None, reported_bias=None):
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
@@ -296,7 +298,7 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     lat_out[~fix] = lon_out[~fix] = np.nan
     radius = None
     if covariance_mode == 'reported':
-        stated = _Stated(model, reported, seed)
+        stated = _Stated(model, reported, seed, reported_bias)
         radius, cov = stated.radius(row_values(reported, seed, data['agent'], t,
                                                model_step(t[0], rate_hz), rate_hz), cov)
     extra = accuracy_columns(cov, fix, radius)
@@ -314,15 +316,20 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     return out
 
 
+def _stated(covariance_mode, model, reported, seed, bias):
+    """Return the :class:`_Stated` radius of covariance_mode reported, else None."""
+    return _Stated(model, reported, seed, bias) if covariance_mode == 'reported' else None
+
+
 class _Stated:
     """The radius a profile's ``reported_accuracy`` states, for covariance_mode reported."""
 
-    def __init__(self, model, reported, seed):
+    def __init__(self, model, reported, seed, bias=None):
         if reported is None:
             raise TrajectoryError('covariance mode reported: the profile has no '
                                   'reported_accuracy section (calibrate one from a trace '
                                   'with an accuracy or hdop column)')
-        self.reported, self.seed = reported, seed
+        self.reported, self.seed, self.bias = reported, seed, bias
         self.ref_cov = reference_cov(model) if reported.follow != 0.0 else None
         self.tracker = None
 
@@ -335,7 +342,7 @@ class _Stated:
     def radius(self, x, cov):
         """Return (stated radius, the covariance it implies) for fluctuations ``x``."""
         r = self.reported.radius(x, cov, self.ref_cov)
-        return r, self.reported.covariance(r)
+        return r, self.reported.covariance(r, self.bias)
 
 
 def accuracy_columns(cov, fix, radius=None):

@@ -38,36 +38,55 @@ def regime_profile(tmp_path, reported=None, cycle=False):
     return path
 
 
-def expected(path, name):
-    """Return {step: ENU covariance (9)} the model predicts (or the phone states) for ``name``."""
+def expected(path, name, about='truth'):
+    """
+    Return {step: ENU covariance (9)} the model predicts (or the phone states) for ``name``.
+
+    ``about`` truth: the mean square about the truth, the error expected given
+    the state a step before (or, for the phone's statement, the profile's mean)
+    added as m m^T; mean: the covariance alone.
+    """
     profile = load_profile_file(path)
     model = profile.model()
     keys = np.array([agent_key(SEED, name)], dtype=np.uint64)
     state = model.initial_state(keys, T0)
     covs = {T0: model.predictive_cov(state, first=True)[0]}
+    means = {T0: model.mean}
     for k in range(T0 + 1, T0 + STEPS):
         covs[k] = model.predictive_cov(state)[0]
+        # the error expected given the state: the mean plus the AR part held
+        # (and the next phase's cycle offset, what is left of a jump: see below)
+        means[k] = model.predictive_mean(state)[0]
         model.advance(state, keys, k)
     rep = profile.reported_accuracy
     if rep is not None:         # the stated radius follows the predicted scale
         x = rep.errors(keys, STEPS, T0)[:, 0]
         radius = rep.radius(x, np.array([covs[k] for k in sorted(covs)]), reference_cov(model))
         covs = dict(zip(sorted(covs), rep.covariance(radius)))
-    vert = profile.vertical_variance(model)
+        means = {k: model.mean for k in covs}
+    if about == 'truth':
+        covs = {k: c + np.outer(means[k], means[k]) for k, c in covs.items()}
+    vert = profile.vertical_variance(
+        profile.model(about_truth=about == 'truth' and rep is None))
     return {k: [c[1, 1], c[1, 0], 0.0, c[0, 1], c[0, 0], 0.0, 0.0, 0.0, vert]
             for k, c in covs.items()}
 
 
-@pytest.mark.parametrize('mode,crowd,cycle', [
-    ('conditional', False, False), ('conditional', True, False),
-    ('conditional', True, True), ('reported', False, False), ('reported', True, False)],
-    ids=['conditional, one agent', 'conditional, crowd',
-         'conditional, crowd, periodic and outliers', 'reported, one agent', 'reported, crowd'])
-def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd, cycle):
+@pytest.mark.parametrize('mode,crowd,cycle,about', [
+    ('conditional', False, False, 'truth'), ('conditional', False, False, 'mean'),
+    ('conditional', True, False, 'truth'), ('conditional', True, True, 'truth'),
+    ('conditional', True, True, 'mean'), ('reported', False, False, 'truth'),
+    ('reported', True, False, 'mean')],
+    ids=['conditional, one agent', 'conditional, one agent, about the mean',
+         'conditional, crowd', 'conditional, crowd, periodic and outliers',
+         'conditional, crowd, periodic and outliers, about the mean',
+         'reported, one agent', 'reported, crowd, about the mean'])
+def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd, cycle, about):
     path = regime_profile(tmp_path, REPORTED if mode == 'reported' else None, cycle)
     ns = unique_ns()
     names = ['ann', 'bob'] if crowd else ['']
     extra = ['agents:=["ann", "bob"]'] if crowd else []
+    extra += [] if about == 'truth' else ['covariance_about:=mean']     # truth: the default
     node = start(ns, f'profile:={path}', DATUM_ARG, f'seed:={SEED}',
                  f'covariance_mode:={mode}', *extra)
     prefix = {n: f'{ns}/{n}/' if n else f'{ns}/' for n in names}
@@ -89,7 +108,7 @@ def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd, cyc
     rc, out = node.stop()
     assert rc == 0, out
     for n in names:
-        want = expected(path, n)
+        want = expected(path, n, about)
         got = {stamp_ns(f.header.stamp) // NS: list(f.position_covariance) for f in boxes[n]}
         assert len(got) >= STEPS - 1, n
         for k, c in got.items():

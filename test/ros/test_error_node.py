@@ -28,13 +28,16 @@ def test_one_fix_per_second_covariance_and_header(peer):
     assert rc == 0, out
     stamps = [stamp_ns(f.header.stamp) for f in fixes]
     assert stamps == [k * NS for k in range(T0, T0 + 30)]
+    # about the truth: the stationary covariance plus the mean's m m^T (DS5: 3.5, -1.0 m)
     model = load_profile('DS5').model()
-    cov = model.stationary_cov
-    expected = [cov[1, 1], 0.0, 0.0, 0.0, cov[0, 0], 0.0,
-                0.0, 0.0, (2 * model.stationary_sd.max()) ** 2]
+    m = model.mean
+    cov = model.stationary_cov + np.outer(m, m)
+    expected = [cov[1, 1], cov[1, 0], 0.0, cov[0, 1], cov[0, 0], 0.0,
+                0.0, 0.0, (2 * np.sqrt(np.diag(cov)).max()) ** 2]
+    assert m[0] == pytest.approx(3.5, abs=0.1) and m[1] == pytest.approx(-1.0, abs=0.1)
     for f in fixes:
         assert list(f.position_covariance) == pytest.approx(expected, rel=1e-12)
-        assert f.position_covariance_type == NavSatFix.COVARIANCE_TYPE_DIAGONAL_KNOWN
+        assert f.position_covariance_type == NavSatFix.COVARIANCE_TYPE_KNOWN
         assert f.status.status == NavSatStatus.STATUS_FIX
         assert f.status.service == NavSatStatus.SERVICE_GPS
         assert f.header.frame_id == 'gps'
@@ -100,7 +103,7 @@ def test_remap_params_file_and_p_override(peer, tmp_path):
     assert len(fixes) == 5
     # -p given after --params-file wins (ROS 2: the later override wins)
     assert {f.header.frame_id for f in fixes} == {'phone_antenna'}
-    sd = load_profile('DS2').model().stationary_sd
+    sd = load_profile('DS2').model(about_truth=True).stationary_sd      # rms about the truth
     assert fixes[0].position_covariance[0] == pytest.approx(sd[1] ** 2)
 
 

@@ -79,7 +79,9 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
                                         for b in boxes.values()), 5)
         rc, out = node.stop()
         assert rc == 0, out
-        assert 'zones' in out and 'west, east' in out, out
+        # what serves outside the zones, and each zone's profile, by name
+        assert 'profile DS2 outside the zones' in out, out
+        assert 'west profile DS1, east profile DS5' in out, out
     finally:
         node.stop()
         peer.destroy()
@@ -92,7 +94,9 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
     assert gps_error(['simulate', '--profile', 'DS2', '--seed', '9', '--zones', str(zones),
                       '--trajectories', str(src), '--out', str(dst)]) == 0
     sim = {(r['agent'], int(float(r['t']))): r for r in csv.DictReader(open(dst))}
-    var = {name: np.diag(load_profile(name).model().stationary_cov) for name in ('DS1', 'DS5')}
+    # about the truth (the default): the zone's mean square error matrix
+    var = {name: np.diag(load_profile(name).model(about_truth=True).stationary_cov)
+           for name in ('DS1', 'DS5')}
     seen = {'DS1': 0, 'DS5': 0}
     for a in AGENTS:
         for m in boxes[a]:
@@ -139,7 +143,9 @@ def test_street_frame_turns_with_the_walker_in_node_and_simulate(tmp_path):
     ns = unique_ns()
     node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
                         '-p', 'input_type:=navsatfix', '-p', 'seed:=3', '-p', f'profile:={prof}',
-                        '-p', 'covariance_mode:=conditional', '-p', 'agents:=["ann","bob"]'])
+                        '-p', 'covariance_mode:=conditional', '-p', 'agents:=["ann","bob"]',
+                        # the innovation covariance alone, which turns with the walker
+                        '-p', 'covariance_about:=mean'])
     peer = Peer()
     try:
         pubs = {a: peer.publisher(NavSatFix, f'{ns}/{a}/fix_truth') for a in AGENTS}
@@ -168,7 +174,8 @@ def test_street_frame_turns_with_the_walker_in_node_and_simulate(tmp_path):
             for a in AGENTS:
                 f.write('{},{},{!r},{!r}\n'.format(k, a, *l_walk(k, a)))
     assert gps_error(['simulate', '--profile', str(prof), '--seed', '3', '--covariance-mode',
-                      'conditional', '--trajectories', str(src), '--out', str(dst)]) == 0
+                      'conditional', '--covariance-about', 'mean', '--trajectories', str(src),
+                      '--out', str(dst)]) == 0
     sim = {(r['agent'], int(float(r['t']))): r for r in csv.DictReader(open(dst))}
     legs = {'east': 0, 'north': 0}
     for a in AGENTS:
