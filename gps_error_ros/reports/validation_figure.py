@@ -97,7 +97,15 @@ def _map_panel(ax, res, map_window):
     ax.set_xlabel('east [m]' + (' of the truth' if relative else ''))
     ax.set_ylabel('north [m]' + (' of the truth' if relative else ''))
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, markerscale=4, loc='best')
+    # one marker size in the legend: the fixes' dots are small, the truth's cross
+    # large, and a common scale made the cross cover the legend and the plot
+    legend = ax.legend(fontsize=8, loc='best')
+    for handle in legend.legend_handles:
+        handle.set_markersize(LEGEND_MARKER_PT)
+
+
+#: Marker size (points) of every entry in the map's legend.
+LEGEND_MARKER_PT = 8
 
 
 def validation_figure(res, path, title, map_window=180):

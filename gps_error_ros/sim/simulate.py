@@ -43,7 +43,7 @@ from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (
-    add_errors_lonlat, check_fcd_root, fcd_coordinates, FcdWriter, iter_fcd,
+    add_errors_lonlat, check_fcd_root, fcd_coordinates, fcd_net_file, FcdWriter, iter_fcd,
     NetProjection, read_truth_csv, TrajectoryError)
 
 
@@ -125,6 +125,7 @@ def _fcd_mode(src, net, coordinates):
             f'{src}: no SUMO options comment at the top, so whether x/y are '
             f'lon/lat or metres is unknown: pass --coordinates lonlat or xy')
     if mode == 'lonlat':
+        _check_geo_output(src, net)
         return 'lonlat', None
     if net is None:
         raise TrajectoryError(
@@ -132,6 +133,24 @@ def _fcd_mode(src, net, coordinates):
             f'--fcd-output.geo): pass --net NET.xml to georeference them')
     proj = NetProjection(net)
     return ('net' if proj.geo else 'plane'), proj
+
+
+def _check_geo_output(src, net):
+    """
+    Refuse lon/lat that SUMO could not write: ``--fcd-output.geo`` from a net with no projection.
+
+    SUMO then warns that geo output will not work and writes x/y metres
+    anyway. The net given (``--net``) or named in the options comment tells.
+    """
+    net = net or fcd_net_file(src)
+    if net is None or NetProjection(net).geo:
+        return
+    raise TrajectoryError(
+        f'{src}: the options comment says --fcd-output.geo, but the network {net} has '
+        f'no projection (its <location> projParameter is "!"), so SUMO wrote x/y metres, '
+        f'not lon/lat (it warns "fcd-output.geo will not work"): give the network a '
+        f'projection (netgenerate/netconvert --proj "+proj=utm ..." or --proj.utm), or '
+        f'read the positions as a flat plane with --coordinates xy --net {net}')
 
 
 def _lonlat(mode, proj, x, y):
@@ -212,6 +231,10 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     finally:
         writer.close()
         progress.close()
+    if not seen:
+        raise TrajectoryError(f'{src}: {steps} timesteps and no person or vehicle in any: '
+                              f'expected positions to add errors to (did SUMO fail or end '
+                              f'before anyone departed?)')
     out = {'timesteps': steps, 'positions': rows, 'agents': len(seen)}
     if isinstance(model, WithAvailability):
         out['positions_without_fix'] = no_fix

@@ -94,6 +94,33 @@ def fcd_coordinates(path, head_bytes=1 << 16):
     return None
 
 
+_NET_FILE = re.compile(r'<net-file\s+value="([^"]+)"')
+
+
+def fcd_net_file(path, head_bytes=1 << 16):
+    """
+    Return the network SUMO's options comment names (``net-file``), or None.
+
+    A relative name is looked for beside the FCD file, then as it is (SUMO
+    resolves it against the directory it ran in); None when it is in
+    neither place or the comment names none.
+    """
+    try:
+        with open(path, 'rb') as f:
+            head = f.read(head_bytes).decode('utf-8', errors='replace')
+    except OSError as exc:
+        raise TrajectoryError(f'{path}: cannot open: {exc}') from None
+    head = head.split('<fcd-export', 1)[0]
+    found = _NET_FILE.search(head)
+    if found is None:
+        return None
+    name = Path(found.group(1).split(',')[0].strip())
+    for candidate in ([name] if name.is_absolute() else [Path(path).parent / name, name]):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
 def check_fcd_root(path):
     """Raise TrajectoryError unless the file's root element is <fcd-export>."""
     try:

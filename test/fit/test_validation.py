@@ -76,3 +76,20 @@ def test_the_map_zooms_to_the_size_of_the_errors():
     win, _ = map_window_of(res, 180)
     radius = 10 * res.measured.std(axis=0).max()
     assert win.stop - win.start <= 2 * radius / 1.4 + 2
+
+
+def test_the_map_legend_draws_every_marker_at_one_size():
+    """The truth's large cross, scaled up with the dots, covered the legend and the plot."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    from gps_error_ros.reports.validation_figure import _map_panel, LEGEND_MARKER_PT
+    trace, _ = synthetic_trace(300, seed=6)               # a static receiver: the cross
+    res = validate(TRUE, trace, sims=20)
+    fig, ax = plt.subplots()
+    try:
+        _map_panel(ax, res, 180)
+        sizes = [h.get_markersize() for h in ax.get_legend().legend_handles]
+    finally:
+        plt.close(fig)
+    assert sizes == [LEGEND_MARKER_PT] * 3

@@ -397,3 +397,60 @@ def test_fcd_positions_report_the_phones_speed_and_course(tmp_path):
             assert float(attrs['reported_bearing']) == pytest.approx(b, abs=6e-3), (name, t)
             compared += 1
     assert compared > 200
+
+
+SUMO_COMMENT = '''<?xml version="1.0" encoding="UTF-8"?>
+
+<!-- generated on 2026-11-25 by Eclipse SUMO sumo 1.28.0
+<sumoConfiguration>
+    <input>
+        <net-file value="grid.net.xml"/>
+    </input>
+    <output>
+        <fcd-output value="fcd.xml"/>
+        <fcd-output.geo value="true"/>
+    </output>
+</sumoConfiguration>
+-->
+
+'''
+
+
+def _net(path, proj):
+    path.write_text(f'<net><location netOffset="0.00,0.00" convBoundary="0,0,200,200" '
+                    f'origBoundary="0,0,200,200" projParameter="{proj}"/></net>')
+
+
+@pytest.mark.parametrize('proj, refused', [('!', True), ('+proj=utm +zone=18 +ellps=WGS84', False)])
+def test_geo_output_from_a_net_without_projection_is_refused(tmp_path, capsys, proj, refused):
+    """SUMO writes x/y metres under --fcd-output.geo when its net has no projection."""
+    from gps_error_ros.cli import main as gps_error
+    _net(tmp_path / 'grid.net.xml', proj)
+    lon, lat = ('2.88', '3.2') if refused else ('-73.99', '40.75')
+    (tmp_path / 'fcd.xml').write_text(
+        SUMO_COMMENT + '<fcd-export>\n' + ''.join(
+            f'<timestep time="{k}.00"><person id="p0" x="{lon}" y="{lat}" angle="0" '
+            f'speed="0" pos="0" edge="A0A1" slope="0"/></timestep>\n' for k in range(3))
+        + '</fcd-export>\n')
+    out = tmp_path / 'o.xml'
+    rc = gps_error(['simulate', '--profile', 'DS5', '--seed', '1', '--trajectories',
+                    str(tmp_path / 'fcd.xml'), '--out', str(out)])
+    err = capsys.readouterr().err
+    if refused:
+        assert rc == 2 and not out.exists()
+        assert 'has no projection' in err and 'wrote x/y metres, not lon/lat' in err, err
+        assert '--coordinates xy --net' in err
+    else:
+        assert rc == 0 and out.exists(), err
+
+
+def test_an_fcd_without_positions_is_an_error(tmp_path, capsys):
+    from gps_error_ros.cli import main as gps_error
+    for body in ('', '<timestep time="0.00"/>\n<timestep time="1.00"/>\n'):
+        src = tmp_path / 'empty.xml'
+        src.write_text(f'<?xml version="1.0"?>\n<fcd-export>\n{body}</fcd-export>\n')
+        out = tmp_path / 'o.xml'
+        assert gps_error(['simulate', '--profile', 'DS5', '--seed', '1', '--coordinates',
+                          'lonlat', '--trajectories', str(src), '--out', str(out)]) == 2
+        assert 'no person or vehicle in any' in capsys.readouterr().err
+        assert not out.exists()
