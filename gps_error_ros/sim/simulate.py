@@ -231,11 +231,16 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     finally:
         writer.close()
         progress.close()
-    if not seen:
+    return _fcd_counts(src, model, steps, rows, len(seen), no_fix)
+
+
+def _fcd_counts(src, model, steps, rows, agents, no_fix):
+    """Return what simulate_fcd did; refuse a file in which nobody moved."""
+    if not agents:
         raise TrajectoryError(f'{src}: {steps} timesteps and no person or vehicle in any: '
                               f'expected positions to add errors to (did SUMO fail or end '
                               f'before anyone departed?)')
-    out = {'timesteps': steps, 'positions': rows, 'agents': len(seen)}
+    out = {'timesteps': steps, 'positions': rows, 'agents': agents}
     if isinstance(model, WithAvailability):
         out['positions_without_fix'] = no_fix
     return out

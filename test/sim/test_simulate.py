@@ -421,7 +421,8 @@ def _net(path, proj):
                     f'origBoundary="0,0,200,200" projParameter="{proj}"/></net>')
 
 
-@pytest.mark.parametrize('proj, refused', [('!', True), ('+proj=utm +zone=18 +ellps=WGS84', False)])
+@pytest.mark.parametrize('proj, refused', [('!', True),
+                                           ('+proj=utm +zone=18 +ellps=WGS84', False)])
 def test_geo_output_from_a_net_without_projection_is_refused(tmp_path, capsys, proj, refused):
     """SUMO writes x/y metres under --fcd-output.geo when its net has no projection."""
     from gps_error_ros.cli import main as gps_error
