@@ -16,6 +16,8 @@ setup(
         (os.path.join('share', package_name, 'config', 'profiles'),
             sorted(glob('config/profiles/*.yaml'))),
         (os.path.join('share', package_name, 'config'), sorted(glob('config/*.yaml'))),
+        (os.path.join('share', package_name, 'config', 'zones'),
+            sorted(glob('config/zones/*.geojson'))),
     ],
     # The core and the `gps_error` command need no ROS: rclpy and the message
     # packages come from the ROS install (or requirements-ros.txt).

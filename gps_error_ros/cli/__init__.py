@@ -8,7 +8,7 @@ FCD or CSV trajectories, or writes raw error series; ``gps_error diagnose
 INPUT`` finds the structure the AR model misses and fits the extended model;
 ``gps_error compare INPUT`` judges every model class as a simulator of the
 held-out data; ``gps_error synth SCENARIO -o WALK.csv`` writes a synthetic
-walk.
+walk; ``gps_error scenario DIR`` builds a georeferenced SUMO walking scenario.
 """
 
 import secrets
@@ -16,7 +16,7 @@ from pathlib import Path
 import sys
 
 from gps_error_ros.cli.parser import build_parser
-from gps_error_ros.fit.calibration import calibrate, CalibrationError
+from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
@@ -245,6 +245,9 @@ def cmd_calibrate(args):
             print(f'  note: the {ax} PACF is significant up to the largest order '
                   f'allowed (--max-order {args.max_order}); a larger --max-order '
                   f'may choose more')
+    note = little_data_note(result)
+    if note:
+        print(f'  note: {note}')
     print(f'wrote {out}')
     return 0
 
@@ -431,6 +434,30 @@ def cmd_synth(args):
     return 0
 
 
+def cmd_scenario(args):
+    """Run ``gps_error scenario``; return the exit code."""
+    from gps_error_ros.sim import sumo_scenario as sumo
+
+    try:
+        sc = sumo.build_grid_scenario(args.out, grid=args.grid, length=args.length,
+                                      depart_until=args.until, period=args.period,
+                                      seed=args.seed, lat=args.lat, lon=args.lon)
+        print(f'wrote {sc.sumocfg} ({sc.net.name}: {args.grid} x {args.grid} junctions '
+              f'{args.length:g} m apart at {args.lat}, {args.lon}; {sc.routes.name}: '
+              f'{len(sc.persons)} persons)')
+        run = [sumo.sumo_tool('sumo'), '-c', str(sc.sumocfg), '--fcd-output',
+               str(sc.sumocfg.parent / 'fcd.xml'), '--fcd-output.geo', 'true']
+        if args.fcd is None:
+            print('SUMO, for positions in lon/lat: ' + ' '.join(run) + ' --end SECONDS')
+            return 0
+        sumo._run(run + ['--end', f'{sc.begin + args.fcd:g}'], 'sumo', sc.sumocfg.parent)
+    except (sumo.SumoMissing, RuntimeError) as exc:
+        raise ValueError(str(exc)) from None
+    print(f'wrote {sc.sumocfg.parent / "fcd.xml"} (lon/lat): gps_error simulate --profile DS5 '
+          f'--trajectories {sc.sumocfg.parent / "fcd.xml"} --out noisy.xml')
+    return 0
+
+
 def main(argv=None):
     """Entry point of ``gps_error``."""
     args = build_parser().parse_args(argv)
@@ -438,7 +465,7 @@ def main(argv=None):
         return {'calibrate': cmd_calibrate, 'validate': cmd_validate,
                 'simulate': cmd_simulate, 'diagnose': cmd_diagnose,
                 'compare': cmd_compare, 'import': cmd_import,
-                'synth': cmd_synth}[args.command](args)
+                'synth': cmd_synth, 'scenario': cmd_scenario}[args.command](args)
     except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)
         return 2

@@ -255,9 +255,10 @@ def _add_import(sub):
                     'reference receiver\'s NMEA or a GPX track (*.gpx), '
                     'interpolated linearly in time to the fixes\' stamps, or a '
                     'fixed point LAT,LON[,ALT] for a '
-                    'static receiver. Writes the trace CSV (with alt, truth_alt, '
-                    'speed, bearing, hdop, truth_speed, truth_bearing) that '
-                    'calibrate, validate, diagnose and compare read.')
+                    'static receiver. Writes the trace CSV that calibrate, '
+                    'validate, diagnose and compare read, with alt and truth_alt, '
+                    'and, where the recording has them, speed, bearing, hdop, '
+                    'accuracy, truth_speed and truth_bearing.')
     m.add_argument('format', choices=('nmea', 'gnsslogger', 'gpx'),
                    help='the recording\'s format')
     m.add_argument('input', help='the recording (e.g. the phone\'s NMEA log)')
@@ -296,12 +297,40 @@ def _add_synth(sub):
                    help='seconds (default 3600)')
 
 
+def _add_scenario(sub):
+    c = sub.add_parser(
+        'scenario', help='build a georeferenced SUMO walking scenario',
+        description='Write a SUMO scenario of people walking a street grid, placed on '
+                    'the Earth: netgenerate\'s grid (sidewalks, crossings) with a UTM '
+                    'projection in its <location>, randomTrips.py --pedestrians, and '
+                    'DIR/grid.sumocfg. With --fcd S, also run SUMO for S seconds with '
+                    '--fcd-output.geo into DIR/fcd.xml (lon/lat: gps_error simulate '
+                    '--trajectories DIR/fcd.xml reads it as it is). Needs the extra '
+                    '"sumo" (eclipse-sumo, whose SUMO_HOME holds randomTrips.py).')
+    c.add_argument('out', help='directory to write the scenario into')
+    c.add_argument('--lat', type=number(float, -80.0, 84.0), default=40.75,
+                   help='latitude of the grid\'s first junction (default 40.75)')
+    c.add_argument('--lon', type=number(float, -180.0, 180.0), default=-73.99,
+                   help='longitude of the grid\'s first junction (default -73.99)')
+    c.add_argument('--grid', type=number(int, 2, 30), default=3,
+                   help='junctions per side (default 3)')
+    c.add_argument('--length', type=number(float, 10.0, 2000.0), default=80.0,
+                   help='metres between junctions (default 80)')
+    c.add_argument('--until', type=number(float, 1.0), default=30.0,
+                   help='last departure, s (default 30)')
+    c.add_argument('--period', type=number(float, 0.01, lo_open=False), default=2.0,
+                   help='seconds between departures (default 2)')
+    c.add_argument('--seed', type=number(int, 0), default=7, help='seed (default 7)')
+    c.add_argument('--fcd', type=number(float, 1.0), default=None, metavar='S',
+                   help='run SUMO for S simulated seconds, writing DIR/fcd.xml in lon/lat')
+
+
 def build_parser():
     p = argparse.ArgumentParser(
         prog='gps_error',
         description='Smartphone GPS error model tools (no ROS needed).')
     sub = p.add_subparsers(dest='command', required=True)
     for add in (_add_calibrate, _add_validate, _add_simulate, _add_diagnose,
-                _add_compare, _add_import, _add_synth):
+                _add_compare, _add_import, _add_synth, _add_scenario):
         add(sub)
     return p

@@ -233,6 +233,31 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
                              estimate_reported(clean), tuple(failures), masks)
 
 
+#: Samples below which calibrate says how little data a fit had (ten minutes at 1 Hz).
+LITTLE_DATA_SAMPLES = 600
+
+
+def little_data_note(result):
+    """
+    Return a note on a fit from little data, or None (``LITTLE_DATA_SAMPLES`` or more).
+
+    It gives the span, the PACF's 95 % bound (lags whose partial
+    autocorrelation is below it are not seen) and the orders PACF and BIC
+    chose per axis: far apart, the order is uncertain.
+    """
+    g = result.grid
+    if g.n >= LITTLE_DATA_SAMPLES:
+        return None
+    bound = result.north.pacf_bound
+    orders = '; '.join(f'{ax} PACF {f.pacf_order}, BIC {f.bic_order}' for ax, f in
+                       (('north', result.north), ('east', result.east)))
+    return (f'{g.n} samples ({g.n / g.rate_hz / 60:.1f} min) is little data: the PACF '
+            f'sees only partial autocorrelations beyond +-{bound:.3f}, and the orders '
+            f'chosen ({orders}) are uncertain; fix one with --order, or record at '
+            f'least {LITTLE_DATA_SAMPLES} samples (compare and diagnose need 300 to '
+            f'train on, of 70 %)')
+
+
 #: Share of fixes in truth gaps, or of missing grid steps, that marks a
 #: damaged stream (messages lost on the way, e.g. a replay too fast to take).
 DAMAGE_SHARE = 0.01

@@ -16,7 +16,11 @@ depend on any one data set:
   fix's error from the centre, and the local distance ``d_l``, the same with
   the error's departure from the median of its ``2 x NEIGHBOURS`` neighbours
   (the fix itself left out);
-* a fix is a gross failure when both exceed ``K`` (:data:`K_ROBUST_SD`).
+* a fix is a gross failure when both exceed ``K`` (:data:`K_ROBUST_SD`) and
+  it lies more than :data:`MIN_DEPARTURE_M` from the recording's median error:
+  a fix a few metres off is an estimate of the position, however steady the
+  receiver was otherwise (a phone that repeats one position for minutes has
+  a robust spread near zero, and its 5 m moves are not failures).
 
 The global test says the fix is far outside what the trace does; the local
 one that it is not where its neighbours are, so a persistent phone's slow
@@ -24,7 +28,7 @@ excursion (twenty fixes at five robust SDs, each beside the last) is the
 error process, not a failure. For Gaussian errors ``d_g^2`` is chi-squared
 with 2 degrees of freedom, so a clean fix passes ``K = 5`` with probability
 ``exp(-12.5) = 3.7e-6``. Measured on clean Gaussian AR(1) traces of 200 to
-1800 steps with phi 0 to 0.995 (300 traces each, ``python -m
+1800 steps with phi 0 to 0.995 and an SD of 10 m (300 traces each, ``python -m
 gps_error_ros.fit.gross_failures --false-positives``): at most 6e-6 flagged
 per fix, where the global test alone flags up to 8e-4 on short, persistent
 traces (phi 0.995, 200 steps).
@@ -44,6 +48,10 @@ from gps_error_ros.model.geodesy import difference
 
 #: The robust distance (in robust SDs) beyond which a fix is a gross failure.
 K_ROBUST_SD = 5.0
+#: The least distance (m) from the recording's median error of a gross failure.
+MIN_DEPARTURE_M = 25.0
+#: The least robust scale (m) of an axis: a constant one (0) is taken as 1 mm.
+MIN_SCALE_M = 1e-3
 #: Neighbours on each side that give a fix's local reference (median).
 NEIGHBOURS = 5
 #: Mean absolute deviation to SD (Gaussian), the scale when the MAD is 0.
@@ -78,7 +86,8 @@ def _neighbour_median(x, h):
     return out
 
 
-def failure_mask(north, east, k=K_ROBUST_SD, neighbours=NEIGHBOURS):
+def failure_mask(north, east, k=K_ROBUST_SD, neighbours=NEIGHBOURS,
+                 min_departure_m=MIN_DEPARTURE_M):
     """
     Return the gross failures of an error series (the module docstring's rule).
 
@@ -91,12 +100,13 @@ def failure_mask(north, east, k=K_ROBUST_SD, neighbours=NEIGHBOURS):
         The robust distance both tests must exceed.
     neighbours : int
         Fixes on each side giving the local reference.
+    min_departure_m : float
+        The least distance (m) from the median error of a gross failure.
 
     Returns
     -------
     numpy.ndarray
-        Boolean, True at a gross failure. All False when a scale is 0 or
-        there are fewer than 3 fixes.
+        Boolean, True at a gross failure. All False with fewer than 3 fixes.
 
     """
     err = np.stack([np.asarray(north, dtype=float), np.asarray(east, dtype=float)], axis=1)
@@ -105,13 +115,15 @@ def failure_mask(north, east, k=K_ROBUST_SD, neighbours=NEIGHBOURS):
         return np.zeros(n, dtype=bool)
     dg = np.empty_like(err)
     dl = np.empty_like(err)
+    away = np.empty_like(err)
     for a in range(2):
         m, s = robust_centre_scale(err[:, a])
-        if not s > 0.0:
-            return np.zeros(n, dtype=bool)
-        dg[:, a] = (err[:, a] - m) / s
+        s = max(s, MIN_SCALE_M)             # a constant axis: MIN_DEPARTURE_M decides
+        away[:, a] = err[:, a] - m
+        dg[:, a] = away[:, a] / s
         dl[:, a] = (err[:, a] - _neighbour_median(err[:, a], neighbours)) / s
-    return (np.hypot(dg[:, 0], dg[:, 1]) > k) & (np.hypot(dl[:, 0], dl[:, 1]) > k)
+    return (np.hypot(dg[:, 0], dg[:, 1]) > k) & (np.hypot(dl[:, 0], dl[:, 1]) > k) & \
+        (np.hypot(away[:, 0], away[:, 1]) > min_departure_m)
 
 
 @dataclass(frozen=True)
@@ -140,7 +152,7 @@ class GrossFailures:
         name = self.name
         rule = (f'more than {K_ROBUST_SD:g} robust SDs (north {self.scale_m[0]:.3g} m, '
                 f'east {self.scale_m[1]:.3g} m) from both the trace\'s median error and '
-                f'its neighbours\'')
+                f'its neighbours\', and {MIN_DEPARTURE_M:g} m from the median')
         if not self.count:
             return f'{name}: no gross failures ({rule})'
         order = np.argsort(-self.size_m)[:listed]
@@ -152,7 +164,8 @@ class GrossFailures:
     def summary(self):
         """Return the findings as plain data (the fit and JSON reports carry it)."""
         return {'rule': f'robust distance > {K_ROBUST_SD:g} from the trace median and '
-                        f'from the median of {NEIGHBOURS} neighbours each side',
+                        f'from the median of {NEIGHBOURS} neighbours each side, and more '
+                        f'than {MIN_DEPARTURE_M:g} m from the trace median',
                 'robust_sd_m': [round(float(v), 4) for v in self.scale_m],
                 'count': self.count, 'fixes': self.rows,
                 'rate': round(self.rate, 6),
@@ -181,11 +194,13 @@ def without_rows(trace, mask):
 
 
 def false_positive_rate(phis=(0.0, 0.5, 0.9, 0.98, 0.995), lengths=(200, 600, 1800),
-                        traces=300, seed=20261125):
+                        traces=300, seed=20261125, sd_m=10.0):
     """
     Return {(phi, length): flagged share per fix} on clean Gaussian AR(1) traces.
 
-    Both axes independent, burn-in 2000 steps; the figure the module
+    Both axes independent with stationary SD ``sd_m`` (10 m, a snapshot
+    receiver's: five robust SDs are then beyond :data:`MIN_DEPARTURE_M`, so
+    the robust tests decide), burn-in 2000 steps; the figure the module
     docstring quotes.
     """
     from scipy import signal
@@ -197,6 +212,7 @@ def false_positive_rate(phis=(0.0, 0.5, 0.9, 0.98, 0.995), lengths=(200, 600, 18
             for _ in range(traces):
                 z = rng.standard_normal((2, n + 2000))
                 x = signal.lfilter([1.0], [1.0, -phi], z, axis=-1)[:, 2000:]
+                x *= sd_m * np.sqrt(1.0 - phi ** 2)
                 flagged += int(failure_mask(x[0], x[1]).sum())
             out[(phi, n)] = flagged / (traces * n)
     return out

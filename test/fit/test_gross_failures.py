@@ -62,8 +62,19 @@ def test_false_positives_on_clean_ar_traces(phi):
     for _ in range(100):
         z = rng.standard_normal((2, 2600))
         x = signal.lfilter([1.0], [1.0, -phi], z, axis=-1)[:, 2000:]
+        x *= 10.0 * np.sqrt(1 - phi ** 2)           # 10 m SD: the robust tests decide
         flagged += int(failure_mask(x[0], x[1]).sum())
     assert flagged <= 1            # of 60 000 fixes; the rule's nominal rate is 3.7e-6
+
+
+def test_a_steady_phone_s_few_metre_moves_are_not_failures():
+    """A phone that repeats one position: a robust spread near 0, moves of 5 m."""
+    north = np.zeros(200)
+    north[[4, 5, 6, 33, 51]] = 5.0
+    east = np.full(200, 0.1)
+    assert not failure_mask(north, east).any()
+    north[120] = 400.0                          # a failed solution still is one
+    assert np.flatnonzero(failure_mask(north, east)).tolist() == [120]
 
 
 def test_scale_falls_back_when_the_mad_is_zero():
@@ -72,6 +83,9 @@ def test_scale_falls_back_when_the_mad_is_zero():
     assert m == 0.0 and s == pytest.approx(1.2533 * 25.0 / 81)
     assert robust_centre_scale(np.ones(10))[1] == 0.0
     assert not failure_mask(np.ones(10), np.ones(10)).any()
+    far = np.ones(10)
+    far[4] = 90.0                    # a constant axis does not hide a failure on it
+    assert np.flatnonzero(failure_mask(far, np.ones(10))).tolist() == [4]
 
 
 def test_without_rows_keeps_the_rest():

@@ -239,3 +239,22 @@ def test_lookup_agrees_with_shapely_point_by_point():
         want[shapely.intersects_xy(polys[i], x, y)] = i
     np.testing.assert_array_equal(zmap.lookup(y, x), want)
     assert (want != OUTSIDE).sum() > 1000 and (want == OUTSIDE).sum() > 1000
+
+
+def test_the_shipped_example_map_covers_the_demo_walk():
+    """config/zones/midtown-pixel.geojson: the demo's walker meets both avenues' zones."""
+    from pathlib import Path
+    from gps_error_ros.model.geodesy import offset
+    from gps_error_ros.sim.walker import MANHATTAN_DATUM, manhattan_walk
+    path = Path(__file__).resolve().parents[2] / 'config' / 'zones' / 'midtown-pixel.geojson'
+    zmap = load_zone_map(path)
+    assert zmap.names == ['7th Avenue', '9th Avenue'] and zmap.default.name == 'DS5'
+    assert [p.name for p in zmap.profiles] == ['DS5', 'DS2']
+    walk = manhattan_walk(7200.0, np.random.default_rng(3))
+    t = np.arange(0.0, walk.duration, 5.0)
+    east, north = walk.position(t)
+    lat, lon = offset(MANHATTAN_DATUM[0], MANHATTAN_DATUM[1], north, east)
+    zones = zmap.lookup(lat, lon)
+    shares = [(zones == z).mean() for z in (0, 1)]
+    assert min(shares) > 0.05, shares
+    assert set(np.unique(zones)) <= {0, 1, OUTSIDE}
