@@ -114,3 +114,19 @@ def test_damage_note_names_lost_steps_and_truth_gaps():
     note = damage_note(errors_on_grid(holed), 955, 0)
     assert '45 of 1000 steps missing' in note and 'slower' in note
     assert 'gaps of the truth' in damage_note(errors_on_grid(whole), 1000, 30)
+
+
+def test_calibrate_says_how_little_data_it_had(tmp_path, capsys):
+    """216 samples (the new user's phone): the span, the PACF's bound and both orders."""
+    from gps_error_ros.cli import main as gps_error
+    from gps_error_ros.fit.calibration import little_data_note
+    short, _ = synthetic_trace(216, seed=4)
+    note = little_data_note(calibrate(short))
+    assert note.startswith('216 samples (3.6 min) is little data')
+    assert '+-0.133' in note and 'north PACF' in note and 'BIC' in note
+    assert little_data_note(calibrate(synthetic_trace(600, seed=4)[0])) is None
+    src = write_csv(tmp_path / 'short.csv', short)
+    assert gps_error(['calibrate', str(src), '-o', str(tmp_path / 'p.yaml')]) == 0
+    said = capsys.readouterr().out
+    assert 'note: 216 samples (3.6 min) is little data' in said
+    assert 'mean error' in said and 'stationary SD' in said

@@ -198,3 +198,20 @@ def test_street_frame_turns_with_the_walker_in_node_and_simulate(tmp_path):
                 legs['north'] += 1
             assert m.position_covariance_type == NavSatFix.COVARIANCE_TYPE_KNOWN
     assert legs['east'] >= 30 and legs['north'] >= 30, legs
+
+
+def test_the_start_line_names_what_serves_outside_the_zones(tmp_path):
+    """A map whose default_profile (DS1) is not the run's profile (DS5): DS1's name and figures."""
+    import time
+    raw = json.loads(zone_map(tmp_path / 'z.geojson').read_text())
+    raw['default_profile'] = 'DS1'
+    (tmp_path / 'z.geojson').write_text(json.dumps(raw))
+    node = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', 'profile:=DS5',
+                        '-p', 'input_type:=navsatfix', '-p', f'zones:={tmp_path / "z.geojson"}'])
+    time.sleep(4.0)                     # up and logged its start-up line
+    rc, out = node.stop()
+    assert rc == 0, out
+    rms = load_profile('DS1').model(about_truth=True).stationary_sd
+    assert (f"profile DS1 (the map's default_profile) outside the zones: rms error about "
+            f"the truth north {rms[0]:.2f} m, east {rms[1]:.2f} m") in out, out
+    assert 'west profile DS1, east profile DS5' in out and 'profile DS5:' not in out, out
