@@ -1,5 +1,5 @@
 """
-A downstream filter meets the node's gross failures: a gate that trusts the covariance rejects them.
+A downstream filter meets the node's gross failures: a gate on the covariance rejects them.
 
 The node serves a profile with a ``gross_failures`` section; a constant-
 position Kalman filter (as a localisation stack would run on a standing
