@@ -249,6 +249,35 @@ def with_law(effects, orders, mean, r, d, regimes):
                        tuple(orders), mean, law, ll, len(r), scales)
 
 
+#: Training samples the jump parameters' search scores at most (longer
+#: recordings: :data:`SEARCH_BLOCKS` blocks spread evenly over them).
+SEARCH_SAMPLES = 6000
+SEARCH_BLOCKS = 6
+
+
+def search_sample(r, d, limit=SEARCH_SAMPLES, blocks=SEARCH_BLOCKS):
+    """
+    Return the residuals and design (``r``, ``d``) the parameter search scores.
+
+    Up to ``limit`` samples: all of them, unchanged. Beyond, ``blocks``
+    contiguous blocks spread evenly over the part, ``limit`` samples in all,
+    each block its own segment (no filter step spans two). The search finds
+    the likelihood's maximum; its precision is that of ``limit`` samples,
+    and its cost stops growing with the recording (a day at 1 Hz has 60,000
+    training samples). The filter then runs over every sample.
+    """
+    n = len(r)
+    if n <= limit:
+        return r, d
+    size = limit // blocks
+    keep = np.zeros(n, dtype=bool)
+    for start in np.linspace(0, n - size, blocks).astype(int):
+        keep[start:start + size] = True
+    sub = jumps.design_subset(d, keep)
+    sub.seg = jumps.broken_segments(d.seg, keep)
+    return np.asarray(r)[keep], sub
+
+
 def with_jumps(effects, orders, mean, r, d, regimes):
     """
     Return the :class:`FittedModel` with ``outliers`` (see :mod:`.jumps`).
@@ -282,7 +311,8 @@ def with_jumps(effects, orders, mean, r, d, regimes):
         cov = average_cov(model.law, others)
         scale2 = cycle_scale2(d, mean.period, model.cycle_scales)
         sd = math.sqrt(0.5 * np.trace(cov))
-        params, dof = jumps.search_params(lambda c: model.jump_logliks(r, d, c), sd, params,
+        rs, ds = search_sample(r, d)
+        params, dof = jumps.search_params(lambda c: model.jump_logliks(rs, ds, c), sd, params,
                                           model.law.dof, tails, wide)
     model = replace(model, jumps=params, law=replace(model.law, dof=dof))
     return replace(model, train_loglik=float(np.sum(model._score_jumps(r, d, False))),

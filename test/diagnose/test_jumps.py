@@ -173,3 +173,25 @@ def test_a_large_innovation_that_persists_is_not_followed_as_a_long_jump():
     assert (jf.inside[99:160] > 0.5).sum() <= 5
     assert np.all(jf.inside[249:252] > 0.5) and np.all(jf.inside[252:256] < 0.1)
     np.testing.assert_allclose(jf.offset[250], (-10.0, 8.0), atol=3.0)
+
+
+def test_the_search_scores_a_bounded_sample_of_a_long_part():
+    """Up to SEARCH_SAMPLES: everything, as it is; beyond: evenly spread blocks, each a segment."""
+    from gps_error_ros.diagnose.mean import Design
+    from gps_error_ros.diagnose.models import SEARCH_BLOCKS, SEARCH_SAMPLES, search_sample
+
+    def part(n):
+        r = np.arange(2.0 * n).reshape(n, 2)
+        seg = np.repeat([0, 1], [n // 3, n - n // 3])
+        return r, Design(r.copy(), [r[:, :1], r[:, 1:]], seg, None, np.arange(n))
+
+    r, d = part(SEARCH_SAMPLES)
+    assert search_sample(r, d) == (r, d)            # the same objects: results unchanged
+    r, d = part(60000)
+    rs, ds = search_sample(r, d)
+    assert len(rs) == len(ds.y) == SEARCH_SAMPLES
+    size = SEARCH_SAMPLES // SEARCH_BLOCKS
+    starts = rs[::size, 0] / 2
+    assert starts[0] == 0 and starts[-1] == 60000 - size and np.all(np.diff(starts) > size)
+    assert len(np.unique(ds.seg)) >= SEARCH_BLOCKS     # no block joins the next
+    assert np.all(np.diff(ds.seg) >= 0) and np.array_equal(ds.steps, rs[:, 0] / 2)
