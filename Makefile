@@ -54,13 +54,14 @@ walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
-# 10-13 minutes on a 2-core machine; see docs/performance.md.
+# 15-18 minutes on a 2-core machine; see docs/performance.md.
 bench: setup
 	mkdir -p bench_output
 	$(PY) bench/bench_library.py --json bench_output/library.json
 	$(PY) bench/bench_node.py --json bench_output/node.json
 	$(PY) bench/bench_simulate_fcd.py --json bench_output/simulate_fcd.json
 	$(PY) bench/bench_zones.py --json bench_output/zones.json
+	$(PY) bench/bench_long_recording.py --json bench_output/long_recording.json
 
 # Soak (not part of make test, which runs 12- and 10-minute versions): 24
 # simulated hours for 100 agents, then one simulated hour for 1,000 agents, as

@@ -295,13 +295,18 @@ def improvement_note(summary):
 def cmd_diagnose(args):
     """Run ``gps_error diagnose``; return the exit code."""
     from gps_error_ros.diagnose import diagnose, extended_profile
+    from gps_error_ros.diagnose.pipeline import STAGES
     from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
 
     for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
         if path:
             _check_output_dir(path, option)
     trace, found = _load_clean(args)
-    diag = diagnose(trace, sims=args.sims, seed=args.seed)
+    progress = _stage_progress(trace, STAGES, 'diagnosing')
+    try:
+        diag = diagnose(trace, sims=args.sims, seed=args.seed, done=progress.update)
+    finally:
+        progress.close()
     s = diag.summary
     print(f'{trace.name}: {s["samples"]} samples, {s["train_samples"]} train / '
           f'{s["test_samples"]} held out ({s["split"]["rule"]})')
@@ -337,6 +342,17 @@ def cmd_diagnose(args):
     return 0
 
 
+#: Samples from which diagnose and compare show their progress (on a terminal).
+LONG_RECORDING = 20000
+
+
+def _stage_progress(trace, stages, what):
+    """Return a progress bar over ``stages`` stages, shown for long recordings."""
+    from gps_error_ros.traces.progress import Progress
+    return Progress(stages, f'{what} {trace.name}',
+                    min_total=0 if len(trace) >= LONG_RECORDING else stages + 1)
+
+
 def _write_results(args, doc, figure_name, draw):
     """Write ``doc`` to ``--json`` and ``draw(path)`` into ``--report``, if asked."""
     from gps_error_ros.reports.jsonfile import write_json
@@ -353,13 +369,17 @@ def _write_results(args, doc, figure_name, draw):
 def cmd_compare(args):
     """Run ``gps_error compare``; return the exit code."""
     from gps_error_ros.diagnose.baselines import compare, compare_json
-    from gps_error_ros.diagnose.pipeline import fit_models
+    from gps_error_ros.diagnose.pipeline import fit_models, STAGES
     from gps_error_ros.reports.compare_figure import compare_figure
 
     if args.json_out:
         _check_output_dir(args.json_out, '--json')
     trace, found = _load_clean(args)
-    fitted = fit_models(trace)      # the held-out simulation is compare's own
+    progress = _stage_progress(trace, STAGES - 2, 'fitting the classes of')
+    try:
+        fitted = fit_models(trace, done=progress.update)   # the held-out simulation: compare's
+    finally:
+        progress.close()
     doc = compare_json(trace.name, fitted.split,
                        compare(fitted, sims=args.sims, seed=args.seed))
     doc['gross_failures'] = _failures_doc(found)

@@ -114,16 +114,24 @@ def fidelity_of(part, simulated, max_lag=FIDELITY_MAX_LAG):
 
 
 def block_bootstrap_mean(x, seed=0, block=30, reps=2000):
-    """Return (mean, 2.5 %, 97.5 %) of ``x`` by a moving-block bootstrap."""
+    """
+    Return (mean, 2.5 %, 97.5 %) of ``x`` by a moving-block bootstrap.
+
+    Each resample is ``n / block`` blocks (the last cut to make ``n``),
+    summed from prefix sums: memory ``reps x blocks``, not ``reps x n``
+    (a day's held-out part at 1 Hz made the index array 0.4 GB).
+    """
     x = np.asarray(x, dtype=float)
     n = x.size
     block = max(1, min(block, n))
     rng = np.random.default_rng(seed)
     nb = -(-n // block)
     starts = rng.integers(0, n - block + 1, size=(reps, nb))
-    idx = (starts[:, :, None] + np.arange(block)).reshape(reps, -1)[:, :n]
-    means = x[idx].mean(axis=1)
-    lo, hi = np.quantile(means, [0.025, 0.975])
+    cs = np.r_[0.0, np.cumsum(x)]
+    last = n - (nb - 1) * block                 # the last block's length
+    sums = (cs[starts[:, :-1] + block] - cs[starts[:, :-1]]).sum(axis=1) + \
+        (cs[starts[:, -1] + last] - cs[starts[:, -1]])
+    lo, hi = np.quantile(sums / n, [0.025, 0.975])
     return float(x.mean()), float(lo), float(hi)
 
 

@@ -251,7 +251,7 @@ def with_law(effects, orders, mean, r, d, regimes):
 
 #: Training samples the jump parameters' search scores at most (longer
 #: recordings: :data:`SEARCH_BLOCKS` blocks spread evenly over them).
-SEARCH_SAMPLES = 6000
+SEARCH_SAMPLES = 4000
 SEARCH_BLOCKS = 6
 
 

@@ -419,29 +419,42 @@ class FittedModels:
     extended: FittedModel
 
 
-def fit_models(trace, alpha=ALPHA, seed=0):
-    """Run steps 1-5 (no held-out simulation); return :class:`FittedModels`."""
-    return fit_split(trace.name, split_step(trace), alpha, seed)
+#: The stages of :func:`diagnose`, for a progress report (``done``, one call each).
+STAGES = 7
 
 
-def fit_split(name, split, alpha=ALPHA, seed=0):
+def fit_models(trace, alpha=ALPHA, seed=0, done=None):
+    """Run steps 1-5, ``done()`` after each of 5 stages (no held-out simulation)."""
+    return fit_split(trace.name, split_step(trace), alpha, seed, done)
+
+
+def _tick(done, value):
+    """Return ``value`` after calling ``done`` (a stage finished), if given."""
+    if done is not None:
+        done()
+    return value
+
+
+def fit_split(name, split, alpha=ALPHA, seed=0, done=None):
     """Run steps 2-5 on a given :class:`Split`; return :class:`FittedModels`."""
-    base = fit_base(split)
-    family = run_family(split, base, round_levels(alpha)[0])
-    att = attribute(split, base, family)
-    sel = select_effects(split, att.orders_for, att.effects, att.regimes, seed, att.period)
-    return FittedModels(name, split, base, family, att, sel,
-                        fit_extended(split, base, att, sel.kept))
+    base = _tick(done, fit_base(split))
+    family = _tick(done, run_family(split, base, round_levels(alpha)[0]))
+    att = _tick(done, attribute(split, base, family))
+    sel = _tick(done, select_effects(split, att.orders_for, att.effects, att.regimes, seed,
+                                     att.period))
+    extended = _tick(done, fit_extended(split, base, att, sel.kept))
+    return FittedModels(name, split, base, family, att, sel, extended)
 
 
-def diagnose(trace, sims=100, seed=0, alpha=ALPHA):
-    """Run the whole procedure on a trace; return a :class:`Diagnosis`."""
-    fitted = fit_models(trace, alpha, seed)
+def diagnose(trace, sims=100, seed=0, alpha=ALPHA, done=None):
+    """Run the whole procedure (``done``: after each of :data:`STAGES`); a :class:`Diagnosis`."""
+    fitted = fit_models(trace, alpha, seed, done)
     split, base, family = fitted.split, fitted.base, fitted.family
     att, extended = fitted.attribution, fitted.extended
-    retests, ext_residuals = retest_extended(split, extended, att, round_levels(alpha)[1])
-    before, after, improvement, scored = heldout_measures(
-        split, base, extended, sims, seed, trace.name)
+    retests, ext_residuals = _tick(done, retest_extended(split, extended, att,
+                                                         round_levels(alpha)[1]))
+    before, after, improvement, scored = _tick(done, heldout_measures(
+        split, base, extended, sims, seed, trace.name))
     summary = {
         'input': trace.name, 'samples': split.train.n + split.test.n,
         'train_samples': split.train.n, 'test_samples': split.test.n,
