@@ -49,12 +49,12 @@ calibration-doc: setup
 	$(PY) tools/calibration_doc.py --data $(DATA) --out docs
 
 # The built-in profile snapshot-receiver-on-foot and docs/walks.md, from the
-# SnapperGPS walks of ../shared/data (about 5 s).
+# SnapperGPS walks of ../shared/data (about two minutes).
 walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
-# 15-18 minutes on a 2-core machine; see docs/performance.md.
+# About 35 minutes on a 2-core machine; see docs/performance.md.
 bench: setup
 	mkdir -p bench_output
 	$(PY) bench/bench_library.py --json bench_output/library.json

@@ -6,7 +6,8 @@ Calibrates one profile from every SnapperGPS walk in ``--data``
 ``config/profiles/snapshot-receiver-on-foot.yaml``, and writes
 ``docs/walks.md``: each walk's gross failures, its fitted SD against its
 robust SD, and the profile fitted without each walk validated on that walk
-(leave one recording out). ``make walks-profile`` runs it.
+(leave one recording out), and what ``gps_error diagnose`` finds on each
+walk. ``make walks-profile`` runs it (about two minutes).
 """
 
 import argparse
@@ -64,6 +65,30 @@ def _left_out_rows(traces, seed=1):
                     f'{v["north"]["mean_m"]:.1f} / {v["east"]["mean_m"]:.1f} | '
                     f'{found.count} of {len(tr)} | {rate * len(tr):.1f} |')
     return rows
+
+
+def _diagnosis_rows(traces, seed=1):
+    """Return per-walk rows of what ``gps_error diagnose`` finds (its failures left out)."""
+    from gps_error_ros.diagnose import diagnose
+    rows = []
+    for tr in traces:
+        found = calibrate(tr).failures[0]
+        s = diagnose(without_rows(tr, found.mask), sims=SIMS // 2, seed=seed).summary
+        acf1 = [float(np.corrcoef(v[:-1], v[1:])[0, 1]) for v in _errors(tr, found.mask)]
+        imp = s['improvement']
+        rows.append(f'| {tr.name} | {acf1[0]:.2f} / {acf1[1]:.2f} | '
+                    f'{s["base"]["order"]["north"]} / {s["base"]["order"]["east"]} | '
+                    f'{", ".join(e["name"] for e in s["effects"]) or "none"} | '
+                    f'{", ".join(s["selection"]["kept"]) or "none"} | '
+                    f'{imp["heldout_nll_per_sample"]:.3f} ({imp["ci95"][0]:.3f} .. '
+                    f'{imp["ci95"][1]:.3f}) |')
+    return rows
+
+
+def _errors(tr, failed):
+    """Return the walk's north and east errors without its gross failures, m."""
+    north, east = difference(tr.lat, tr.lon, tr.truth_lat, tr.truth_lon)
+    return north[~failed], east[~failed]
 
 
 def main():
@@ -145,6 +170,26 @@ def main():
         'The quantiles miss where a walk\'s own bias lies outside what one mean for all '
         'walks can simulate: a stationary profile with one fixed mean cannot cover a '
         'receiver whose bias moves from walk to walk.',
+        '',
+        '## What the diagnosis finds',
+        '',
+        f'`gps_error diagnose` on each walk, its gross failures left out ({SIMS // 2} '
+        'simulated traces): the lag-1 autocorrelation of the errors, the base AR orders, '
+        'the effects found and those the cross-validated selection keeps, and the held-out '
+        'NLL improvement per sample with its 95 % interval. For comparison, the GSDC '
+        'phones\' lag-1 autocorrelation is about 0.98 and their diagnosis is in '
+        '[close-the-loop.md](close-the-loop.md).',
+        '',
+        '| walk | lag-1 ACF N / E | base orders N / E | effects found | kept | '
+        'held-out NLL improvement |',
+        '|---|---|---|---|---|---|',
+        *_diagnosis_rows(traces),
+        '',
+        'A snapshot receiver\'s errors are nearly white: the lag-1 autocorrelation is '
+        'small and the base model is of low order, where a phone\'s filtered fix is '
+        'strongly persistent. What the diagnosis finds instead is in the spread: heavy '
+        'tails and variance that changes over the walk, which the failures rule leaves '
+        '(it removes what is not an estimate at all, not the bad estimates).',
         '']
     (Path(args.out) / 'docs' / 'walks.md').write_text('\n'.join(lines))
     print(f'wrote {dst} and docs/walks.md')
