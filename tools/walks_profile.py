@@ -70,11 +70,17 @@ def _left_out_rows(traces, seed=1):
 def _diagnosis_rows(traces, seed=1):
     """Return per-walk rows of what ``gps_error diagnose`` finds (its failures left out)."""
     from gps_error_ros.diagnose import diagnose
+    from gps_error_ros.diagnose.common import DiagnosisError
     rows = []
     for tr in traces:
         found = calibrate(tr).failures[0]
-        s = diagnose(without_rows(tr, found.mask), sims=SIMS // 2, seed=seed).summary
         acf1 = [float(np.corrcoef(v[:-1], v[1:])[0, 1]) for v in _errors(tr, found.mask)]
+        try:
+            s = diagnose(without_rows(tr, found.mask), sims=SIMS // 2, seed=seed).summary
+        except DiagnosisError as exc:
+            rows.append(f'| {tr.name} | {acf1[0]:.2f} / {acf1[1]:.2f} | - | too short to '
+                        f'diagnose alone ({str(exc).split(": ", 1)[1]}) | | |')
+            continue
         imp = s['improvement']
         rows.append(f'| {tr.name} | {acf1[0]:.2f} / {acf1[1]:.2f} | '
                     f'{s["base"]["order"]["north"]} / {s["base"]["order"]["east"]} | '
@@ -186,10 +192,11 @@ def main():
         *_diagnosis_rows(traces),
         '',
         'A snapshot receiver\'s errors are nearly white: the lag-1 autocorrelation is '
-        'small and the base model is of low order, where a phone\'s filtered fix is '
-        'strongly persistent. What the diagnosis finds instead is in the spread: heavy '
-        'tails and variance that changes over the walk, which the failures rule leaves '
-        '(it removes what is not an estimate at all, not the bad estimates).',
+        'small (the orders the PACF picks come with small coefficients), where a phone\'s '
+        'filtered fix is strongly persistent. What the diagnosis finds instead is in the '
+        'spread: heavy tails, variance that changes over the walk and, on some walks, '
+        'north-east coupling. The failures rule leaves the bad estimates in (it removes '
+        'what is not an estimate at all), and these effects describe them.',
         '']
     (Path(args.out) / 'docs' / 'walks.md').write_text('\n'.join(lines))
     print(f'wrote {dst} and docs/walks.md')
