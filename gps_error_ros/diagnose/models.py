@@ -260,8 +260,8 @@ def search_sample(r, d, limit=SEARCH_SAMPLES, blocks=SEARCH_BLOCKS):
     Return the residuals and design (``r``, ``d``) the parameter search scores.
 
     Up to ``limit`` samples: all of them, unchanged. Beyond, ``blocks``
-    contiguous blocks spread evenly over the part, ``limit`` samples in all,
-    each block its own segment (no filter step spans two). The search finds
+    contiguous blocks of ``limit // blocks`` samples spread evenly over the
+    part, each block its own segment (no filter step spans two). The search finds
     the likelihood's maximum; its precision is that of ``limit`` samples,
     and its cost stops growing with the recording (a day at 1 Hz has 60,000
     training samples). The filter then runs over every sample.

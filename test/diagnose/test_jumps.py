@@ -189,8 +189,8 @@ def test_the_search_scores_a_bounded_sample_of_a_long_part():
     assert search_sample(r, d) == (r, d)            # the same objects: results unchanged
     r, d = part(60000)
     rs, ds = search_sample(r, d)
-    assert len(rs) == len(ds.y) == SEARCH_SAMPLES
     size = SEARCH_SAMPLES // SEARCH_BLOCKS
+    assert len(rs) == len(ds.y) == size * SEARCH_BLOCKS
     starts = rs[::size, 0] / 2
     assert starts[0] == 0 and starts[-1] == 60000 - size and np.all(np.diff(starts) > size)
     assert len(np.unique(ds.seg)) >= SEARCH_BLOCKS     # no block joins the next
