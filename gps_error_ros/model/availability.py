@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.wrapped import OneMoreColumn
 
 
 class AvailabilityError(ValueError):
@@ -133,33 +134,23 @@ def availability_from_dict(raw, source='<profile>'):
                         tuple(float(pairs[i][1]) for i in order))
 
 
-class WithAvailability:
+class WithAvailability(OneMoreColumn):
     """
     An error model with fix availability: the inner model's errors, unchanged.
 
     The state is the inner model's with one more column: ``[:, 0, -1]`` the
-    steps of outage left (0: a fix). Everything else is the inner model's.
+    steps of outage left (0: a fix). Everything else is the inner model's
+    (:class:`~.wrapped.OneMoreColumn`).
     """
 
     def __init__(self, inner, availability):
-        self.inner = inner
+        super().__init__(inner)
         self.availability = availability
-
-    def __getattr__(self, name):
-        # moments, lag_s, order, axes ... are the inner model's
-        return getattr(self.inner, name)
-
-    def empty_state(self, n):
-        """Return a state array for ``n`` agents (zeros: all with a fix)."""
-        inner = self.inner.empty_state(n)
-        return np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
 
     def initial_state(self, keys, index):
         """Draw the inner state and the outage state at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        inner = self.inner.initial_state(keys, index)
-        state = np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
-        state[:, :, :-1] = inner
+        state = self._wider(self.inner.initial_state(keys, index))
         state[:, 0, -1] = self.availability.initial(keys, index)
         return state
 
@@ -172,18 +163,6 @@ class WithAvailability:
         state[:, 0, -1] = left
         return err
 
-    def errors(self, state):
-        """Return the current north/east errors of the inner model, (n, 2)."""
-        return self.inner.errors(state[:, :, :-1])
-
-    def predictive_cov(self, state, first=False):
-        """Return the inner model's covariance of the next error (n, 2, 2)."""
-        return self.inner.predictive_cov(state[:, :, :-1], first)
-
-    def predictive_mean(self, state, first=False):
-        """Return the inner model's expected next error (n, 2)."""
-        return self.inner.predictive_mean(state[:, :, :-1], first)
-
     def available(self, state):
         """Return which agents have a fix at the current step."""
         return state[:, 0, -1] == 0
@@ -191,9 +170,7 @@ class WithAvailability:
     def state_after(self, keys, start, step):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        inner = self.inner.state_after(keys, start, step)
-        state = np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
-        state[:, :, :-1] = inner
+        state = self._wider(self.inner.state_after(keys, start, step))
         left = self.availability.initial(keys, start)
         for k in range(start + 1, step + 1):
             self.availability.advance(left, keys, k)

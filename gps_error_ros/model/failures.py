@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.wrapped import OneMoreColumn
 
 #: The largest failure distance a profile may carry, m (a fix on the wrong continent).
 MAX_SIZE_M = 2.0e7
@@ -119,31 +120,19 @@ def failures_from_sizes(count, fixes, sizes_m, quantiles=11):
     return GrossFailureProcess(count / fixes, tuple(float(v) for v in sizes))
 
 
-class WithFailures:
+class WithFailures(OneMoreColumn):
     """
     An error model with gross failures: the inner model's errors, replaced where a fix failed.
 
     The state is the inner model's with one more column: ``[:, :, -1]`` this
-    step's failure offset (north, east; zero: no failure). Everything else
-    is the inner model's.
+    step's failure offset (north, east; zero: no failure). Everything else,
+    the covariances too (they do not cover failures), is the inner model's
+    (:class:`~.wrapped.OneMoreColumn`).
     """
 
     def __init__(self, inner, failures):
-        self.inner = inner
+        super().__init__(inner)
         self.failures = failures
-
-    def __getattr__(self, name):
-        # moments, lag_s, order, axes, predictive_cov's inputs ... are the inner model's
-        return getattr(self.inner, name)
-
-    def _wider(self, inner):
-        state = np.zeros(inner.shape[:2] + (inner.shape[2] + 1,))
-        state[:, :, :-1] = inner
-        return state
-
-    def empty_state(self, n):
-        """Return a state array for ``n`` agents (zeros: no failure)."""
-        return self._wider(self.inner.empty_state(n))
 
     def initial_state(self, keys, index):
         """Draw the inner state and this step's failure at model step ``index``."""
@@ -166,14 +155,6 @@ class WithFailures:
         off = state[:, :, -1]
         return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)
 
-    def predictive_cov(self, state, first=False):
-        """Return the inner model's covariance of the next error (failures not covered)."""
-        return self.inner.predictive_cov(state[:, :, :-1], first)
-
-    def predictive_mean(self, state, first=False):
-        """Return the inner model's expected next error (n, 2)."""
-        return self.inner.predictive_mean(state[:, :, :-1], first)
-
     def state_after(self, keys, start, step, *args, **kwargs):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
@@ -190,8 +171,3 @@ class WithFailures:
             if fails.any():
                 out[k, fails] = off[fails]
         return out
-
-
-def without_failures(model):
-    """Return ``model`` without its gross failures (itself when it has none)."""
-    return model.inner if isinstance(model, WithFailures) else model
