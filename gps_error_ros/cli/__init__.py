@@ -433,9 +433,7 @@ def cmd_import(args):
                                     args.max_truth_gap, args.provider, args.truth_date)
     for line in notes:
         print(line)
-    found = find_gross_failures(trace)
-    print(found.describe().replace(', kept out of the error fit', '')
-          + ('; kept in the trace, calibrate leaves them out' if found.count else ''))
+    print(find_gross_failures(trace).describe(kept_out=False))
     write_trace_csv(trace, args.output)
     print(f'wrote {args.output}: {len(trace)} rows')
     return 0

@@ -147,8 +147,13 @@ class GrossFailures:
         """Return the share of fixes that are gross failures."""
         return self.count / self.rows if self.rows else 0.0
 
-    def describe(self, listed=5):
-        """Return a line for people: how many, which, and the rule."""
+    def describe(self, listed=5, kept_out=True):
+        """
+        Return a line for people: how many, which, and the rule.
+
+        ``kept_out``: the command leaves them out of its error fit (else they
+        stay in what it writes, and the line says calibrate leaves them out).
+        """
         name = self.name
         rule = (f'more than {K_ROBUST_SD:g} robust SDs (north {self.scale_m[0]:.3g} m, '
                 f'east {self.scale_m[1]:.3g} m) from both the trace\'s median error and '
@@ -158,8 +163,10 @@ class GrossFailures:
         order = np.argsort(-self.size_m)[:listed]
         items = ', '.join(f't={self.t[i]:.0f} s {self.size_m[i]:.0f} m' for i in order)
         more = f' and {self.count - listed} more' if self.count > listed else ''
+        fate = 'kept out of the error fit' if kept_out else \
+            'kept in the trace, calibrate leaves them out'
         return (f'{name}: {self.count} gross failure(s) of {self.rows} fixes ({rule}), '
-                f'kept out of the error fit; largest: {items}{more}')
+                f'{fate}; largest: {items}{more}')
 
     def summary(self):
         """Return the findings as plain data (the fit and JSON reports carry it)."""

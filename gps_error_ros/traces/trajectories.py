@@ -70,6 +70,16 @@ _SUMO_HEADER = re.compile(r'<!--(.*?)-->', re.S)
 _GEO_OPTION = re.compile(r'<fcd-output\.geo\s+value="(true|1|yes|on)"', re.I)
 
 
+def _before_root(path, head_bytes):
+    """Return the text before an FCD file's ``<fcd-export>`` (SUMO's options comment)."""
+    try:
+        with open(path, 'rb') as f:
+            head = f.read(head_bytes).decode('utf-8', errors='replace')
+    except OSError as exc:
+        raise TrajectoryError(f'{path}: cannot open: {exc}') from None
+    return head.split('<fcd-export', 1)[0]
+
+
 def fcd_coordinates(path, head_bytes=1 << 16):
     """
     Return 'lonlat' or 'xy' as SUMO's options comment says, or None.
@@ -81,13 +91,7 @@ def fcd_coordinates(path, head_bytes=1 << 16):
     value="true"/>``. A file without that comment (written by hand or another
     tool) gives None.
     """
-    try:
-        with open(path, 'rb') as f:
-            head = f.read(head_bytes).decode('utf-8', errors='replace')
-    except OSError as exc:
-        raise TrajectoryError(f'{path}: cannot open: {exc}') from None
-    head = head.split('<fcd-export', 1)[0]
-    for comment in _SUMO_HEADER.findall(head):
+    for comment in _SUMO_HEADER.findall(_before_root(path, head_bytes)):
         if 'SUMO' in comment and ('<configuration' in comment
                                   or '<sumoConfiguration' in comment):
             return 'lonlat' if _GEO_OPTION.search(comment) else 'xy'
@@ -105,13 +109,7 @@ def fcd_net_file(path, head_bytes=1 << 16):
     resolves it against the directory it ran in); None when it is in
     neither place or the comment names none.
     """
-    try:
-        with open(path, 'rb') as f:
-            head = f.read(head_bytes).decode('utf-8', errors='replace')
-    except OSError as exc:
-        raise TrajectoryError(f'{path}: cannot open: {exc}') from None
-    head = head.split('<fcd-export', 1)[0]
-    found = _NET_FILE.search(head)
+    found = _NET_FILE.search(_before_root(path, head_bytes))
     if found is None:
         return None
     name = Path(found.group(1).split(',')[0].strip())
