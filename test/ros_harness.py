@@ -225,6 +225,32 @@ def errors(fixes, truth_lat, truth_lon):
     return np.stack(difference(lat, lon, truth_lat, truth_lon), axis=1)
 
 
+def covariances_ne(fixes):
+    """Return each fix's horizontal covariance as north/east (m, 2, 2), from ENU."""
+    return np.array([np.array(f.position_covariance).reshape(3, 3)[:2, :2][::-1, ::-1]
+                     for f in fixes])
+
+
+def standing_fixes(peer, profile, steps, *params):
+    """
+    Return the fixes of a node serving ``profile`` to a pedestrian standing at DATUM.
+
+    The node runs on /clock in a namespace of its own, with ``params``
+    (``name:=value``); ``steps`` simulated seconds are driven, and the node
+    must stop cleanly.
+    """
+    from sensor_msgs.msg import NavSatFix
+    ns = unique_ns()
+    node = start(ns, f'profile:={profile}', DATUM_ARG, *params)
+    pub = peer.publisher(PoseStamped, f'{ns}/pose')
+    box = peer.collect(NavSatFix, f'{ns}/fix')
+    peer.wait_connected(pub, f'{ns}/fix', node)
+    drive(peer, pub, box, steps)
+    rc, out = node.stop()
+    assert rc == 0, out
+    return box
+
+
 def replay_calibration_node(ns, out, *params):
     """
     Start the calibration node on /clock for a bag replayed by ``bag_play``.

@@ -18,7 +18,8 @@ import platform
 import numpy as np
 
 from gps_error_ros.fit.calibration import calibrate
-from gps_error_ros.fit.gross_failures import robust_centre_scale, without_rows
+from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre_scale,
+                                              without_rows)
 from gps_error_ros.fit.validation import validate
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.geodesy import difference
@@ -55,7 +56,7 @@ def _left_out_rows(traces, seed=1):
         res = calibrate(rest)
         prof = res.profile_dict('left-out')
         model = profile_from_dict(prof).model(gross_failures=False)
-        found = calibrate(tr).failures[0]
+        found = find_gross_failures(tr)
         v = validate(model, without_rows(tr, found.mask), sims=SIMS, seed=seed).summary()
         rate = prof.get('gross_failures', {}).get('rate', 0.0)
         rows.append(f'| {tr.name} | {100 * v["north"]["acf_lags_inside_envelope"]:.0f} / '
@@ -73,7 +74,7 @@ def _diagnosis_rows(traces, seed=1):
     from gps_error_ros.diagnose.common import DiagnosisError
     rows = []
     for tr in traces:
-        found = calibrate(tr).failures[0]
+        found = find_gross_failures(tr)
         acf1 = [float(np.corrcoef(v[:-1], v[1:])[0, 1]) for v in _errors(tr, found.mask)]
         try:
             s = diagnose(without_rows(tr, found.mask), sims=SIMS // 2, seed=seed).summary

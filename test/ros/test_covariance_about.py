@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import PoseStamped
 from scipy import stats
 from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.model.profiles import profile_from_dict
-from ros_harness import DATUM, DATUM_ARG, drive, errors, start, unique_ns
+from ros_harness import covariances_ne, DATUM, errors, standing_fixes
 
 pytestmark = pytest.mark.integration
 STEPS = 400
@@ -32,22 +31,12 @@ def _fixes(tmp_path, peer, *params):
     import yaml
     path = tmp_path / 'biased.yaml'
     path.write_text(yaml.safe_dump(BIASED))
-    ns = unique_ns()
-    node = start(ns, f'profile:={path}', DATUM_ARG, 'seed:=11', *params)
-    pub = peer.publisher(PoseStamped, f'{ns}/pose')
-    box = peer.collect(NavSatFix, f'{ns}/fix')
-    peer.wait_connected(pub, f'{ns}/fix', node)
-    drive(peer, pub, box, STEPS)
-    rc, out = node.stop()
-    assert rc == 0, out
-    return box
+    return standing_fixes(peer, path, STEPS, 'seed:=11', *params)
 
 
 def _d2(box):
     err = errors(box, DATUM[0], DATUM[1])
-    cov = np.array([np.array(f.position_covariance).reshape(3, 3)[:2, :2] for f in box])
-    cov_ne = cov[:, ::-1, ::-1]                     # ENU -> north/east
-    return np.einsum('ni,nij,nj->n', err, np.linalg.inv(cov_ne), err), err
+    return np.einsum('ni,nij,nj->n', err, np.linalg.inv(covariances_ne(box)), err), err
 
 
 def test_fixes_lie_within_the_stated_covariance_about_the_truth(tmp_path, peer):

@@ -12,12 +12,10 @@ they drag it away.
 import numpy as np
 import pytest
 import yaml
-from geometry_msgs.msg import PoseStamped
 from scipy import stats
-from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.model.profiles import builtin_dir
-from ros_harness import DATUM, DATUM_ARG, drive, errors, start, unique_ns
+from ros_harness import covariances_ne, DATUM, errors, standing_fixes
 
 pytestmark = pytest.mark.integration
 STEPS = 240
@@ -46,17 +44,9 @@ def test_a_gated_filter_rejects_the_failed_fixes(tmp_path, peer):
     raw['gross_failures'] = {'rate': 0.04, 'sizes_m': [300.0, 900.0, 5000.0]}
     path = tmp_path / 'failing.yaml'
     path.write_text(yaml.safe_dump(raw))
-    ns = unique_ns()
-    node = start(ns, f'profile:={path}', DATUM_ARG, 'seed:=21')
-    pub = peer.publisher(PoseStamped, f'{ns}/pose')
-    box = peer.collect(NavSatFix, f'{ns}/fix')
-    peer.wait_connected(pub, f'{ns}/fix', node)
-    drive(peer, pub, box, STEPS)
-    rc, out = node.stop()
-    assert rc == 0, out
+    box = standing_fixes(peer, path, STEPS, 'seed:=21')
     z = errors(box, DATUM[0], DATUM[1])                 # north/east of the truth, m
-    covs = np.array([np.array(f.position_covariance).reshape(3, 3)[:2, :2][::-1, ::-1]
-                     for f in box])
+    covs = covariances_ne(box)
     failed = np.hypot(z[:, 0], z[:, 1]) > 250.0
     assert 3 <= failed.sum() <= 25, failed.sum()         # 4 % of 240, all 300 m or more
     est, rejected = _filter(z, covs)
