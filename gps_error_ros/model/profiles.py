@@ -20,8 +20,8 @@ without them behaves exactly as the paper's model) and ``availability``
 (fix outages, :mod:`availability`; without it every step has a fix) and
 ``velocity`` (reported speed and course, :mod:`velocity`) and
 ``reported_accuracy`` (the accuracy the phone states, :mod:`reported`) and
-``gross_failures`` (fixes that failed, :mod:`failures`). A
-profile without
+``gross_failures`` (fixes that failed, :mod:`failures`) and ``population``
+(each agent's own bias and scale, :mod:`population`). A profile without
 ``axes`` is a placeholder for a data set with no published fit; it loads, but
 :meth:`Profile.model` refuses it. Any other key is an error.
 """
@@ -42,6 +42,8 @@ from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
 from gps_error_ros.model.failures import (failures_from_dict, FailuresError,
                                           GrossFailureProcess, WithFailures)
+from gps_error_ros.model.population import (Population, population_from_dict, PopulationError,
+                                            WithPopulation)
 from gps_error_ros.model.reported import ReportedAccuracy, reported_from_dict, ReportedError
 from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
 
@@ -51,7 +53,7 @@ PROFILE_SUBDIR = ('config', 'profiles')
 
 _TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
 _TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability',
-                 'velocity', 'reported_accuracy', 'gross_failures')
+                 'velocity', 'reported_accuracy', 'gross_failures', 'population')
 _AXIS_KEYS = ('delta', 'phi', 'sigma_w')
 _NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
 
@@ -82,6 +84,7 @@ class Profile:
     velocity: Velocity = None
     reported_accuracy: ReportedAccuracy = None
     gross_failures: GrossFailureProcess = None
+    population: Population = None
 
     @property
     def fitted(self):
@@ -92,8 +95,9 @@ class Profile:
         """
         Return the :class:`ARErrorModel` of this profile.
 
-        With its effects, gross failures (unless ``gross_failures`` is False)
-        and availability, each wrapped around the one before. ``about_truth``:
+        With its effects, the agent's population draw (``population``), gross
+        failures (unless ``gross_failures`` is False) and availability, each
+        wrapped around the one before. ``about_truth``:
         its stated covariances are the error's mean square about the truth
         (:mod:`about_truth`), not its covariance about its mean.
 
@@ -116,6 +120,8 @@ class Profile:
             model = build_model(self.axes['north'], self.axes['east'], self.effects)
         except ModelError as exc:
             raise ProfileError(f'{self.path}: {exc}') from None
+        if self.population is not None:
+            model = WithPopulation(model, self.population, self.rate_hz)
         if about_truth:
             model = AboutTruth(model)
         if gross_failures and self.gross_failures is not None:
@@ -188,7 +194,8 @@ def _section(raw, key, parse, source):
         return None
     try:
         return parse(raw[key], source)
-    except (AvailabilityError, VelocityError, ReportedError, FailuresError) as exc:
+    except (AvailabilityError, VelocityError, ReportedError, FailuresError,
+            PopulationError) as exc:
         raise ProfileError(str(exc)) from None
 
 
@@ -230,6 +237,7 @@ def profile_from_dict(raw, source='<profile>'):
     velocity = _section(raw, 'velocity', velocity_from_dict, source)
     reported = _section(raw, 'reported_accuracy', reported_from_dict, source)
     failures = _section(raw, 'gross_failures', failures_from_dict, source)
+    population = _section(raw, 'population', population_from_dict, source)
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
@@ -247,7 +255,8 @@ def profile_from_dict(raw, source='<profile>'):
         availability=availability,
         velocity=velocity,
         reported_accuracy=reported,
-        gross_failures=failures)
+        gross_failures=failures,
+        population=population)
 
 
 def load_profile_file(path):
@@ -346,7 +355,7 @@ def axes_mapping(north, east, digits=6):
 
 def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
                     fit=None, availability=None, velocity=None, reported_accuracy=None,
-                    gross_failures=None):
+                    gross_failures=None, population=None):
     """
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
@@ -378,6 +387,10 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
         gross_failures = gross_failures.to_dict()
     if gross_failures:
         prof['gross_failures'] = gross_failures
+    if isinstance(population, Population):
+        population = population.to_dict()
+    if population:
+        prof['population'] = population
     if fit is not None:
         prof['fit'] = fit
     return prof

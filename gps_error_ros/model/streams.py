@@ -86,6 +86,13 @@ DOMAIN_FAILURE = 16
 #: Gross failures: a failed fix's direction, one uniform per model step.
 DOMAIN_FAILURE_DIRECTION = 17
 
+#: Population: the agent's scale, one normal pair (first used) at position 0.
+DOMAIN_POPULATION_SCALE = 18
+#: Population: the run's initial bias, one normal pair per start step.
+DOMAIN_INIT_BIAS = 19
+#: Population: the bias's wander, one normal pair per model step.
+DOMAIN_BIAS = 20
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -99,6 +106,8 @@ DOMAINS = {
     'outlier_jump': DOMAIN_OUTLIER_JUMP, 'init_outlier': DOMAIN_INIT_OUTLIER,
     'init_outlier_jump': DOMAIN_INIT_OUTLIER_JUMP,
     'failure': DOMAIN_FAILURE, 'failure_direction': DOMAIN_FAILURE_DIRECTION,
+    'population_scale': DOMAIN_POPULATION_SCALE, 'init_bias': DOMAIN_INIT_BIAS,
+    'bias': DOMAIN_BIAS,
 }
 
 

@@ -265,10 +265,11 @@ def zone_models(zone_map, profile, about_truth=False):
     """
     default = zone_map.default or profile
     for zp in [default] + list(zone_map.profiles):
-        if zp.gross_failures is not None:
-            raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a gross_failures '
-                               f'section; zone maps do not simulate gross failures yet: '
-                               f'expected profiles without it')
+        for section in ('gross_failures', 'population'):
+            if getattr(zp, section) is not None:
+                raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a {section} '
+                                   f'section; zone maps do not simulate it yet: '
+                                   f'expected profiles without it')
     base = default.model(about_truth=about_truth)
     models, built = [], {}
     inner = getattr(base, 'inner', base)

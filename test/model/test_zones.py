@@ -122,10 +122,13 @@ def test_zone_profiles_that_cannot_mix_with_the_default(tmp_path):
     (tmp_path / 'outages.yaml').write_text(
         text + 'availability: {outage_rate: 0.01, durations: [[2, 0.5], [5, 0.5]]}\n')
     (tmp_path / 'fails.yaml').write_text(text + 'gross_failures: {rate: 0.01, sizes_m: [90]}\n')
+    (tmp_path / 'crowd.yaml').write_text(text + 'population: {bias_sd_m: [1, 1], '
+                                                'scale_sd_log: 0.1}\n')
     for name, expected in (('lag', 'motion_lag 0.5 s differs'),
                            ('fast', 'rate_hz 2.0 differs'),
                            ('outages', 'has an availability section'),
-                           ('fails', 'do not simulate gross failures yet')):
+                           ('fails', 'has a gross_failures section; zone maps do not'),
+                           ('crowd', 'has a population section; zone maps do not')):
         path = write_map(tmp_path / f'{name}.geojson',
                          [feature(square(LON0, LAT0, 0.01), profile=f'{name}.yaml')])
         with pytest.raises(ZoneMapError, match=expected):

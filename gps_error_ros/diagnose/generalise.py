@@ -1,0 +1,257 @@
+"""
+Does a profile hold on data its fit did not see? Several splits, grouped measures.
+
+One 70/30 split judges a model on one held-out stretch. Here every class of
+:mod:`.baselines`, and the ``population`` class (:mod:`~gps_error_ros.fit.population_fit`),
+is fitted and judged on several splits:
+
+* **rolling origin** (:func:`rolling_splits`): for each origin in
+  :data:`ORIGINS` (shares of the time span), train on everything before it
+  and hold out the next :data:`HORIZON` of the span;
+* **leave one recording out** (:func:`recording_splits`): train on every
+  recording of a receiver but one, hold that one out.
+
+On each held-out part every class is scored by its one-step predictive log
+density (the held-out NLL per sample: a proper score) and simulated along
+the part's truth. The measured value of each measure is set against the
+simulations' central 95 % range, and the measures come in groups, so that
+no group outvotes another (:func:`grouped_measures`):
+
+* ``persistence``: the ACF at lags 1 and 10 and the integral time scale
+  (``1 + 2 sum`` of the ACF to lag 60), per axis;
+* ``scale``: the SD per axis and the north-east correlation;
+* ``bias``: the mean error per axis;
+* ``quantiles``: the horizontal error's 50, 68, 95 and 99 % points;
+* ``tails``: the share of steps whose horizontal change exceeds the
+  training part's 99 % point, and the 99 % point of the held-out changes;
+* ``filter`` and ``v2p``: what the consumers of :mod:`.consumers` conclude.
+
+``inside_95`` of a group is the share of its measures inside their ranges.
+"""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from gps_error_ros.diagnose.baselines import _classes, KEYS
+from gps_error_ros.diagnose.consumers import consumer_measures
+from gps_error_ros.diagnose.fidelity import acf_by_axis, simulate_part
+from gps_error_ros.diagnose.mean import condition_count
+from gps_error_ros.diagnose.split import Part, Split, TruthTrack
+from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.fit.envelope import envelope, inside
+from gps_error_ros.fit.population_fit import fit_population
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.population import WithPopulation
+from gps_error_ros.traces.trace_io import join_recordings
+
+#: Rolling origins, as shares of the time span.
+ORIGINS = (0.5, 0.625, 0.75)
+#: Each rolling fold's held-out share of the span.
+HORIZON = 0.125
+#: The groups of measures, in order.
+GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails', 'filter', 'v2p')
+#: The class of this module, beside :data:`~.baselines.CLASSES`.
+POPULATION = 'population'
+ACF_LAGS = 60
+
+
+def split_between(trace, cut_t, end_t, rule):
+    """
+    Return the :class:`~.split.Split` of ``trace``: train before ``cut_t``, test in [cut_t, end_t).
+
+    Times are the trace's own (seconds); samples after ``end_t`` are in neither part.
+    """
+    grid = errors_on_grid(trace)
+    rows = grid.rows
+    lat0, lon0 = float(trace.truth_lat[0]), float(trace.truth_lon[0])
+    tn, te = difference(trace.truth_lat, trace.truth_lon, lat0, lon0)
+    truth_all = np.stack([np.asarray(tn), np.asarray(te)], axis=1)
+    err = np.concatenate(grid.segments)
+    seg_id = np.concatenate([np.full(len(s), i) for i, s in enumerate(grid.segments)])
+    t = trace.t[rows]
+    parts = []
+    for sel in (t < cut_t, (t >= cut_t) & (t < end_t)):
+        idx = np.flatnonzero(sel)
+        part = Part([], [], [])
+        brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
+        for chunk in (np.split(idx, brk) if idx.size else []):
+            part.err.append(err[chunk])
+            part.truth.append(truth_all[rows[chunk]])
+            part.t.append(t[chunk])
+        parts.append(part)
+    return Split(parts[0], parts[1], TruthTrack(trace.t, truth_all), rule,
+                 float(cut_t - t[0]))
+
+
+def rolling_splits(trace, origins=ORIGINS, horizon=HORIZON):
+    """Return [(label, Split)] of the rolling origins (see the module docstring)."""
+    t0, t1 = float(trace.t[0]), float(trace.t[-1])
+    span = t1 - t0
+    out = []
+    for o in origins:
+        end = t0 + (o + horizon) * span + (1e-6 if o + horizon >= 1.0 else 0.0)
+        out.append((f'origin {o:.3g}', split_between(
+            trace, t0 + o * span, end,
+            f'train before {100 * o:.1f} % of the span, hold out the next '
+            f'{100 * horizon:.1f} %')))
+    return out
+
+
+def recording_splits(traces):
+    """Return [(label, Split)]: each recording held out, the others train."""
+    out = []
+    for i, held in enumerate(traces):
+        others = [t for j, t in enumerate(traces) if j != i]
+        joined = join_recordings(others + [held])
+        cut = float(joined.t[-len(held.t)])
+        out.append((f'without {held.name}', split_between(
+            joined, cut, float(joined.t[-1]) + 1.0,
+            f'train on the other {len(others)} recordings, hold out {held.name}')))
+    return out
+
+
+# --- the population class --------------------------------------------------
+
+class PopulationClass:
+    """The population profile fitted on a training part, as a class to judge."""
+
+    def __init__(self, train):
+        fit = fit_population(train.err, train.t)
+        self.fit = fit
+        self.ar = ARErrorModel(*fit.axis_params())
+        pop = fit.population
+        self.model = self.ar if pop is None else WithPopulation(self.ar, pop)
+        self.mean = SimpleNamespace(lag_s=0.0, gain=1.0)
+
+    def simulator(self):
+        """Return the model to simulate with."""
+        return self.model
+
+    def logpdf(self, part, m0):
+        """
+        Return the held-out one-step log densities of the scored samples.
+
+        A Kalman filter per axis over the AR state and the bias (the scale
+        taken at its mean square, 1): the predictive density given every
+        earlier held-out sample; gaps are predicted through. The first
+        ``m0`` samples of each segment are conditioned on, not scored.
+        """
+        pop = self.fit.population
+        out = np.zeros(part.n)
+        for a in range(2):
+            ax = self.ar.axes[a]
+            sd = 0.0 if pop is None else pop.bias_sd_m[a]
+            rate = 1.0 if pop is None else pop.persistence()
+            out += _kalman_ll(part, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
+                              float(self.ar.mean[a]), sd, rate)
+        starts = np.cumsum([0] + [len(e) for e in part.err[:-1]])
+        keep = np.concatenate([s + np.arange(m0, len(e))
+                               for s, e in zip(starts, part.err)])
+        return out[keep]
+
+
+def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
+    """Return the one-step log densities of axis ``a`` of every sample of ``part``."""
+    phi = phi if phi.size else np.zeros(1)
+    p = phi.size
+    f = np.zeros((p + 1, p + 1))
+    f[0, :p] = phi
+    f[1:p, :p - 1] = np.eye(p - 1)
+    f[p, p] = rate
+    q = np.zeros((p + 1, p + 1))
+    q[0, 0] = sigma_w ** 2
+    q[p, p] = (1.0 - rate ** 2) * bias_sd ** 2
+    h = np.zeros(p + 1)
+    h[0] = h[p] = 1.0
+    model = ARErrorModel(*(AxisParams(0.0, tuple(phi), sigma_w),) * 2)
+    p0 = np.zeros((p + 1, p + 1))
+    acv = model.autocovariance(p)[:, 0, 0]
+    p0[:p, :p] = acv[np.abs(np.subtract.outer(np.arange(p), np.arange(p)))]
+    p0[p, p] = bias_sd ** 2
+    x, cov = np.zeros(p + 1), p0
+    t = np.concatenate(part.t)
+    y = np.concatenate(part.err)[:, a] - mean
+    out = np.empty(y.size)
+    for i in range(y.size):
+        if i:
+            for _ in range(max(1, int(round(t[i] - t[i - 1])))):
+                x, cov = f @ x, f @ cov @ f.T + q
+        s = float(h @ cov @ h)
+        nu = y[i] - float(h @ x)
+        out[i] = -0.5 * (np.log(2 * np.pi * s) + nu * nu / s)
+        gain = cov @ h / s
+        x, cov = x + gain * nu, cov - np.outer(gain, h @ cov)
+    return out
+
+
+# --- the measures ----------------------------------------------------------
+
+def _basic(segments, jump_m):
+    """Return the error-statistic measures of one trace (list of segments), by name."""
+    x = np.concatenate(segments)
+    acf = acf_by_axis(segments, ACF_LAGS)
+    out = {}
+    for i, ax in enumerate(('north', 'east')):
+        out[f'persistence:acf1_{ax}'] = float(acf[0, i])
+        out[f'persistence:acf10_{ax}'] = float(acf[9, i])
+        out[f'persistence:time_scale_{ax}_s'] = float(1.0 + 2.0 * acf[:, i].sum())
+    out['scale:sd_north'], out['scale:sd_east'] = (float(v) for v in x.std(axis=0))
+    out['scale:ne_correlation'] = float(np.corrcoef(x.T)[0, 1])
+    out['bias:mean_north'], out['bias:mean_east'] = (float(v) for v in x.mean(axis=0))
+    h = np.hypot(x[:, 0], x[:, 1])
+    for p, v in zip((50, 68, 95, 99), np.quantile(h, [0.5, 0.68, 0.95, 0.99])):
+        out[f'quantiles:q{p}_m'] = float(v)
+    steps = np.concatenate([np.hypot(*np.diff(s, axis=0).T) for s in segments if len(s) > 1])
+    out['tails:jump_rate'] = float(np.mean(steps > jump_m))
+    out['tails:step_q99_m'] = float(np.quantile(steps, 0.99))
+    return out
+
+
+def grouped_measures(part, train, simulated, seed=0):
+    """
+    Return {measure: envelope row} and {group: inside_95} of ``part`` against ``simulated``.
+
+    ``simulated``: traces, each a list of segments on ``part``'s samples.
+    """
+    steps = np.concatenate([np.hypot(*np.diff(s, axis=0).T) for s in train.err if len(s) > 1])
+    jump_m = float(np.quantile(steps, 0.99))
+    measured = _basic(part.err, jump_m)
+    names = list(measured)
+    sims = np.array([[m[n] for n in names] for m in (_basic(s, jump_m) for s in simulated)])
+    cn, cm, cs = consumer_measures(part, part.err, simulated, train.err, seed)
+    rows = {n: envelope(measured[n], sims[:, j]) for j, n in enumerate(names)}
+    for j, n in enumerate(cn):
+        rows[f'{n.split("_")[0]}:{n}'] = envelope(cm[j], cs[:, j])
+    groups = {g: float(np.mean([inside(r) for k, r in rows.items()
+                                if k.split(':')[0] == g])) for g in GROUPS}
+    return rows, groups
+
+
+def judge_split(fitted, sims=100, seed=0):
+    """
+    Return {class key: {heldout_nll_per_sample, groups, measures}} on one split.
+
+    ``fitted``: the :class:`~.pipeline.FittedModels` of the split (its
+    classes come from :func:`~.baselines._classes`); the population class
+    is fitted here on the same training part and scored on the same samples.
+    """
+    split = fitted.split
+    m0 = condition_count(fitted.base.orders, fitted.extended.orders)
+    classes = _classes(fitted, sims, seed)
+    pop = PopulationClass(split.train)
+    ll = pop.logpdf(split.test, m0)
+    n = {len(v[0]) for v in classes.values()}
+    if n != {len(ll)}:
+        raise AssertionError(f'classes scored on different samples: {n} and {len(ll)}')
+    classes[POPULATION] = (ll, simulate_part(pop, split.test, split.truth, sims, seed))
+    out = {}
+    for label, (lls, traces) in classes.items():
+        rows, groups = grouped_measures(split.test, split.train, traces, seed)
+        out[KEYS.get(label, label)] = {'heldout_nll_per_sample': float(-np.mean(lls)),
+                                       'groups': groups, 'measures': rows}
+    out[POPULATION]['fit'] = pop.fit.evidence
+    out[POPULATION]['section'] = None if pop.fit.population is None else \
+        pop.fit.population.to_dict()
+    return out

@@ -1,0 +1,243 @@
+"""
+Fit a population profile: the error process within stretches, and how stretches differ.
+
+A phone's error over one stretch has a bias and a scale of its own; over
+another stretch, another day or in another phone of the kind, they differ.
+The fit cuts the recordings into blocks of :data:`BLOCK_S` seconds (a
+recording's own blocks, and every recording's: several recordings of one
+receiver are several runs) and separates what happens within a block from
+what differs between blocks:
+
+1. **Within**: the AR process is fitted (Yule-Walker, order by the PACF, as
+   ``calibrate``) on the errors about each block's own mean, pooled over
+   blocks, with the autocovariance that the block means took away given
+   back (:func:`fit_within`). Its mean is the grand mean of every sample.
+2. **Bias**: the variance of the block means about the grand mean, less
+   what the within process alone gives a mean of that many samples
+   (``gamma0 (1 + 2 sum (1 - k/n) rho_k) / n``), per axis, floored at 0:
+   ``bias_sd_m``, by the method of moments.
+3. **Time constant**: blocks next to each other (less than
+   :data:`ADJACENT_GAP_S` apart) share their bias to a degree: the
+   correlation ``r`` of neighbours' mean deviations (their covariance less
+   what the within process gives, over the bias variance) gives
+   ``bias_time_constant_s = -BLOCK_S / ln r``. At ``r >=`` :data:`CONSTANT_R`,
+   or with fewer than :data:`MIN_PAIRS` neighbour pairs, the bias is
+   constant for a run (no time constant).
+4. **Scale**: the variance of each block's log SD (averaged over the axes)
+   less its sampling variance under the within process (``(1 + 2 sum
+   rho_k^2) / (4 n)``), floored at 0: ``scale_sd_log``.
+
+Fewer than :data:`MIN_BLOCKS` blocks of at least :data:`MIN_BLOCK_SAMPLES`
+samples: no population is fitted, and the reason says so.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from gps_error_ros.fit.autocorrelation import pooled_autocovariance
+from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yule_walker
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
+from gps_error_ros.model.population import Population
+
+#: Block length, s: the stretch whose bias and scale one run is taken to have.
+BLOCK_S = 300.0
+#: Samples a block needs to count.
+MIN_BLOCK_SAMPLES = 60
+#: Blocks a population needs.
+MIN_BLOCKS = 3
+#: Neighbour pairs a time constant needs.
+MIN_PAIRS = 3
+#: Neighbours' correlation at and above which the bias is taken as constant for a run.
+CONSTANT_R = 0.95
+#: Largest gap between neighbouring blocks, s.
+ADJACENT_GAP_S = 60.0
+#: Lags of the within process's ACF used for a block mean's variance.
+ACF_LAGS = 600
+#: Passes of the within fit's correction for the block means taken out.
+CORRECTIONS = 8
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block: its samples (n, 2), and its first and last sample time."""
+
+    err: np.ndarray
+    t0: float
+    t1: float
+
+
+def blocks_of(segments, times, block_s=BLOCK_S):
+    """
+    Return the :class:`Block` list of error segments with their times.
+
+    ``segments``: (n_s, 2) north/east errors; ``times``: (n_s,) seconds.
+    Blocks are cut on a grid of ``block_s`` from the first time; a block
+    holds the samples of every segment that fall in it.
+    """
+    t = np.concatenate([np.asarray(x, dtype=float) for x in times])
+    e = np.concatenate([np.asarray(x, dtype=float) for x in segments])
+    order = np.argsort(t, kind='stable')
+    t, e = t[order], e[order]
+    ids = np.floor((t - t[0]) / block_s).astype(np.int64)
+    cuts = np.flatnonzero(np.diff(ids) != 0) + 1
+    return [Block(ee, float(tt[0]), float(tt[-1]))
+            for ee, tt in zip(np.split(e, cuts), np.split(t, cuts))]
+
+
+def mean_variance(rho, n, gamma0):
+    """Return the variance of the mean of ``n`` samples of a process (ACF ``rho`` from lag 0)."""
+    k = np.arange(1, min(n, rho.size))
+    return gamma0 * (1.0 + 2.0 * np.sum((1.0 - k / n) * rho[k])) / n
+
+
+def neighbour_covariance(rho, n, gamma0):
+    """Return the covariance of the means of two adjacent blocks of ``n`` samples of a process."""
+    k = np.arange(1, 2 * n)
+    k = k[k < rho.size]
+    return gamma0 * float(np.sum(np.minimum(k, 2 * n - k) * rho[k])) / (n * n)
+
+
+@dataclass(frozen=True)
+class PopulationFit:
+    """The fit: the within AR per axis (:class:`AxisParams`), the section (or None), evidence."""
+
+    north: AxisParams
+    east: AxisParams
+    mean: np.ndarray
+    population: Population
+    evidence: dict
+
+    def axis_params(self):
+        """Return the within AR as (north, east) :class:`AxisParams`, delta for the grand mean."""
+        return tuple(AxisParams((1.0 - float(np.sum(p.phi))) * float(m), p.phi, p.sigma_w)
+                     for p, m in zip((self.north, self.east), self.mean))
+
+
+def fit_within(pieces, sizes, order=None, max_order=DEFAULT_MAX_ORDER, axis='axis'):
+    """
+    Return the within process of one axis (:class:`AxisParams`, delta 0) from demeaned pieces.
+
+    ``pieces``: the errors about their block's mean; ``sizes``: the blocks'
+    sample counts. About its own mean a block's autocovariance is short by
+    the variance of that mean, so the pooled autocovariance gets it back:
+    ``v`` (the mean over blocks of :func:`mean_variance` under the current
+    fit) is added at every lag and the fit repeated, :data:`CORRECTIONS`
+    times (``v`` at most the uncorrected variance). The order is the PACF's
+    choice on the uncorrected autocovariance, as ``calibrate``'s.
+    """
+    first = fit_axis(pieces, order, max_order, axis=axis)
+    p = first.params.order
+    raw, _, _ = pooled_autocovariance(pieces, max(p, 1), mean=0.0)
+    params = AxisParams(0.0, first.params.phi, first.params.sigma_w)
+    for _ in range(CORRECTIONS):
+        model = ARErrorModel(params, params)
+        rho = model.autocorrelation(ACF_LAGS)[:, 0]
+        gamma0 = float(model.stationary_cov[0, 0])
+        v = min(float(np.mean([mean_variance(rho, k, gamma0) for k in sizes])), raw[0])
+        try:
+            phi, var = solve_yule_walker(raw + v, p)
+            params = AxisParams(0.0, tuple(phi), float(np.sqrt(var)))
+        except ModelError:
+            break
+    return params
+
+
+def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
+                   block_s=BLOCK_S):
+    """
+    Fit the within process and the population (see the module docstring).
+
+    Parameters
+    ----------
+    segments : list of numpy.ndarray
+        North/east errors (n_s, 2) of each gap-free segment, every recording.
+    times : list of numpy.ndarray
+        Each segment's sample times, s (recordings one after another).
+    order : int, optional
+        The AR order of both axes (default: chosen per axis by the PACF).
+    max_order : int
+        The largest order the PACF may choose.
+    block_s : float
+        The block length, s.
+
+    Returns
+    -------
+    PopulationFit
+
+    """
+    blocks = [b for b in blocks_of(segments, times, block_s)
+              if len(b.err) >= MIN_BLOCK_SAMPLES]
+    grand = np.concatenate([np.asarray(s, dtype=float) for s in segments]).mean(axis=0)
+    within, sizes = _within_segments(segments, times, block_s)
+    axes = [fit_within([s[:, a] for s in within], sizes, order, max_order, axis=ax)
+            for a, ax in enumerate(AXES)]
+    evidence = {'block_s': float(block_s), 'blocks': len(blocks),
+                'within_order': {ax: p.order for ax, p in zip(AXES, axes)}}
+    if len(blocks) < MIN_BLOCKS:
+        evidence.update(fitted=False, reason=f'{len(blocks)} blocks of {block_s:g} s with '
+                        f'{MIN_BLOCK_SAMPLES} samples or more; a population needs '
+                        f'{MIN_BLOCKS}')
+        return PopulationFit(axes[0], axes[1], grand, None, evidence)
+    model = ARErrorModel(*axes)
+    rho = model.autocorrelation(ACF_LAGS)
+    gamma0 = np.diag(model.stationary_cov)
+    means = np.array([b.err.mean(axis=0) for b in blocks])
+    n = np.array([len(b.err) for b in blocks])
+    v = np.array([[mean_variance(rho[:, a], k, gamma0[a]) for a in range(2)] for k in n])
+    dev = means - grand
+    between = np.maximum(0.0, (dev ** 2).sum(axis=0) / (len(blocks) - 1) - v.mean(axis=0))
+    bias_sd = np.sqrt(between)
+    c = np.array([[neighbour_covariance(rho[:, a], k, gamma0[a]) for a in range(2)] for k in n])
+    tau, pairs, r = _time_constant(blocks, dev, between, c, block_s)
+    log_sd = np.array([np.mean(np.log(np.maximum(b.err.std(axis=0), 1e-6))) for b in blocks])
+    rho2 = [1.0 + 2.0 * np.sum(rho[1:, a] ** 2) for a in range(2)]
+    sampling = np.mean([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n])
+    scale_var = max(0.0, float(np.var(log_sd, ddof=1)) - sampling)
+    evidence.update(fitted=True, block_mean_sd_m=[round(float(x), 4) for x in
+                                                  dev.std(axis=0, ddof=1)],
+                    within_mean_sd_m=[round(float(x), 4) for x in np.sqrt(v.mean(axis=0))],
+                    neighbour_pairs=pairs,
+                    neighbour_correlation=None if r is None else round(float(r), 4),
+                    block_log_sd_sd=round(float(np.std(log_sd, ddof=1)), 4))
+    pop = Population(tuple(float(x) for x in bias_sd), math.sqrt(scale_var), tau)
+    return PopulationFit(axes[0], axes[1], grand, pop, evidence)
+
+
+def _within_segments(segments, times, block_s):
+    """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
+    t_first = float(min(np.min(x) for x in times))
+    pieces = []
+    for seg, tt in zip(segments, times):
+        seg, tt = np.asarray(seg, dtype=float), np.asarray(tt, dtype=float)
+        ids = np.floor((tt - t_first) / block_s).astype(np.int64)
+        cuts = np.flatnonzero(np.diff(ids) != 0) + 1
+        pieces += [(s, int(i[0])) for s, i in zip(np.split(seg, cuts), np.split(ids, cuts))]
+    by_block = {}
+    for s, i in pieces:
+        by_block.setdefault(i, []).append(s)
+    means = {i: np.concatenate(v).mean(axis=0) for i, v in by_block.items()}
+    sizes = [sum(len(x) for x in v) for v in by_block.values()]
+    return [s - means[i] for s, i in pieces if len(s) > 1], sizes
+
+
+def _time_constant(blocks, dev, between, process_cov, block_s):
+    """
+    Return (time constant s or None, neighbour pairs, their correlation or None).
+
+    ``process_cov``: per block, the covariance with its successor's mean
+    that the within process alone gives (:func:`neighbour_covariance`),
+    taken off the neighbours' covariance.
+    """
+    pairs = [j for j in range(len(blocks) - 1)
+             if blocks[j + 1].t0 - blocks[j].t1 <= ADJACENT_GAP_S]
+    if len(pairs) < MIN_PAIRS or not np.any(between > 0):
+        return None, len(pairs), None
+    w = between > 0
+    cov = np.mean([dev[j, w] * dev[j + 1, w] - process_cov[j, w] for j in pairs], axis=0)
+    r = float(np.sum(cov) / np.sum(between[w]))
+    if r >= CONSTANT_R:
+        return None, len(pairs), r
+    r = max(r, math.exp(-1.0))          # at most one block's decay per block: the AR covers less
+    return float(-block_s / math.log(r)), len(pairs), r

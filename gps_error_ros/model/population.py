@@ -1,0 +1,257 @@
+"""
+A population of phones and runs: each agent's own bias and scale.
+
+A profile fitted on one stretch describes that stretch: its mean error is
+the bias of that run, and another day, another walk or another phone of the
+same kind has another. The optional ``population`` section makes the
+profile describe the receiver across runs (``gps_error calibrate`` fits it
+from several recordings, or from the blocks of one long recording: see
+:mod:`gps_error_ros.fit.population_fit`)::
+
+    population:
+      bias_sd_m: [1.9, 2.4]       # SD of a run's bias about the profile's mean, north/east
+      bias_time_constant_s: 1800  # optional: the bias wanders (first-order Gauss-Markov)
+      scale_sd_log: 0.25          # SD of the log of an agent's scale of the deviations
+
+An agent's error at model step ``k`` is::
+
+    e(k) = m + f * d(k) + b(k)
+
+with ``m`` the profile's mean error and ``d(k)`` the deviation of its error
+process (effects and jumps included); ``f = exp(s z - s^2)``, ``z``
+standard normal, is the agent's scale (``s`` the ``scale_sd_log``; the mean
+of ``f^2`` is 1, so the population's average variance is the process's);
+``b(k)`` the run's bias, drawn at the agent's first step from ``N(0,
+diag(bias_sd_m^2))``. Without ``bias_time_constant_s`` it holds for the
+run; with it, ``b(k) = a b(k-1) + sqrt(1 - a^2) bias_sd_m v(k)``, ``a =
+exp(-1 / (time constant x rate))``, stationary at the same SD.
+
+Draws: the scale from the stream domain ``population_scale`` at position 0
+(an agent's phone keeps its scale whenever it starts); the initial bias
+from ``init_bias`` at the start step; the wander from ``bias`` at each
+step. One agent alone, in a crowd or in a shard has the same errors.
+
+Covariances (``stationary_cov`` and ``predictive_cov``): a consumer that
+knows nothing of the agent (the stationary covariance, and the first step's
+conditional one) covers the population's spread, ``C + diag(bias_sd_m^2)``;
+given the state a step before (the ``conditional`` mode) the agent's scale
+and bias are known, so it is ``f^2`` times the process's one-step
+covariance plus the bias's own one-step variance ``(1 - a^2)
+bias_sd_m^2``.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from gps_error_ros.model import streams
+
+SECTION_KEYS = ('bias_sd_m', 'scale_sd_log')
+OPTIONAL_KEYS = ('bias_time_constant_s',)
+#: The largest bias SD a profile may carry, m.
+MAX_BIAS_SD_M = 1000.0
+#: The largest SD of the log scale (a factor of e^2 between phones at 1 SD).
+MAX_SCALE_SD_LOG = 2.0
+
+
+class PopulationError(ValueError):
+    """A ``population`` section that is not valid."""
+
+
+@dataclass(frozen=True)
+class Population:
+    """The parsed section (see the module docstring)."""
+
+    bias_sd_m: tuple
+    scale_sd_log: float
+    bias_time_constant_s: float = None
+
+    def to_dict(self):
+        """Return the section as plain data."""
+        out = {'bias_sd_m': [round(float(v), 4) for v in self.bias_sd_m],
+               'scale_sd_log': round(float(self.scale_sd_log), 4)}
+        if self.bias_time_constant_s is not None:
+            out['bias_time_constant_s'] = round(float(self.bias_time_constant_s), 1)
+        return out
+
+    def persistence(self, rate_hz=1.0):
+        """Return the bias's factor per model step, ``a`` (1.0: constant for the run)."""
+        if self.bias_time_constant_s is None:
+            return 1.0
+        return math.exp(-1.0 / (self.bias_time_constant_s * rate_hz))
+
+
+def _positive_number(value, upper):
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and 0 <= value <= upper)
+
+
+def population_from_dict(raw, source='<profile>'):
+    """Validate a ``population`` mapping; return :class:`Population`."""
+    key = 'population'
+    if not isinstance(raw, dict) or not set(SECTION_KEYS) <= set(raw) or \
+            not set(raw) <= set(SECTION_KEYS + OPTIONAL_KEYS):
+        raise PopulationError(f'{source}: key {key!r}: expected a mapping with '
+                              f'{list(SECTION_KEYS)} and optionally {list(OPTIONAL_KEYS)}, '
+                              f'got {raw!r}')
+    sd = raw['bias_sd_m']
+    if not isinstance(sd, list) or len(sd) != 2 or \
+            not all(_positive_number(v, MAX_BIAS_SD_M) for v in sd):
+        raise PopulationError(f'{source}: key {key}.bias_sd_m: expected two numbers '
+                              f'(north, east) in [0, {MAX_BIAS_SD_M:g}] m, got {sd!r}')
+    s = raw['scale_sd_log']
+    if not _positive_number(s, MAX_SCALE_SD_LOG):
+        raise PopulationError(f'{source}: key {key}.scale_sd_log: expected a number in '
+                              f'[0, {MAX_SCALE_SD_LOG:g}], got {s!r}')
+    tau = raw.get('bias_time_constant_s')
+    if tau is not None and not (_positive_number(tau, 1e9) and tau > 0):
+        raise PopulationError(f'{source}: key {key}.bias_time_constant_s: expected a '
+                              f'number of seconds in (0, 1e9], or the key left out '
+                              f'(a bias constant for the run), got {tau!r}')
+    return Population(tuple(float(v) for v in sd), float(s),
+                      None if tau is None else float(tau))
+
+
+def agent_scales(keys, scale_sd_log):
+    """Return each agent's scale ``f`` (n,), from its stream at position 0."""
+    keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+    if scale_sd_log == 0.0:
+        return np.ones(keys.size)
+    z = streams.normal_pairs(keys, streams.DOMAIN_POPULATION_SCALE, 0)[:, 0]
+    return np.exp(scale_sd_log * z - scale_sd_log ** 2)
+
+
+class WithPopulation:
+    """
+    An error model of one agent drawn from a population (see the module docstring).
+
+    The state is the inner model's with two more columns: ``[:, :, -2]`` the
+    run's bias (north, east) and ``[:, 0, -1]`` the agent's scale ``f``.
+    Errors, moments and covariances are the inner model's, turned into the
+    agent's by its scale and bias.
+    """
+
+    def __init__(self, inner, population, rate_hz=1.0):
+        self.inner = inner
+        self.population = population
+        self.bias_sd = np.asarray(population.bias_sd_m, dtype=float)
+        self.a = population.persistence(rate_hz)
+        self._wander_sd = self.bias_sd * math.sqrt(max(0.0, 1.0 - self.a * self.a))
+
+    def __getattr__(self, name):
+        # mean, lag_s, order, needs_heading, ... are the inner model's
+        return getattr(self.inner, name)
+
+    # --- moments ---------------------------------------------------------
+
+    @property
+    def stationary_cov(self):
+        """Return the population's covariance about the mean: the process's plus the bias's."""
+        return np.asarray(self.inner.stationary_cov) + np.diag(self.bias_sd ** 2)
+
+    @property
+    def stationary_sd(self):
+        """Return the population's SD per axis about the mean."""
+        return np.sqrt(np.diag(self.stationary_cov))
+
+    def autocovariance(self, max_lag):
+        """Return the population's autocovariance at lags 0..max_lag, (max_lag + 1, 2, 2)."""
+        decay = self.a ** np.arange(max_lag + 1)
+        return self.inner.autocovariance(max_lag) + \
+            decay[:, None, None] * np.diag(self.bias_sd ** 2)[None]
+
+    def autocorrelation(self, max_lag):
+        """Return the population's autocorrelation per axis (max_lag + 1, 2)."""
+        acv = self.autocovariance(max_lag)
+        diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
+        return diag / diag[0]
+
+    # --- state -----------------------------------------------------------
+
+    def _wider(self, inner_state, keys, index):
+        state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 2,))
+        state[:, :, :-2] = inner_state
+        state[:, :, -2] = self.bias_sd * streams.normal_pairs(
+            keys, streams.DOMAIN_INIT_BIAS, index)
+        state[:, 0, -1] = agent_scales(keys, self.population.scale_sd_log)
+        return state
+
+    def empty_state(self, n):
+        """Return a state array for ``n`` agents (zeros)."""
+        inner = self.inner.empty_state(n)
+        return np.zeros(inner.shape[:2] + (inner.shape[2] + 2,))
+
+    def _agent(self, inner_err, state):
+        """Return the agent's errors from the inner model's: ``m + f d + b``."""
+        m = np.asarray(self.inner.mean, dtype=float)
+        return m + state[:, 0, -1][:, None] * (inner_err - m) + state[:, :, -2]
+
+    def _wander(self, bias, keys, index):
+        """Advance the biases ``bias`` (n, 2) in place to model step ``index``."""
+        if self.a < 1.0:
+            bias *= self.a
+            bias += self._wander_sd * streams.normal_pairs(keys, streams.DOMAIN_BIAS, index)
+
+    def initial_state(self, keys, index):
+        """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        return self._wider(self.inner.initial_state(keys, index), keys, index)
+
+    def advance(self, state, keys, index, *args, **kwargs):
+        """Advance in place to model step ``index``; return the agent's errors."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        err = self.inner.advance(state[:, :, :-2], keys, index, *args, **kwargs)
+        self._wander(state[:, :, -2], keys, index)
+        return self._agent(err, state)
+
+    def errors(self, state):
+        """Return each agent's current north/east errors, (n, 2)."""
+        return self._agent(self.inner.errors(state[:, :, :-2]), state)
+
+    def state_after(self, keys, start, step, *args, **kwargs):
+        """Return the state at model step ``step`` of a run started at ``start``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        inner = self.inner.state_after(keys, start, step, *args, **kwargs)
+        state = self._wider(inner, keys, start)
+        for k in range(start + 1, step + 1):
+            self._wander(state[:, :, -2], keys, k)
+        return state
+
+    def simulate(self, keys, n_steps, start=0, out=None):
+        """Return the agents' errors at steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        out = self.inner.simulate(keys, n_steps, start=start, out=out)
+        if n_steps == 0:
+            return out
+        m = np.asarray(self.inner.mean, dtype=float)
+        scale = agent_scales(keys, self.population.scale_sd_log)[:, None]
+        bias = self.bias_sd * streams.normal_pairs(keys, streams.DOMAIN_INIT_BIAS, start)
+        for k in range(n_steps):
+            if k:
+                self._wander(bias, keys, start + k)
+            out[k] = m + scale * (out[k] - m) + bias
+        return out
+
+    # --- what a consumer is told ------------------------------------------
+
+    def predictive_cov(self, state, first=False):
+        """
+        Return each agent's covariance (n, 2, 2) of the next error given ``state``.
+
+        ``first`` (nothing known of the agent): the process's first-step
+        covariance plus the population's bias spread.
+        """
+        cov = self.inner.predictive_cov(state[:, :, :-2], first)
+        if first:
+            return cov + np.diag(self.bias_sd ** 2)
+        f2 = state[:, 0, -1] ** 2
+        return cov * f2[:, None, None] + np.diag(self._wander_sd ** 2)
+
+    def predictive_mean(self, state, first=False):
+        """Return each agent's expected next error (n, 2) given ``state``, mean included."""
+        pm = self.inner.predictive_mean(state[:, :, :-2], first)
+        if first:
+            return pm
+        m = np.asarray(self.inner.mean, dtype=float)
+        return m + state[:, 0, -1][:, None] * (pm - m) + self.a * state[:, :, -2]

@@ -1,0 +1,83 @@
+"""Splits across stretches and recordings, the population class's score, the consumers."""
+
+import numpy as np
+from scipy import stats
+
+from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
+from gps_error_ros.diagnose.generalise import (_kalman_ll, recording_splits, rolling_splits)
+from gps_error_ros.diagnose.split import Part
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.traces.trace_io import Trace
+
+
+def _trace(name, n, seed, t0=0.0):
+    rng = np.random.default_rng(seed)
+    lat = 40.0 + np.arange(n) * 1e-6
+    lon = np.full(n, -73.9)
+    return Trace(name=name, t=t0 + np.arange(n, dtype=float),
+                 lat=lat + rng.normal(0, 2e-5, n), lon=lon + rng.normal(0, 2e-5, n),
+                 truth_lat=lat, truth_lon=lon)
+
+
+def _walk(n, dt=1.0):
+    t = np.arange(n) * dt
+    truth = np.stack([1.2 * t, 0.3 * t], axis=1)
+    return Part([np.zeros((n, 2))], [truth], [t])
+
+
+def test_rolling_folds_train_before_and_hold_out_the_next_block():
+    trace = _trace('a', 1000, 0)
+    folds = rolling_splits(trace, origins=(0.5, 0.75), horizon=0.25)
+    assert [s.train.n for _, s in folds] == [500, 750]
+    assert [s.test.n for _, s in folds] == [250, 250]
+    last_train = max(t[-1] for t in folds[0][1].train.t)
+    assert last_train < folds[0][1].test.t[0][0]
+
+
+def test_leaving_one_recording_out_holds_out_exactly_that_recording():
+    traces = [_trace('a', 300, 1), _trace('b', 400, 2), _trace('c', 200, 3)]
+    folds = recording_splits(traces)
+    assert [label for label, _ in folds] == ['without a', 'without b', 'without c']
+    assert [s.test.n for _, s in folds] == [300, 400, 200]
+    assert [s.train.n for _, s in folds] == [600, 500, 700]
+
+
+def test_the_population_score_is_the_exact_gaussian_likelihood():
+    """AR(2) plus a constant bias: the filter's densities sum to the joint log density."""
+    phi, sw, bias_sd = (0.6, 0.2), 1.3, 2.0
+    rng = np.random.default_rng(5)
+    n = 80
+    y = rng.normal(0, 3, (n, 2))
+    part = Part([y[:50], y[50:]], [np.zeros((50, 2)), np.zeros((30, 2))],
+                [np.arange(50.0), 53.0 + np.arange(30.0)])       # a gap of 3 steps
+    ll = _kalman_ll(part, 0, np.array(phi), sw, 0.4, bias_sd, 1.0).sum()
+    model = ARErrorModel(AxisParams(0.0, phi, sw), AxisParams(0.0, phi, sw))
+    acv = model.autocovariance(90)[:, 0, 0]
+    t = np.concatenate(part.t).astype(int)
+    cov = acv[np.abs(np.subtract.outer(t, t))] + bias_sd ** 2
+    want = stats.multivariate_normal(np.full(n, 0.4), cov).logpdf(y[:, 0])
+    assert abs(ll - want) < 1e-8
+
+
+def test_the_filter_is_consistent_on_errors_it_was_told():
+    part = _walk(3000)
+    rng = np.random.default_rng(2)
+    var = np.array([4.0, 9.0])
+    errors = np.stack([np.zeros((3000, 2)), rng.normal(0, np.sqrt(var), (3000, 2))])
+    rms, p95, nees, gate = run_filter(part, errors, var).T
+    # exact fixes: the filter only carries its velocity aid's drift, and trusts itself less
+    assert rms[0] < rms[1] and gate[0] == 0.0 and nees[0] < 1.0
+    # white errors of the stated variance: NEES near 2, the gate rejects about 1 %
+    assert 1.7 < nees[1] < 2.3, nees
+    assert 0.004 < gate[1] < 0.02, gate
+    assert rms[1] < np.sqrt(var.sum())
+
+
+def test_v2p_warnings_on_exact_positions():
+    """No error: every conflict warned, and a third of the rest (within W + s of W + 3s)."""
+    part = _walk(20000)
+    hit, false = v2p_warnings(part, np.zeros((1, 20000, 2)), 1.5)[0]
+    assert hit == 1.0
+    assert abs(false - 1.0 / 3.0) < 0.02
+    big = v2p_warnings(part, np.full((1, 20000, 2), 50.0), 1.5)[0]
+    assert big[0] < 0.2 and CONFLICT_M > 0

@@ -1,0 +1,65 @@
+"""The population fit recovers the bias spread, its time constant and the scale spread."""
+
+import numpy as np
+import yaml
+
+from gps_error_ros.fit.population_fit import fit_population, MIN_BLOCKS
+from gps_error_ros.model import streams
+from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
+
+
+def _model(section):
+    """Return a phone-like process (AR(1), phi 0.9: a 300 s mean's SD 0.6 m) with ``section``."""
+    raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
+    raw['axes'] = {ax: {'delta': 0.1, 'phi': [0.9], 'sigma_w': 1.0} for ax in ('north', 'east')}
+    raw['population'] = section
+    return profile_from_dict(raw, 'test').model()
+
+
+def _runs(model, runs, steps, seed=1):
+    """Return (segments, times): each agent one run, the runs one after another."""
+    keys = streams.agent_keys(seed, [f'run{i}' for i in range(runs)])
+    x = model.simulate(keys, steps)
+    segs = [x[:, i] for i in range(runs)]
+    times = [i * (steps + 600.0) + np.arange(steps, dtype=float) for i in range(runs)]
+    return segs, times
+
+
+def test_several_runs_give_back_the_bias_spread_and_a_constant_bias():
+    model = _model({'bias_sd_m': [3.0, 1.5], 'scale_sd_log': 0.0})
+    segs, times = _runs(model, 60, 900)
+    fit = fit_population(segs, times)
+    pop = fit.population
+    # 60 runs: the SD of an SD estimate is about 9 %; the within fit adds a little
+    np.testing.assert_allclose(pop.bias_sd_m, [3.0, 1.5], rtol=0.25)
+    assert pop.bias_time_constant_s is None, pop
+    assert pop.scale_sd_log < 0.15
+    # the within process: the phone's persistence, not the runs' biases
+    assert abs(sum(fit.north.phi) - 0.9) < 0.03 and abs(fit.north.sigma_w - 1.0) < 0.03
+
+
+def test_one_long_recording_gives_back_a_wandering_bias():
+    model = _model({'bias_sd_m': [3.0, 3.0], 'scale_sd_log': 0.0,
+                    'bias_time_constant_s': 1200.0})
+    segs, times = _runs(model, 1, 72000, seed=4)
+    pop = fit_population(segs, times).population
+    assert pop.bias_time_constant_s is not None
+    assert 600.0 < pop.bias_time_constant_s < 2400.0, pop
+    np.testing.assert_allclose(pop.bias_sd_m, [3.0, 3.0], rtol=0.35)
+
+
+def test_phones_that_differ_in_scale_give_back_the_scale_spread():
+    model = _model({'bias_sd_m': [0.5, 0.5], 'scale_sd_log': 0.4})
+    segs, times = _runs(model, 80, 900, seed=7)
+    pop = fit_population(segs, times).population
+    assert 0.25 < pop.scale_sd_log < 0.55, pop
+
+
+def test_too_few_blocks_fit_no_population_and_say_why():
+    model = _model({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.0})
+    segs, times = _runs(model, 1, 500)
+    fit = fit_population(segs, times)
+    assert fit.population is None
+    assert fit.evidence['fitted'] is False
+    assert f'needs {MIN_BLOCKS}' in fit.evidence['reason']
+    assert len(fit.axis_params()) == 2

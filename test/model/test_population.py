@@ -1,0 +1,140 @@
+"""The population section: its schema, its draws, its moments and the model that carries it."""
+
+import numpy as np
+import pytest
+import yaml
+
+from gps_error_ros.model import streams
+from gps_error_ros.model.population import population_from_dict, WithPopulation
+from gps_error_ros.model.profiles import (builtin_dir, load_profile, profile_from_dict,
+                                          ProfileError)
+
+SECTION = {'bias_sd_m': [2.0, 3.0], 'scale_sd_log': 0.3}
+WANDER = dict(SECTION, bias_time_constant_s=200.0)
+
+
+def _profile(section=SECTION, base='DS5', **extra):
+    raw = yaml.safe_load((builtin_dir() / f'{base}.yaml').read_text())
+    raw['population'] = section
+    raw.update(extra)
+    return profile_from_dict(raw, 'test')
+
+
+def test_a_profile_without_the_section_is_unchanged_bit_for_bit():
+    keys = streams.agent_keys(3, ['a', 'b', 'c'])
+    plain = load_profile('DS5').model().simulate(keys, 300)
+    section = _profile({'bias_sd_m': [0.0, 0.0], 'scale_sd_log': 0.0}).model()
+    assert isinstance(section, WithPopulation)
+    np.testing.assert_allclose(section.simulate(keys, 300), plain, atol=1e-12, rtol=0)
+    assert not isinstance(load_profile('DS5').model(), WithPopulation)
+
+
+def test_each_agent_draws_its_own_bias_and_scale_from_the_stated_laws():
+    model = _profile().model()
+    inner = load_profile('DS5').model()
+    keys = streams.agent_keys(11, [f'p{i}' for i in range(3000)])
+    x = model.simulate(keys, 40)
+    plain = inner.simulate(keys, 40)
+    m = inner.mean
+    bias = x.mean(axis=0) - m - (plain.mean(axis=0) - m) * \
+        np.exp(0.3 * streams.normal_pairs(keys, streams.DOMAIN_POPULATION_SCALE, 0)[:, :1] - 0.09)
+    sd = bias.std(axis=0)
+    # 3000 draws: the SD of an SD estimate is about sd / sqrt(2 n) = 1.3 %
+    np.testing.assert_allclose(sd, [2.0, 3.0], rtol=0.06)
+    dev = (x - x.mean(axis=0))
+    dev_plain = (plain - plain.mean(axis=0))
+    ratio = np.sqrt((dev ** 2).sum(axis=(0, 2)) / (dev_plain ** 2).sum(axis=(0, 2)))
+    # f = exp(0.3 z - 0.09): log f has SD 0.3 and mean -0.09
+    assert abs(np.log(ratio).std() - 0.3) < 0.03 and abs(np.log(ratio).mean() + 0.09) < 0.03
+    # normalised: the mean of f^2 is 1
+    assert abs(np.mean(ratio ** 2) - 1.0) < 0.05
+
+
+def test_the_stationary_covariance_covers_the_population():
+    model = _profile(WANDER).model()
+    inner = load_profile('DS5').model()
+    np.testing.assert_allclose(model.stationary_cov,
+                               inner.stationary_cov + np.diag([4.0, 9.0]), rtol=1e-12)
+    keys = streams.agent_keys(2, [f'q{i}' for i in range(4000)])
+    x = model.simulate(keys, 3, start=50)[-1]
+    emp = np.cov(x.T)
+    np.testing.assert_allclose(np.diag(emp), np.diag(model.stationary_cov), rtol=0.08)
+    acv = model.autocovariance(100)
+    np.testing.assert_allclose(acv[100], inner.autocovariance(100)[100] +
+                               np.exp(-0.5) * np.diag([4.0, 9.0]), rtol=1e-12)
+
+
+def test_a_wandering_bias_has_its_time_constant():
+    prof = _profile({'bias_sd_m': [2.0, 2.0], 'scale_sd_log': 0.0,
+                     'bias_time_constant_s': 50.0})
+    model = prof.model()
+    keys = streams.agent_keys(4, [f'w{i}' for i in range(400)])
+    x = model.simulate(keys, 2000)
+    plain = load_profile('DS5').model().simulate(keys, 2000)
+    b = x - plain                                  # the bias alone (scale 1)
+    lag = 50
+    r = np.mean(b[lag:] * b[:-lag]) / np.mean(b * b)
+    assert abs(r - np.exp(-1.0)) < 0.06, r
+    assert abs(b.std() - 2.0) < 0.1
+
+
+def test_every_path_gives_the_same_errors():
+    """simulate, stepping, state_after, a late start, alone or with others: one function."""
+    model = _profile(WANDER).model()
+    keys = streams.agent_keys(9, ['x', 'y', 'z'])
+    whole = model.simulate(keys, 60, start=100)
+    state = model.initial_state(keys, 100)
+    stepped = [model.errors(state)]
+    for k in range(101, 160):
+        stepped.append(model.advance(state, keys, k))
+        np.testing.assert_array_equal(model.errors(state), stepped[-1])
+    np.testing.assert_allclose(np.array(stepped), whole, atol=1e-9, rtol=0)
+    later = model.state_after(keys, 100, 130)
+    np.testing.assert_allclose(model.errors(later), whole[30], atol=1e-9, rtol=0)
+    alone = model.simulate(keys[1:2], 60, start=100)
+    np.testing.assert_array_equal(alone[:, 0], whole[:, 1])
+
+
+def test_the_conditional_covariance_knows_the_agent():
+    model = _profile(WANDER).model()
+    inner = load_profile('DS5').model()
+    keys = streams.agent_keys(5, ['a', 'b'])
+    state = model.state_after(keys, 0, 20)
+    f = state[:, 0, -1]
+    a2 = np.exp(-2.0 / 200.0)
+    want = inner.predictive_cov(state[:, :, :-2]) * (f ** 2)[:, None, None] + \
+        np.diag([4.0, 9.0]) * (1 - a2)
+    np.testing.assert_allclose(model.predictive_cov(state), want, rtol=1e-12)
+    first = model.predictive_cov(model.initial_state(keys, 0), first=True)
+    np.testing.assert_allclose(first[0], inner.predictive_cov(state[:, :, :-2], first=True)[0]
+                               + np.diag([4.0, 9.0]), rtol=1e-12)
+    # the expected next error: what the next step's error is, up to its innovation
+    nxt = state.copy()
+    err = model.advance(nxt, keys, 21)
+    mean = model.predictive_mean(state)
+    cov = model.predictive_cov(state)
+    z = np.linalg.solve(np.linalg.cholesky(cov), (err - mean)[..., None])[..., 0]
+    assert np.all(np.abs(z) < 6)
+
+
+def test_the_section_round_trips_and_wraps_inside_failures():
+    prof = _profile(WANDER, gross_failures={'rate': 0.01, 'sizes_m': [100.0]})
+    model = prof.model()
+    assert type(model).__name__ == 'WithFailures'
+    assert isinstance(model.inner, WithPopulation)
+    assert population_from_dict(prof.population.to_dict()) == prof.population
+
+
+@pytest.mark.parametrize('bad, says', [
+    ({'bias_sd_m': [1.0, 1.0]}, "['bias_sd_m', 'scale_sd_log']"),
+    ({'bias_sd_m': [1.0], 'scale_sd_log': 0.1}, 'two numbers'),
+    ({'bias_sd_m': [1.0, -1.0], 'scale_sd_log': 0.1}, 'two numbers'),
+    ({'bias_sd_m': [1.0, float('nan')], 'scale_sd_log': 0.1}, 'two numbers'),
+    ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 3.0}, '[0, 2]'),
+    ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'bias_time_constant_s': 0}, '(0, 1e9]'),
+    ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'other': 1}, 'optionally'),
+])
+def test_a_bad_section_is_refused_with_what_was_expected(bad, says):
+    with pytest.raises(ProfileError) as err:
+        _profile(bad)
+    assert 'population' in str(err.value) and says in str(err.value)
