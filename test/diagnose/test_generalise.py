@@ -67,8 +67,9 @@ def test_the_filter_is_consistent_on_errors_it_was_told():
     rms, p95, nees, gate = run_filter(part, errors, var).T
     # exact fixes: the filter only carries its velocity aid's drift, and trusts itself less
     assert rms[0] < rms[1] and gate[0] == 0.0 and nees[0] < 1.0
-    # white errors of the stated variance: NEES near 2, the gate rejects about 1 %
-    assert 1.7 < nees[1] < 2.3, nees
+    # white errors of the stated variance: NEES a little under 2 (the truth keeps its
+    # velocity, the filter allows for accelerations), the gate rejects about 1 %
+    assert 1.3 < nees[1] < 2.2, nees
     assert 0.004 < gate[1] < 0.02, gate
     assert rms[1] < np.sqrt(var.sum())
 
