@@ -18,7 +18,7 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
-	walks-profile
+	walks-profile generalisation
 
 DATA ?= ../shared/data
 
@@ -52,6 +52,11 @@ calibration-doc: setup
 # SnapperGPS walks of ../shared/data (about two minutes).
 walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
+
+# docs/generalisation.md: every class judged on folds across stretches, recordings
+# and receivers of ../shared/data (about 15 minutes).
+generalisation: setup
+	$(PY) tools/generalisation.py --data $(DATA) --out .
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
 # About 35 minutes on a 2-core machine; see docs/performance.md.

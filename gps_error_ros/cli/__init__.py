@@ -18,6 +18,7 @@ import sys
 from gps_error_ros.cli.parser import build_parser
 from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.fit.population_fit import population_line
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
@@ -35,10 +36,10 @@ ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
           NmeaError, GnssLoggerError, GpxError, LandmarkError, ValueError, OSError)
 
 
-def _load_inputs(args):
-    """Load every INPUT (files, or folders of them); print how it went; return the traces."""
+def _load_inputs(args, paths=None):
+    """Load every INPUT (or ``paths``: files, or folders of them); print how it went."""
     traces = []
-    for path in expand_inputs(args.input):
+    for path in expand_inputs(args.input if paths is None else paths):
         trace, notes = load_trace(path, args.fix_topic, args.truth_topic,
                                   parse_datum(args.datum), args.max_truth_gap, args.agent)
         for line in notes:
@@ -52,18 +53,15 @@ def _load_input(args):
     return _load_clean(args)[0]
 
 
-def _load_clean(args, mark=None):
+def clean_recordings(args, paths=None, mark=None):
     """
-    Load the INPUTs as one trace without their gross failures; print what was found.
+    Return the INPUTs (or ``paths``) without their gross failures, and the failures.
 
-    Each recording's gross failures are found on its own and left out (or,
-    with ``mark``, kept and flagged 1.0 in the extra column of that name);
-    several recordings are joined, each after the last
-    (:func:`join_recordings`). Returns (trace, the recordings'
-    :class:`GrossFailures`).
+    Each recording's are found on its own, printed, and left out (with
+    ``mark``: kept and flagged 1.0 in the extra column of that name).
     """
     traces, found = [], []
-    for trace in _load_inputs(args):
+    for trace in _load_inputs(args, paths):
         found.append(find_gross_failures(trace))
         print(found[-1].describe())
         if mark:
@@ -71,6 +69,12 @@ def _load_clean(args, mark=None):
             traces.append(trace)
         else:
             traces.append(without_rows(trace, found[-1].mask))
+    return traces, found
+
+
+def _load_clean(args, mark=None):
+    """Return :func:`clean_recordings` joined into one trace (:func:`join_recordings`)."""
+    traces, found = clean_recordings(args, mark=mark)
     return join_recordings(traces), found
 
 
@@ -224,7 +228,8 @@ def cmd_calibrate(args):
         return _calibrate_zones(args)
     _check_output_dir(args.output, '-o')
     traces = _load_inputs(args)
-    result = calibrate(traces, order=args.order, max_order=args.max_order)
+    result = calibrate(traces, order=args.order, max_order=args.max_order,
+                       population=args.population)
     out = Path(args.output)
     profile = result.profile_dict(args.name or out.stem)
     write_profile(out, profile)
@@ -234,9 +239,10 @@ def cmd_calibrate(args):
     g = result.grid
     print(f'{result.input}: {g.n} samples in {len(g.segments)} segment(s), '
           f'{g.span_s:.0f} s')
-    sd = ARErrorModel(result.north.params, result.east.params).stationary_sd
+    axes = result.axis_params
+    sd = ARErrorModel(*axes).stationary_sd
     for i, (ax, fit) in enumerate((('north', result.north), ('east', result.east))):
-        p = fit.params
+        p = axes[i]
         print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
               f'{fit.bic_order}) delta={p.delta:.4f} '
               f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}; '
@@ -245,6 +251,8 @@ def cmd_calibrate(args):
             print(f'  note: the {ax} PACF is significant up to the largest order '
                   f'allowed (--max-order {args.max_order}); a larger --max-order '
                   f'may choose more')
+    if result.population is not None:
+        print(f'  {population_line(result.population)}')
     note = little_data_note(result)
     if note:
         print(f'  note: {note}')
@@ -368,6 +376,9 @@ def _write_results(args, doc, figure_name, draw):
 
 def cmd_compare(args):
     """Run ``gps_error compare``; return the exit code."""
+    if args.folds or args.test:
+        from gps_error_ros.cli.folds import compare_folds
+        return compare_folds(args, clean_recordings)
     from gps_error_ros.diagnose.baselines import compare, compare_json
     from gps_error_ros.diagnose.pipeline import fit_models, STAGES
     from gps_error_ros.reports.compare_figure import compare_figure

@@ -95,6 +95,11 @@ def _add_calibrate(sub):
                         f'{DEFAULT_MAX_ORDER})')
     c.add_argument('--name', default=None,
                    help='profile name (default: the output file stem)')
+    c.add_argument('--population', action='store_true',
+                   help='describe the receiver across stretches: fit the AR within blocks '
+                        'of 300 s and a population section (each simulated agent draws '
+                        'its own bias and scale, as blocks and recordings differ); needs '
+                        '3 blocks of 300 s, e.g. 15 min of data or several recordings')
 
 
 def _add_validate(sub):
@@ -241,6 +246,16 @@ def _add_compare(sub):
                    help='simulated traces per class (default 100)')
     c.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,
                    help='seed of the simulations')
+    c.add_argument('--folds', choices=('rolling', 'recordings'), default=None,
+                   help='judge on several splits, with the population class too and '
+                        'the measures in groups (persistence, scale, bias, quantiles, '
+                        'tails, a Kalman filter\'s and a V2P warning\'s results): '
+                        'rolling: train before each of 3 origins (50, 62.5, 75 %% of '
+                        'the span), hold out the next 12.5 %%; recordings: hold out each '
+                        'INPUT recording in turn, train on the others (JSON only)')
+    c.add_argument('--test', nargs='+', default=None, metavar='TEST',
+                   help='hold out these recordings (files or folders) and train on the '
+                        'INPUTs: another day, another stretch (judged as --folds)')
 
 
 def _add_import(sub):

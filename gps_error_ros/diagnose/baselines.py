@@ -135,16 +135,18 @@ KEYS = {'white noise + bias': 'white_bias', 'AR(1)': 'ar1', 'ARMA(1,1)': 'arma11
         'AR(3), paper': 'ar3_paper', 'AR(p), PACF': 'ar_p', 'extended': 'extended'}
 
 
-def _classes(diag, sims, seed):
+def _classes(diag, sims, seed, m0=None):
     """
     Return {class: (held-out log densities, simulated traces)}, same samples.
 
     ``diag`` is anything with the ``split``, ``base`` and ``extended`` of a
     diagnosis: a :class:`~.pipeline.Diagnosis` or the cheaper
-    :class:`~.pipeline.FittedModels`.
+    :class:`~.pipeline.FittedModels`. ``m0``: samples per segment
+    conditioned on (default: what the base and extended models need).
     """
     train, test, truth = diag.split.train, diag.split.test, diag.split.truth
-    m0 = condition_count(diag.base.orders, diag.extended.orders)
+    if m0 is None:
+        m0 = condition_count(diag.base.orders, diag.extended.orders)
     rng = np.random.default_rng(seed)
     wb = WhiteBias().fit(train)
     arma = Arma11().fit(train, m0)

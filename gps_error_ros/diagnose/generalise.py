@@ -29,6 +29,7 @@ no group outvotes another (:func:`grouped_measures`):
 ``inside_95`` of a group is the share of its measures inside their ranges.
 """
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -36,13 +37,14 @@ import numpy as np
 from gps_error_ros.diagnose.baselines import _classes, KEYS
 from gps_error_ros.diagnose.consumers import consumer_measures
 from gps_error_ros.diagnose.fidelity import acf_by_axis, simulate_part
-from gps_error_ros.diagnose.mean import condition_count
+from gps_error_ros.diagnose.mean import condition_count, motion_offsets
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.fit.envelope import envelope, inside
-from gps_error_ros.fit.population_fit import fit_population
+from gps_error_ros.fit.population_fit import BLOCK_S, fit_population
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.effects import build_model
 from gps_error_ros.model.population import WithPopulation
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -52,8 +54,9 @@ ORIGINS = (0.5, 0.625, 0.75)
 HORIZON = 0.125
 #: The groups of measures, in order.
 GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails', 'filter', 'v2p')
-#: The class of this module, beside :data:`~.baselines.CLASSES`.
+#: The classes of this module, beside :data:`~.baselines.CLASSES`.
 POPULATION = 'population'
+POPULATION_AR = 'population_ar'
 ACF_LAGS = 60
 
 
@@ -115,15 +118,35 @@ def recording_splits(traces):
 # --- the population class --------------------------------------------------
 
 class PopulationClass:
-    """The population profile fitted on a training part, as a class to judge."""
+    """
+    The population profile fitted on a training part, as a class to judge.
 
-    def __init__(self, train):
-        fit = fit_population(train.err, train.t)
-        self.fit = fit
+    ``within``: a :class:`~.models.FittedModel` fitted on the training
+    errors about their blocks' means (:func:`within_part`), whose effects
+    the class keeps; without it the process within is the Gaussian AR of
+    :func:`~gps_error_ros.fit.population_fit.fit_population`.
+    """
+
+    def __init__(self, train, within=None, truth=None):
+        self.lag = (0.0, 1.0) if within is None else (within.mean.lag_s, within.mean.gain)
+        self.truth = truth
+        fit = fit_population(self._without_lag(train), train.t)
+        self.fit, self.within = fit, within
         self.ar = ARErrorModel(*fit.axis_params())
+        inner = self.ar
+        if within is not None:
+            axes = [AxisParams((1.0 - sum(p.phi)) * float(m), p.phi, p.sigma_w)
+                    for p, m in zip(within.axis_params(), fit.mean)]
+            inner = build_model(axes[0], axes[1], within.effects_obj())
         pop = fit.population
-        self.model = self.ar if pop is None else WithPopulation(self.ar, pop)
-        self.mean = SimpleNamespace(lag_s=0.0, gain=1.0)
+        self.model = inner if pop is None else WithPopulation(inner, pop)
+        self.mean = within.mean if within is not None else SimpleNamespace(lag_s=0.0,
+                                                                           gain=1.0)
+
+    def _without_lag(self, part):
+        """Return ``part``'s error segments less the motion lag's offsets."""
+        offsets = motion_offsets(part, self.truth, *self.lag)
+        return [e - o for e, o in zip(part.err, offsets)]
 
     def simulator(self):
         """Return the model to simulate with."""
@@ -133,27 +156,58 @@ class PopulationClass:
         """
         Return the held-out one-step log densities of the scored samples.
 
-        A Kalman filter per axis over the AR state and the bias (the scale
-        taken at its mean square, 1): the predictive density given every
-        earlier held-out sample; gaps are predicted through. The first
-        ``m0`` samples of each segment are conditioned on, not scored.
+        A Kalman filter per axis over the Gaussian AR state and the bias (the
+        scale taken at its mean square, 1) predicts each sample given every
+        earlier held-out sample (gaps predicted through). With a ``within``
+        model the prediction is that model's, of the error less the bias the
+        filter expected (a plug-in of the bias; the filter sees the errors
+        less the motion lag's offsets). The first ``m0`` samples of each
+        segment are conditioned on, not scored.
         """
         pop = self.fit.population
         out = np.zeros(part.n)
+        bias = np.zeros((part.n, 2))
+        free = Part(self._without_lag(part), part.truth, part.t)
         for a in range(2):
             ax = self.ar.axes[a]
             sd = 0.0 if pop is None else pop.bias_sd_m[a]
             rate = 1.0 if pop is None else pop.persistence()
-            out += _kalman_ll(part, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
-                              float(self.ar.mean[a]), sd, rate)
+            ll, bias[:, a] = _kalman_ll(free, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
+                                        float(self.ar.mean[a]), sd, rate)
+            out += ll
+        if self.within is not None:
+            cuts = np.cumsum([len(e) for e in part.err[:-1]])
+            less = [e - self.fit.mean - b for e, b in zip(part.err, np.split(bias, cuts))]
+            shifted = Part(less, part.truth, part.t)
+            return self.within.score(shifted, self.truth, m0)[0]
         starts = np.cumsum([0] + [len(e) for e in part.err[:-1]])
         keep = np.concatenate([s + np.arange(m0, len(e))
                                for s, e in zip(starts, part.err)])
         return out[keep]
 
 
+def within_part(part, block_s=BLOCK_S):
+    """Return ``part`` with each sample's block mean taken off, segments cut at block edges."""
+    t_first = min(float(t[0]) for t in part.t)
+    ids = [np.floor((t - t_first) / block_s).astype(np.int64) for t in part.t]
+    allid, allerr = np.concatenate(ids), np.concatenate(part.err)
+    means = {int(i): allerr[allid == i].mean(axis=0) for i in np.unique(allid)}
+    out = Part([], [], [])
+    for e, tr, t, i in zip(part.err, part.truth, part.t, ids):
+        cuts = np.flatnonzero(np.diff(i) != 0) + 1
+        for ee, rr, tt, ii in zip(*(np.split(x, cuts) for x in (e, tr, t, i))):
+            out.err.append(ee - means[int(ii[0])])
+            out.truth.append(rr)
+            out.t.append(tt)
+    return out
+
+
 def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
-    """Return the one-step log densities of axis ``a`` of every sample of ``part``."""
+    """
+    Return the one-step log densities of axis ``a`` of every sample of ``part``.
+
+    And the bias each sample's prediction expected (given the samples before it).
+    """
     phi = phi if phi.size else np.zeros(1)
     p = phi.size
     f = np.zeros((p + 1, p + 1))
@@ -173,17 +227,18 @@ def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
     x, cov = np.zeros(p + 1), p0
     t = np.concatenate(part.t)
     y = np.concatenate(part.err)[:, a] - mean
-    out = np.empty(y.size)
+    out, bias = np.empty(y.size), np.empty(y.size)
     for i in range(y.size):
         if i:
             for _ in range(max(1, int(round(t[i] - t[i - 1])))):
                 x, cov = f @ x, f @ cov @ f.T + q
+        bias[i] = x[p]
         s = float(h @ cov @ h)
         nu = y[i] - float(h @ x)
         out[i] = -0.5 * (np.log(2 * np.pi * s) + nu * nu / s)
         gain = cov @ h / s
         x, cov = x + gain * nu, cov - np.outer(gain, h @ cov)
-    return out
+    return out, bias
 
 
 # --- the measures ----------------------------------------------------------
@@ -229,29 +284,82 @@ def grouped_measures(part, train, simulated, seed=0):
     return rows, groups
 
 
-def judge_split(fitted, sims=100, seed=0):
+def judge_split(fitted, sims=100, seed=0, within=None):
     """
     Return {class key: {heldout_nll_per_sample, groups, measures}} on one split.
 
     ``fitted``: the :class:`~.pipeline.FittedModels` of the split (its
-    classes come from :func:`~.baselines._classes`); the population class
-    is fitted here on the same training part and scored on the same samples.
+    classes come from :func:`~.baselines._classes`); the population classes
+    are fitted here on the same training part and scored on the same
+    samples: ``population_ar`` (the Gaussian AR within blocks, as
+    ``calibrate --population``) and, given ``within`` (the extended model
+    fitted on :func:`within_part` of the training part), ``population``.
     """
     split = fitted.split
-    m0 = condition_count(fitted.base.orders, fitted.extended.orders)
-    classes = _classes(fitted, sims, seed)
-    pop = PopulationClass(split.train)
-    ll = pop.logpdf(split.test, m0)
-    n = {len(v[0]) for v in classes.values()}
-    if n != {len(ll)}:
-        raise AssertionError(f'classes scored on different samples: {n} and {len(ll)}')
-    classes[POPULATION] = (ll, simulate_part(pop, split.test, split.truth, sims, seed))
+    m0 = condition_count(fitted.base.orders, fitted.extended.orders,
+                         *(() if within is None else (within.orders,)))
+    classes = _classes(fitted, sims, seed, m0)
+    pops = {POPULATION_AR: PopulationClass(split.train)}
+    if within is not None:
+        pops[POPULATION] = PopulationClass(split.train, within, split.truth)
+    for label, pop in pops.items():
+        ll = pop.logpdf(split.test, m0)
+        n = {len(v[0]) for v in classes.values()}
+        if n != {len(ll)}:
+            raise AssertionError(f'classes scored on different samples: {n} and {len(ll)}')
+        classes[label] = (ll, simulate_part(pop, split.test, split.truth, sims, seed))
     out = {}
     for label, (lls, traces) in classes.items():
         rows, groups = grouped_measures(split.test, split.train, traces, seed)
         out[KEYS.get(label, label)] = {'heldout_nll_per_sample': float(-np.mean(lls)),
                                        'groups': groups, 'measures': rows}
-    out[POPULATION]['fit'] = pop.fit.evidence
-    out[POPULATION]['section'] = None if pop.fit.population is None else \
-        pop.fit.population.to_dict()
+    for label, pop in pops.items():
+        out[label]['fit'] = pop.fit.evidence
+        out[label]['section'] = None if pop.fit.population is None else \
+            pop.fit.population.to_dict()
+    return out
+
+
+def judge_folds(splits, sims=100, seed=0, done=None):
+    """
+    Fit and judge every class on every ``(label, Split)``; return the folds.
+
+    Each fold: ``{'fold', 'rule', 'train_samples', 'test_samples',
+    'classes'}`` (:func:`judge_split`). ``done()`` after each fold.
+    """
+    from gps_error_ros.diagnose.pipeline import fit_split
+    folds = []
+    for label, split in splits:
+        fitted = fit_split(label, split, seed=seed)
+        within = fit_split(label, replace(split, train=within_part(split.train)),
+                           seed=seed).extended
+        folds.append({'fold': label, 'rule': split.rule, 'train_samples': split.train.n,
+                      'test_samples': split.test.n,
+                      'classes': judge_split(fitted, sims, seed, within)})
+        if done is not None:
+            done()
+    return folds
+
+
+def summarise(folds):
+    """
+    Return per class: the held-out NLL per fold and its mean, the folds it scored best.
+
+    And each group's ``inside_95`` averaged over the folds, and the smallest
+    of those (``worst_group``): a class holds where every group is near 0.95.
+    """
+    classes = list(folds[0]['classes'])
+    best = [min(f['classes'], key=lambda c: f['classes'][c]['heldout_nll_per_sample'])
+            for f in folds]
+    out = {}
+    for c in classes:
+        nll = [f['classes'][c]['heldout_nll_per_sample'] for f in folds]
+        groups = {g: float(np.mean([f['classes'][c]['groups'][g] for f in folds]))
+                  for g in GROUPS}
+        worst = min(groups, key=groups.get)
+        out[c] = {'heldout_nll_per_sample': float(np.mean(nll)),
+                  'heldout_nll_per_fold': nll,
+                  'best_score_folds': int(sum(b == c for b in best)),
+                  'groups': groups,
+                  'worst_group': {'group': worst, 'inside_95': groups[worst]}}
     return out

@@ -30,6 +30,7 @@ import numpy as np
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.fit.population_fit import fit_population
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -146,6 +147,7 @@ class CalibrationResult:
     reported: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
     failures: tuple = ()        # GrossFailures per recording
     fix_masks: tuple = None     # per recording, every grid step: a fix (failures too)
+    population: object = None   # PopulationFit, when asked for
 
     @property
     def availability(self):
@@ -166,28 +168,39 @@ class CalibrationResult:
         """Return the recordings' names."""
         return tuple(f.name for f in self.failures)
 
+    @property
+    def axis_params(self):
+        """Return the profile's (north, east) AR: the within process with a population."""
+        if self.population is not None and self.population.population is not None:
+            return self.population.axis_params()
+        return self.north.params, self.east.params
+
     def profile_dict(self, name, description=None, source=None):
         """Return the profile (schema 1) with a ``fit`` section, as plain data."""
         availability, evidence = self.availability
+        pop = self.population
+        fit = {
+            'method': 'Yule-Walker, biased autocovariance pooled over '
+                      'segments',
+            'input': self.input,
+            'samples': self.grid.n,
+            'segments': len(self.grid.segments),
+            'time_span_s': float(self.grid.span_s),
+            'order_selection': {ax: f.evidence() for ax, f in
+                                zip(AXES, (self.north, self.east))},
+            'availability': evidence,
+            'gross_failures': self.failures_summary(),
+            'velocity': self.velocity[1],
+            'reported_accuracy': self.reported[1]}
+        if pop is not None:
+            fit['population'] = pop.evidence
         return profile_mapping(
             name, description or f'fitted to {self.input}',
             source or f'gps_error calibrate {self.input}',
-            (self.north.params, self.east.params), rate_hz=self.grid.rate_hz,
-            fit={
-                'method': 'Yule-Walker, biased autocovariance pooled over '
-                          'segments',
-                'input': self.input,
-                'samples': self.grid.n,
-                'segments': len(self.grid.segments),
-                'time_span_s': float(self.grid.span_s),
-                'order_selection': {ax: f.evidence() for ax, f in
-                                    zip(AXES, (self.north, self.east))},
-                'availability': evidence,
-                'gross_failures': self.failures_summary(),
-                'velocity': self.velocity[1],
-                'reported_accuracy': self.reported[1],
-            }, availability=availability, velocity=self.velocity[0],
-            reported_accuracy=self.reported[0], gross_failures=self.failure_process())
+            self.axis_params, rate_hz=self.grid.rate_hz, fit=fit,
+            availability=availability, velocity=self.velocity[0],
+            reported_accuracy=self.reported[0], gross_failures=self.failure_process(),
+            population=None if pop is None else pop.population)
 
     def failure_process(self):
         """Return the profile's ``gross_failures`` section fitted from every recording, or None."""
@@ -197,7 +210,7 @@ class CalibrationResult:
                                    if self.failures else [])
 
 
-def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
+def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, population=False):
     """
     Fit both axes; return a :class:`CalibrationResult`.
 
@@ -211,6 +224,11 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
         The largest order the PACF may choose.
     rate_hz : float
         The model grid's rate.
+    population : bool
+        Also fit a ``population`` section (:mod:`population_fit`): the AR
+        becomes the process within blocks, the section how blocks and
+        recordings differ (without enough blocks, no section, and the
+        evidence says why).
 
     Returns
     -------
@@ -229,8 +247,13 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0):
     grid = errors_on_grid(clean, rate_hz)
     fits = [fit_axis(grid.axis(a), order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
+    pop = None
+    if population:
+        times = [(s + np.arange(len(seg))) / rate_hz
+                 for s, seg in zip(grid.starts, grid.segments)]
+        pop = fit_population(list(grid.segments), times, order, max_order)
     return CalibrationResult(fits[0], fits[1], grid, clean.name, estimate_velocity(clean),
-                             estimate_reported(clean), tuple(failures), masks)
+                             estimate_reported(clean), tuple(failures), masks, pop)
 
 
 #: Samples below which calibrate says how little data a fit had (ten minutes at 1 Hz).

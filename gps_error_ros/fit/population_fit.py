@@ -241,3 +241,16 @@ def _time_constant(blocks, dev, between, process_cov, block_s):
         return None, len(pairs), r
     r = max(r, math.exp(-1.0))          # at most one block's decay per block: the AR covers less
     return float(-block_s / math.log(r)), len(pairs), r
+
+
+def population_line(fit):
+    """Return one line saying what a :class:`PopulationFit` found, or why it found nothing."""
+    pop, ev = fit.population, fit.evidence
+    if pop is None:
+        return f'population: not fitted: {ev["reason"]}'
+    wander = 'constant for a run' if pop.bias_time_constant_s is None else \
+        f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
+    return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s): a run\'s bias has '
+            f'SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east, {wander}; '
+            f'an agent\'s scale has log SD {pop.scale_sd_log:.3f}; the AR above is the '
+            f'process within a block')

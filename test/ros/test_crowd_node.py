@@ -201,8 +201,12 @@ def test_crowd_parameter_errors():
         assert rc == 2 and hint in out, out
 
 
-def _cycle_profile(tmp_path):
-    """Write DS7 with the periodic effect (8-step cycle), variance regimes, outliers, failures."""
+def _cycle_profile(tmp_path, population=False):
+    """
+    Write DS7 with the periodic effect (8-step cycle), variance regimes, outliers, failures.
+
+    ``population``: with a population section too (a wandering bias, a spread of scales).
+    """
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
     raw = yaml.safe_load((builtin_dir() / 'DS7.yaml').read_text())
@@ -214,13 +218,17 @@ def _cycle_profile(tmp_path):
         # frequent jumps, so that 30 steps of two agents hold several
         'outliers': {'rate': 0.15, 'mean_steps': 2.0, 'sigma_m': 6.0}}
     raw['gross_failures'] = {'rate': 0.1, 'sizes_m': [60.0, 400.0, 9000.0]}
+    if population:
+        raw['population'] = {'bias_sd_m': [4.0, 2.5], 'scale_sd_log': 0.5,
+                             'bias_time_constant_s': 20.0}
     path = tmp_path / 'cycle.yaml'
     path.write_text(yaml.safe_dump(raw))
     return str(path)
 
 
-@pytest.mark.parametrize('cycle', [False, True],
-                         ids=['DS7', 'DS7 with a periodic cycle, outliers and failures'])
+@pytest.mark.parametrize('cycle', [False, True, 'population'],
+                         ids=['DS7', 'DS7 with a periodic cycle, outliers and failures',
+                              'the same with a population section'])
 def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
     from gps_error_ros.sim.simulate import simulate_csv
     from gps_error_ros.model.geodesy import difference
@@ -228,7 +236,7 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
 
     ns = unique_ns()
     agents = ['walker_a', 'walker_b']
-    profile = _cycle_profile(tmp_path) if cycle else 'DS7'
+    profile = _cycle_profile(tmp_path, cycle == 'population') if cycle else 'DS7'
     node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
                         '-p', DATUM_ARG, '-p', 'seed:=4', '-p', f'profile:={profile}',
                         '-p', f'max_pose_age:={MAX_AGE}',
@@ -284,6 +292,10 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
             failed += int(np.any(state[:, :, -1] != 0.0, axis=1).sum())
         assert jumped >= 5, jumped
         assert failed >= 2, failed
+        if cycle == 'population':       # the agents drew biases of metres, and differ
+            bias = state[:, :, -3]
+            assert np.all(np.abs(bias).max(axis=1) > 0.1), bias
+            assert state[0, 0, -2] != state[1, 0, -2]
 
 
 def _zone_map(path):

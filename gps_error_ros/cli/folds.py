@@ -1,0 +1,63 @@
+"""``gps_error compare --folds`` and ``--test``: the classes across stretches and recordings."""
+
+from pathlib import Path
+
+from gps_error_ros.diagnose.generalise import (GROUPS, judge_folds, recording_splits,
+                                               rolling_splits, split_between, summarise)
+from gps_error_ros.traces.trace_io import join_recordings
+
+
+def _splits(args, recordings):
+    """Return [(label, Split)] of the run's rule; raise SystemExit with what was wrong."""
+    if args.test:
+        held, _ = recordings(args, args.test)
+        train = join_recordings(recordings(args)[0])
+        test = join_recordings(held)
+        joined = join_recordings([train, test])
+        cut = float(joined.t[-len(test.t)])
+        return [(f'test {test.name}', split_between(
+            joined, cut, float(joined.t[-1]) + 1.0,
+            f'train on {train.name}, hold out {test.name}'))]
+    traces, _ = recordings(args)
+    if args.folds == 'recordings':
+        if len(traces) < 2:
+            raise SystemExit(f'gps_error compare: --folds recordings needs at least 2 '
+                             f'recordings of one receiver, got {len(traces)}')
+        return recording_splits(traces)
+    return rolling_splits(join_recordings(traces))
+
+
+def compare_folds(args, recordings):
+    """
+    Run the fold comparison; print a table, write ``--json``; return the exit code.
+
+    ``recordings(args, paths=None)`` loads recordings without their gross
+    failures (the CLI's loader).
+    """
+    from gps_error_ros.reports.jsonfile import write_json
+    from gps_error_ros.traces.progress import Progress
+
+    if args.zones or args.report:
+        raise SystemExit('gps_error compare: --folds and --test write JSON only; '
+                         '--zones and --report go with the single 70/30 split')
+    splits = _splits(args, recordings)
+    progress = Progress(len(splits), 'judging the classes on', min_total=2)
+    try:
+        folds = judge_folds(splits, args.sims, args.seed, done=progress.update)
+    finally:
+        progress.close()
+    summary = summarise(folds)
+    print(f'{len(folds)} fold(s): ' + '; '.join(
+        f'{f["fold"]} ({f["train_samples"]} train / {f["test_samples"]} held out)'
+        for f in folds))
+    print(f'  {"class":13} {"NLL":>8} {"best":>5} ' + ' '.join(f'{g[:11]:>11}' for g in GROUPS))
+    for name, c in summary.items():
+        print(f'  {name:13} {c["heldout_nll_per_sample"]:8.3f} {c["best_score_folds"]:5d} ' +
+              ' '.join(f'{c["groups"][g]:11.2f}' for g in GROUPS))
+    print('  (NLL: held-out NLL per sample, mean over folds; best: folds with the lowest; '
+          'groups: share of measures inside their simulated 95 % range, mean over folds)')
+    if args.json_out:
+        write_json(Path(args.json_out), {'folds': folds, 'summary': summary,
+                                         'sims': args.sims, 'seed': args.seed})
+        print(f'wrote {args.json_out}')
+    return 0

@@ -1,0 +1,44 @@
+"""``gps_error compare --test`` and ``--folds``: the classes judged across recordings."""
+
+import json
+import math
+
+import pytest
+
+from gps_error_ros.cli import main as cli
+from gps_error_ros.diagnose.generalise import GROUPS
+from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.sim.synthetic import synthetic_trace
+from gps_error_ros.traces.trace_io import read_trace_csv, write_trace_csv
+
+CLASSES = {'white_bias', 'ar1', 'arma11', 'ar3_paper', 'ar_p', 'extended', 'population_ar',
+           'population'}
+
+
+def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
+    paths = [write_trace_csv(synthetic_trace('none', seed, 900), tmp_path / f'r{seed}.csv')
+             for seed in (1, 2, 3)]
+    out = tmp_path / 'folds.json'
+    assert cli(['compare', str(paths[0]), str(paths[1]), '--test', str(paths[2]),
+                '--sims', '20', '--json', str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert 'population' in printed and 'persistence' in printed
+    doc = json.loads(out.read_text())
+    (fold,) = doc['folds']
+    n = [errors_on_grid(read_trace_csv(p)).n for p in paths]
+    assert fold['test_samples'] == n[2] and fold['train_samples'] == n[0] + n[1]
+    assert set(fold['classes']) == CLASSES
+    for name, c in fold['classes'].items():
+        assert math.isfinite(c['heldout_nll_per_sample']), name
+        assert set(c['groups']) == set(GROUPS)
+        assert all(0.0 <= v <= 1.0 for v in c['groups'].values())
+    # 1800 training samples make 6 blocks of 300 s: a population is fitted
+    assert fold['classes']['population']['fit']['fitted'] is True
+    assert set(doc['summary']['population']['worst_group']) == {'group', 'inside_95'}
+
+
+def test_leaving_recordings_out_needs_two(tmp_path):
+    path = write_trace_csv(synthetic_trace('none', 1, 600), tmp_path / 'one.csv')
+    with pytest.raises(SystemExit) as exc:
+        cli(['compare', str(path), '--folds', 'recordings'])
+    assert 'at least 2 recordings' in str(exc.value)

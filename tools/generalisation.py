@@ -1,0 +1,170 @@
+"""
+The generalisation table: every class judged on data its fit did not see.
+
+Runs ``gps_error compare``'s fold comparison (:mod:`gps_error_ros.diagnose.generalise`)
+on every visible recording set in ``--data``:
+
+* each GSDC phone and the UrbanNav receiver alone: rolling origin;
+* the SnapperGPS walks: leave one walk out;
+* the two GSDC phones of one drive: each trains, the other is held out
+  (another receiver);
+
+and writes ``docs/generalisation.md`` (with the JSON of every fold beside it
+in ``docs/generalisation/``). ``make generalisation`` runs it (about 15
+minutes on a 2-core machine).
+"""
+
+import argparse
+import datetime as dt
+import json
+from pathlib import Path
+import platform
+import time
+
+from gps_error_ros.diagnose.generalise import (GROUPS, judge_folds, recording_splits,
+                                               rolling_splits, split_between, summarise)
+from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.traces.trace_io import join_recordings, read_trace_csv
+
+PHONES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv')
+ALONE = PHONES + ('urbannav-hk-tst-ublox-spp.csv',)
+TOO_SHORT = {'gmt-static-phone-2016-08-22.csv': '207 samples: a rolling fold would hold out '
+                                                '26'}
+LABELS = {'white_bias': 'white noise + bias', 'ar1': 'AR(1)', 'arma11': 'ARMA(1,1)',
+          'ar3_paper': 'AR(3), paper', 'ar_p': 'AR(p), PACF', 'extended': 'extended',
+          'population_ar': 'population (Gaussian AR within)',
+          'population': 'population (extended within)'}
+
+
+def _clean(path):
+    trace = read_trace_csv(path)
+    return without_rows(trace, find_gross_failures(trace).mask)
+
+
+def _cross(a, b):
+    """Return the split: train on ``a``, hold out ``b`` (another receiver)."""
+    joined = join_recordings([a, b])
+    cut = float(joined.t[-len(b.t)])
+    return (f'train {a.name}, test {b.name}',
+            split_between(joined, cut, float(joined.t[-1]) + 1.0,
+                          f'train on {a.name}, hold out {b.name}'))
+
+
+def sets(data):
+    """Return [(set name, how, [(label, Split)])] of the visible recordings."""
+    out = [(name, 'rolling origin (3 folds)', rolling_splits(_clean(data / name)))
+           for name in ALONE]
+    walks = [_clean(p) for p in sorted(data.glob('snapper-walk-*.csv'))]
+    out.append(('SnapperGPS walks', f'leave one walk out ({len(walks)} folds)',
+                recording_splits(walks)))
+    phones = [_clean(data / p) for p in PHONES]
+    out.append(('GSDC phones of one drive', 'each phone trains, the other is held out',
+                [_cross(phones[0], phones[1]), _cross(phones[1], phones[0])]))
+    return out
+
+
+def _table(summary):
+    head = ('| class | held-out NLL | best | ' + ' | '.join(GROUPS) + ' |\n|' +
+            '---|' * (3 + len(GROUPS)))
+    rows = [f'| {LABELS.get(c, c)} | {s["heldout_nll_per_sample"]:.3f} | '
+            f'{s["best_score_folds"]} | ' +
+            ' | '.join(f'{s["groups"][g]:.2f}' for g in GROUPS) + ' |'
+            for c, s in summary.items()]
+    return '\n'.join([head] + rows)
+
+
+def _evidence(folds):
+    """Return lines on the population fits: block means against the process within."""
+    lines = []
+    for f in folds:
+        ev = f['classes']['population']['fit']
+        sec = f['classes']['population']['section']
+        if not ev.get('fitted'):
+            lines.append(f'- {f["fold"]}: no population ({ev["reason"]})')
+            continue
+        tau = sec.get('bias_time_constant_s')
+        lines.append(
+            f'- {f["fold"]}: {ev["blocks"]} blocks; block means spread '
+            f'{ev["block_mean_sd_m"][0]:.2f} / {ev["block_mean_sd_m"][1]:.2f} m (north / east) '
+            f'where the process within gives {ev["within_mean_sd_m"][0]:.2f} / '
+            f'{ev["within_mean_sd_m"][1]:.2f} m; bias SD {sec["bias_sd_m"][0]:.2f} / '
+            f'{sec["bias_sd_m"][1]:.2f} m, '
+            + ('constant for a run' if tau is None else f'time constant {tau:.0f} s')
+            + f', scale log SD {sec["scale_sd_log"]:.2f}')
+    return lines
+
+
+def main(argv=None):
+    """Run every set; write the page and the JSON."""
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[1])
+    ap.add_argument('--data', type=Path, required=True)
+    ap.add_argument('--out', type=Path, default=Path('.'))
+    ap.add_argument('--sims', type=int, default=100)
+    args = ap.parse_args(argv)
+    started = time.time()
+    json_dir = args.out / 'docs' / 'generalisation'
+    json_dir.mkdir(parents=True, exist_ok=True)
+    parts = []
+    for name, how, splits in sets(args.data):
+        folds = judge_folds(splits, args.sims, seed=0)
+        summary = summarise(folds)
+        stem = name.replace('.csv', '').replace(' ', '-').lower()
+        (json_dir / f'{stem}.json').write_text(json.dumps(
+            {'set': name, 'how': how, 'folds': folds, 'summary': summary},
+            indent=1, default=float))
+        parts.append((name, how, folds, summary))
+        print(f'{name}: {len(folds)} folds done ({time.time() - started:.0f} s)', flush=True)
+    _write_page(args, parts, time.time() - started)
+
+
+def _write_page(args, parts, seconds):
+    machine = f'{platform.machine()}, {platform.python_implementation()} ' \
+              f'{platform.python_version()}'
+    text = [PAGE_HEAD.format(date=dt.date.today().isoformat(), machine=machine,
+                             minutes=seconds / 60.0, sims=args.sims)]
+    for name, how, folds, summary in parts:
+        text.append(f'## {name}: {how}\n')
+        text.append('Folds: ' + '; '.join(
+            f'{f["fold"]} ({f["train_samples"]} train, {f["test_samples"]} held out)'
+            for f in folds) + '.\n')
+        text.append(_table(summary) + '\n')
+        text.append('Population fits:\n\n' + '\n'.join(_evidence(folds)) + '\n')
+    for name, why in TOO_SHORT.items():
+        text.append(f'Not judged: {name} ({why}).\n')
+    path = args.out / 'docs' / 'generalisation.md'
+    path.write_text('\n'.join(text))
+    print(f'wrote {path}')
+
+
+PAGE_HEAD = """# Generalisation: each class on data its fit did not see
+
+What a simulator fitted on one stretch does on another stretch, another
+recording and another receiver. Every class is fitted on the training part
+of each fold and judged on its held-out part (`gps_error compare --folds`,
+method in `gps_error_ros/diagnose/generalise.py`):
+
+- **held-out NLL**: the one-step predictive negative log density per
+  sample (a proper score; lower is better), mean over folds; **best**: the
+  folds on which the class had the lowest;
+- **groups**: the share of a group's measures whose held-out value lies
+  inside the central 95 % range of {sims} traces simulated along the
+  held-out truth, mean over folds (near 0.95 for a simulator that holds):
+  persistence (ACF lag 1, lag 10, integral time scale per axis), scale (SD
+  per axis, north-east correlation), bias (mean per axis), quantiles
+  (horizontal 50/68/95/99 %), tails (share of steps beyond the training
+  part's 99 % step, the 99 % step), filter (a constant-velocity Kalman
+  filter with a velocity aid: RMS, 95 % error, NEES, gate rejections) and
+  v2p (conflicts warned, false warnings).
+
+The population classes are the profile that `calibrate --population`
+writes (Gaussian AR within blocks of 300 s) and the same section on the
+extended model fitted within blocks: each simulated agent draws its own
+bias (and its wander) and scale from the spread of the training blocks.
+
+Regenerate with `make generalisation` (data in `../shared/data`).
+Measured on {date}, {machine}; {minutes:.0f} minutes.
+"""
+
+
+if __name__ == '__main__':
+    main()
