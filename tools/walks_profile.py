@@ -20,6 +20,7 @@ import numpy as np
 from gps_error_ros.fit.calibration import calibrate
 from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre_scale,
                                               without_rows)
+from gps_error_ros.fit.population_fit import population_line
 from gps_error_ros.fit.validation import validate
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.geodesy import difference
@@ -53,7 +54,7 @@ def _left_out_rows(traces, seed=1):
     rows = []
     for i, tr in enumerate(traces):
         rest = traces[:i] + traces[i + 1:]
-        res = calibrate(rest)
+        res = calibrate(rest, population=True)
         prof = res.profile_dict('left-out')
         model = profile_from_dict(prof).model(gross_failures=False)
         found = find_gross_failures(tr)
@@ -108,7 +109,7 @@ def main():
     if not paths:
         raise SystemExit(f'{args.data}: no snapper-walk-*.csv')
     traces = [read_trace_csv(path) for path in paths]
-    res = calibrate(traces)
+    res = calibrate(traces, population=True)
     prof = res.profile_dict(
         NAME, 'a low-cost L1 snapshot receiver (SnapperGPS) carried on foot, Oxford',
         f'gps_error calibrate {" ".join(p.name for p in paths)} (SnapperGPS walks, '
@@ -116,7 +117,8 @@ def main():
     dst = Path(args.out) / 'config' / 'profiles' / f'{NAME}.yaml'
     write_profile(dst, prof)
     load_profile_file(dst)
-    sd = ARErrorModel(res.north.params, res.east.params).stationary_sd
+    north, east = res.axis_params
+    sd = ARErrorModel(north, east).stationary_sd
     f = res.failure_process()
     lines = [
         '# Pedestrian walks: a snapshot receiver on foot',
@@ -126,13 +128,15 @@ def main():
         '`make walks-profile` (`python tools/walks_profile.py --data ../shared/data`).',
         '',
         f'The built-in profile `{NAME}` is fitted from the {len(paths)} SnapperGPS walks '
-        'of `../shared/data/` together (`gps_error calibrate` with several recordings): '
+        'of `../shared/data/` together (`gps_error calibrate --population` with several '
+        'recordings): '
         'a low-cost L1 snapshot receiver, each fix an independent single-epoch solution, '
         'carried on foot in Oxford with RTK truth.',
         '',
-        f'- north AR({res.north.params.order}), east AR({res.east.params.order}); stationary SD '
-        f'{sd[0]:.1f} m north, {sd[1]:.1f} m east; mean error {res.north.params.mean:.1f} m '
-        f'north, {res.east.params.mean:.1f} m east.',
+        f'- within blocks of 300 s: north AR({north.order}), east AR({east.order}); '
+        f'stationary SD {sd[0]:.1f} m north, {sd[1]:.1f} m east; mean error '
+        f'{north.mean:.1f} m north, {east.mean:.1f} m east.',
+        f'- {population_line(res.population)}.',
         f'- gross failures: {sum(x.count for x in res.failures)} of '
         f'{sum(x.rows for x in res.failures)} fixes (rate {f.rate:.4f}), '
         f'{f.sizes_m[0]:.0f} m to {f.sizes_m[-1]:.0f} m from the truth.',
@@ -144,8 +148,9 @@ def main():
         'is strongly persistent (lag 1 about 0.98 on the GSDC phones).',
         '- **A bias per walk.** The walks\' median errors differ by several metres (table '
         'below). Pooled over walks about one mean, that difference shows as small positive '
-        'autocorrelations at every lag, which is why the pooled fit picks higher orders '
-        'with small coefficients than any walk alone.',
+        'autocorrelations at every lag (a fit without `--population` picks higher orders '
+        'with small coefficients than any walk alone); the profile\'s `population` section '
+        'describes it instead, as the spread of the walks\' biases.',
         '- **Gross failures.** Failed solutions hundreds of metres to kilometres off, often '
         'within a few fixes of good ones. The rule (README, *Gross failures*) finds them '
         'relative to each walk\'s robust spread; they are kept out of the error fit and '
@@ -174,9 +179,11 @@ def main():
         '|---|---|---|---|---|---|',
         *_left_out_rows(traces),
         '',
-        'The quantiles miss where a walk\'s own bias lies outside what one mean for all '
-        'walks can simulate: a stationary profile with one fixed mean cannot cover a '
-        'receiver whose bias moves from walk to walk.',
+        'Each simulated trace is another agent, with its own bias drawn from the '
+        'population section: the profile covers walks whose biases differ by metres, '
+        'which one fixed mean for all walks cannot. How every class fares on the walks '
+        'left out, with a filter and a V2P warning as consumers: '
+        '[generalisation.md](generalisation.md).',
         '',
         '## What the diagnosis finds',
         '',

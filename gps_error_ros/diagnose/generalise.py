@@ -325,7 +325,8 @@ def judge_folds(splits, sims=100, seed=0, done=None):
     Fit and judge every class on every ``(label, Split)``; return the folds.
 
     Each fold: ``{'fold', 'rule', 'train_samples', 'test_samples',
-    'classes'}`` (:func:`judge_split`). ``done()`` after each fold.
+    'train_measures', 'classes'}`` (:func:`judge_split`; the training part's
+    own measures beside them). ``done()`` after each fold.
     """
     from gps_error_ros.diagnose.pipeline import fit_split
     folds = []
@@ -335,6 +336,7 @@ def judge_folds(splits, sims=100, seed=0, done=None):
                            seed=seed).extended
         folds.append({'fold': label, 'rule': split.rule, 'train_samples': split.train.n,
                       'test_samples': split.test.n,
+                      'train_measures': _basic(split.train.err, float('inf')),
                       'classes': judge_split(fitted, sims, seed, within)})
         if done is not None:
             done()
