@@ -150,7 +150,7 @@ def _causes(parts):
             + (f'Block means of 300 s spread {min(wander):.1f}-{max(wander):.1f} times what '
                f'the process within a block gives a mean of that length. ' if wander else
                'Too few blocks of 300 s to compare their means. ')
-            + 
+            +
             f'(b) The held-out SD is {lo:.2f}-{hi:.2f} times the training part\'s; the '
             f'lag-1 ACF goes from {min(a for a, _ in acf):.2f}-{max(a for a, _ in acf):.2f} '
             f'to {min(b for _, b in acf):.2f}-{max(b for _, b in acf):.2f}. '
