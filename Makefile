@@ -18,18 +18,19 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
-	walks-profile generalisation
+	walks-profile generalisation docs
 
 DATA ?= ../shared/data
 
 setup: $(STAMP)
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
-		requirements-sumo.txt requirements-zones.txt \
+		requirements-sumo.txt requirements-zones.txt requirements-docs.txt \
 		setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
-		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt
+		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt \
+		-r requirements-docs.txt
 	$(PIP) --no-deps -e .
 	touch $@
 
@@ -41,8 +42,9 @@ demo: setup
 demo-sumo: setup
 	$(PY) -m gps_error_ros.ros.sumo_demo --out demo_sumo_output
 
+# Two workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py).
 test: setup
-	$(PY) -m pytest
+	$(PY) -m pytest -n 2
 
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup
@@ -52,6 +54,11 @@ calibration-doc: setup
 # SnapperGPS walks of ../shared/data (about two minutes).
 walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
+
+# The documentation site into site/ (MkDocs, strict: no broken link, no page left out).
+docs: setup
+	$(PY) tools/docs_index.py
+	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
 
 # docs/generalisation.md: every class judged on folds across stretches, recordings
 # and receivers of ../shared/data (about 15 minutes).

@@ -47,11 +47,15 @@ def naive(model, n_agents, n_steps, seed=0):
     return out
 
 
-def run(repeats=3, naive_budget=200_000):
+#: The smoke run's cases (``--smoke``): seconds, so that make test keeps the script working.
+SMOKE_CASES = ((1, 2_000), (100, 50))
+
+
+def run(repeats=3, naive_budget=200_000, cases=CASES):
     model = load_profile('DS5').model()
     rng = np.random.default_rng(1)
     rows = []
-    for n, steps in CASES:
+    for n, steps in cases:
         keys = np.arange(n, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(7)
         out = np.zeros((steps, n, 2))
         samples = out.size
@@ -78,8 +82,9 @@ def run(repeats=3, naive_budget=200_000):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--json', help='write the figures here')
+    p.add_argument('--smoke', action='store_true', help='tiny cases only (seconds)')
     args = p.parse_args()
-    rows = run()
+    rows = run(repeats=1, naive_budget=2_000, cases=SMOKE_CASES) if args.smoke else run()
     if args.json:
         with open(args.json, 'w') as f:
             json.dump(rows, f, indent=1)

@@ -97,8 +97,9 @@ def run(n=5000, steps=120, repeats=3):
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--json', help='write the figures here')
+    p.add_argument('--smoke', action='store_true', help='200 agents, 5 steps (seconds)')
     args = p.parse_args()
-    row = run()
+    row = run(n=200, steps=5, repeats=1) if args.smoke else run()
     if args.json:
         with open(args.json, 'w') as f:
             json.dump(row, f, indent=1)

@@ -152,7 +152,8 @@ def main():
         'with small coefficients than any walk alone); the profile\'s `population` section '
         'describes it instead, as the spread of the walks\' biases.',
         '- **Gross failures.** Failed solutions hundreds of metres to kilometres off, often '
-        'within a few fixes of good ones. The rule (README, *Gross failures*) finds them '
+        'within a few fixes of good ones. The rule ([calibrating](calibrating.md), '
+        '*Gross failures*) finds them '
         'relative to each walk\'s robust spread; they are kept out of the error fit and '
         'carried by the profile\'s `gross_failures` section.',
         '',

@@ -341,6 +341,17 @@ def _add_scenario(sub):
 
 
 def build_parser():
+    """Return the ``gps_error`` parser (its subcommands by name: :func:`command_parsers`)."""
+    return _build()[0]
+
+
+def command_parsers():
+    """Return (the ``gps_error`` parser, {subcommand: its parser}) in the order of ``--help``."""
+    p, sub = _build()
+    return p, dict(sub.choices)
+
+
+def _build():
     p = argparse.ArgumentParser(
         prog='gps_error',
         description='Smartphone GPS error model tools (no ROS needed).')
@@ -348,4 +359,4 @@ def build_parser():
     for add in (_add_calibrate, _add_validate, _add_simulate, _add_diagnose,
                 _add_compare, _add_import, _add_synth, _add_scenario):
         add(sub)
-    return p
+    return p, sub

@@ -30,9 +30,8 @@ choice made on the training part alone:
    otherwise look like tails). ``jump_reversal`` -> ``outliers``; the
    models with it have the AR orders the PACF rule picks on the series with
    its jumps taken out (a jump looks like a loss of persistence), and the
-   law's and the motion test see the steps the jumps leave clean.
-   Serial correlation that no effect explains,
-   and periodic variance, are reported under ``unexplained``.
+   law's and the motion test see the steps the jumps leave clean. Serial
+   correlation that no effect explains, and periodic variance: ``unexplained``.
 5. :func:`~.selection.select_effects` and :func:`fit_extended`: every
    subset of the attributed effects is scored by blocked cross-validation
    over the training part (one-step NLL, with a veto on the CRPS of the
@@ -55,9 +54,8 @@ import numpy as np
 from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_EFFECTS,
                                                 RETEST_LABEL, travel_axes_win)
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, FIRST_SHARE,
-                                           MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS,
-                                           N_TESTS, RETEST_ALPHA, round_levels,
-                                           TRAIN_FRACTION)
+                                           MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS, N_TESTS,
+                                           RETEST_ALPHA, round_levels, TRAIN_FRACTION)
 from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_reversal_test,
                                            motion_test, periodicity_test, retest,
                                            travel_frame_test)
@@ -297,7 +295,7 @@ def run_family(split, base, alpha=FAMILY_ALPHA):
         if not out.reject['jump_reversal'] and jumps_in.reject['jump_reversal']:
             # the same tests, Holm again with that step taken
             given = {'jump_reversal': jumps_in.adjusted['jump_reversal']}
-            out = FamilyResult(*holm_tests(out.tests, alpha, given), lag_j)
+            out = _holm_family(out.tests, alpha, lag_j, given)
         if out.reject['jump_reversal']:
             return replace(out, base_residuals=base_residuals,
                            jump_orders=jumpy.orders if jumpy.orders != base.orders else ())
@@ -322,7 +320,13 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s):
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
              'periodicity': cycle, 'jump_reversal': reversal}
-    return FamilyResult(*holm_tests(tests, alpha), lag_s)
+    return _holm_family(tests, alpha, lag_s)
+
+
+def _holm_family(tests, alpha, lag_s, given=None):
+    """Return the :class:`FamilyResult` of Holm's procedure over ``tests``."""
+    decided, reject, adjusted = holm_tests(tests, alpha, given)
+    return FamilyResult(tests=decided, reject=reject, adjusted=adjusted, lag_s=lag_s)
 
 
 def fit_extended(split, base, att, kept=None):

@@ -7,7 +7,7 @@ publishes ``sensor_msgs/NavSatFix`` on ``fix``. With the ``agents``
 parameter one node serves a crowd: agent ``A`` reads ``A/pose`` and publishes
 ``A/fix``, one timer steps every agent together (vectorised), and the agents'
 subscriptions are drained once per step rather than waking the executor per
-message. All arithmetic lives in :mod:`gps_error_ros.engine`; this module
+message. All arithmetic lives in :mod:`gps_error_ros.sim.engine`; this module
 converts messages and parameters.
 """
 

@@ -3,7 +3,7 @@ Load a measured trace from any supported input: a trace CSV or a rosbag2.
 
 A rosbag2 is a directory with ``metadata.yaml`` (MCAP or SQLite3 storage);
 its ``.mcap``/``.db3`` file may be named instead. Fixes and truth are paired
-at the fixes' stamps (:mod:`gps_error_ros.pairing`).
+at the fixes' stamps (:mod:`gps_error_ros.traces.pairing`).
 """
 
 from pathlib import Path

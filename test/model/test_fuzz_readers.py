@@ -1,11 +1,13 @@
 """Property-based tests: parsers fail only with their documented errors."""
 
 import numpy as np
+import pytest
 from hypothesis import example, given, HealthCheck, settings, strategies as st
 import yaml
 
 from gps_error_ros.model.geodesy import difference, offset
-from gps_error_ros.model.profiles import load_profile_file, profile_from_dict, ProfileError
+from gps_error_ros.model.profiles import (load_profile_file, profile_from_dict, ProfileError,
+                                          ProfileNotFittedError)
 from gps_error_ros.traces.trace_io import read_trace_csv, TraceError
 
 SETTINGS = settings(max_examples=150, deadline=None,
@@ -62,9 +64,17 @@ def test_profile_file_bytes(tmp_path_factory, data):
     f = tmp_path_factory.mktemp('p') / 'x.yaml'
     f.write_bytes(data)
     try:
-        load_profile_file(f)
+        p = load_profile_file(f)
     except ProfileError:
-        pass
+        return
+    # whatever loads is usable: a model with a finite, positive spread, or a
+    # placeholder that says it has no fit
+    if p.fitted:
+        m = p.model()
+        assert np.all(np.isfinite(m.stationary_cov)) and np.all(m.stationary_sd > 0)
+    else:
+        with pytest.raises(ProfileNotFittedError):
+            p.model()
 
 
 @SETTINGS

@@ -1,4 +1,4 @@
-"""The README's parameter tables are the nodes' own table, rendered."""
+"""The docs' parameter and topic tables are the nodes' own tables, rendered."""
 
 from pathlib import Path
 import re
@@ -13,21 +13,27 @@ from gps_error_ros.ros.topics import markdown_topics
 from ros_harness import NodeProcess, unique_ns
 
 ROOT = Path(__file__).resolve().parents[2]
-README = ROOT / 'README.md'
+PAGES = sorted((ROOT / 'docs').glob('*.md'))
 
 
-def test_readme_tables_match_the_parameter_table():
-    text = README.read_text()
+def _block(kind, node):
+    """Return (page, the text between the ``kind:node`` markers) of the page holding them."""
+    pattern = rf'<!-- {kind}:{node} -->\n(.*?)<!-- /{kind}:{node} -->'
+    for page in PAGES:
+        m = re.search(pattern, page.read_text(), re.S)
+        if m:
+            return page.name, m.group(1)
+    raise AssertionError(f'no docs page has the {kind} table of {node}')
+
+
+def test_the_docs_tables_match_the_parameter_table():
     for node, specs in README_TABLES.items():
-        m = re.search(rf'<!-- parameters:{node} -->\n(.*?)<!-- /parameters:{node} -->',
-                      text, re.S)
-        assert m, f'README.md has no table for {node}'
-        assert m.group(1) == markdown_table(specs), \
-            f'README.md: the {node} table is stale: run python tools/readme_parameters.py'
-        m = re.search(rf'<!-- topics:{node} -->\n(.*?)<!-- /topics:{node} -->', text, re.S)
-        assert m, f'README.md has no topic table for {node}'
-        assert m.group(1) == markdown_topics(node), \
-            f'README.md: the {node} topic table is stale: run python tools/readme_parameters.py'
+        page, table = _block('parameters', node)
+        assert table == markdown_table(specs), \
+            f'docs/{page}: the {node} table is stale: run python tools/readme_parameters.py'
+        page, table = _block('topics', node)
+        assert table == markdown_topics(node), \
+            f'docs/{page}: the {node} topic table is stale: run python tools/readme_parameters.py'
 
 
 def test_table_rows_carry_each_descriptor():

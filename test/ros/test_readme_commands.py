@@ -1,8 +1,8 @@
 """
-Every command block of the README that starts a node runs as written.
+Every command block of the README and the docs pages that starts a node runs as written.
 
-The blocks are read from README.md itself, so the README cannot drift from
-what the node accepts. ``ros2 run gps_error_ros X`` (ros2cli is not in the
+The blocks are read from README.md and docs/*.md themselves, so neither can
+drift from what the node accepts. ``ros2 run gps_error_ros X`` (ros2cli is not in the
 PyPI install) becomes the installed console script X; each run gets a
 namespace of its own and is stopped with Ctrl-C after it is up.
 """
@@ -16,13 +16,15 @@ import pytest
 
 from ros_harness import NodeProcess, unique_ns
 
-README = Path(__file__).resolve().parents[2] / 'README.md'
+ROOT = Path(__file__).resolve().parents[2]
+PAGES = [ROOT / 'README.md'] + sorted((ROOT / 'docs').glob('*.md'))
 NODES = ('gps_error_node', 'gps_calibration_node')
 
 
 def node_commands():
-    """Return the README's node commands as argv lists (continuations joined)."""
-    blocks = re.findall(r'```[a-z]*\n(.*?)```', README.read_text(), re.S)
+    """Return the README's and docs pages' node commands as argv lists (lines joined)."""
+    blocks = [b for page in PAGES
+              for b in re.findall(r'```[a-z]*\n(.*?)```', page.read_text(), re.S)]
     out = []
     for block in blocks:
         text = block.replace('\\\n', ' ')
@@ -40,6 +42,9 @@ def node_commands():
 def test_the_readme_has_node_commands():
     names = [Path(a[0]).name for a in node_commands()]
     assert names.count('gps_error_node') >= 3, names
+    readme = [b for b in re.findall(r'```[a-z]*\n(.*?)```', PAGES[0].read_text(), re.S)
+              if 'gps_error_node' in b]
+    assert len(readme) >= 2, 'the README shows the node with PyPI and with colcon'
 
 
 @pytest.mark.integration

@@ -115,7 +115,7 @@ def test_fcd_errors_are_the_agents_streams(tmp_path, kind):
                 nx, ny = inv.transform(nx - offset_xy[0], ny - offset_xy[1])
             got = difference(ny, nx, y, x)
             tol = 5e-3
-        np.testing.assert_allclose(got, ref, atol=tol), (name, t)
+        np.testing.assert_allclose(got, ref, atol=tol, err_msg=f'{name} {t}')
     # the phone's speed and course in every coordinate kind: due east, at the truth's speed
     from gps_error_ros.model.velocity import velocity_from_dict
     vel = velocity_from_dict({'sigma': 1e-6, 'phi': 0.5, 'lag_s': 0.0, 'standstill': 0.0})
