@@ -4,60 +4,10 @@ The fix engine: model steps from the clock, truth history, fixes out.
 This is everything the error node computes, without ROS. The node feeds it
 truth positions and clock readings and publishes what it returns.
 
-Timing rules
-------------
-* Output steps are the instants ``k * period`` of the clock (``period =
-  1 / rate``), counted from the clock's epoch, so processes that share a clock
-  agree on them. Each clock reading yields every output step that has come due
-  since the previous reading (one fix per step, also when the clock jumps
-  several steps at once).
-* The AR model lives on its own grid (the profile's ``rate_hz``, 1 Hz in the
-  paper). Output step ``k`` carries the error of the model step that contains
-  its instant: at an output rate above the model rate the error is held
-  between model steps; below it, model steps are advanced in between and not
-  published. Either way the published errors have exactly the 1 Hz model's
-  autocorrelation at the lags they are sampled at.
-* The truth at a step's instant is interpolated linearly between the two
-  truth samples that bracket it. A step waits (is *pending*) until a truth
-  sample at or after its instant has arrived. If none has arrived
-  ``max_pose_age`` seconds after the instant, the newest sample is held,
-  provided it is at most ``max_pose_age`` older than the instant; otherwise
-  the step produces no fix for that agent (it is counted as skipped, never
-  made up). There is no fix for instants before an agent's first sample.
-* Truth samples must arrive in stamp order; a sample stamped at or before the
-  newest one held for its agent is dropped and counted (out of order or
-  duplicate). A sample stamped more than ``FUTURE_TOLERANCE_S`` (60 s) ahead
-  of the latest clock reading is dropped and counted (stamped in the future,
-  e.g. wall time in a simulated-time run): kept, it would block the real
-  samples after it as out of order. Samples a little ahead are normal (the
-  truth often arrives before the clock tick it belongs to, and a busy node
-  reads the clock late). Two samples further apart than
-  ``max(2 s, 2 * max_pose_age)`` are not interpolated between: steps in
-  such a gap get no fix (nothing is made up across it). Truth that arrives
-  after a step was skipped, stamped at or after it, is counted in
-  ``late_truth`` (once per run of skips) for an agent that had truth before
-  the skip: the clock ran ahead of the truth by more than ``max_pose_age``.
-  (Steps before an agent's first truth are skipped, not late: a crowd member
-  served before its poses begin, e.g. found by ``agent_pattern``.)
-* A profile with a ``motion_lag`` reports the truth ``lag_s`` before the
-  step's instant (interpolated the same way; no fix for an agent until its
-  truth reaches back that far), still stamped at the step's instant.
-* The clock going backwards resets the engine: pending steps and truth
-  history are discarded and the model restarts from its stationary law at the
-  new instant.
-* With a zone map (``zones``) an agent's error follows the zone of the
-  (lagged) truth its fix is made from (:mod:`gps_error_ros.model.zoned`):
-  errors are computed when the fix is made, and every fix carries its zone's
-  covariance (stationary, or conditional). A profile with ``street_frame``
-  takes the same path: its innovations turn with the direction of travel of
-  the truth over the second before the fix's (lagged) instant.
-* Agents may come and go (:meth:`FixEngine.attach`, :meth:`FixEngine.detach`;
-  the node's ``agent_pattern``). Every agent's model counts from the
-  engine's first model step (the *start*): one attached later is caught up
-  from the start on its own stream, so its errors are the same whenever it
-  was attached, and the same as in a run that served it from the start.
-  Steps already waiting for truth when it is attached are served for it too.
-
+The timing rules (output steps on the clock, the model's own grid, truth
+interpolated or held up to ``max_pose_age``, out-of-order and future truth,
+motion lag, clock resets, zones, agents that come and go) are in the
+documentation: ``docs/timing.md``.
 """
 
 from collections import deque
