@@ -203,6 +203,12 @@ def _class_row(trace, label, m):
             + ' |')
 
 
+#: Where the pedestrian walks are diagnosed (their own page).
+WALKS_NOTE = ('The pedestrian walks of a low-cost snapshot receiver (nearly white errors, '
+              'a bias per walk, gross failures) are diagnosed walk by walk in '
+              '[walks.md](walks.md), and judged left out one at a time in '
+              '[generalisation.md](generalisation.md).')
+
 #: Where the long run falls short, and where the choices behind it are recorded.
 PAIRS_WITH_REFLECTIONS = [
     'Where the long run falls short of 90 %: none of the 15 effect scenarios. '
@@ -403,7 +409,7 @@ def render(records, synth, long_run=None):
                'run over a hundred seeds per effect-free scenario.)', '']
     md += PAIRS_WITH_REFLECTIONS
     md += LATENCY_NOTE
-    md += ['## Measured traces', '']
+    md += ['## Measured traces', '', WALKS_NOTE, '']
     for rec in records:
         name = rec['trace']
         what, credit = CREDITS.get(name, ('', 'see ../shared/data/README.md'))
