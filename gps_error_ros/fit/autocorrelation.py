@@ -105,6 +105,11 @@ def bartlett_acf_se(rho, lag, n):
     n : int
         Sample size.
 
+    Returns
+    -------
+    float
+        The standard error of the sample autocorrelation at ``lag``.
+
     Notes
     -----
     Bartlett (1946): ``n Var(r_k) = sum_j (rho_{j+k}^2 + rho_{j-k} rho_{j+k}

@@ -93,9 +93,11 @@ def failure_mask(north, east, k=K_ROBUST_SD, neighbours=NEIGHBOURS,
 
     Parameters
     ----------
-    north, east : array_like
-        The errors (m), in time order; one recording (neighbours are taken
-        along it).
+    north : array_like
+        The north errors (m), in time order; one recording (neighbours are
+        taken along it).
+    east : array_like
+        The east errors (m), likewise.
     k : float
         The robust distance both tests must exceed.
     neighbours : int

@@ -86,6 +86,18 @@ def yule_walker(x, order):
     """
     Fit AR(``order``) to one series by Yule-Walker (biased autocovariance).
 
+    Parameters
+    ----------
+    x : array_like
+        The series, without gaps.
+    order : int
+        The AR order, at least 1.
+
+    Returns
+    -------
+    YuleWalkerFit
+        phi, sigma_w, the mean and the sample count.
+
     Raises
     ------
     ValueError

@@ -132,8 +132,11 @@ class ARErrorModel:
 
     Parameters
     ----------
-    north, east : AxisParams
-        Per-axis parameters; orders may differ (the shorter is zero-padded).
+    north : AxisParams
+        The north axis' parameters; the orders may differ (the shorter is
+        zero-padded).
+    east : AxisParams
+        The east axis' parameters.
     innovation_corr : float
         Correlation of the north and east innovations (0 in the paper).
 
@@ -321,6 +324,17 @@ class ARErrorModel:
         through time over cache-sized chunks of agents with the node's own
         arithmetic (bit-identical to :meth:`advance`); a few long series run
         the recursion in ``scipy.signal.lfilter`` (equal to rounding, ~1e-13).
+
+        Parameters
+        ----------
+        keys : array of uint64
+            The agents' stream keys (:func:`~.streams.agent_keys`).
+        n_steps : int
+            Model steps to simulate.
+        start : int
+            The first model step (the stream index of the initial state).
+        out : numpy.ndarray, optional
+            Where to write the result.
 
         Returns
         -------

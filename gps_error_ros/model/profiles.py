@@ -101,6 +101,18 @@ class Profile:
         its stated covariances are the error's mean square about the truth
         (:mod:`about_truth`), not its covariance about its mean.
 
+        Parameters
+        ----------
+        gross_failures : bool
+            Include the ``gross_failures`` section, if the profile has one.
+        about_truth : bool
+            State covariances about the truth (see above).
+
+        Returns
+        -------
+        ARErrorModel or a wrapped model
+            The model to simulate or serve with.
+
         Raises
         ------
         ProfileNotFittedError

@@ -115,6 +115,18 @@ def init_position(index, slot):
     """
     Return the position in ``DOMAIN_INIT`` of pair ``slot`` of step ``index``.
 
+    Parameters
+    ----------
+    index : int
+        The model step at which the initial state is drawn.
+    slot : int
+        The pair within it, in [0, INIT_SLOTS).
+
+    Returns
+    -------
+    int
+        ``index * INIT_SLOTS + slot``.
+
     Raises
     ------
     ValueError

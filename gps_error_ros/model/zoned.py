@@ -72,6 +72,8 @@ class ZonedErrors:
         default model last (zone index ``OUTSIDE`` = -1 picks it). Zones
         with the same model object are stepped together, and moving between
         them is not entering a new zone (the regime carries on).
+    n : int
+        Slots to start with (more with :meth:`grow`).
     conditional_cov : bool
         Covariance of each error given the state a step before (the node's
         ``covariance_mode`` conditional); else the zone's stationary one.

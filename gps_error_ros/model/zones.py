@@ -63,6 +63,19 @@ class ZoneMap:
     """
     A loaded, validated zone map: polygons, their profiles, and the default.
 
+    Parameters
+    ----------
+    polygons : sequence of shapely geometries
+        The zones, in feature order.
+    names : sequence of str
+        Each zone's name.
+    profiles : sequence of Profile
+        Each zone's profile.
+    default : Profile, optional
+        The map's ``default_profile``.
+    path : str
+        Where the map was read from.
+
     Attributes
     ----------
     names : list of str

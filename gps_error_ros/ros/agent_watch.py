@@ -21,22 +21,27 @@ TOKEN = r'[A-Za-z_][A-Za-z0-9_]*'
 
 
 class AgentPattern:
-    """A parsed ``agent_pattern`` (see the module docstring)."""
+    """
+    A parsed ``agent_pattern`` (see the module docstring).
+
+    Parameters
+    ----------
+    pattern : str
+        The pattern; a relative one is taken in ``namespace``.
+    namespace : str
+        The node's namespace.
+    msg_type : str
+        The truth message's ROS type name (``geometry_msgs/msg/PoseStamped``);
+        topics of other types are not agents.
+
+    Raises
+    ------
+    ConfigError
+        Naming the pattern and what a pattern must be.
+
+    """
 
     def __init__(self, pattern, namespace, msg_type):
-        """
-        Parse ``pattern`` (relative ones taken in ``namespace``).
-
-        ``msg_type`` is the truth message's ROS type name
-        (``geometry_msgs/msg/PoseStamped``); topics of other types are not
-        agents.
-
-        Raises
-        ------
-        ConfigError
-            Naming the pattern and what a pattern must be.
-
-        """
         text = pattern.strip()
         if not text.startswith('/'):
             text = namespace.rstrip('/') + '/' + text

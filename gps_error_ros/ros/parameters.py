@@ -262,6 +262,18 @@ def declare(node, specs):
     typo such as ``rat:=2.0``) are named in a warning rather than ignored
     silently.
 
+    Parameters
+    ----------
+    node : rclpy.node.Node
+        The node, built with ``automatically_declare_parameters_from_overrides``.
+    specs : sequence of ParamSpec
+        The node's parameter table.
+
+    Returns
+    -------
+    dict
+        Each parameter's value, by name.
+
     Raises
     ------
     ConfigError
@@ -371,6 +383,18 @@ SUMO_NODE_PARAMS = (
 def datum_frame(datum, input_type):
     """
     Return the :class:`LocalTangentFrame` of the ``datum`` parameter.
+
+    Parameters
+    ----------
+    datum : sequence of float
+        ``[lat_deg, lon_deg]`` or ``[lat_deg, lon_deg, alt_m]``.
+    input_type : str
+        The node's ``input_type`` (for the message when ``datum`` is missing).
+
+    Returns
+    -------
+    LocalTangentFrame
+        The map frame.
 
     Raises
     ------

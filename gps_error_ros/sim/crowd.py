@@ -33,6 +33,10 @@ class CrowdErrors:
     forget_after : int
         Agents unseen for this many steps are dropped from the state; if they
         come back they are caught up again from the start (same values).
+    conditional_cov : bool
+        Keep each agent's covariance given the state a step before.
+    zoned : tuple, optional
+        ``(ZoneMap, ZonedErrors)``: the errors follow each agent's zone.
 
     """
 

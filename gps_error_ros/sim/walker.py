@@ -94,14 +94,21 @@ def manhattan_walk(duration, rng, speed=1.4, avenues=(0, 3), streets=(-4, 16),
         The walk's randomness (route, speeds, waits).
     speed : float
         Mean walking speed (m/s); each block's speed varies by +-15 %.
-    avenues, streets : tuple of int
-        Grid bounds, in avenues west of 7th and streets north of 34th.
+    avenues : tuple of int
+        Grid bounds, in avenues west of 7th.
+    streets : tuple of int
+        Grid bounds, in streets north of 34th.
     turn_probability : float
         Chance of turning at a corner (where the grid allows going straight).
     red_probability : float
         Chance of waiting at a corner for the light.
     red_wait : tuple of float
         Uniform range of a wait (s).
+
+    Returns
+    -------
+    Walk
+        The route, its timing and its waits.
 
     """
     if not duration > 0:

@@ -136,11 +136,27 @@ def read_fix_and_truth(path, fix_topic, truth_topic, datum=None, progress=None):
     """
     Read measured fixes and ground truth from a bag.
 
-    Returns ``(fixes, truth, skipped)``: ``fixes`` and ``truth`` are dicts of
-    arrays ``t`` (header stamp, s), ``lat``, ``lon``; ``skipped`` counts the
-    fixes left out by :mod:`~gps_error_ros.traces.validity` (``STATUS_NO_FIX``,
-    non-finite or out of range). Truth samples that rule refuses are left out
-    too. A pose or odometry truth (ENU metres) is converted with ``datum``.
+    Parameters
+    ----------
+    path : str or Path
+        The rosbag2 directory or file (MCAP or SQLite3).
+    fix_topic : str
+        The fixes' topic (``sensor_msgs/NavSatFix``).
+    truth_topic : str
+        The truth's topic (PoseStamped, Odometry or NavSatFix).
+    datum : sequence of float, optional
+        The map frame's origin, for pose or odometry truth (ENU metres).
+    progress : callable, optional
+        Called with each message's count, for a progress bar.
+
+    Returns
+    -------
+    tuple
+        ``(fixes, truth, skipped)``: ``fixes`` and ``truth`` are dicts of
+        arrays ``t`` (header stamp, s), ``lat``, ``lon``; ``skipped`` counts
+        the fixes left out by :mod:`~gps_error_ros.traces.validity`
+        (``STATUS_NO_FIX``, non-finite or out of range). Truth samples that
+        rule refuses are left out too.
 
     Raises
     ------

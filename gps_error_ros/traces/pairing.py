@@ -64,15 +64,29 @@ def pair(fix_t, fix_lat, fix_lon, truth_t, truth_lat, truth_lon,
 
     Parameters
     ----------
-    fix_t, truth_t : array of float
-        Stamps in seconds (any common epoch), strictly increasing.
-    fix_lat, fix_lon, truth_lat, truth_lon : array of float
-        Measured and true positions (degrees, WGS84).
+    fix_t : array of float
+        The fixes' stamps in seconds (any epoch shared with the truth),
+        strictly increasing.
+    fix_lat : array of float
+        The measured latitudes (degrees, WGS84).
+    fix_lon : array of float
+        The measured longitudes.
+    truth_t : array of float
+        The truth's stamps, strictly increasing.
+    truth_lat : array of float
+        The true latitudes.
+    truth_lon : array of float
+        The true longitudes.
     max_truth_gap : float, optional
         Largest truth interval bridged by interpolation (default
         :func:`default_truth_gap`).
     name : str
         The input's name, for messages and the returned trace.
+
+    Returns
+    -------
+    tuple
+        ``(Trace, PairingStats)``.
 
     Raises
     ------

@@ -134,6 +134,18 @@ def read_trace_csv(path, agent=None):
     several agents' traces; ``agent`` picks one (needed when there are
     several).
 
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    agent : str, optional
+        The agent to read, in a file with an ``agent`` column.
+
+    Returns
+    -------
+    Trace
+        The trace, validated.
+
     Raises
     ------
     TraceError

@@ -96,15 +96,28 @@ def test_the_checks_catch_a_wrong_import(tmp_path):
         list(imports(ast.parse('from .streams import agent_key\n')))
 
 
+def docstring_lines(node):
+    """Return the lines of ``node``'s own docstring (0 without one)."""
+    body = getattr(node, 'body', [])
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+            and isinstance(body[0].value.value, str):
+        return body[0].end_lineno - body[0].lineno + 1
+    return 0
+
+
 def test_modules_and_functions_fit_the_size_guide():
+    """Code lines, docstrings not counted: documenting a function never makes it too long."""
     bad = []
     for _, path, tree in modules():
-        lines = path.read_text().count('\n')
+        docs = sum(docstring_lines(n) for n in ast.walk(tree)
+                   if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef,
+                                     ast.AsyncFunctionDef)))
+        lines = path.read_text().count('\n') - docs
         if lines > MAX_MODULE_LINES:
             bad.append(f'{path.relative_to(PKG)}: {lines} lines')
         for node in ast.walk(tree):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                n = node.end_lineno - node.lineno + 1
+                n = node.end_lineno - node.lineno + 1 - docstring_lines(node)
                 doc = ast.get_docstring(node) or ''
                 if n > MAX_FUNCTION_LINES and LONG_MARK not in doc:
                     bad.append(f'{path.relative_to(PKG)}:{node.lineno} '
