@@ -306,6 +306,9 @@ def cmd_diagnose(args):
     from gps_error_ros.diagnose.pipeline import STAGES
     from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
 
+    if args.population and not args.profile_out:
+        raise SystemExit('gps_error diagnose: --population goes with --profile-out '
+                         '(it chooses the profile written)')
     for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
         if path:
             _check_output_dir(path, option)
@@ -344,7 +347,14 @@ def cmd_diagnose(args):
                    lambda path: diagnosis_figure(diag, path, trace.name))
     if args.profile_out:
         out = Path(args.profile_out)
-        write_profile(out, extended_profile(diag, out.stem, trace.name), 'diagnose')
+        if args.population:
+            from gps_error_ros.diagnose.generalise import population_profile
+            prof = population_profile(diag.split, out.stem, trace.name, args.seed)
+            print(f'  population: {prof.get("population", "none")} '
+                  f'({prof["fit"]["population"]["blocks"]} training blocks of 300 s)')
+        else:
+            prof = extended_profile(diag, out.stem, trace.name)
+        write_profile(out, prof, 'diagnose')
         load_profile_file(out)          # what we write must load as it is
         print(f'wrote {out}')
     return 0

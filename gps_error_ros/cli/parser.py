@@ -209,6 +209,11 @@ def _add_diagnose(sub):
     d.add_argument('--report', help='directory for the figures (PNG)')
     d.add_argument('--profile-out', help='write the extended model as a profile '
                                          'YAML (with an effects section)')
+    d.add_argument('--population', action='store_true',
+                   help='with --profile-out: write the population profile instead, the '
+                        'extended model fitted within blocks of 300 s of the training part '
+                        'and a population section (each agent its own bias and scale), the '
+                        'class that holds best on recordings left out (docs/generalisation.md)')
     d.add_argument('--sims', type=number(int, MIN_SIMS), default=100,
                    help='simulated traces for the fidelity measures (default 100)')
     d.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,

@@ -138,6 +138,7 @@ class PopulationClass:
             axes = [AxisParams((1.0 - sum(p.phi)) * float(m), p.phi, p.sigma_w)
                     for p, m in zip(within.axis_params(), fit.mean)]
             inner = build_model(axes[0], axes[1], within.effects_obj())
+        self.axes = axes if within is not None else fit.axis_params()
         pop = fit.population
         self.model = inner if pop is None else WithPopulation(inner, pop)
         self.mean = within.mean if within is not None else SimpleNamespace(lag_s=0.0,
@@ -365,3 +366,43 @@ def summarise(folds):
                   'groups': groups,
                   'worst_group': {'group': worst, 'inside_95': groups[worst]}}
     return out
+
+
+def population_profile(split, name, source, seed=0):
+    """
+    Return the population profile of a split's training part, as a profile mapping.
+
+    The extended model fitted on the training errors about their blocks'
+    means (:func:`within_part`), its mean the training part's, and the
+    ``population`` section of :func:`~gps_error_ros.fit.population_fit.fit_population`
+    (none when the training part has too few blocks): the class
+    ``population`` of :func:`judge_split`.
+
+    Parameters
+    ----------
+    split : Split
+        The diagnosis's split; its training part is fitted.
+    name : str
+        The profile's name.
+    source : str
+        What it was fitted to (the recording's name).
+    seed : int
+        The seed of the effect selection's simulations.
+
+    Returns
+    -------
+    dict
+        The profile (schema 1).
+
+    """
+    from gps_error_ros.diagnose.pipeline import fit_split
+    from gps_error_ros.model.profiles import profile_mapping
+    within = fit_split(name, replace(split, train=within_part(split.train)), seed=seed).extended
+    pop = PopulationClass(split.train, within, split.truth)
+    return profile_mapping(
+        name, f'population profile diagnosed from {source}', f'gps_error diagnose {source}',
+        pop.axes, effects=within.effects_obj(), population=pop.fit.population,
+        fit={'method': 'the extended model fitted within blocks of 300 s of the training '
+                       'part, and the blocks\' spread (gps_error_ros/fit/population_fit.py)',
+             'input': source, 'train_samples': split.train.n,
+             'effects_found': list(within.effects), 'population': pop.fit.evidence})
