@@ -254,8 +254,9 @@ method in `gps_error_ros/diagnose/generalise.py`):
 
 The population classes are the profile that `calibrate --population`
 writes (Gaussian AR within blocks of 300 s) and the same section on the
-extended model fitted within blocks: each simulated agent draws its own
-bias (and its wander) and scale from the spread of the training blocks.
+extended model fitted within blocks (`diagnose --profile-out --population`):
+each simulated agent draws its own bias (and its wander) and scale from the
+spread of the training blocks.
 
 Regenerate with `make generalisation` (data in `../shared/data`).
 Measured on {date}, {machine}; {minutes:.0f} minutes.
