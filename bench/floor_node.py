@@ -105,6 +105,7 @@ def main(argv):
     n, reliability = int(argv[1]), argv[2]
     rclpy.init(args=argv[3:])
     node = FloorNode([f'a{i}' for i in range(n)], reliability)
+    print(f'floor node: serving {n} agents, {reliability} fixes', flush=True)
     signal.signal(signal.SIGTERM, lambda *a: rclpy.try_shutdown())
     try:
         rclpy.spin(node)

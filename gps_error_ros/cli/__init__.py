@@ -17,7 +17,7 @@ import sys
 
 from gps_error_ros.cli.parser import build_parser
 from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
-from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.fit.gross_failures import failures_doc, find_gross_failures, without_rows
 from gps_error_ros.fit.population_fit import population_line
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
@@ -76,11 +76,6 @@ def _load_clean(args, mark=None):
     """Return :func:`clean_recordings` joined into one trace (:func:`join_recordings`)."""
     traces, found = clean_recordings(args, mark=mark)
     return join_recordings(traces), found
-
-
-def _failures_doc(found):
-    """Return the recordings' gross failures as plain data (the JSON reports' key)."""
-    return {f.name: f.summary() for f in found}
 
 
 def _failure_check(profile, found):
@@ -312,14 +307,17 @@ def cmd_diagnose(args):
     for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
         if path:
             _check_output_dir(path, option)
-    trace, found = _load_clean(args)
-    progress = _stage_progress(trace, STAGES, 'diagnosing')
+    recordings = _load_inputs(args)
+    progress = _stage_progress(recordings, STAGES, 'diagnosing')
     try:
-        diag = diagnose(trace, sims=args.sims, seed=args.seed, done=progress.update)
+        # the library finds each recording's gross failures and leaves them out
+        diag = diagnose(recordings, sims=args.sims, seed=args.seed, done=progress.update)
     finally:
         progress.close()
+    for found in diag.fitted.failures:
+        print(found.describe())
     s = diag.summary
-    print(f'{trace.name}: {s["samples"]} samples, {s["train_samples"]} train / '
+    print(f'{s["input"]}: {s["samples"]} samples, {s["train_samples"]} train / '
           f'{s["test_samples"]} held out ({s["split"]["rule"]})')
     print(f'  base: AR orders north {s["base"]["order"]["north"]}, east '
           f'{s["base"]["order"]["east"]}')
@@ -342,18 +340,17 @@ def cmd_diagnose(args):
     note = improvement_note(s)
     if note:
         print('  note: ' + note)
-    _write_results(args, dict(diag.to_dict(), gross_failures=_failures_doc(found)),
-                   'diagnosis.png',
-                   lambda path: diagnosis_figure(diag, path, trace.name))
+    _write_results(args, diag.to_dict(), 'diagnosis.png',
+                   lambda path: diagnosis_figure(diag, path, s['input']))
     if args.profile_out:
         out = Path(args.profile_out)
         if args.population:
             from gps_error_ros.diagnose.generalise import population_profile
-            prof = population_profile(diag.split, out.stem, trace.name, args.seed)
+            prof = population_profile(diag.split, out.stem, s['input'], args.seed)
             print(f'  population: {prof.get("population", "none")} '
                   f'({prof["fit"]["population"]["blocks"]} training blocks of 300 s)')
         else:
-            prof = extended_profile(diag, out.stem, trace.name)
+            prof = extended_profile(diag, out.stem, s['input'])
         write_profile(out, prof, 'diagnose')
         load_profile_file(out)          # what we write must load as it is
         print(f'wrote {out}')
@@ -364,11 +361,13 @@ def cmd_diagnose(args):
 LONG_RECORDING = 20000
 
 
-def _stage_progress(trace, stages, what):
+def _stage_progress(recordings, stages, what):
     """Return a progress bar over ``stages`` stages, shown for long recordings."""
     from gps_error_ros.traces.progress import Progress
-    return Progress(stages, f'{what} {trace.name}',
-                    min_total=0 if len(trace) >= LONG_RECORDING else stages + 1)
+    samples = sum(len(t) for t in recordings)
+    name = recordings[0].name if len(recordings) == 1 else f'{len(recordings)} recordings'
+    return Progress(stages, f'{what} {name}',
+                    min_total=0 if samples >= LONG_RECORDING else stages + 1)
 
 
 def _write_results(args, doc, figure_name, draw):
@@ -395,23 +394,26 @@ def cmd_compare(args):
 
     if args.json_out:
         _check_output_dir(args.json_out, '--json')
-    trace, found = _load_clean(args)
-    progress = _stage_progress(trace, STAGES - 2, 'fitting the classes of')
+    recordings = _load_inputs(args)
+    progress = _stage_progress(recordings, STAGES - 2, 'fitting the classes of')
     try:
-        fitted = fit_models(trace, done=progress.update)   # the held-out simulation: compare's
+        # the held-out simulation is compare's; the library leaves the failures out
+        fitted = fit_models(recordings, done=progress.update)
     finally:
         progress.close()
-    doc = compare_json(trace.name, fitted.split,
+    for found in fitted.failures:
+        print(found.describe())
+    doc = compare_json(fitted.name, fitted.split,
                        compare(fitted, sims=args.sims, seed=args.seed))
-    doc['gross_failures'] = _failures_doc(found)
-    print(f'{trace.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
+    doc['gross_failures'] = failures_doc(fitted.failures)
+    print(f'{fitted.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
           f'out; {args.sims} simulated traces per class')
     print(f'  {"class":12} {"held-out NLL":>13} {"inside_95":>10}')
     for name, c in doc['classes'].items():
         print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} '
               f'{c["fidelity"]["inside_95"]:10.2f}')
     if args.zones:
-        _compare_zones(args, trace, fitted.split, doc)
+        _compare_zones(args, recordings[0], fitted.split, doc)
     _write_results(args, doc, 'compare.png', lambda path: compare_figure(doc, path))
     return 0
 

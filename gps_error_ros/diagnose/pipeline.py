@@ -68,8 +68,10 @@ from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe, robust_p
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
 from gps_error_ros.diagnose.split import Split, split_trace
+from gps_error_ros.fit.gross_failures import failures_doc, without_gross_failures
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.profiles import profile_mapping
+from gps_error_ros.traces.trace_io import join_recordings
 
 ESTIMATION = ('conditional quasi-ML: mean part (delta, phi, lag) by least '
               'squares, innovation law by maximum likelihood')
@@ -421,15 +423,27 @@ class FittedModels:
     attribution: Attribution
     selection: Selection
     extended: FittedModel
+    #: each recording's gross failures, left out before the split (:func:`fit_models`)
+    failures: list = field(default_factory=list)
 
 
 #: The stages of :func:`diagnose`, for a progress report (``done``, one call each).
 STAGES = 7
 
 
-def fit_models(trace, alpha=ALPHA, seed=0, done=None):
-    """Run steps 1-5, ``done()`` after each of 5 stages (no held-out simulation)."""
-    return fit_split(trace.name, split_step(trace), alpha, seed, done)
+def fit_models(recordings, alpha=ALPHA, seed=0, done=None):
+    """
+    Run steps 1-5, ``done()`` after each of 5 stages (no held-out simulation).
+
+    ``recordings``: a trace or a sequence of them (each keeps its segments);
+    each recording's gross failures are found and left out first
+    (:func:`~gps_error_ros.fit.gross_failures.without_gross_failures`), and
+    the result's ``failures`` lists them.
+    """
+    traces, failures = without_gross_failures(recordings)
+    trace = join_recordings(traces)
+    return replace(fit_split(trace.name, split_step(trace), alpha, seed, done),
+                   failures=failures)
 
 
 def _tick(done, value):
@@ -450,17 +464,22 @@ def fit_split(name, split, alpha=ALPHA, seed=0, done=None):
     return FittedModels(name, split, base, family, att, sel, extended)
 
 
-def diagnose(trace, sims=100, seed=0, alpha=ALPHA, done=None):
-    """Run the whole procedure (``done``: after each of :data:`STAGES`); a :class:`Diagnosis`."""
-    fitted = fit_models(trace, alpha, seed, done)
+def diagnose(recordings, sims=100, seed=0, alpha=ALPHA, done=None):
+    """
+    Run the whole procedure (``done``: after each of :data:`STAGES`); a :class:`Diagnosis`.
+
+    ``recordings``: a trace or a sequence of them, their gross failures left
+    out (:func:`fit_models`) and listed in the summary's ``gross_failures``.
+    """
+    fitted = fit_models(recordings, alpha, seed, done)
     split, base, family = fitted.split, fitted.base, fitted.family
     att, extended = fitted.attribution, fitted.extended
     retests, ext_residuals = _tick(done, retest_extended(split, extended, att,
                                                          round_levels(alpha)[1]))
     before, after, improvement, scored = _tick(done, heldout_measures(
-        split, base, extended, sims, seed, trace.name))
+        split, base, extended, sims, seed, fitted.name))
     summary = {
-        'input': trace.name, 'samples': split.train.n + split.test.n,
+        'input': fitted.name, 'samples': split.train.n + split.test.n,
         'train_samples': split.train.n, 'test_samples': split.test.n,
         'scored_test_samples': scored,
         'split': {'rule': split.rule, 'cut_time_s': split.cut_time_s},
@@ -482,6 +501,7 @@ def diagnose(trace, sims=100, seed=0, alpha=ALPHA, done=None):
         'error_before': before,
         'error_after': after,
         'improvement': improvement,
+        'gross_failures': failures_doc(fitted.failures),
     }
     return Diagnosis(summary, fitted,
                      {'base': family.base_residuals, 'extended': ext_residuals})

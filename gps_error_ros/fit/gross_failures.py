@@ -45,6 +45,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.traces.trace_io import recordings_of
 
 #: The robust distance (in robust SDs) beyond which a fix is a gross failure.
 K_ROBUST_SD = 5.0
@@ -189,6 +190,24 @@ def find_gross_failures(trace):
     scale = tuple(robust_centre_scale(v)[1] for v in (north, east))
     return GrossFailures(mask, trace.t[mask], np.hypot(north, east)[mask], len(trace), scale,
                          trace.name)
+
+
+def without_gross_failures(recordings):
+    """
+    Return each recording without its gross failures, and the failures found.
+
+    ``recordings``: a trace or a sequence of them; each recording's failures
+    are found on its own (its own robust spread and median), as the commands
+    do. Returns (list of traces, list of :class:`GrossFailures`).
+    """
+    traces = recordings_of(recordings)
+    found = [find_gross_failures(t) for t in traces]
+    return [without_rows(t, f.mask) for t, f in zip(traces, found)], found
+
+
+def failures_doc(found):
+    """Return the recordings' gross failures as plain data, keyed by recording."""
+    return {f.name: f.summary() for f in found}
 
 
 def without_rows(trace, mask):

@@ -18,6 +18,11 @@ model step, the parameters of the zone its truth is in. The transition:
 * Variance regimes: an agent entering a zone with regimes draws its regime
   from that zone's stationary regime law (the stream's initial-regime draw at
   that step); while it stays, the regime follows the zone's chain.
+* Gross failures (the default profile's ``gross_failures`` section, as
+  availability comes from it): at a step where the fix failed, the failure
+  replaces the zone's error, and the zone's process runs on beneath it, as
+  :class:`~.failures.WithFailures` does without zones; the same draws, so a
+  failure falls at the same step and place in every zone.
 * Which zone a model step belongs to: the zone of the truth that serves
   the agent's fix at that step. Steps an agent gets no fix for (no truth, a
   later attach) are advanced with the zone of the next fix's truth; an
@@ -35,7 +40,9 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import state_and_cov
+from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.effects import ExtendedModel, MOVING_M
+from gps_error_ros.model.failures import WithFailures
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.zones import OUTSIDE, zone_models
@@ -77,10 +84,12 @@ class ZonedErrors:
     conditional_cov : bool
         Covariance of each error given the state a step before (the node's
         ``covariance_mode`` conditional); else the zone's stationary one.
+    failures : GrossFailureProcess or None
+        The gross failures of every zone (the default profile's section).
 
     """
 
-    def __init__(self, models, n=0, conditional_cov=False):
+    def __init__(self, models, n=0, conditional_cov=False, failures=None):
         assert OUTSIDE == -1
         self.models = []                       # distinct models
         index = {}
@@ -92,6 +101,7 @@ class ZonedErrors:
         self.model_of_zone = np.array([index[id(m)] for m in models], dtype=np.int64)
         self.order = max(m.order for m in self.models)
         self.conditional_cov = conditional_cov
+        self.failures = failures
         self.stationary = np.array([m.stationary_cov for m in self.models])
         #: whether any zone's innovations turn with the direction of travel
         self.needs_heading = any(m.needs_heading for m in self.models)
@@ -167,7 +177,11 @@ class ZonedErrors:
                 due = self.step[r] < s
                 self._advance(r[due], k[due], s, z[due])
         cov = self.cov[rows] if self.conditional_cov else self.stationary[self.zone[rows]]
-        return self.err[rows, :, 0].copy(), cov
+        err = self.err[rows, :, 0].copy()
+        if self.failures is not None:
+            off, fails = self.failures.offsets(keys, step)
+            err[fails] = off[fails]
+        return err, cov
 
     def _groups(self, zones):
         for z in np.unique(zones):
@@ -233,6 +247,25 @@ class ZonedErrors:
             self.step[r] = step
 
 
+def one_zone(model, conditional_cov=False):
+    """
+    Return the :class:`ZonedErrors` of a street-frame model without a zone map.
+
+    A street frame needs each fix's direction of travel, which the
+    zone path carries: one zone, the error process beneath the availability
+    and failure wrappers, with the failures applied as in zones. Raises
+    ValueError for a population section, which the zone path does not carry.
+    """
+    failures = None
+    while isinstance(model, (WithAvailability, WithFailures)):
+        failures = getattr(model, 'failures', failures)
+        model = model.inner
+    if hasattr(model, 'population'):
+        raise ValueError('a profile with both a street_frame effect and a population '
+                         'section is not simulated yet: expected one of them')
+    return ZonedErrors([model], conditional_cov=conditional_cov, failures=failures)
+
+
 def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=False):
     """
     Return (default profile, its model, ``(zone_map, ZonedErrors)``) for a run.
@@ -244,8 +277,8 @@ def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=Fa
     """
     default, models = zone_models(zone_map, profile, about_truth)
     return default, default.model(about_truth=about_truth), (zone_map, ZonedErrors(
-        models, conditional_cov=needs_predictive(covariance_mode,
-                                                 default.reported_accuracy)))
+        models, conditional_cov=needs_predictive(covariance_mode, default.reported_accuracy),
+        failures=default.gross_failures))
 
 
 def simulate_along(zoned, keys, steps, zones):

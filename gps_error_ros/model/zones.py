@@ -23,11 +23,13 @@ Rules:
   node's ``profile``, ``simulate --profile``).
 * Zone profiles set the error process (the AR parameters and the effects).
   What a phone reports about itself beyond the error (``availability``,
-  ``velocity``, ``reported_accuracy``) and the output's time line
-  (``rate_hz``) come from the default profile, so a zone profile must have
-  the default's ``rate_hz`` and ``motion_lag`` and none of those sections
-  (unless it is the default profile itself, as in the fallback zones
-  ``calibrate --zones`` writes).
+  ``velocity``, ``reported_accuracy``), its failed solutions
+  (``gross_failures``) and the output's time line (``rate_hz``) come from
+  the default profile, so a zone profile must have the default's
+  ``rate_hz`` and ``motion_lag`` and none of those sections (unless it is
+  the default profile itself, as in the fallback zones ``calibrate
+  --zones`` writes). A ``population`` section is refused in every profile
+  of a map: zones do not yet share one agent's bias and scale.
 
 Point-in-polygon is vectorised over agents: one query of a shapely 2
 ``STRtree`` per step (the optional extra ``zones``).
@@ -278,12 +280,11 @@ def zone_models(zone_map, profile, about_truth=False):
     """
     default = zone_map.default or profile
     for zp in [default] + list(zone_map.profiles):
-        for section in ('gross_failures', 'population'):
-            if getattr(zp, section) is not None:
-                raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a {section} '
-                                   f'section; zone maps do not simulate it yet: '
-                                   f'expected profiles without it')
-    base = default.model(about_truth=about_truth)
+        if zp.population is not None:
+            raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a population '
+                               f'section; zone maps do not simulate it yet: '
+                               f'expected profiles without it')
+    base = default.model(gross_failures=False, about_truth=about_truth)
     models, built = [], {}
     inner = getattr(base, 'inner', base)
     _no_cycle(inner, f'{zone_map.path}: default profile {default.name}')
@@ -297,7 +298,7 @@ def zone_models(zone_map, profile, about_truth=False):
                                f'profile {default.name}\'s {default.rate_hz}; expected '
                                f'the same model rate in every zone')
         for section, article in (('availability', 'an'), ('velocity', 'a'),
-                                 ('reported_accuracy', 'a')):
+                                 ('reported_accuracy', 'a'), ('gross_failures', 'a')):
             if getattr(zp, section) is not None:
                 raise ZoneMapError(
                     f'{where}: has {article} {section} section; expected none: '

@@ -17,7 +17,7 @@ import numpy as np
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import offset
 from gps_error_ros.model.reported import reference_cov
-from gps_error_ros.model.zoned import travel_direction, ZonedErrors
+from gps_error_ros.model.zoned import one_zone, travel_direction
 from gps_error_ros.model.zones import OUTSIDE
 from gps_error_ros.sim.crowd import state_and_cov
 from gps_error_ros.sim.engine_types import EngineStats, FixBatch, PendingStep
@@ -122,8 +122,7 @@ class FixEngine:
         # frame needs each fix's direction of travel: the same path, one zone
         self.zone_map, self.zoned = zones if zones is not None else (None, None)
         if self.zoned is None and model.needs_heading:
-            self.zoned = ZonedErrors([getattr(model, 'inner', model)],
-                                     conditional_cov=conditional_cov)
+            self.zoned = one_zone(model, conditional_cov)
         if self.zoned is not None:
             self.zoned.grow(self.n - self.zoned.n)
         self._reset_time()

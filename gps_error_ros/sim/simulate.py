@@ -34,7 +34,7 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.accuracy import ellipse, radius68
 from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.reported import needs_predictive, reference_cov
-from gps_error_ros.model.zoned import TravelDirections, ZonedErrors
+from gps_error_ros.model.zoned import one_zone, TravelDirections
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
                                             StreamTracker)
@@ -50,8 +50,7 @@ from gps_error_ros.traces.trajectories import (
 def _per_fix(model, zones, conditional=False):
     """Return ``zones``, or a one-zone set-up for a street-frame model, or None."""
     if zones is None and model.needs_heading:
-        return None, ZonedErrors([getattr(model, 'inner', model)],
-                                 conditional_cov=conditional)
+        return None, one_zone(model, conditional)
     return zones
 
 

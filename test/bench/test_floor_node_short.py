@@ -1,5 +1,6 @@
 """The node benchmark's floor, short: it starts, serves its agents' topics and stops cleanly."""
 
+import select
 import signal
 import subprocess
 import sys
@@ -18,7 +19,13 @@ def test_floor_node_runs_and_reports(reliability):
                              '-r', '__ns:=/floor_smoke'],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
-        time.sleep(3.0)
+        # started when it says so (on a loaded machine its imports take seconds)
+        first, deadline = '', time.monotonic() + 60.0
+        while not first and proc.poll() is None and time.monotonic() < deadline:
+            if select.select([proc.stdout], [], [], 1.0)[0]:
+                first = proc.stdout.readline()
+        assert first.startswith('floor node: serving 3 agents'), first
+        time.sleep(1.0)
         assert proc.poll() is None, proc.communicate()[0]
         proc.send_signal(signal.SIGINT)       # as bench_node.py stops it
         out = proc.communicate(timeout=20)[0]

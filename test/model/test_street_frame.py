@@ -78,3 +78,27 @@ def test_travel_directions_of_a_streamed_walk():
     assert math.isnan(got[0]) and math.isnan(got[3])      # no history; standing
     assert got[1] == pytest.approx(0.0, abs=1e-6) and got[2] == pytest.approx(0.0, abs=1e-6)
     assert got[4] == pytest.approx(math.pi / 2, abs=1e-3)
+
+
+def test_a_street_frame_keeps_its_failures_and_refuses_a_population():
+    """Without zones a street frame runs on the zone path: failures carried, not dropped."""
+    from gps_error_ros.model.failures import GrossFailureProcess, WithFailures
+    from gps_error_ros.model.population import Population, WithPopulation
+    from gps_error_ros.model.zoned import one_zone
+    m = street_model()
+    fails = GrossFailureProcess(0.3, (70.0,))
+    keys = streams.agent_keys(5, ['a', 'b'])
+    plain, failing = one_zone(m, True), one_zone(WithFailures(m, fails), True)
+    assert plain.failures is None and failing.failures is fails
+    for z in (plain, failing):
+        z.grow(2)
+        z.restart(0)
+    got = [(plain.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])[0],
+            failing.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])[0]) for k in range(200)]
+    a, b = np.array(got).transpose(1, 0, 2, 3)
+    failed = np.any(a != b, axis=2)
+    assert 0.2 < failed.mean() < 0.4
+    np.testing.assert_allclose(np.hypot(*b[failed].T), 70.0)
+    pop = WithPopulation(m, Population(bias_sd_m=(1.0, 1.0), scale_sd_log=0.1))
+    with pytest.raises(ValueError, match='street_frame effect and a population'):
+        one_zone(pop)

@@ -127,12 +127,34 @@ def test_zone_profiles_that_cannot_mix_with_the_default(tmp_path):
     for name, expected in (('lag', 'motion_lag 0.5 s differs'),
                            ('fast', 'rate_hz 2.0 differs'),
                            ('outages', 'has an availability section'),
-                           ('fails', 'has a gross_failures section; zone maps do not'),
+                           ('fails', 'has a gross_failures section; expected none'),
                            ('crowd', 'has a population section; zone maps do not')):
         path = write_map(tmp_path / f'{name}.geojson',
                          [feature(square(LON0, LAT0, 0.01), profile=f'{name}.yaml')])
         with pytest.raises(ZoneMapError, match=expected):
             zone_models(load_zone_map(path), load_profile('DS1'))
+
+
+def test_the_default_profiles_failures_serve_every_zone(tmp_path):
+    """Failures come from the default profile, at the same steps and sizes in every zone."""
+    text = (builtin_dir() / 'DS5.yaml').read_text()
+    (tmp_path / 'fails.yaml').write_text(text + 'gross_failures: {rate: 0.2, sizes_m: [90]}\n')
+    path = two_zones(tmp_path, default_profile=str(tmp_path / 'fails.yaml'))
+    default, model, (zone_map, zoned) = zoned_errors(load_zone_map(path), load_profile('DS1'))
+    assert default.gross_failures is not None and zoned.failures == default.gross_failures
+    keys = streams.agent_keys(4, [f'a{i}' for i in range(6)])
+    zoned.grow(keys.size)
+    zoned.restart(0)
+    rows = np.arange(keys.size)
+    zones = np.array([0, 1, OUTSIDE, 0, 1, OUTSIDE])
+    got = np.array([zoned.errors(rows, keys, k, zones)[0] for k in range(300)])
+    failed = np.isclose(np.hypot(*got.T).T, 90.0, atol=1e-9)
+    alone = model.simulate(keys, 300)           # the default's failures, no zones
+    np.testing.assert_array_equal(failed, np.isclose(np.hypot(*alone.T).T, 90.0, atol=1e-9))
+    np.testing.assert_allclose(got[failed], alone[failed], atol=1e-9)
+    assert 0.1 < failed.mean() < 0.3
+    # where no fix failed, DS5's process outside the zones runs on beneath the failures
+    np.testing.assert_allclose(got[~failed[:, 2], 2], alone[~failed[:, 2], 2], atol=1e-9)
 
 
 def test_one_zone_is_the_plain_model():

@@ -2,8 +2,9 @@
 Zone maps in the node: a crowd walks from one zone into another.
 
 A real node process with a real GeoJSON file: its fixes equal ``gps_error
-simulate --zones`` on the same truth to 1e-6 m, and each fix's covariance is
-the stationary covariance of the zone its truth is in.
+simulate --zones`` on the same truth to 1e-6 m, gross failures of the default
+profile included, and each fix's covariance is the stationary covariance of
+the zone its truth is in.
 """
 
 import csv
@@ -58,10 +59,16 @@ def truth_msg(k, agent):
 
 def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
     from gps_error_ros.cli import main as gps_error
+    from gps_error_ros.model.profiles import builtin_dir
     zones = zone_map(tmp_path / 'zones.geojson')
+    # the default profile (DS2) with gross failures: they serve every zone
+    default = tmp_path / 'ds2-failing.yaml'
+    default.write_text((builtin_dir() / 'DS2.yaml').read_text()
+                       + 'gross_failures: {rate: 0.1, sizes_m: [60, 200]}\n')
     ns = unique_ns()
     node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
-                        '-p', 'input_type:=navsatfix', '-p', 'seed:=9', '-p', 'profile:=DS2',
+                        '-p', 'input_type:=navsatfix', '-p', 'seed:=9',
+                        '-p', f'profile:={default}',
                         '-p', f'zones:={zones}', '-p', 'agents:=["ann","bob"]'])
     peer = Peer()
     try:
@@ -80,7 +87,7 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
         rc, out = node.stop()
         assert rc == 0, out
         # what serves outside the zones, and each zone's profile, by name
-        assert 'profile DS2 outside the zones' in out, out
+        assert f'profile {default} outside the zones' in out, out
         assert 'west profile DS1, east profile DS5' in out, out
     finally:
         node.stop()
@@ -91,13 +98,13 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
         for k in range(T0, T0 + STEPS):
             for a in AGENTS:
                 f.write('{},{},{!r},{!r}\n'.format(k, a, *truth(k, a)))
-    assert gps_error(['simulate', '--profile', 'DS2', '--seed', '9', '--zones', str(zones),
-                      '--trajectories', str(src), '--out', str(dst)]) == 0
+    assert gps_error(['simulate', '--profile', str(default), '--seed', '9',
+                      '--zones', str(zones), '--trajectories', str(src), '--out', str(dst)]) == 0
     sim = {(r['agent'], int(float(r['t']))): r for r in csv.DictReader(open(dst))}
     # about the truth (the default): the zone's mean square error matrix
     var = {name: np.diag(load_profile(name).model(about_truth=True).stationary_cov)
            for name in ('DS1', 'DS5')}
-    seen = {'DS1': 0, 'DS5': 0}
+    seen = {'DS1': 0, 'DS5': 0, 'failed': 0}
     for a in AGENTS:
         for m in boxes[a]:
             k = stamp_ns(m.header.stamp) // NS
@@ -109,11 +116,13 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
             sim_err = difference(float(row['lat']), float(row['lon']), lat, lon)
             np.testing.assert_allclose(np.ravel(node_err), np.ravel(sim_err), rtol=0,
                                        atol=1e-6, err_msg=f'{a} {k}')
+            seen['failed'] += int(np.hypot(*np.ravel(node_err)) > 59.0)
             zone = 'DS1' if lon < BORDER else 'DS5'
             c = m.position_covariance
             assert (c[4], c[0]) == pytest.approx(tuple(var[zone]), rel=1e-9), (a, k, zone)
             seen[zone] += 1
-    assert seen['DS1'] >= 30 and seen['DS5'] >= 30, seen
+    # 80 fixes at a rate of 0.1: 8 failures expected, at least 1 with probability 0.9998
+    assert seen['DS1'] >= 30 and seen['DS5'] >= 30 and seen['failed'] >= 1, seen
 
 
 def l_walk(k, agent):
