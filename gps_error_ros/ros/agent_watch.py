@@ -230,7 +230,7 @@ class PatternAgents:
     def close_agents(self, slots):
         """Release ``slots``: subscription, publisher and model state."""
         for slot in slots:
-            self.subs[slot].destroy()
+            self.destroy_subscription(self.subs[slot])
             self.destroy_publisher(self.pubs[slot])
             if self.vel_pubs[slot] is not None:
                 self.destroy_publisher(self.vel_pubs[slot])
