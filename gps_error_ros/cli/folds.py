@@ -1,9 +1,11 @@
 """``gps_error compare --folds`` and ``--test``: the classes across stretches and recordings."""
 
+from dataclasses import replace
 from pathlib import Path
 
 from gps_error_ros.diagnose.generalise import (GROUPS, judge_folds, recording_splits,
                                                rolling_splits, split_between, summarise)
+from gps_error_ros.fit.population_fit import segment_weights
 from gps_error_ros.traces.trace_io import join_recordings
 
 
@@ -11,13 +13,16 @@ def _splits(args, recordings):
     """Return [(label, Split)] of the run's rule; raise SystemExit with what was wrong."""
     if args.test:
         held, _ = recordings(args, args.test)
-        train = join_recordings(recordings(args)[0])
+        parts = recordings(args)[0]
+        train = join_recordings(parts)
         test = join_recordings(held)
         joined = join_recordings([train, test])
         cut = float(joined.t[-len(test.t)])
-        return [(f'test {test.name}', split_between(
-            joined, cut, float(joined.t[-1]) + 1.0,
-            f'train on {train.name}, hold out {test.name}'))]
+        split = split_between(joined, cut, float(joined.t[-1]) + 1.0,
+                              f'train on {train.name}, hold out {test.name}')
+        # recordings made together weigh as one occasion in the population fit
+        weights = tuple(segment_weights(parts, split.train.t))
+        return [(f'test {test.name}', replace(split, train_weights=weights))]
     traces, _ = recordings(args)
     if args.folds == 'recordings':
         if len(traces) < 2:

@@ -9,7 +9,9 @@ is fitted and judged on several splits:
   :data:`ORIGINS` (shares of the time span), train on everything before it
   and hold out the next :data:`HORIZON` of the span;
 * **leave one recording out** (:func:`recording_splits`): train on every
-  recording of a receiver but one, hold that one out.
+  recording of a receiver but one and those made with it (its occasion:
+  receivers carried together, :func:`~gps_error_ros.fit.population_fit.occasions`),
+  hold that one out.
 
 On each held-out part every class is scored by its one-step predictive log
 density (the held-out NLL per sample: a proper score) and simulated along
@@ -41,7 +43,8 @@ from gps_error_ros.diagnose.mean import condition_count, motion_offsets
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.fit.envelope import envelope, inside
-from gps_error_ros.fit.population_fit import BLOCK_S, fit_population
+from gps_error_ros.fit.population_fit import (BLOCK_S, fit_population, occasions,
+                                              segment_weights)
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.effects import build_model
@@ -103,15 +106,28 @@ def rolling_splits(trace, origins=ORIGINS, horizon=HORIZON):
 
 
 def recording_splits(traces):
-    """Return [(label, Split)]: each recording held out, the others train."""
-    out = []
+    """
+    Return [(label, Split)]: each recording held out, those of other occasions train.
+
+    A recording made together with the held-out one (the same walk or drive,
+    another receiver) shares its bias, so it trains in no fold that holds
+    the other out. The training segments carry their occasion weights.
+    """
+    out, labels = [], occasions(traces)
     for i, held in enumerate(traces):
-        others = [t for j, t in enumerate(traces) if j != i]
+        others = [t for j, t in enumerate(traces) if labels[j] != labels[i]]
+        if not others:
+            raise ValueError(f'every recording was made with {held.name} (one occasion): '
+                             f'expected recordings of at least two occasions to leave one out')
         joined = join_recordings(others + [held])
         cut = float(joined.t[-len(held.t)])
-        out.append((f'without {held.name}', split_between(
-            joined, cut, float(joined.t[-1]) + 1.0,
-            f'train on the other {len(others)} recordings, hold out {held.name}')))
+        together = labels.count(labels[i]) - 1
+        also = f' (nor the {together} recorded with it)' if together else ''
+        split = split_between(joined, cut, float(joined.t[-1]) + 1.0,
+                              f'train on {len(others)} recordings of other occasions, hold '
+                              f'out {held.name}')
+        weights = tuple(segment_weights(others, split.train.t))
+        out.append((f'without {held.name}{also}', replace(split, train_weights=weights)))
     return out
 
 
@@ -127,10 +143,10 @@ class PopulationClass:
     :func:`~gps_error_ros.fit.population_fit.fit_population`.
     """
 
-    def __init__(self, train, within=None, truth=None):
+    def __init__(self, train, within=None, truth=None, weights=None):
         self.lag = (0.0, 1.0) if within is None else (within.mean.lag_s, within.mean.gain)
         self.truth = truth
-        fit = fit_population(self._without_lag(train), train.t)
+        fit = fit_population(self._without_lag(train), train.t, weights=weights)
         self.fit, self.within = fit, within
         self.ar = ARErrorModel(*fit.axis_params())
         inner = self.ar
@@ -185,6 +201,11 @@ class PopulationClass:
         keep = np.concatenate([s + np.arange(m0, len(e))
                                for s, e in zip(starts, part.err)])
         return out[keep]
+
+
+def _within_split(split):
+    """Return ``split`` with its training part about its blocks' means (:func:`within_part`)."""
+    return replace(split, train=within_part(split.train), train_weights=None)
 
 
 def within_part(part, block_s=BLOCK_S):
@@ -300,9 +321,10 @@ def judge_split(fitted, sims=100, seed=0, within=None):
     m0 = condition_count(fitted.base.orders, fitted.extended.orders,
                          *(() if within is None else (within.orders,)))
     classes = _classes(fitted, sims, seed, m0)
-    pops = {POPULATION_AR: PopulationClass(split.train)}
+    pops = {POPULATION_AR: PopulationClass(split.train, weights=split.train_weights)}
     if within is not None:
-        pops[POPULATION] = PopulationClass(split.train, within, split.truth)
+        pops[POPULATION] = PopulationClass(split.train, within, split.truth,
+                                           split.train_weights)
     for label, pop in pops.items():
         ll = pop.logpdf(split.test, m0)
         n = {len(v[0]) for v in classes.values()}
@@ -333,8 +355,7 @@ def judge_folds(splits, sims=100, seed=0, done=None):
     folds = []
     for label, split in splits:
         fitted = fit_split(label, split, seed=seed)
-        within = fit_split(label, replace(split, train=within_part(split.train)),
-                           seed=seed).extended
+        within = fit_split(label, _within_split(split), seed=seed).extended
         folds.append({'fold': label, 'rule': split.rule, 'train_samples': split.train.n,
                       'test_samples': split.test.n,
                       'train_measures': _basic(split.train.err, float('inf')),
@@ -397,8 +418,8 @@ def population_profile(split, name, source, seed=0):
     """
     from gps_error_ros.diagnose.pipeline import fit_split
     from gps_error_ros.model.profiles import profile_mapping
-    within = fit_split(name, replace(split, train=within_part(split.train)), seed=seed).extended
-    pop = PopulationClass(split.train, within, split.truth)
+    within = fit_split(name, _within_split(split), seed=seed).extended
+    pop = PopulationClass(split.train, within, split.truth, split.train_weights)
     return profile_mapping(
         name, f'population profile diagnosed from {source}', f'gps_error diagnose {source}',
         pop.axes, effects=within.effects_obj(), population=pop.fit.population,

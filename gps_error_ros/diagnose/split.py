@@ -52,6 +52,9 @@ class Split:
     truth: TruthTrack
     rule: str
     cut_time_s: float
+    #: each training segment's weight in a population fit (None: 1 each;
+    #: see :func:`~gps_error_ros.fit.population_fit.segment_weights`)
+    train_weights: tuple = None
 
 
 def split_trace(trace, train_fraction=TRAIN_FRACTION):

@@ -27,8 +27,18 @@ what differs between blocks:
    less its sampling variance under the within process (``(1 + 2 sum
    rho_k^2) / (4 n)``), floored at 0: ``scale_sd_log``.
 
+Recordings made together (several receivers carried on one walk, phones in
+one car) share their environment, and so their bias: they are one
+*occasion*, one draw of the population, not several. :func:`occasions`
+finds them from the recordings' truths (the same track at the same time
+from the start, within :data:`OCCASION_M`, allowing a start offset of up to
+:data:`OCCASION_LAG_S`); each block then weighs ``1 / k``, ``k`` the
+recordings of its occasion, in every moment above (the grand mean too), so
+that an occasion counts once however many receivers recorded it.
+
 Fewer than :data:`MIN_BLOCKS` blocks of at least :data:`MIN_BLOCK_SAMPLES`
-samples: no population is fitted, and the reason says so.
+samples (counted by their weights): no population is fitted, and the
+reason says so.
 """
 
 from dataclasses import dataclass
@@ -37,6 +47,8 @@ import math
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
+from gps_error_ros.model.geodesy import difference
+from gps_error_ros.traces.trace_io import recording_offsets
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yule_walker
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
 from gps_error_ros.model.population import Population
@@ -57,33 +69,93 @@ ADJACENT_GAP_S = 60.0
 ACF_LAGS = 600
 #: Passes of the within fit's correction for the block means taken out.
 CORRECTIONS = 8
+#: Median distance between two recordings' truths (m) within which they are one occasion
+#: (one person or one car carries the receivers; separate walks of one route lie 5 m and more apart).
+OCCASION_M = 2.0
+#: Largest offset between the starts of two recordings of one occasion, s.
+OCCASION_LAG_S = 10
+#: Share of the shorter recording's span the two must overlap for one occasion.
+OCCASION_OVERLAP = 0.8
 
 
 @dataclass(frozen=True)
 class Block:
-    """One block: its samples (n, 2), and its first and last sample time."""
+    """One block: its samples (n, 2), its first and last sample time, and its weight."""
 
     err: np.ndarray
     t0: float
     t1: float
+    weight: float = 1.0
 
 
-def blocks_of(segments, times, block_s=BLOCK_S):
+def blocks_of(segments, times, block_s=BLOCK_S, weights=None):
     """
     Return the :class:`Block` list of error segments with their times.
 
-    ``segments``: (n_s, 2) north/east errors; ``times``: (n_s,) seconds.
-    Blocks are cut on a grid of ``block_s`` from the first time; a block
-    holds the samples of every segment that fall in it.
+    ``segments``: (n_s, 2) north/east errors; ``times``: (n_s,) seconds;
+    ``weights``: each segment's weight (default 1). Blocks are cut on a
+    grid of ``block_s`` from the first time; a block holds the samples of
+    every segment that fall in it, and the weight of its first sample's.
     """
+    weights = [1.0] * len(segments) if weights is None else weights
     t = np.concatenate([np.asarray(x, dtype=float) for x in times])
     e = np.concatenate([np.asarray(x, dtype=float) for x in segments])
+    w = np.concatenate([np.full(len(x), float(v)) for x, v in zip(times, weights)])
     order = np.argsort(t, kind='stable')
-    t, e = t[order], e[order]
+    t, e, w = t[order], e[order], w[order]
     ids = np.floor((t - t[0]) / block_s).astype(np.int64)
     cuts = np.flatnonzero(np.diff(ids) != 0) + 1
-    return [Block(ee, float(tt[0]), float(tt[-1]))
-            for ee, tt in zip(np.split(e, cuts), np.split(t, cuts))]
+    return [Block(ee, float(tt[0]), float(tt[-1]), float(ww[0]))
+            for ee, tt, ww in zip(np.split(e, cuts), np.split(t, cuts), np.split(w, cuts))]
+
+
+def _same_track(a, b):
+    """Return whether recordings ``a`` and ``b`` follow one truth at one time (see the doc)."""
+    span = min(a.t[-1] - a.t[0], b.t[-1] - b.t[0])
+    if span <= 0:
+        return False
+    ta, tb = a.t - a.t[0], b.t - b.t[0]
+    for lag in range(-OCCASION_LAG_S, OCCASION_LAG_S + 1):
+        t = ta[(ta + lag >= tb[0]) & (ta + lag <= tb[-1])]
+        if t.size < 2 or t[-1] - t[0] < OCCASION_OVERLAP * span:
+            continue
+        at = np.searchsorted(ta, t)
+        lat = np.interp(t + lag, tb, b.truth_lat)
+        lon = np.interp(t + lag, tb, b.truth_lon)
+        north, east = difference(a.truth_lat[at], a.truth_lon[at], lat, lon)
+        if np.median(np.hypot(north, east)) <= OCCASION_M:
+            return True
+    return False
+
+
+def occasions(traces):
+    """
+    Return each recording's occasion, a list of ints from 0 in order of appearance.
+
+    Recordings whose truths follow one track at one time (:func:`_same_track`)
+    share an occasion, and so, transitively, do their fellows'.
+    """
+    label = list(range(len(traces)))
+    for j in range(len(traces)):
+        for i in range(j):
+            if label[j] == j and _same_track(traces[i], traces[j]):
+                label[j] = label[i]
+    first = {v: k for k, v in enumerate(dict.fromkeys(label))}
+    return [first[v] for v in label]
+
+
+def segment_weights(traces, times):
+    """
+    Return each segment's weight, ``1 / k`` for a recording one of ``k`` of its occasion.
+
+    ``traces``: the recordings as joined (:func:`~gps_error_ros.traces.trace_io.join_recordings`);
+    ``times``: each segment's sample times in the joined time line, s.
+    """
+    labels = occasions(traces)
+    weight = [1.0 / labels.count(v) for v in labels]
+    starts = recording_offsets(traces)
+    return [weight[int(np.searchsorted(starts, float(t[0]), side='right')) - 1]
+            for t in times]
 
 
 def mean_variance(rho, n, gamma0):
@@ -145,7 +217,7 @@ def fit_within(pieces, sizes, order=None, max_order=DEFAULT_MAX_ORDER, axis='axi
 
 
 def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
-                   block_s=BLOCK_S):
+                   block_s=BLOCK_S, weights=None):
     """
     Fit the within process and the population (see the module docstring).
 
@@ -161,24 +233,34 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
         The largest order the PACF may choose.
     block_s : float
         The block length, s.
+    weights : list of float, optional
+        Each segment's weight: ``1 / k`` for a recording one of ``k`` of its
+        occasion (:func:`segment_weights`); default 1 each.
 
     Returns
     -------
     PopulationFit
 
     """
-    blocks = [b for b in blocks_of(segments, times, block_s)
+    weights = [1.0] * len(segments) if weights is None else list(weights)
+    blocks = [b for b in blocks_of(segments, times, block_s, weights)
               if len(b.err) >= MIN_BLOCK_SAMPLES]
-    grand = np.concatenate([np.asarray(s, dtype=float) for s in segments]).mean(axis=0)
+    grand = sum(w * np.asarray(s, dtype=float).sum(axis=0)
+                for s, w in zip(segments, weights)) / sum(
+                    w * len(s) for s, w in zip(segments, weights))
     within, sizes = _within_segments(segments, times, block_s)
     axes = [fit_within([s[:, a] for s in within], sizes, order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
+    wb = np.array([b.weight for b in blocks])
+    total = float(wb.sum())
     evidence = {'block_s': float(block_s), 'blocks': len(blocks),
                 'within_order': {ax: p.order for ax, p in zip(AXES, axes)}}
-    if len(blocks) < MIN_BLOCKS:
-        evidence.update(fitted=False, reason=f'{len(blocks)} blocks of {block_s:g} s with '
-                        f'{MIN_BLOCK_SAMPLES} samples or more; a population needs '
-                        f'{MIN_BLOCKS}')
+    if total != len(blocks):
+        evidence['weighted_blocks'] = round(total, 4)
+    if total < MIN_BLOCKS:
+        evidence.update(fitted=False, reason=f'{total:g} blocks of {block_s:g} s with '
+                        f'{MIN_BLOCK_SAMPLES} samples or more (recordings of one occasion '
+                        f'counted once); a population needs {MIN_BLOCKS}')
         return PopulationFit(axes[0], axes[1], grand, None, evidence)
     model = ARErrorModel(*axes)
     rho = model.autocorrelation(ACF_LAGS)
@@ -187,20 +269,22 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     n = np.array([len(b.err) for b in blocks])
     v = np.array([[mean_variance(rho[:, a], k, gamma0[a]) for a in range(2)] for k in n])
     dev = means - grand
-    between = np.maximum(0.0, (dev ** 2).sum(axis=0) / (len(blocks) - 1) - v.mean(axis=0))
+    spread = (wb[:, None] * dev ** 2).sum(axis=0) / (total - 1)
+    between = np.maximum(0.0, spread - np.average(v, axis=0, weights=wb))
     bias_sd = np.sqrt(between)
     c = np.array([[neighbour_covariance(rho[:, a], k, gamma0[a]) for a in range(2)] for k in n])
     tau, pairs, r = _time_constant(blocks, dev, between, c, block_s)
     log_sd = np.array([np.mean(np.log(np.maximum(b.err.std(axis=0), 1e-6))) for b in blocks])
     rho2 = [1.0 + 2.0 * np.sum(rho[1:, a] ** 2) for a in range(2)]
-    sampling = np.mean([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n])
-    scale_var = max(0.0, float(np.var(log_sd, ddof=1)) - sampling)
+    sampling = np.average([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n], weights=wb)
+    log_var = float(np.sum(wb * (log_sd - np.average(log_sd, weights=wb)) ** 2) / (total - 1))
+    scale_var = max(0.0, log_var - sampling)
     evidence.update(fitted=True, block_mean_sd_m=[round(float(x), 4) for x in
-                                                  dev.std(axis=0, ddof=1)],
+                                                  np.sqrt(spread)],
                     within_mean_sd_m=[round(float(x), 4) for x in np.sqrt(v.mean(axis=0))],
                     neighbour_pairs=pairs,
                     neighbour_correlation=None if r is None else round(float(r), 4),
-                    block_log_sd_sd=round(float(np.std(log_sd, ddof=1)), 4))
+                    block_log_sd_sd=round(math.sqrt(log_var), 4))
     pop = Population(tuple(float(x) for x in bias_sd), math.sqrt(scale_var), tau)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
 
@@ -235,7 +319,8 @@ def _time_constant(blocks, dev, between, process_cov, block_s):
     if len(pairs) < MIN_PAIRS or not np.any(between > 0):
         return None, len(pairs), None
     w = between > 0
-    cov = np.mean([dev[j, w] * dev[j + 1, w] - process_cov[j, w] for j in pairs], axis=0)
+    cov = np.average([dev[j, w] * dev[j + 1, w] - process_cov[j, w] for j in pairs], axis=0,
+                     weights=[blocks[j].weight for j in pairs])
     r = float(np.sum(cov) / np.sum(between[w]))
     if r >= CONSTANT_R:
         return None, len(pairs), r

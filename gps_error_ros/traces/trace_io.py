@@ -199,6 +199,15 @@ def recordings_of(traces):
     return out
 
 
+def recording_offsets(traces, gap_s=RECORDING_GAP_S):
+    """Return where each recording starts in :func:`join_recordings`'s time line, s."""
+    out, start = [], 0.0
+    for tr in recordings_of(traces):
+        out.append(start)
+        start += float(tr.t[-1] - tr.t[0]) + gap_s
+    return out
+
+
 def join_recordings(traces, gap_s=RECORDING_GAP_S):
     """
     Return one :class:`Trace` of several recordings, each after the last.
@@ -212,10 +221,8 @@ def join_recordings(traces, gap_s=RECORDING_GAP_S):
     if len(traces) == 1:
         return traces[0]
     shared = [k for k in traces[0].extra if all(k in t.extra for t in traces)]
-    times, start = [], 0.0
-    for tr in traces:
-        times.append(tr.t - tr.t[0] + start)
-        start = float(times[-1][-1]) + gap_s
+    times = [tr.t - tr.t[0] + start
+             for tr, start in zip(traces, recording_offsets(traces, gap_s))]
     name = f'{len(traces)} recordings (' + ', '.join(t.name for t in traces) + ')'
     return Trace(name=name, t=np.concatenate(times),
                  lat=np.concatenate([t.lat for t in traces]),

@@ -10,10 +10,11 @@ from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.traces.trace_io import Trace
 
 
-def _trace(name, n, seed, t0=0.0):
+def _trace(name, n, seed, t0=0.0, place=None):
+    """Return a recording along a track of its own (``place``: that of another seed)."""
     rng = np.random.default_rng(seed)
     lat = 40.0 + np.arange(n) * 1e-6
-    lon = np.full(n, -73.9)
+    lon = np.full(n, -73.9 + 1e-3 * (seed if place is None else place))
     return Trace(name=name, t=t0 + np.arange(n, dtype=float),
                  lat=lat + rng.normal(0, 2e-5, n), lon=lon + rng.normal(0, 2e-5, n),
                  truth_lat=lat, truth_lon=lon)
@@ -40,6 +41,23 @@ def test_leaving_one_recording_out_holds_out_exactly_that_recording():
     assert [label for label, _ in folds] == ['without a', 'without b', 'without c']
     assert [s.test.n for _, s in folds] == [300, 400, 200]
     assert [s.train.n for _, s in folds] == [600, 500, 700]
+    assert all(s.train_weights == (1.0,) * len(s.train.t) for _, s in folds)
+
+
+def test_recordings_made_together_never_train_for_each_other():
+    """b and c are two receivers on one walk: holding out one, neither trains."""
+    traces = [_trace('a', 300, 1), _trace('b', 400, 2), _trace('c', 400, 3, place=2),
+              _trace('d', 200, 4)]
+    folds = recording_splits(traces)
+    assert [label for label, _ in folds] == [
+        'without a', 'without b (nor the 1 recorded with it)',
+        'without c (nor the 1 recorded with it)', 'without d']
+    assert [s.test.n for _, s in folds] == [300, 400, 400, 200]
+    assert [s.train.n for _, s in folds] == [1000, 500, 500, 1100]
+    # where both train, each weighs a half: one occasion, one draw of the bias
+    a_fold = folds[0][1]
+    assert sorted(set(a_fold.train_weights)) == [0.5, 1.0]
+    assert sum(w * len(t) for w, t in zip(a_fold.train_weights, a_fold.train.t)) == 600
 
 
 def test_the_population_score_is_the_exact_gaussian_likelihood():

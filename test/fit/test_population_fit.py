@@ -63,3 +63,51 @@ def test_too_few_blocks_fit_no_population_and_say_why():
     assert fit.evidence['fitted'] is False
     assert f'needs {MIN_BLOCKS}' in fit.evidence['reason']
     assert len(fit.axis_params()) == 2
+
+
+def test_an_occasion_recorded_by_many_receivers_counts_once():
+    """
+    Twelve runs, each with its own bias (SD 3 m); the first recorded by twelve receivers.
+
+    Counted per recording, that run's bias is 12 of 23 draws and pulls the
+    mean to it and the spread down; weighed 1/12 each, it is one draw.
+    """
+    rng = np.random.default_rng(5)
+    plain = _model({'bias_sd_m': [1e-6, 1e-6], 'scale_sd_log': 0.0})
+    biases = np.array([[9.0, -9.0]] + [list(rng.normal(0.0, 3.0, 2)) for _ in range(11)])
+    receivers = [12] + [1] * 11
+    segs, times, weights, start = [], [], [], 0.0
+    for run, (bias, k) in enumerate(zip(biases, receivers)):
+        keys = streams.agent_keys(run, [f'r{i}' for i in range(k)])
+        x = plain.simulate(keys, 900)
+        for i in range(k):
+            segs.append(x[:, i] + bias)
+            times.append(start + np.arange(900, dtype=float))
+            weights.append(1.0 / k)
+            start += 1500.0
+    counted = fit_population(segs, times)
+    weighed = fit_population(segs, times, weights=weights)
+    assert weighed.evidence['weighted_blocks'] == 12 * 3
+    # the first run's bias is 3 SD out: counted twelve times it drags the mean
+    # halfway to it; weighed once it moves the mean by about 1/12 of it
+    mean = plain.mean                   # the process's own mean, 1 m per axis
+    np.testing.assert_allclose(counted.mean, mean + (12 * biases[0] + biases[1:].sum(0)) / 23,
+                               atol=0.3)
+    np.testing.assert_allclose(weighed.mean, mean + biases.mean(axis=0), atol=0.3)
+    spread = biases.std(axis=0, ddof=1)
+    np.testing.assert_allclose(weighed.population.bias_sd_m, spread, rtol=0.1)
+
+
+def test_the_walks_of_one_occasion_are_found_from_their_truths():
+    """w03-w05: three receivers carried on one walk; the GSDC phones: one car, one drive."""
+    from pathlib import Path
+    from gps_error_ros.fit.population_fit import occasions
+    from gps_error_ros.traces.trace_io import read_trace_csv
+    data = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+    walks = [read_trace_csv(p) for p in sorted(data.glob('snapper-walk-w0*.csv'))]
+    assert [w.name[-7:-4] for w in walks] == [f'w0{i}' for i in range(7)]
+    assert occasions(walks) == [0, 1, 2, 3, 3, 3, 4]
+    phones = [read_trace_csv(data / f'gsdc2020-mtv1-{p}.csv') for p in ('pixel4',
+                                                                       'pixel4xlmodded')]
+    assert occasions(phones) == [0, 0]
+    assert occasions([walks[0], phones[0]]) == [0, 1]
