@@ -230,6 +230,12 @@ def render(records):
         'receiver\'s snapshot solutions in a car in a Hong Kong canyon, one a '
         'static phone. They test the calibration procedure, not Table II.',
         '',
+        'The pedestrian walks of a low-cost snapshot receiver (seven SnapperGPS walks, '
+        'three of them one walk with three receivers) are calibrated together into the '
+        'built-in profile `snapshot-receiver-on-foot`: each walk\'s gross failures, its fit, '
+        'the profile validated on each walk left out and what the diagnosis finds on them '
+        'are in [walks.md](walks.md) (`make walks-profile`).',
+        '',
     ]
     for rec in records:
         name = rec['trace']

@@ -20,7 +20,7 @@ import numpy as np
 from gps_error_ros.fit.calibration import calibrate
 from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre_scale,
                                               without_rows)
-from gps_error_ros.fit.population_fit import population_line
+from gps_error_ros.fit.population_fit import occasions, population_line
 from gps_error_ros.fit.validation import validate
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.geodesy import difference
@@ -50,10 +50,10 @@ def _walk_rows(traces):
 
 
 def _left_out_rows(traces, seed=1):
-    """Return the leave-one-walk-out validation rows."""
-    rows = []
+    """Return the leave-one-walk-out validation rows (the walk's occasion left out)."""
+    rows, labels = [], occasions(traces)
     for i, tr in enumerate(traces):
-        rest = traces[:i] + traces[i + 1:]
+        rest = [t for j, t in enumerate(traces) if labels[j] != labels[i]]
         res = calibrate(rest, population=True)
         prof = res.profile_dict('left-out')
         model = profile_from_dict(prof).model(gross_failures=False)
@@ -146,11 +146,15 @@ def main():
         '- **Nearly white errors.** A snapshot fix does not filter: lag-1 autocorrelations '
         'are small (the PACF picks low orders on each walk alone), where a phone\'s fix '
         'is strongly persistent (lag 1 about 0.98 on the GSDC phones).',
-        '- **A bias per walk.** The walks\' median errors differ by several metres (table '
-        'below). Pooled over walks about one mean, that difference shows as small positive '
-        'autocorrelations at every lag (a fit without `--population` picks higher orders '
-        'with small coefficients than any walk alone); the profile\'s `population` section '
-        'describes it instead, as the spread of the walks\' biases.',
+        '- **A bias per walk, shared by the receivers on it.** The walks\' median errors '
+        'differ by several metres (table below), while the three receivers carried on one '
+        'walk (w03-w05) agree within half a metre: the bias belongs to the occasion (the '
+        'sky, the place), not to the receiver. Pooled over walks about one mean, that '
+        'difference shows as small positive autocorrelations at every lag (a fit without '
+        '`--population` picks higher orders with small coefficients than any walk alone); '
+        'the profile\'s `population` section describes it instead, as the spread of the '
+        'occasions\' biases, each occasion counted once '
+        '([decision](decisions/0007-occasions.md)).',
         '- **Gross failures.** Failed solutions hundreds of metres to kilometres off, often '
         'within a few fixes of good ones. The rule ([calibrating](calibrating.md), '
         '*Gross failures*) finds them '
@@ -169,7 +173,9 @@ def main():
         '',
         '## Each walk left out',
         '',
-        f'The profile fitted from the other walks, validated on the walk left out '
+        'The profile fitted from the walks of other occasions (w03, w04 and w05 are one '
+        'walk with three receivers: leaving out one, the other two are left out too), '
+        'validated on the walk left out '
         f'(`gps_error validate`, {SIMS} simulated traces, its gross failures left out on '
         'both sides): the share of autocorrelation lags 1-60 and of the 99 quantiles inside '
         'the simulated 95 % envelopes, the walk\'s mean error, and its failures against the '

@@ -47,11 +47,11 @@ import math
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
-from gps_error_ros.model.geodesy import difference
-from gps_error_ros.traces.trace_io import recording_offsets
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yule_walker
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
+from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.population import Population
+from gps_error_ros.traces.trace_io import recording_offsets
 
 #: Block length, s: the stretch whose bias and scale one run is taken to have.
 BLOCK_S = 300.0
@@ -70,7 +70,7 @@ ACF_LAGS = 600
 #: Passes of the within fit's correction for the block means taken out.
 CORRECTIONS = 8
 #: Median distance between two recordings' truths (m) within which they are one occasion
-#: (one person or one car carries the receivers; separate walks of one route lie 5 m and more apart).
+#: (one person or one car carries the receivers; walks of one route lie 5 m and more apart).
 OCCASION_M = 2.0
 #: Largest offset between the starts of two recordings of one occasion, s.
 OCCASION_LAG_S = 10
@@ -116,13 +116,13 @@ def _same_track(a, b):
         return False
     ta, tb = a.t - a.t[0], b.t - b.t[0]
     for lag in range(-OCCASION_LAG_S, OCCASION_LAG_S + 1):
-        t = ta[(ta + lag >= tb[0]) & (ta + lag <= tb[-1])]
+        both = (ta + lag >= tb[0]) & (ta + lag <= tb[-1])
+        t = ta[both]
         if t.size < 2 or t[-1] - t[0] < OCCASION_OVERLAP * span:
             continue
-        at = np.searchsorted(ta, t)
         lat = np.interp(t + lag, tb, b.truth_lat)
         lon = np.interp(t + lag, tb, b.truth_lon)
-        north, east = difference(a.truth_lat[at], a.truth_lon[at], lat, lon)
+        north, east = difference(a.truth_lat[both], a.truth_lon[both], lat, lon)
         if np.median(np.hypot(north, east)) <= OCCASION_M:
             return True
     return False
@@ -132,8 +132,8 @@ def occasions(traces):
     """
     Return each recording's occasion, a list of ints from 0 in order of appearance.
 
-    Recordings whose truths follow one track at one time (:func:`_same_track`)
-    share an occasion, and so, transitively, do their fellows'.
+    A recording joins the occasion of the first earlier one whose truth
+    follows the same track at the same time (:func:`_same_track`).
     """
     label = list(range(len(traces)))
     for j in range(len(traces)):
@@ -335,7 +335,9 @@ def population_line(fit):
         return f'population: not fitted: {ev["reason"]}'
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
-    return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s): a run\'s bias has '
-            f'SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east, {wander}; '
-            f'an agent\'s scale has log SD {pop.scale_sd_log:.3f}; the AR above is the '
+    counted = '' if 'weighted_blocks' not in ev else \
+        f', {ev["weighted_blocks"]:g} with each occasion\'s recordings counted once'
+    return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a run\'s '
+            f'bias has SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east, '
+            f'{wander}; an agent\'s scale has log SD {pop.scale_sd_log:.3f}; the AR above is the '
             f'process within a block')
