@@ -66,7 +66,7 @@ generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
-# About 35 minutes on a 2-core machine; see docs/performance.md.
+# 35 to 70 minutes on a 2-core machine of the kind (its CPU decides); see docs/performance.md.
 bench: setup
 	mkdir -p bench_output
 	$(PY) bench/bench_library.py --json bench_output/library.json
