@@ -93,6 +93,35 @@ def _diagnosis_rows(traces, seed=1):
     return rows
 
 
+def _occasion_note(traces):
+    """Return a paragraph on what the other occasions say of a shared walk left out."""
+    from scipy import stats
+    labels = occasions(traces)
+    east = [float(np.median(_errors(t, find_gross_failures(t).mask)[1])) for t in traces]
+    out = []
+    for occ in sorted(set(labels)):
+        members = [i for i, v in enumerate(labels) if v == occ]
+        if len(members) < 2:
+            continue
+        others = {}
+        for i, v in enumerate(labels):
+            if v != occ:
+                others.setdefault(v, []).append(east[i])
+        k = len(others)
+        lo, hi = (np.sqrt((k - 1) / stats.chi2.ppf(q, k - 1)) for q in (0.975, 0.025))
+        walks = ', '.join(traces[i].name for i in members)
+        bias = np.mean([east[i] for i in members])
+        rest = ', '.join(f'{np.mean(v):+.1f}' for v in others.values())
+        out += [f'The walks of one occasion ({walks}: median east error {bias:+.1f} m), '
+                f'left out together, are judged by what the other {k} occasions (median east '
+                f'errors {rest} m) say of how biases spread: from {k} occasions an SD is '
+                f'known only to within {lo:.1f}-{hi:.1f} times its estimate (95 %), and the '
+                f'population section takes the estimate at its value. A receiver\'s profile needs '
+                f'recordings of more occasions than this; more receivers on one walk add no '
+                f'occasion.', '']
+    return out
+
+
 def _errors(tr, failed):
     """Return the walk's north and east errors without its gross failures, m."""
     north, east = difference(tr.lat, tr.lon, tr.truth_lat, tr.truth_lon)
@@ -192,6 +221,7 @@ def main():
         'left out, with a filter and a V2P warning as consumers: '
         '[generalisation.md](generalisation.md).',
         '',
+        *_occasion_note(traces),
         '## What the diagnosis finds',
         '',
         f'`gps_error diagnose` on each walk, its gross failures left out ({SIMS // 2} '

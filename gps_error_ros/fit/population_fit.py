@@ -336,7 +336,7 @@ def population_line(fit):
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
     counted = '' if 'weighted_blocks' not in ev else \
-        f', {ev["weighted_blocks"]:g} with each occasion\'s recordings counted once'
+        f', {ev["weighted_blocks"]:.1f} with each occasion\'s recordings counted once'
     return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a run\'s '
             f'bias has SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east, '
             f'{wander}; an agent\'s scale has log SD {pop.scale_sd_log:.3f}; the AR above is the '
