@@ -32,7 +32,9 @@ one car) share their environment, and so their bias: they are one
 *occasion*, one draw of the population, not several. :func:`occasions`
 finds them from the recordings' truths (the same track at the same time
 from the start, within :data:`OCCASION_M`, allowing a start offset of up to
-:data:`OCCASION_LAG_S`); each block then weighs ``1 / k``, ``k`` the
+:data:`OCCASION_LAG_S`; a truth that stays within :data:`OCCASION_TRACK_M`
+of its start says nothing of when it was recorded, so standing recordings
+are each an occasion of their own); each block then weighs ``1 / k``, ``k`` the
 recordings of its occasion, in every moment above (the grand mean too), so
 that an occasion counts once however many receivers recorded it.
 
@@ -76,6 +78,8 @@ OCCASION_M = 2.0
 OCCASION_LAG_S = 10
 #: Share of the shorter recording's span the two must overlap for one occasion.
 OCCASION_OVERLAP = 0.8
+#: How far (m) a recording's truth must move from its start to tell an occasion by it.
+OCCASION_TRACK_M = 50.0
 
 
 @dataclass(frozen=True)
@@ -115,6 +119,9 @@ def _same_track(a, b):
     if span <= 0:
         return False
     ta, tb = a.t - a.t[0], b.t - b.t[0]
+    north, east = difference(a.truth_lat, a.truth_lon, a.truth_lat[0], a.truth_lon[0])
+    if np.max(np.hypot(north, east)) < OCCASION_TRACK_M:
+        return False            # a standing receiver's truth does not say when it recorded
     for lag in range(-OCCASION_LAG_S, OCCASION_LAG_S + 1):
         both = (ta + lag >= tb[0]) & (ta + lag <= tb[-1])
         t = ta[both]

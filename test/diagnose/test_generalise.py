@@ -13,7 +13,7 @@ from gps_error_ros.traces.trace_io import Trace
 def _trace(name, n, seed, t0=0.0, place=None):
     """Return a recording along a track of its own (``place``: that of another seed)."""
     rng = np.random.default_rng(seed)
-    lat = 40.0 + np.arange(n) * 1e-6
+    lat = 40.0 + np.arange(n) * 1e-5            # walking north, 1.1 m/s
     lon = np.full(n, -73.9 + 1e-3 * (seed if place is None else place))
     return Trace(name=name, t=t0 + np.arange(n, dtype=float),
                  lat=lat + rng.normal(0, 2e-5, n), lon=lon + rng.normal(0, 2e-5, n),

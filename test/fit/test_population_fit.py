@@ -1,5 +1,7 @@
 """The population fit recovers the bias spread, its time constant and the scale spread."""
 
+from dataclasses import replace
+
 import numpy as np
 import yaml
 
@@ -111,3 +113,7 @@ def test_the_walks_of_one_occasion_are_found_from_their_truths():
                                                                        'pixel4xlmodded')]
     assert occasions(phones) == [0, 0]
     assert occasions([walks[0], phones[0]]) == [0, 1]
+    # a standing receiver's truth says nothing of when: two static logs stay two occasions
+    standing = [replace(walks[0], truth_lat=np.full(len(walks[0]), 51.76),
+                        truth_lon=np.full(len(walks[0]), -1.257)) for _ in range(2)]
+    assert occasions(standing) == [0, 1]
