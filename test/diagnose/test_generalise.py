@@ -45,7 +45,7 @@ def test_leaving_one_recording_out_holds_out_exactly_that_recording():
 
 
 def test_recordings_made_together_never_train_for_each_other():
-    """b and c are two receivers on one walk: holding out one, neither trains."""
+    """Recordings b and c are two receivers on one walk: holding out one, neither trains."""
     traces = [_trace('a', 300, 1), _trace('b', 400, 2), _trace('c', 400, 3, place=2),
               _trace('d', 200, 4)]
     folds = recording_splits(traces)

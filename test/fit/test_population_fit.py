@@ -109,8 +109,8 @@ def test_the_walks_of_one_occasion_are_found_from_their_truths():
     walks = [read_trace_csv(p) for p in sorted(data.glob('snapper-walk-w0*.csv'))]
     assert [w.name[-7:-4] for w in walks] == [f'w0{i}' for i in range(7)]
     assert occasions(walks) == [0, 1, 2, 3, 3, 3, 4]
-    phones = [read_trace_csv(data / f'gsdc2020-mtv1-{p}.csv') for p in ('pixel4',
-                                                                       'pixel4xlmodded')]
+    phones = [read_trace_csv(data / f'gsdc2020-mtv1-{p}.csv')
+              for p in ('pixel4', 'pixel4xlmodded')]
     assert occasions(phones) == [0, 0]
     assert occasions([walks[0], phones[0]]) == [0, 1]
     # a standing receiver's truth says nothing of when: two static logs stay two occasions
