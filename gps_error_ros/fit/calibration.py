@@ -29,7 +29,7 @@ import numpy as np
 
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
-from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.fit.gross_failures import without_gross_failures
 from gps_error_ros.fit.population_fit import fit_population, segment_weights
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
@@ -241,9 +241,9 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
 
     """
     traces = recordings_of(trace)
-    failures = [find_gross_failures(t) for t in traces]
+    kept, failures = without_gross_failures(traces)
     masks = tuple(errors_on_grid(t, rate_hz).fix_mask() for t in traces)
-    clean = join_recordings([without_rows(t, f.mask) for t, f in zip(traces, failures)])
+    clean = join_recordings(kept)
     grid = errors_on_grid(clean, rate_hz)
     fits = [fit_axis(grid.axis(a), order, max_order, axis=ax)
             for a, ax in enumerate(AXES)]
@@ -251,7 +251,6 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
     if population:
         times = [(s + np.arange(len(seg))) / rate_hz
                  for s, seg in zip(grid.starts, grid.segments)]
-        kept = [without_rows(t, f.mask) for t, f in zip(traces, failures)]
         pop = fit_population(list(grid.segments), times, order, max_order,
                              weights=segment_weights(kept, times))
     return CalibrationResult(fits[0], fits[1], grid, clean.name, estimate_velocity(clean),
