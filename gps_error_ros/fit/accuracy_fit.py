@@ -35,7 +35,7 @@ stated log-radius with the error's local log-scale at delays -10..10 s
 import math
 
 import numpy as np
-from scipy import optimize, signal, special
+from scipy import optimize, special
 
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.reported import reported_from_dict, ReportedError
@@ -128,6 +128,7 @@ def _phi_through_rounding(changes, m, sigma, q, pair, reps=8, seed=20261123):
     coefficient giving the measured share is interpolated: a method of
     simulated moments.
     """
+    from scipy import signal        # here: about a second to import, for this fit alone
     z = np.random.default_rng(seed).standard_normal((reps, m.size))
     grid = np.linspace(0.0, 0.995, 100)
     share = []

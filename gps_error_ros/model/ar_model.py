@@ -15,7 +15,6 @@ roots of ``a(z)`` lie strictly outside the unit circle.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import linalg, signal
 
 from gps_error_ros.model import streams
 
@@ -111,6 +110,19 @@ class AxisParams:
         return self.delta / (1.0 - sum(self.phi))
 
 
+def stationary_cov(a, q):
+    """
+    Return the stationary covariance ``x = a x a' + q`` of ``s(t) = a s(t-1) + noise``.
+
+    Solved directly on its vectorised form, ``(I - a (x) a) vec(x) = vec(q)``
+    (the state is at most a few dozen wide); numpy alone, so that a node
+    need not import scipy to start.
+    """
+    n = a.shape[0]
+    lhs = np.eye(n * n) - np.kron(a, a)
+    return np.linalg.solve(lhs, q.reshape(-1)).reshape(n, n)
+
+
 def _sqrt_psd(cov):
     """
     Return L with L @ L.T == cov: Cholesky, or from eigenvalues.
@@ -167,8 +179,8 @@ class ARErrorModel:
         noise_map = np.zeros((2 * p, 2))
         noise_map[0, 0] = 1.0
         noise_map[p, 1] = 1.0
-        self.state_cov = linalg.solve_discrete_lyapunov(
-            self.transition, noise_map @ self.innovation_cov @ noise_map.T)
+        self.state_cov = stationary_cov(self.transition,
+                                        noise_map @ self.innovation_cov @ noise_map.T)
         self.state_cov = 0.5 * (self.state_cov + self.state_cov.T)
         if not np.all(np.isfinite(self.state_cov)):
             raise ModelError('the stationary covariance is not finite (a root '
@@ -394,6 +406,9 @@ class ARErrorModel:
             hist[:, :p] = hist[:, cnt:cnt + p]
 
     def _simulate_lfilter(self, keys, n_steps, start, out):
+        # imported here: scipy.signal takes about a second to import, and a
+        # node stepping its agents one fix at a time never needs it
+        from scipy import signal
         p, m = self.order, keys.size
         state = self.initial_state(keys, start)
         out[0] = self.errors(state)

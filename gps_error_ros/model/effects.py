@@ -61,7 +61,6 @@ not part of it.
 import math
 
 import numpy as np
-from scipy import special
 
 from gps_error_ros.model import streams
 from gps_error_ros.model import outliers as jumps
@@ -208,6 +207,7 @@ class ExtendedModel:
         if math.isfinite(self.dof):
             u = streams.uniform_pairs(keys, streams.DOMAIN_TAIL, index)[:, 0]
             half = 0.5 * self.dof
+            from scipy import special       # here: a node without tails need not import scipy
             mix = special.gammaincinv(half, u) / half        # chi2(dof) / dof
             w *= np.sqrt((self.dof - 2.0) / self.dof / mix)[:, None]
         if self.periodic is not None:
