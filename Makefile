@@ -75,7 +75,7 @@ bench: setup
 	$(PY) bench/bench_zones.py --json bench_output/zones.json
 	$(PY) bench/bench_long_recording.py --json bench_output/long_recording.json
 
-# Soak (not part of make test, which runs 12- and 10-minute versions): 24
+# Soak (not part of make test, which runs 5-minute versions of both): 24
 # simulated hours for 100 agents, then one simulated hour for 1,000 agents, as
 # fast as the node keeps up; then 2 simulated hours of churn with agent_pattern
 # (about 50 agents at a time, each living 1-10 minutes, one in five coming

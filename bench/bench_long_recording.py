@@ -45,13 +45,15 @@ def main(argv=None):
     p.add_argument('--base-hours', type=float, default=1.0)
     p.add_argument('--max-s', type=float, default=120.0)
     p.add_argument('--max-mb', type=float, default=1000.0)
+    p.add_argument('--scenario', default='reflections',
+                   help='the synthetic walk (gps_error synth); reflections by default')
     p.add_argument('--json', help='write the figures here')
     args = p.parse_args(argv)
     out, ok = {}, True
     with tempfile.TemporaryDirectory() as work:
         for hours in (args.base_hours, args.hours):
             walk = str(Path(work, f'walk_{hours:g}h.csv'))
-            run(['synth', 'reflections', '-o', walk, '--seed', '1',
+            run(['synth', args.scenario, '-o', walk, '--seed', '1',
                  '--duration', str(int(hours * 3600))])
             for command in ('diagnose', 'compare'):
                 seconds, mb = run([command, walk])
