@@ -181,6 +181,31 @@ def _t2(x0, x1, inv, logdet, tail):
     return const - 0.5 * logdet - 0.5 * (dof + 2) * math.log1p(q * f / dof)
 
 
+#: Whether the filter's loop runs compiled when numba is installed (tests turn it off to
+#: compare the two).
+COMPILED = True
+_KERNEL = {}
+
+
+def compiled_filter():
+    """
+    Return the compiled loop of :func:`run_filters` (:mod:`.jump_kernel`), or None.
+
+    None when numba (the optional extra ``fast``) is not installed or
+    :data:`COMPILED` is off: the filter then steps in numpy, or in plain
+    floats for one candidate, about a hundred times slower.
+    """
+    if not COMPILED:
+        return None
+    if 'step' not in _KERNEL:
+        try:
+            from gps_error_ros.diagnose.jump_kernel import step_candidates
+        except ImportError:
+            step_candidates = None
+        _KERNEL['step'] = step_candidates
+    return _KERNEL['step']
+
+
 def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     """
     Return the :class:`JumpFilter` of observed residuals ``r_obs`` (n, 2).
@@ -195,8 +220,11 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     Long because the recursion is one loop over the samples, in plain
     floats (a few microseconds a step; :func:`run_filters` steps many
     candidates at once in numpy, at about ten times the cost of one here,
-    and is tested to give the same).
+    and is tested to give the same). With the compiled loop
+    (:func:`compiled_filter`) it is that loop's, for one candidate.
     """
+    if compiled_filter() is not None:
+        return run_filters(r_obs, seg, phi, cov, [(params, dof)], scale2)[0]
     n = len(r_obs)
     rate, q, s2, kappa = params.rate, params.end_probability, params.sigma_m ** 2, DRIFT
     tails = _Tails([dof])
@@ -303,8 +331,38 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
             first[(-i - 1) % lag, a] = v
     coef = np.stack([np.roll(first, m, axis=0) for m in range(lag)])   # per t % lag
     r_obs, seg = np.asarray(r_obs, dtype=float), np.asarray(seg)
-    rf_out, prior_out, post_out = np.empty((n, 2, k, 2)), np.empty((n, 4, k)), np.empty((n, 4, k))
-    ll_out, off = np.empty((n, 2, k)), np.empty((n, k, 2))
+    out = (np.empty((n, 2, k, 2)), np.empty((n, 4, k)), np.empty((n, 4, k)),
+           np.empty((n, 2, k)), np.empty((n, k, 2)))
+    kernel = compiled_filter()
+    if kernel is not None:
+        kernel(r_obs, seg.astype(np.int64), coef,
+               np.array([i0 for (i0, _), _ in inv], dtype=float).reshape(-1, 3),
+               np.array([d0 for (_, d0), _ in inv], dtype=float),
+               np.array([np.stack(i1) for _, (i1, _) in inv], dtype=float).reshape(-1, 3, k),
+               np.array([d1 for _, (_, d1) in inv], dtype=float).reshape(-1, k),
+               which.astype(np.int64), rate, q, tails.heavy, tails.dof, tails.f, tails.const,
+               -0.5 / HOLD_SD ** 2, DRIFT, LOG2PI, *out)
+    else:
+        _step_candidates(r_obs, seg, coef, inv, which, rate, q, tails, out)
+    rf_out, prior_out, post_out, ll_out, off = out
+    rf_out, prior_out = rf_out.transpose(0, 2, 1, 3), prior_out.transpose(0, 2, 1)
+    post_out, ll_out = post_out.transpose(0, 2, 1), ll_out.transpose(0, 2, 1)
+    inside = np.minimum(1.0, post_out[:, :, 2] + post_out[:, :, 3])
+    r = _given_clean(post_out, rf_out)
+    return [JumpFilter(r[:, j], rf_out[:, j], prior_out[:, j], off[:, j], inside[:, j],
+                       post_out[:, j], ll_out[:, j]) for j in range(k)]
+
+
+def _step_candidates(r_obs, seg, coef, inv, which, rate, q, tails, out):
+    """
+    Step the candidates through the filter in numpy; write :func:`run_filters`' ``out``.
+
+    The loop :mod:`.jump_kernel` compiles (used when numba is not installed).
+
+    Long because the recursion is one loop over the samples.
+    """
+    n, k, lag = len(r_obs), len(rate), coef.shape[1]
+    rf_out, prior_out, post_out, ll_out, off = out
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
             wc, wj, c, pc = np.ones(k), np.zeros(k), np.zeros((k, 2)), np.ones(k)
@@ -337,12 +395,6 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
         new_c[:, slot], new_j[:, slot] = 0.0, c     # the oldest slot takes this step's offset
         past[0], past[1] = new_c, new_j
         off[t] = wj[:, None] * c
-    rf_out, prior_out = rf_out.transpose(0, 2, 1, 3), prior_out.transpose(0, 2, 1)
-    post_out, ll_out = post_out.transpose(0, 2, 1), ll_out.transpose(0, 2, 1)
-    inside = np.minimum(1.0, post_out[:, :, 2] + post_out[:, :, 3])
-    r = _given_clean(post_out, rf_out)
-    return [JumpFilter(r[:, j], rf_out[:, j], prior_out[:, j], off[:, j], inside[:, j],
-                       post_out[:, j], ll_out[:, j]) for j in range(k)]
 
 
 def mixture_logpdf(jf, clean_ll):

@@ -34,10 +34,12 @@ def motion_offsets(part, truth, lag_s, gain=1.0):
     ``truth`` is the whole trace's :class:`~.split.TruthTrack`, so a lag
     reaches back across the train/test cut.
     """
-    if lag_s == 0.0 or gain == 0.0:
+    if lag_s == 0.0 or gain == 0.0 or not part.t:
         return [np.zeros_like(e) for e in part.err]
-    out = [lag_offsets(truth.t, truth.north_east[:, 0], truth.north_east[:, 1],
-                       lag_s, at=t) for t in part.t]
+    # one interpolation over every segment's times (each costs a pass over the truth)
+    whole = lag_offsets(truth.t, truth.north_east[:, 0], truth.north_east[:, 1], lag_s,
+                        at=np.concatenate(part.t))
+    out = np.split(whole, np.cumsum([len(t) for t in part.t])[:-1])
     return out if gain == 1.0 else [gain * o for o in out]
 
 
