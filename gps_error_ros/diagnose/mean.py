@@ -99,25 +99,21 @@ def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
     """Build the regression of u = e - motion term on its own past."""
     m0 = condition_count(orders) if m0 is None else max(m0, max(orders))
     offs = motion_offsets(part, truth, lag_s, gain)
-    ys, lags, seg, times = [], [[], []], [], []
-    for s, (e, o) in enumerate(zip(part.err, offs)):
-        u = e - o
-        idx = np.arange(m0, len(u))
-        if not idx.size:
-            continue
-        ys.append(u[idx])
-        seg.append(np.full(idx.size, s))
-        times.append(part.t[s][idx])
-        for a in range(2):
-            lags[a].append(np.stack([u[idx - i, a] for i in
-                                     range(1, orders[a] + 1)], axis=1))
-    if not ys:
+    lens = np.array([len(e) for e in part.err], dtype=np.int64)
+    counts = np.maximum(lens - m0, 0)
+    total = int(counts.sum())
+    if not total:
         return Design(np.zeros((0, 2)), [np.zeros((0, p)) for p in orders],
                       np.zeros(0, dtype=int), np.zeros(0), np.zeros(0, dtype=np.int64))
-    times = np.concatenate(times)
+    # the segments one after another; each scored sample's index in that, and its lags'
+    u = np.concatenate([e - o for e, o in zip(part.err, offs)])
+    first = np.cumsum(lens) - lens + m0           # each segment's first scored sample
+    idx = np.arange(total) + np.repeat(first - (np.cumsum(counts) - counts), counts)
+    seg = np.repeat(np.arange(len(lens)), counts)
+    times = np.concatenate(part.t)[idx]
+    lags = [u[idx[:, None] - np.arange(1, orders[a] + 1)[None, :], a] for a in range(2)]
     steps = np.round(times - truth.t[0]).astype(np.int64)
-    return Design(np.concatenate(ys), [np.concatenate(x) for x in lags],
-                  np.concatenate(seg), travel_headings(truth, times, lag_s), steps)
+    return Design(u[idx], lags, seg, travel_headings(truth, times, lag_s), steps)
 
 
 @dataclass

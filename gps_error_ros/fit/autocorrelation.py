@@ -22,10 +22,17 @@ def pooled_autocovariance(segments, max_lag, mean=None):
     if mean is None:
         mean = sum(float(np.sum(s)) for s in segments) / n
     acv = np.zeros(max_lag + 1)
-    for s in segments:
-        d = np.asarray(s, dtype=float) - mean
-        for k in range(min(max_lag, len(d) - 1) + 1):
-            acv[k] += d[:len(d) - k] @ d[k:]
+    if len(segments) == 1:
+        joined = np.asarray(segments[0], dtype=float) - mean
+    else:
+        # the segments one after another, max_lag zeros between them: a product
+        # across a gap is then zero, and each lag is one dot product
+        gap = np.zeros(max_lag)
+        parts = [p for s in segments for p in (np.asarray(s, dtype=float) - mean, gap)]
+        joined = np.concatenate(parts[:-1]) if parts else np.zeros(0)
+    longest = max((len(s) for s in segments), default=0)
+    for k in range(min(max_lag, longest - 1) + 1):
+        acv[k] = joined[:joined.size - k] @ joined[k:]
     return acv / n, n, mean
 
 
