@@ -45,6 +45,9 @@ def step_candidates(r_obs, seg, coef, inv0, logdet0, inv1, logdet1, which, rate,
     parameters and tails; ``hold_scale``: ``-0.5 / HOLD_SD ** 2``. Outputs:
     ``rf_out`` (n, 2, k, 2), ``prior_out`` and ``post_out`` (n, 4, k),
     ``ll_out`` (n, 2, k), ``off`` (n, k, 2).
+
+    Long because it is the numpy loop written out term by term, which
+    numba compiles only as one function.
     """
     n = r_obs.shape[0]
     k = rate.shape[0]

@@ -7,6 +7,8 @@ arriving while the executor built its wait set: two runs in three).
 
 import csv
 import signal
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -133,3 +135,45 @@ def test_error_node_ctrl_c(run):
         peer.destroy()
     assert_clean_exit(rc, log)
     assert 'at shutdown:' in log
+
+
+SPIN_PAST_UNTAKEABLE = '''
+import os, signal, sys
+from rclpy.node import Node
+from gps_error_ros.ros import lifecycle
+
+class Ticker(Node):
+    def __init__(self):
+        super().__init__('ticker')
+        self.ticks = 0
+        self.create_timer(0.02, self.tick)
+
+    def tick(self):
+        self.ticks += 1
+        if self.ticks == 3:          # what rclpy raises when it cannot build a taken message
+            raise RuntimeError(lifecycle.UNTAKEABLE + " '0' to Python object")
+        if self.ticks == 10:
+            os.kill(os.getpid(), signal.SIGINT)
+        if self.ticks == 4 and DEFECT:
+            raise ValueError('a defect of ours')
+
+DEFECT = sys.argv[1] == 'defect'
+code = lifecycle.run_node(Ticker, 'ticker', [])
+print('exit', code)
+sys.exit(code)
+'''
+
+
+def test_a_message_rclpy_cannot_take_is_dropped_and_spinning_goes_on():
+    """The node's spin outlives rclpy's conversion error; our own errors still stop it."""
+    def run(case):
+        done = subprocess.run([sys.executable, '-c', SPIN_PAST_UNTAKEABLE, case],
+                              capture_output=True, text=True, timeout=60)
+        return done.returncode, done.stdout + done.stderr
+
+    rc, out = run('clean')
+    assert 'could not be taken from the middleware and was dropped' in out, out
+    assert rc == 0 and 'exit 0' in out, out          # ticked on to the SIGINT at tick 10
+    # a defect of ours is not swallowed: the node stops on it, with its traceback
+    rc, out = run('defect')
+    assert rc != 0 and 'ValueError: a defect of ours' in out, out
