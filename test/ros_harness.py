@@ -12,6 +12,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 from geometry_msgs.msg import PoseStamped
@@ -80,6 +81,26 @@ class NodeProcess:
             out, _ = self.proc.communicate()
         self._output = (self._output or '') + (out or '')
         return self.proc.returncode, self._output
+
+    def wait_output(self, *texts, timeout=20.0):
+        """
+        Read the node's output until a line holds one of ``texts``; return whether one did.
+
+        What was read is kept for :meth:`stop`. On a timeout the reader
+        thread reads on, and what it reads after is lost to :meth:`stop`.
+        """
+        lines, found = [], threading.Event()
+
+        def read():
+            for line in self.proc.stdout:
+                lines.append(line)
+                if any(t in line for t in texts):
+                    found.set()
+                    return
+        threading.Thread(target=read, daemon=True).start()
+        found.wait(timeout)
+        self._output = (self._output or '') + ''.join(lines)
+        return found.is_set()
 
     def wait_exit(self, timeout=20):
         """Wait for the node to exit by itself; return (exit code, output)."""

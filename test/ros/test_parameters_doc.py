@@ -2,7 +2,6 @@
 
 from pathlib import Path
 import re
-import time
 
 from rcl_interfaces.msg import ParameterType
 
@@ -61,8 +60,6 @@ def test_parameters_files_are_the_table_and_start_the_nodes(tmp_path):
     for node, extra, started in runs:
         proc = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}', '--params-file',
                             str(ROOT / 'config' / f'{node}.yaml')] + extra, name=node)
-        deadline = time.monotonic() + 8.0
-        while time.monotonic() < deadline and proc.proc.poll() is None:
-            time.sleep(0.2)
+        assert proc.wait_output(started), proc.stop()[1]     # unknown ones are named before
         rc, log = proc.stop()
         assert rc == 0 and started in log and 'unknown parameter' not in log, log

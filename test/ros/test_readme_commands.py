@@ -57,10 +57,9 @@ def test_readme_node_command_runs_as_written(argv):
     else:
         args += ['--ros-args', '-r', f'__ns:={ns}']
     node = NodeProcess(args, name=Path(argv[0]).name)
-    deadline = time.monotonic() + 8.0
-    while time.monotonic() < deadline and node.proc.poll() is None:
-        time.sleep(0.2)
-    assert node.proc.poll() is None, node.stop()[1]     # still running: it started
+    assert node.wait_output('profile', 'calibrating from'), node.stop()[1]   # its start line
+    time.sleep(1.0)
+    assert node.proc.poll() is None, node.stop()[1]     # and still running
     rc, log = node.stop()
     assert rc == 0 and 'Traceback' not in log, log
     assert 'profile' in log or 'calibrating from' in log, log

@@ -211,13 +211,12 @@ def test_street_frame_turns_with_the_walker_in_node_and_simulate(tmp_path):
 
 def test_the_start_line_names_what_serves_outside_the_zones(tmp_path):
     """A map whose default_profile (DS1) is not the run's profile (DS5): DS1's name and figures."""
-    import time
     raw = json.loads(zone_map(tmp_path / 'z.geojson').read_text())
     raw['default_profile'] = 'DS1'
     (tmp_path / 'z.geojson').write_text(json.dumps(raw))
     node = NodeProcess(['--ros-args', '-r', f'__ns:={unique_ns()}', '-p', 'profile:=DS5',
                         '-p', 'input_type:=navsatfix', '-p', f'zones:={tmp_path / "z.geojson"}'])
-    time.sleep(4.0)                     # up and logged its start-up line
+    assert node.wait_output('outside the zones'), node.stop()[1]     # its start-up line
     rc, out = node.stop()
     assert rc == 0, out
     rms = load_profile('DS1').model(about_truth=True).stationary_sd
