@@ -26,7 +26,7 @@ setup(
     # gps_error import: recordings in (NMEA, GPX); an extra, not a core need.
     # gps_error_sumo: SUMO live (the eclipse-sumo wheel, TraCI); an extra too.
     # Zone maps (node parameter zones, simulate --zones): shapely 2.
-    # fast: the diagnosis's jump filter compiled (numba); numpy without it.
+    # fast: the diagnosis's jump and regime filters compiled (numba); numpy without it.
     extras_require={'docs': ['mkdocs', 'mkdocs-material', 'mkdocstrings-python'],
                     'fast': ['numba'],
                     'import': ['pynmea2', 'gpxpy'],

@@ -70,6 +70,7 @@ import numpy as np
 from scipy import special
 
 from gps_error_ros.diagnose.common import LOG2PI
+from gps_error_ros.diagnose.compiled import kernel
 from gps_error_ros.diagnose.mean import Design
 from gps_error_ros.model.outliers import Outliers
 
@@ -181,31 +182,6 @@ def _t2(x0, x1, inv, logdet, tail):
     return const - 0.5 * logdet - 0.5 * (dof + 2) * math.log1p(q * f / dof)
 
 
-#: Whether the filter's loop runs compiled when numba is installed (tests turn it off to
-#: compare the two).
-COMPILED = True
-_KERNEL = {}
-
-
-def compiled_filter():
-    """
-    Return the compiled loop of :func:`run_filters` (:mod:`.jump_kernel`), or None.
-
-    None when numba (the optional extra ``fast``) is not installed or
-    :data:`COMPILED` is off: the filter then steps in numpy, or in plain
-    floats for one candidate, about a hundred times slower.
-    """
-    if not COMPILED:
-        return None
-    if 'step' not in _KERNEL:
-        try:
-            from gps_error_ros.diagnose.jump_kernel import step_candidates
-        except ImportError:
-            step_candidates = None
-        _KERNEL['step'] = step_candidates
-    return _KERNEL['step']
-
-
 def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     """
     Return the :class:`JumpFilter` of observed residuals ``r_obs`` (n, 2).
@@ -221,9 +197,9 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     floats (a few microseconds a step; :func:`run_filters` steps many
     candidates at once in numpy, at about ten times the cost of one here,
     and is tested to give the same). With the compiled loop
-    (:func:`compiled_filter`) it is that loop's, for one candidate.
+    (:func:`.compiled.kernel`) it is that loop's, for one candidate.
     """
-    if compiled_filter() is not None:
+    if kernel('step_candidates') is not None:
         return run_filters(r_obs, seg, phi, cov, [(params, dof)], scale2)[0]
     n = len(r_obs)
     rate, q, s2, kappa = params.rate, params.end_probability, params.sigma_m ** 2, DRIFT
@@ -333,15 +309,15 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
     r_obs, seg = np.asarray(r_obs, dtype=float), np.asarray(seg)
     out = (np.empty((n, 2, k, 2)), np.empty((n, 4, k)), np.empty((n, 4, k)),
            np.empty((n, 2, k)), np.empty((n, k, 2)))
-    kernel = compiled_filter()
-    if kernel is not None:
-        kernel(r_obs, seg.astype(np.int64), coef,
-               np.array([i0 for (i0, _), _ in inv], dtype=float).reshape(-1, 3),
-               np.array([d0 for (_, d0), _ in inv], dtype=float),
-               np.array([np.stack(i1) for _, (i1, _) in inv], dtype=float).reshape(-1, 3, k),
-               np.array([d1 for _, (_, d1) in inv], dtype=float).reshape(-1, k),
-               which.astype(np.int64), rate, q, tails.heavy, tails.dof, tails.f, tails.const,
-               -0.5 / HOLD_SD ** 2, DRIFT, LOG2PI, *out)
+    step = kernel('step_candidates')
+    if step is not None:
+        step(r_obs, seg.astype(np.int64), coef,
+             np.array([i0 for (i0, _), _ in inv], dtype=float).reshape(-1, 3),
+             np.array([d0 for (_, d0), _ in inv], dtype=float),
+             np.array([np.stack(i1) for _, (i1, _) in inv], dtype=float).reshape(-1, 3, k),
+             np.array([d1 for _, (_, d1) in inv], dtype=float).reshape(-1, k),
+             which.astype(np.int64), rate, q, tails.heavy, tails.dof, tails.f, tails.const,
+             -0.5 / HOLD_SD ** 2, DRIFT, LOG2PI, *out)
     else:
         _step_candidates(r_obs, seg, coef, inv, which, rate, q, tails, out)
     rf_out, prior_out, post_out, ll_out, off = out
@@ -357,7 +333,7 @@ def _step_candidates(r_obs, seg, coef, inv, which, rate, q, tails, out):
     """
     Step the candidates through the filter in numpy; write :func:`run_filters`' ``out``.
 
-    The loop :mod:`.jump_kernel` compiles (used when numba is not installed).
+    The loop :mod:`.kernels` compiles (this runs when numba is not installed).
 
     Long because the recursion is one loop over the samples.
     """

@@ -17,6 +17,7 @@ import numpy as np
 from scipy import optimize, special
 
 from gps_error_ros.diagnose.common import DiagnosisError, LOG2PI
+from gps_error_ros.diagnose.compiled import kernel
 from gps_error_ros.model.effects import stationary_distribution
 
 
@@ -115,9 +116,13 @@ def scan_loglik(logf, trans, pi, smooth=False, starts=None):
     predictive regime probabilities (n, K); with ``smooth`` also the
     smoothed probabilities (n, K) and the expected transition counts (K, K)
     (forward-backward). The linear recursion alpha_t = alpha_{t-1} P diag(f_t)
-    is evaluated as a parallel prefix product (vectorised over time).
+    runs step by step compiled (:func:`.compiled.kernel`), else as a
+    parallel prefix product (vectorised over time) in numpy.
     """
     n, k = logf.shape
+    forward, backward = kernel('hmm_forward'), kernel('hmm_backward')
+    if forward is not None:
+        return _scan_compiled(forward, backward, logf, trans, pi, smooth, starts)
     m = logf.max(axis=1)
     f = np.exp(logf - m[:, None])
     mats = trans[:, :, None] * f.T[None, :, :]         # P[i, j] f_t[j]
@@ -150,6 +155,24 @@ def scan_loglik(logf, trans, pi, smooth=False, starts=None):
     xi = filt[:-1, :, None] * trans[None] * (f[1:] * beta[1:])[:, None, :]
     xi /= xi.sum(axis=(1, 2), keepdims=True)
     return pred_ll, pred, gamma, xi.sum(axis=0)
+
+
+def _scan_compiled(forward, backward, logf, trans, pi, smooth, starts):
+    """Return :func:`scan_loglik`'s outputs from the compiled step-by-step recursions."""
+    n, k = logf.shape
+    restart = np.zeros(n, dtype=np.bool_) if starts is None else \
+        np.array(starts, dtype=np.bool_)
+    if smooth and restart[1:].any():
+        raise ValueError('scan_loglik: starts is for the forward filter only')
+    logf = np.ascontiguousarray(logf, dtype=float)
+    trans, pi = np.ascontiguousarray(trans, dtype=float), np.ascontiguousarray(pi, dtype=float)
+    pred_ll, pred, filt = np.empty(n), np.empty((n, k)), np.empty((n, k))
+    forward(logf, trans, pi, restart, pred_ll, pred, filt)
+    if not smooth:
+        return pred_ll, pred
+    gamma, counts = np.empty((n, k)), np.zeros((k, k))
+    backward(logf, trans, filt, gamma, counts)
+    return pred_ll, pred, gamma, counts
 
 
 def law_logpdf(law, r, seg):

@@ -199,8 +199,9 @@ def test_the_search_scores_a_bounded_sample_of_a_long_part():
 
 def test_the_compiled_loop_is_the_numpy_loop(monkeypatch):
     """The extra ``fast`` (numba, which make setup installs) steps the filter as numpy does."""
-    from gps_error_ros.diagnose import jumps
-    assert jumps.compiled_filter() is not None, 'numba (requirements-fast.txt) is not importable'
+    from gps_error_ros.diagnose import compiled
+    assert compiled.kernel('step_candidates') is not None, \
+        'numba (requirements-fast.txt) is not importable'
     rng = np.random.default_rng(11)
     n = 900
     r = rng.standard_t(4, size=(n, 2))
@@ -212,14 +213,14 @@ def test_the_compiled_loop_is_the_numpy_loop(monkeypatch):
     scale2 = rng.choice([0.25, 1.0, 4.0], n)
     cands = [(Outliers(rate, steps, size), dof) for rate in (0.001, 0.05)
              for steps in (1.5, 12.0) for size in (3.0, 24.0) for dof in (np.inf, 3.0)]
-    compiled = run_filters(r, seg, phi, cov, cands, scale2)
+    fast = run_filters(r, seg, phi, cov, cands, scale2)
     one = run_filter(r, seg, phi, cov, cands[5][0], scale2, cands[5][1])
-    monkeypatch.setattr(jumps, 'COMPILED', False)
-    assert jumps.compiled_filter() is None
+    monkeypatch.setattr(compiled, 'COMPILED', False)
+    assert compiled.kernel('step_candidates') is None
     in_numpy = run_filters(r, seg, phi, cov, cands, scale2)
     in_floats = run_filter(r, seg, phi, cov, cands[5][0], scale2, cands[5][1])
     fields = ('r', 'r_from', 'prior', 'offset', 'inside', 'post', 'jump_ll')
-    for a, b in zip(compiled, in_numpy):
+    for a, b in zip(fast, in_numpy):
         for name in fields:
             np.testing.assert_allclose(getattr(a, name), getattr(b, name),
                                        rtol=1e-12, atol=1e-12, err_msg=name)
@@ -227,6 +228,6 @@ def test_the_compiled_loop_is_the_numpy_loop(monkeypatch):
         np.testing.assert_allclose(getattr(one, name), getattr(in_floats, name),
                                    rtol=1e-12, atol=1e-12, err_msg=name)
     # the candidates differ, and a jump of metres is found at once by the middle one
-    assert not np.allclose(compiled[0].post, compiled[-1].post)
+    assert not np.allclose(fast[0].post, fast[-1].post)
     jf = run_filter(r, seg, phi, cov, Outliers(0.01, 3.0, 10.0), scale2)
     assert jf.inside[99] < 0.5 < jf.inside[100:104].min()

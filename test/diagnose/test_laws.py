@@ -100,3 +100,24 @@ def test_segments_in_one_scan_are_each_a_scan_of_their_own():
         np.testing.assert_allclose(ll[sel], alone, atol=1e-10, rtol=0)
         np.testing.assert_allclose(pred[sel], alone_pred, atol=1e-10, rtol=0)
         np.testing.assert_allclose(pred[sel[0]], pi)
+
+
+def test_the_compiled_regime_filter_is_the_numpy_scan(monkeypatch):
+    """The extra ``fast`` (numba) runs the regimes' recursions step by step, as numpy's scan."""
+    from gps_error_ros.diagnose import compiled
+    assert compiled.kernel('hmm_forward') is not None, \
+        'numba (requirements-fast.txt) is not importable'
+    rng = np.random.default_rng(5)
+    logf = rng.normal(size=(2000, 3)) * 4.0 - 30.0
+    trans = np.array([[0.97, 0.02, 0.01], [0.05, 0.9, 0.05], [0.1, 0.2, 0.7]])
+    pi = stationary_distribution(trans)
+    starts = np.zeros(2000, dtype=bool)
+    starts[[0, 17, 18, 900, 1999]] = True
+    got = [scan_loglik(logf, trans, pi, smooth=True), scan_loglik(logf, trans, pi, starts=starts)]
+    monkeypatch.setattr(compiled, 'COMPILED', False)
+    want = [scan_loglik(logf, trans, pi, smooth=True), scan_loglik(logf, trans, pi, starts=starts)]
+    for g, w in zip(got, want):
+        for a, b in zip(g, w):
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-10)
+    with pytest.raises(ValueError, match='forward filter only'):
+        scan_loglik(logf, trans, pi, smooth=True, starts=starts)

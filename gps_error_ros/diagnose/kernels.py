@@ -1,13 +1,14 @@
 """
-The jump filter's recursion compiled with numba (the optional extra ``fast``).
+The diagnosis's recursions compiled with numba (the optional extra ``fast``).
 
 :func:`step_candidates` is the loop of :func:`.jumps.run_filters` over the
-samples, written out per candidate in plain floats so that numba compiles
-it to machine code (the compiled function is cached beside this file). Its
-arithmetic is that of the numpy loop, term by term in the same order; the
-two agree to rounding (tested). Import this module only through
-:func:`.jumps.compiled_filter`, which falls back to the numpy loop when numba is
-not installed.
+samples, written out per candidate in plain floats; :func:`hmm_forward` and
+:func:`hmm_backward` are the variance regimes' forward filter and backward
+pass of :func:`.laws.scan_loglik`, step by step. numba compiles them to
+machine code on first use and caches it beside this file. Each agrees with
+its numpy form to rounding (tested). Reach them only through
+:func:`.compiled.kernel`, which returns None when numba is not installed:
+the numpy forms then run.
 """
 
 import math
@@ -141,3 +142,76 @@ def step_candidates(r_obs, seg, coef, inv0, logdet0, inv1, logdet1, which, rate,
             wc[j], wj[j] = wcj, wjj
             for ax in range(2):
                 off[t, j, ax] = wjj * c[j, ax]
+
+
+@numba.njit(cache=True)
+def hmm_forward(logf, trans, pi, restart, pred_ll, pred, filt):
+    """
+    Run the forward filter of a K-state HMM; write its outputs in place.
+
+    ``logf`` (n, K) emission log densities, ``trans`` (K, K), ``pi`` (K,)
+    the start, ``restart`` (n,) where the chain starts again from ``pi``.
+    Outputs: ``pred_ll`` (n,) one-step predictive log densities, ``pred``
+    (n, K) predictive and ``filt`` (n, K) filtered state probabilities.
+    """
+    n, k = logf.shape
+    for t in range(n):
+        for j in range(k):
+            if t == 0 or restart[t]:
+                pred[t, j] = pi[j]
+            else:
+                acc = 0.0
+                for i in range(k):
+                    acc += filt[t - 1, i] * trans[i, j]
+                pred[t, j] = acc
+        top = logf[t, 0]
+        for j in range(1, k):
+            top = max(top, logf[t, j])
+        tot = 0.0
+        for j in range(k):
+            filt[t, j] = pred[t, j] * math.exp(logf[t, j] - top)
+            tot += filt[t, j]
+        pred_ll[t] = math.log(tot) + top
+        for j in range(k):
+            filt[t, j] /= tot
+
+
+@numba.njit(cache=True)
+def hmm_backward(logf, trans, filt, gamma, counts):
+    """
+    Run the backward pass after :func:`hmm_forward` (one chain, no restarts).
+
+    Writes ``gamma`` (n, K), the smoothed state probabilities, and adds the
+    expected transition counts to ``counts`` (K, K).
+    """
+    n, k = logf.shape
+    beta = np.ones(k) / k
+    nxt = np.empty(k)
+    fb = np.empty(k)
+    for t in range(n - 1, -1, -1):
+        if t < n - 1:
+            top = logf[t + 1, 0]
+            for j in range(1, k):
+                top = max(top, logf[t + 1, j])
+            for j in range(k):
+                fb[j] = math.exp(logf[t + 1, j] - top) * beta[j]
+            tot = 0.0
+            for i in range(k):
+                for j in range(k):
+                    tot += filt[t, i] * trans[i, j] * fb[j]
+            norm = 0.0
+            for i in range(k):
+                acc = 0.0
+                for j in range(k):
+                    counts[i, j] += filt[t, i] * trans[i, j] * fb[j] / tot
+                    acc += trans[i, j] * fb[j]
+                nxt[i] = acc
+                norm += acc
+            for i in range(k):
+                beta[i] = nxt[i] / norm
+        tot = 0.0
+        for j in range(k):
+            gamma[t, j] = filt[t, j] * beta[j]
+            tot += gamma[t, j]
+        for j in range(k):
+            gamma[t, j] /= tot

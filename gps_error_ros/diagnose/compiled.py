@@ -1,0 +1,33 @@
+"""
+The compiled loops of :mod:`.kernels` (numba, the optional extra ``fast``), when present.
+
+The diagnosis has recursions that cannot be vectorised over time (the jump
+filter, the variance regimes' filter). Each has a numpy form and, in
+:mod:`.kernels`, the same loop for numba to compile; :func:`kernel` says
+which to run (decision record 0008).
+"""
+
+#: Whether the compiled loops run when numba is installed (tests turn it off to
+#: compare the two forms).
+COMPILED = True
+_LOADED = {}
+
+
+def kernel(name):
+    """
+    Return the compiled function ``name`` of :mod:`.kernels`, or None.
+
+    None when numba is not installed (or finds no place for its cache) or
+    :data:`COMPILED` is off; the caller then runs the numpy form of the same
+    loop.
+    """
+    if not COMPILED:
+        return None
+    if 'kernels' not in _LOADED:
+        try:
+            from gps_error_ros.diagnose import kernels
+        except (ImportError, RuntimeError):
+            # no numba, or (RuntimeError) nowhere to write its cache: the numpy forms
+            kernels = None
+        _LOADED['kernels'] = kernels
+    return None if _LOADED['kernels'] is None else getattr(_LOADED['kernels'], name)
