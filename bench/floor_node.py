@@ -31,6 +31,7 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
+from gps_error_ros.ros.error_node import DrainedByTheNode
 from gps_error_ros.ros.fix_output import FIX_BURST, send_paced
 from gps_error_ros.ros.topics import FIX_QOS, TRUTH_QOS
 
@@ -43,6 +44,8 @@ class FloorNode(Node):
     def __init__(self, agents, reliability):
         super().__init__('gps_error_floor', parameter_overrides=[
             Parameter('use_sim_time', Parameter.Type.BOOL, True)])
+        # drained by hand, as the node does: no executor waits on the truth topics
+        self.drained = DrainedByTheNode()
         no_events_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
         no_events_pub = PublisherEventCallbacks(use_default_callbacks=False)
         self.subs, self.pubs = [], []
@@ -50,8 +53,8 @@ class FloorNode(Node):
         for name in agents:
             sub = self.create_subscription(PoseStamped, f'{name}/pose', lambda m: None,
                                            TRUTH_QOS['best_effort'], raw=True,
-                                           event_callbacks=no_events_sub)
-            self._subscriptions.remove(sub)       # drained by hand, as the node does
+                                           event_callbacks=no_events_sub,
+                                           callback_group=self.drained)
             self.subs.append((sub, sub.handle))
             self.pubs.append(self.create_publisher(
                 NavSatFix, f'{name}/fix', FIX_QOS[reliability],
@@ -69,6 +72,18 @@ class FloorNode(Node):
         self.spent = self.worst = 0.0
         self.last_step = None
         self.create_timer(1.0, self._on_timer)
+
+    def create_subscription(self, *args, **kwargs):
+        """Create a subscription (rclpy's); executors wait on it unless it is drained."""
+        sub = super().create_subscription(*args, **kwargs)
+        if sub.callback_group is not getattr(self, 'drained', None):
+            self.__dict__.setdefault('waited_on', []).append(sub)
+        return sub
+
+    @property
+    def subscriptions(self):
+        """Yield the subscriptions executors wait on (the clock's), as the node does."""
+        yield from list(self.__dict__.get('waited_on', ()))
 
     def _on_timer(self):
         t0 = time.perf_counter()
