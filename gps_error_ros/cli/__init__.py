@@ -17,7 +17,8 @@ import sys
 
 from gps_error_ros.cli.parser import build_parser
 from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
-from gps_error_ros.fit.gross_failures import failures_doc, find_gross_failures, without_rows
+from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures,
+                                              without_gross_failures)
 from gps_error_ros.fit.population_fit import population_line
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
@@ -60,15 +61,16 @@ def clean_recordings(args, paths=None, mark=None):
     Each recording's are found on its own, printed, and left out (with
     ``mark``: kept and flagged 1.0 in the extra column of that name).
     """
-    traces, found = [], []
-    for trace in _load_inputs(args, paths):
-        found.append(find_gross_failures(trace))
-        print(found[-1].describe())
-        if mark:
-            trace.extra[mark] = found[-1].mask.astype(float)
-            traces.append(trace)
-        else:
-            traces.append(without_rows(trace, found[-1].mask))
+    loaded = _load_inputs(args, paths)
+    if mark:
+        found = [find_gross_failures(trace) for trace in loaded]
+        for trace, f in zip(loaded, found):
+            trace.extra[mark] = f.mask.astype(float)
+        traces = loaded
+    else:
+        traces, found = without_gross_failures(loaded)
+    for f in found:
+        print(f.describe())
     return traces, found
 
 
