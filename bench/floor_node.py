@@ -31,14 +31,14 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from gps_error_ros.ros.error_node import DrainedByTheNode
+from gps_error_ros.ros.error_node import DrainedByTheNode, WaitsOnUndrained
 from gps_error_ros.ros.fix_output import FIX_BURST, send_paced
 from gps_error_ros.ros.topics import FIX_QOS, TRUTH_QOS
 
 NS = 1_000_000_000
 
 
-class FloorNode(Node):
+class FloorNode(WaitsOnUndrained, Node):
     """Subscriptions and publishers as the crowd node's, and a fixed fix."""
 
     def __init__(self, agents, reliability):
@@ -72,18 +72,6 @@ class FloorNode(Node):
         self.spent = self.worst = 0.0
         self.last_step = None
         self.create_timer(1.0, self._on_timer)
-
-    def create_subscription(self, *args, **kwargs):
-        """Create a subscription (rclpy's); executors wait on it unless it is drained."""
-        sub = super().create_subscription(*args, **kwargs)
-        if sub.callback_group is not getattr(self, 'drained', None):
-            self.__dict__.setdefault('waited_on', []).append(sub)
-        return sub
-
-    @property
-    def subscriptions(self):
-        """Yield the subscriptions executors wait on (the clock's), as the node does."""
-        yield from list(self.__dict__.get('waited_on', ()))
 
     def _on_timer(self):
         t0 = time.perf_counter()

@@ -77,6 +77,35 @@ class DrainedByTheNode(CallbackGroup):
         """Do nothing: an executor never ran the entity."""
 
 
+class WaitsOnUndrained:
+    """
+    A node mixin: executors wait on its subscriptions except those in ``self.drained``.
+
+    The drained ones (a :class:`DrainedByTheNode` group) stay in rclpy's own
+    list, so that ``destroy_node`` destroys them, but :attr:`subscriptions`
+    leaves them out.
+    """
+
+    def create_subscription(self, *args, **kwargs):
+        """Create a subscription (rclpy's); executors wait on it unless it is drained."""
+        sub = super().create_subscription(*args, **kwargs)
+        if sub.callback_group is not getattr(self, 'drained', None):
+            self.__dict__.setdefault('waited_on', []).append(sub)
+        return sub
+
+    def destroy_subscription(self, subscription):
+        """Destroy a subscription created by the node (rclpy's); True if it was."""
+        waited = self.__dict__.get('waited_on', [])
+        if subscription in waited:
+            waited.remove(subscription)
+        return super().destroy_subscription(subscription)
+
+    @property
+    def subscriptions(self):
+        """Yield the subscriptions executors wait on: not the drained ones."""
+        yield from list(self.__dict__.get('waited_on', ()))
+
+
 @dataclass
 class ProfileGroup:
     """The agents that share one profile, and the engine that steps them."""
@@ -91,7 +120,7 @@ class ProfileGroup:
 AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
 
 
-class GpsErrorNode(PatternAgents, Node):
+class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
     """The error node, for one agent or a crowd (see the module docstring)."""
 
     polled = False
@@ -205,27 +234,6 @@ class GpsErrorNode(PatternAgents, Node):
             return load_zone_map(cfg['zones'])
         except ZoneMapError as exc:
             raise ConfigError(f'parameter \'zones\': {exc}') from None
-
-    # --- subscriptions executors wait on ---------------------------------
-
-    def create_subscription(self, *args, **kwargs):
-        """Create a subscription (rclpy's); executors wait on it unless it is drained."""
-        sub = super().create_subscription(*args, **kwargs)
-        if sub.callback_group is not getattr(self, 'drained', None):
-            self.__dict__.setdefault('waited_on', []).append(sub)
-        return sub
-
-    def destroy_subscription(self, subscription):
-        """Destroy a subscription created by the node (rclpy's); True if it was."""
-        waited = self.__dict__.get('waited_on', [])
-        if subscription in waited:
-            waited.remove(subscription)
-        return super().destroy_subscription(subscription)
-
-    @property
-    def subscriptions(self):
-        """Yield the subscriptions executors wait on: not a crowd's drained truth topics."""
-        yield from list(self.__dict__.get('waited_on', ()))
 
     def _create_topics(self):
         """Create each agent's truth subscription and fix publisher."""
