@@ -118,9 +118,15 @@ class Peer:
             Clock, '/clock', QoSProfile(depth=100))
         self.received = {}
 
-    def publisher(self, msg_type, topic):
-        """Return a reliable publisher on ``topic``."""
-        return self.node.create_publisher(msg_type, topic, QoSProfile(depth=100))
+    def publisher(self, msg_type, topic, depth=100):
+        """
+        Return a reliable publisher on ``topic`` keeping the last ``depth`` messages.
+
+        A burst longer than ``depth`` that the subscriber has not yet
+        acknowledged loses its oldest messages at this end (reliable but
+        keep-last), however deep the subscriber's queue.
+        """
+        return self.node.create_publisher(msg_type, topic, QoSProfile(depth=depth))
 
     def collect(self, msg_type, topic, qos=None):
         """Subscribe to ``topic`` (reliable unless ``qos``); keep every message."""

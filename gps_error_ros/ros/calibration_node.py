@@ -54,8 +54,8 @@ class GpsCalibrationNode(Node):
         self.last_fit = None        # (success, message) of the latest fit
         topic, msg_type = conversions.TRUTH_INPUTS[cfg['input_type']]
         qos = CALIBRATION_INPUT_QOS[cfg['input_reliability']]
-        self.create_subscription(NavSatFix, 'fix', self._on_fix, qos)
-        self.create_subscription(msg_type, topic, self._on_truth, qos)
+        self.inputs = [self.create_subscription(NavSatFix, 'fix', self._on_fix, qos),
+                       self.create_subscription(msg_type, topic, self._on_truth, qos)]
         self.create_service(Trigger, '~/calibrate', self._on_calibrate)
         self.diagnostics = DiagnosticsPublisher(self, 'calibration', self._report)
         self.get_logger().info(
@@ -104,6 +104,31 @@ class GpsCalibrationNode(Node):
             return
         self.truth.append((t, lat, lon))
 
+    def take_pending(self):
+        """
+        Take every message already in the inputs' queues; return how many.
+
+        The executor takes one message per input per pass, so at a fit or at
+        shutdown the queue of a busier input (two truth messages per fix, or
+        a burst on a loaded machine) can still hold part of what reached the
+        node. A fit takes it first, so that it sees and keeps all of it.
+        """
+        taken = 0
+        for sub in self.inputs:
+            while True:
+                try:
+                    with sub.handle:
+                        got = sub.handle.take_message(sub.msg_type, sub.raw)
+                except RuntimeError as exc:     # rclpy could not convert one
+                    self.get_logger().warning(f'stopped taking the queue of '
+                                              f'{sub.topic_name}: {exc}')
+                    break
+                if got is None:
+                    break
+                sub.callback(got[0])
+                taken += 1
+        return taken
+
     # --- fitting ---------------------------------------------------------
 
     def _on_calibrate(self, request, response):
@@ -142,7 +167,8 @@ class GpsCalibrationNode(Node):
             w.writerows((repr(t), repr(a), repr(o)) for t, a, o in self.truth)
 
     def calibrate(self):
-        """Pair, fit and write; return (success, message), kept for /diagnostics."""
+        """Pair, fit and write all received; return (success, message), kept for /diagnostics."""
+        self.take_pending()
         self.last_fit = self._calibrate()
         return self.last_fit
 
