@@ -48,12 +48,16 @@ def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
     if help_text is not None and wants_help(args):
         print(help_text)
         return 0
+    asked = _quiet_stop_signals()
     try:
         rclpy.init(args=args)
     except RuntimeError as exc:          # rcl's parser refused the arguments
         print(f'{name}: cannot parse the command line: '
               f'{command_line_problem(exc)}', file=sys.stderr)
         return 2
+    if asked:                            # stopped before rclpy's handlers were in
+        rclpy.try_shutdown()
+        return 0
     logger = rclpy.logging.get_logger(name)
     node, code, last_words = None, 0, None
     try:
@@ -76,7 +80,7 @@ def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
             signal.signal(sig, signal.SIG_IGN)
         if node is not None:
             if at_shutdown is not None:
-                last_words = _run_once_through(at_shutdown, node)
+                last_words = at_shutdown(node)
             node.destroy_node()
         _shutdown_context()
     if last_words:
@@ -93,12 +97,11 @@ def _spin(node, logger):
     Spin ``node`` until its context shuts down, past a message rclpy cannot take.
 
     rclpy raises ``RuntimeError`` (pybind11: "Unable to convert call
-    argument ...") when building the Python message fails, as it does when
-    the stopping signal's KeyboardInterrupt lands inside the conversion
-    before the context is shut down (seen in the test suite on a loaded
-    2-core machine: the node then exited with status 1). That one message
-    is dropped with a warning and spinning goes on; the shutdown then ends
-    it as usual.
+    argument ...") when building the Python message fails, as it did when
+    a KeyboardInterrupt landed inside the conversion (seen in the test suite
+    on a loaded 2-core machine before :func:`_quiet_stop_signals`: the node
+    then exited with status 1). That one message is dropped with a warning
+    and spinning goes on.
     """
     executor = rclpy.get_global_executor()
     executor.add_node(node)
@@ -115,19 +118,20 @@ def _spin(node, logger):
         executor.remove_node(node)
 
 
-def _run_once_through(work, node):
+def _quiet_stop_signals():
     """
-    Return ``work(node)``, run again if the stopping signal interrupts it.
+    Make Ctrl-C and SIGTERM raise nothing in Python; return the list they are noted in.
 
-    The signal that ends spinning reaches Python's handler a moment after
-    rclpy's: its KeyboardInterrupt can land in the shutdown work itself. No
-    further signal can come (they are ignored by then), so a second run
-    completes.
+    rclpy's own handlers (installed by ``rclpy.init``, which chain to these)
+    shut the context down, and spinning ends on that. Python's default
+    KeyboardInterrupt would instead land at any bytecode: inside an rclpy
+    Task's constructor (a "Future.__del__" traceback), inside the conversion
+    of a message taken from the middleware, or inside the shutdown work.
     """
-    try:
-        return work(node)
-    except KeyboardInterrupt:
-        return work(node)
+    asked = []
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda signum, frame: asked.append(signum))
+    return asked
 
 
 def _shutdown_context():
