@@ -95,14 +95,14 @@ def _censored_fit(lo, hi, x):
         return beta[0], beta[1], float(np.std(mid - design @ beta))
 
     def nll(p):
-        m, s = design @ p[:2], math.exp(p[2])
+        m, s = design @ p[:2], np.exp(p[2])
         a, b = (lo - m) / s, (hi - m) / s
         prob = 0.5 * (special.erfc(-b / math.sqrt(2)) - special.erfc(-a / math.sqrt(2)))
         return -np.sum(np.log(np.maximum(prob, 1e-300)))
 
     res = optimize.minimize(nll, np.r_[beta, math.log(s0)], method='Nelder-Mead',
                             options={'xatol': 1e-6, 'fatol': 1e-8, 'maxiter': 4000})
-    return float(res.x[0]), float(res.x[1]), float(math.exp(res.x[2]))
+    return float(res.x[0]), float(res.x[1]), float(np.exp(res.x[2]))
 
 
 def _latent_mean(lo, hi, m, s):
@@ -211,7 +211,12 @@ def _estimate(trace, source, stated):
         c, follow, sigma = math.log(r[use][0]), 0.0, 0.0
     else:
         c, follow, sigma = _censored_fit(lo, hi, ls[use])
-        follow = float(min(max(follow, -3.0), 3.0))
+        if not -3.0 <= follow <= 3.0:
+            # a slope out of bounds (local scales that hardly vary): the level
+            # refitted at the bound, or it is the extrapolation of the wild one
+            follow = float(min(max(follow, -3.0), 3.0))
+            shift = follow * ls[use]
+            c, _, sigma = _censored_fit(lo - shift, hi - shift, np.zeros_like(shift))
     x = _latent_mean(lo, hi, c + follow * ls[use], sigma)
     tu = t[use]
     pair = np.flatnonzero(np.isclose(np.diff(tu), 1.0))
@@ -225,7 +230,7 @@ def _estimate(trace, source, stated):
     n_eff = use.sum() * (1 - min(abs(phi), 0.99)) / (1 + min(abs(phi), 0.99))
     sd_ls = float(np.std(ls[use]))
     follow_se = sigma / (sd_ls * math.sqrt(n_eff)) if sd_ls > 0 and sigma > 0 else None
-    section = {'source': source, 'median_m': round(math.exp(c), 6),
+    section = {'source': source, 'median_m': round(float(np.exp(c)), 6),
                'follow': round(follow, 6), 'phi': round(min(max(phi, 0.0), 0.999), 6),
                'sigma_log': round(sigma, 6), 'resolution_m': round(q, 6),
                'scale_m': round(scale_m, 6)}

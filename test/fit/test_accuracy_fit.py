@@ -148,3 +148,22 @@ def test_the_measured_phones():
         assert abs(evidence['coverage_measured'] - 0.68) < 0.01       # scale_m's definition
     none, evidence = estimate_reported(read_trace_csv(DATA / 'urbannav-hk-tst-ublox-spp.csv'))
     assert none is None and 'no column accuracy or hdop' in evidence['reason']
+
+
+def test_a_corrupted_accuracy_column_gives_a_finite_section_or_a_reason():
+    # the fuzz tests once drew an accuracy column of 1e9 m now and then whose
+    # fit's level overflowed math.exp (calibrate raised OverflowError); this
+    # input is of that kind (the drawn one was not reduced to a small case)
+    from gps_error_ros.traces.trace_io import Trace
+    rng = np.random.default_rng(4)
+    n = 200
+    lat0, lon0 = 51.76, -1.25
+    acc = np.where(rng.random(n) < 0.5, 1e9, 3.0 + rng.random(n))
+    trace = Trace('corrupt', np.arange(n, dtype=float), lat0 + 1e-5 * rng.standard_normal(n),
+                  lon0 + 1e-5 * rng.standard_normal(n), np.full(n, lat0), np.full(n, lon0),
+                  extra={'accuracy': acc})
+    section, evidence = estimate_reported(trace)
+    if section is None:
+        assert evidence['fitted'] is False and evidence['reason'], evidence
+    else:
+        assert all(math.isfinite(v) for v in section.values() if isinstance(v, float))
