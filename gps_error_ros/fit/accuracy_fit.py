@@ -92,7 +92,7 @@ def _censored_fit(lo, hi, x):
     beta = np.linalg.lstsq(design, mid, rcond=None)[0]
     s0 = max(float(np.std(mid - design @ beta)), 1e-3)
     if exact:
-        return beta[0], beta[1], float(np.std(mid - design @ beta))
+        return float(beta[0]), float(beta[1]), float(np.std(mid - design @ beta))
 
     def nll(p):
         m, s = design @ p[:2], np.exp(p[2])

@@ -53,7 +53,7 @@ def test_long_run_statistics_match_profile_theory(peer):
     Tolerances are 5 standard errors from the process's own long-run
     behaviour: Bartlett's formulas with the exact autocorrelation.
     """
-    n_steps = 12000
+    n_steps = 10000
     ns = unique_ns()
     # The clock runs up to 4 steps ahead of the truth's delivery here, so
     # the truth may be held up to 5 s (see README, max_pose_age).

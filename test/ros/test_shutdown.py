@@ -1,8 +1,9 @@
 """
 Ctrl-C always ends a node with exit 0, after its shutdown work, and quietly.
 
-Repeated, because the failure it guards against was a race (a signal
-arriving while the executor built its wait set: two runs in three).
+Run twice where the moment of the signal varies, because the failures
+guarded against were races (a signal arriving while the executor built its
+wait set: two runs in three; a KeyboardInterrupt inside an rclpy Task).
 """
 
 import csv
@@ -68,8 +69,7 @@ def bag(tmp_path_factory):
     return path
 
 
-@pytest.mark.parametrize('run', range(3))
-def test_calibration_node_without_data(tmp_path, run):
+def test_calibration_node_without_data(tmp_path):
     out = tmp_path / 'nothing.yaml'
     ns = unique_ns()
     node = replay_calibration_node(ns, out)
@@ -84,7 +84,7 @@ def test_calibration_node_without_data(tmp_path, run):
         assert rows(tmp_path / f'nothing{suffix}') == []
 
 
-@pytest.mark.parametrize('run', range(3))
+@pytest.mark.parametrize('run', range(2))
 def test_calibration_node_after_a_replay(tmp_path, bag, run):
     out = tmp_path / 'replayed.yaml'
     node = replay_calibration_node(unique_ns(), out)
@@ -122,7 +122,7 @@ def test_calibration_node_during_a_replay(tmp_path, bag, run):
     assert (tmp_path / 'cut.trace.csv').exists()
 
 
-@pytest.mark.parametrize('run', range(3))
+@pytest.mark.parametrize('run', range(2))
 def test_error_node_ctrl_c(run):
     ns = unique_ns()
     node = start(ns, DATUM_ARG, 'seed:=1')
