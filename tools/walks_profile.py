@@ -111,14 +111,23 @@ def _occasion_note(traces):
         lo, hi = (np.sqrt((k - 1) / stats.chi2.ppf(q, k - 1)) for q in (0.975, 0.025))
         walks = ', '.join(traces[i].name for i in members)
         bias = np.mean([east[i] for i in members])
-        rest = ', '.join(f'{np.mean(v):+.1f}' for v in others.values())
+        rest = [np.mean(v) for v in others.values()]
+        # where the left-out bias falls in the predictive of a new draw from k
+        t = (bias - np.mean(rest)) / (np.std(rest, ddof=1) * np.sqrt(1 + 1 / k))
+        p_t = 2 * stats.t.sf(abs(t), k - 1)
+        p_n = 2 * stats.norm.sf(abs(t))
         out += [f'The walks of one occasion ({walks}: median east error {bias:+.1f} m), '
                 f'left out together, are judged by what the other {k} occasions (median east '
-                f'errors {rest} m) say of how biases spread: from {k} occasions an SD is '
-                f'known only to within {lo:.1f}-{hi:.1f} times its estimate (95 %), and the '
-                f'population section takes the estimate at its value. A receiver\'s profile needs '
-                f'recordings of more occasions than this; more receivers on one walk add no '
-                f'occasion.', '']
+                f'errors {", ".join(f"{v:+.1f}" for v in rest)} m) say of how biases spread: '
+                f'from {k} occasions an SD is known only to within {lo:.1f}-{hi:.1f} times its '
+                f'estimate (95 %). The population section therefore predicts a new '
+                f'occasion\'s bias as Student-t with {k - 1} degrees of freedom (at least 3) '
+                f'about a mean known to 1/sqrt({k}) '
+                f'([decision](decisions/0009-a-new-occasions-bias.md)): this occasion\'s east '
+                f'bias lies {abs(t):.1f} predictive scales from the others\' mean, a two-sided '
+                f'tail of {p_t:.3f} under that law and of {p_n:.4f} under a normal of the '
+                f'estimated SD. A receiver\'s profile needs recordings of more occasions than '
+                f'this; more receivers on one walk add no occasion.', '']
     return out
 
 

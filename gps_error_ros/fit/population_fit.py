@@ -26,6 +26,18 @@ what differs between blocks:
 4. **Scale**: the variance of each block's log SD (averaged over the axes)
    less its sampling variance under the within process (``(1 + 2 sum
    rho_k^2) / (4 n)``), floored at 0: ``scale_sd_log``.
+5. **A new occasion's bias**: the blocks are ``k`` independent draws of the
+   bias at most (:func:`independent_draws`: a chain of neighbouring blocks
+   counts as one draw when the bias is constant for a run, and as fewer
+   than its blocks when it wanders). The bias of a run the fit did not see
+   is predicted as a normal sample's next draw is when its mean and SD are
+   both estimated from ``k`` draws: Student-t with ``k - 1`` degrees of
+   freedom (rounded, at least 3 so that its SD exists), scale
+   ``s sqrt(1 + 1 / k)``, ``s`` the SD of step 2. ``bias_sd_m`` is that
+   distribution's SD, ``s sqrt(1 + 1 / k) sqrt(dof / (dof - 2))``, and
+   ``bias_dof`` its degrees of freedom; beyond
+   :data:`~gps_error_ros.model.population.MAX_BIAS_DOF` the bias is normal
+   with SD ``s sqrt(1 + 1 / k)``.
 
 Recordings made together (several receivers carried on one walk, phones in
 one car) share their environment, and so their bias: they are one
@@ -52,7 +64,7 @@ from gps_error_ros.fit.autocorrelation import pooled_autocovariance
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yule_walker
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.model.population import Population
+from gps_error_ros.model.population import MAX_BIAS_DOF, Population
 from gps_error_ros.traces.trace_io import recording_offsets
 
 #: Block length, s: the stretch whose bias and scale one run is taken to have.
@@ -92,22 +104,44 @@ class Block:
     weight: float = 1.0
 
 
+def block_ids(times, block_s=BLOCK_S):
+    """
+    Return each sample's block number, one array per segment of ``times``.
+
+    A run is a stretch of samples without a gap over :data:`ADJACENT_GAP_S`
+    (recordings joined one after another are separate runs); each run is
+    cut on a grid of ``block_s`` from its own first sample, so that no block
+    holds samples of two runs.
+    """
+    flat = np.concatenate([np.asarray(x, dtype=float) for x in times])
+    order = np.argsort(flat, kind='stable')
+    t = flat[order]
+    run = np.r_[0, np.cumsum(np.diff(t) > ADJACENT_GAP_S)]
+    starts = np.flatnonzero(np.r_[True, np.diff(run) != 0])
+    local = np.floor((t - t[starts][run]) / block_s).astype(np.int64)
+    last = np.maximum.reduceat(local, starts)
+    offset = np.r_[0, np.cumsum(last + 1)[:-1]]
+    ids = np.empty(t.size, dtype=np.int64)
+    ids[order] = local + offset[run]
+    return np.split(ids, np.cumsum([len(x) for x in times])[:-1])
+
+
 def blocks_of(segments, times, block_s=BLOCK_S, weights=None):
     """
     Return the :class:`Block` list of error segments with their times.
 
     ``segments``: (n_s, 2) north/east errors; ``times``: (n_s,) seconds;
-    ``weights``: each segment's weight (default 1). Blocks are cut on a
-    grid of ``block_s`` from the first time; a block holds the samples of
-    every segment that fall in it, and the weight of its first sample's.
+    ``weights``: each segment's weight (default 1). Blocks are those of
+    :func:`block_ids`; a block holds the samples of every segment that fall
+    in it, and the weight of its first sample's.
     """
     weights = [1.0] * len(segments) if weights is None else weights
     t = np.concatenate([np.asarray(x, dtype=float) for x in times])
     e = np.concatenate([np.asarray(x, dtype=float) for x in segments])
     w = np.concatenate([np.full(len(x), float(v)) for x, v in zip(times, weights)])
+    ids = np.concatenate(block_ids(times, block_s))
     order = np.argsort(t, kind='stable')
-    t, e, w = t[order], e[order], w[order]
-    ids = np.floor((t - t[0]) / block_s).astype(np.int64)
+    t, e, w, ids = t[order], e[order], w[order], ids[order]
     cuts = np.flatnonzero(np.diff(ids) != 0) + 1
     return [Block(ee, float(tt[0]), float(tt[-1]), float(ww[0]))
             for ee, tt, ww in zip(np.split(e, cuts), np.split(t, cuts), np.split(w, cuts))]
@@ -292,17 +326,62 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                     neighbour_pairs=pairs,
                     neighbour_correlation=None if r is None else round(float(r), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
-    pop = Population(tuple(float(x) for x in bias_sd), math.sqrt(scale_var), tau)
+    draws = independent_draws(blocks, None if tau is None else math.exp(-block_s / tau))
+    dof, inflate = predictive(draws)
+    evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
+                    independent_draws=round(draws, 3))
+    pop = Population(tuple(float(x) * inflate for x in bias_sd), math.sqrt(scale_var), tau,
+                     dof)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
+
+
+def independent_draws(blocks, r=None):
+    """
+    Return how many independent draws of the bias ``blocks`` hold, counted by their weights.
+
+    Blocks less than :data:`ADJACENT_GAP_S` apart form a chain (one run).
+    With ``r`` None (a bias constant for a run) a chain is one draw; with a
+    bias whose neighbouring blocks correlate by ``r``, a chain of ``m`` is
+    ``m^2 / (m + 2 sum_j (m - j) r^j)`` draws (as many as its mean is worth).
+    """
+    chains, total = [[blocks[0]]] if blocks else [], 0.0
+    for prev, b in zip(blocks, blocks[1:]):
+        if b.t0 - prev.t1 <= ADJACENT_GAP_S:
+            chains[-1].append(b)
+        else:
+            chains.append([b])
+    for chain in chains:
+        m = len(chain)
+        if r is None:
+            n = 1.0
+        else:
+            j = np.arange(1, m)
+            n = m * m / (m + 2.0 * float(np.sum((m - j) * r ** j)))
+        total += chain[0].weight * n
+    return total
+
+
+def predictive(draws):
+    """
+    Return (degrees of freedom or None, the factor on the bias SD) for a new occasion.
+
+    See step 5 of the module docstring: ``dof = max(3, round(k - 1))`` and
+    ``sqrt(1 + 1 / k) sqrt(dof / (dof - 2))``; None and ``sqrt(1 + 1 / k)``
+    above :data:`~gps_error_ros.model.population.MAX_BIAS_DOF`.
+    """
+    k = max(draws, 1.0)
+    location = math.sqrt(1.0 + 1.0 / k)
+    dof = max(3, int(round(k - 1.0)))
+    if dof > MAX_BIAS_DOF:
+        return None, location
+    return dof, location * math.sqrt(dof / (dof - 2.0))
 
 
 def _within_segments(segments, times, block_s):
     """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
-    t_first = float(min(np.min(x) for x in times))
     pieces = []
-    for seg, tt in zip(segments, times):
-        seg, tt = np.asarray(seg, dtype=float), np.asarray(tt, dtype=float)
-        ids = np.floor((tt - t_first) / block_s).astype(np.int64)
+    for seg, ids in zip(segments, block_ids(times, block_s)):
+        seg = np.asarray(seg, dtype=float)
         cuts = np.flatnonzero(np.diff(ids) != 0) + 1
         pieces += [(s, int(i[0])) for s, i in zip(np.split(seg, cuts), np.split(ids, cuts))]
     by_block = {}
@@ -342,9 +421,14 @@ def population_line(fit):
         return f'population: not fitted: {ev["reason"]}'
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
+    shape = '' if pop.bias_dof is None else f', Student-t with {pop.bias_dof} degrees of freedom'
+    draws = ev.get('independent_draws')
+    seen = '' if draws is None else \
+        (f' (a new occasion\'s, predicted from {draws:.1f} independent draws: the fitted SD '
+         f'is {ev["bias_sd_estimate_m"][0]:.2f} / {ev["bias_sd_estimate_m"][1]:.2f} m)')
     counted = '' if 'weighted_blocks' not in ev else \
         f', {ev["weighted_blocks"]:.1f} with each occasion\'s recordings counted once'
     return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a run\'s '
-            f'bias has SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east, '
-            f'{wander}; an agent\'s scale has log SD {pop.scale_sd_log:.3f}; the AR above is the '
-            f'process within a block')
+            f'bias has SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east'
+            f'{seen}{shape}, {wander}; an agent\'s scale has log SD '
+            f'{pop.scale_sd_log:.3f}; the AR above is the process within a block')

@@ -12,6 +12,7 @@ from several recordings, or from the blocks of one long recording: see
       bias_sd_m: [1.9, 2.4]       # SD of a run's bias about the profile's mean, north/east
       bias_time_constant_s: 1800  # optional: the bias wanders (first-order Gauss-Markov)
       scale_sd_log: 0.25          # SD of the log of an agent's scale of the deviations
+      bias_dof: 4                 # optional: a run's bias is Student-t (heavy-tailed)
 
 An agent's error at model step ``k`` is::
 
@@ -26,18 +27,27 @@ diag(bias_sd_m^2))``. Without ``bias_time_constant_s`` it holds for the
 run; with it, ``b(k) = a b(k-1) + sqrt(1 - a^2) bias_sd_m v(k)``, ``a =
 exp(-1 / (time constant x rate))``, stationary at the same SD.
 
+With ``bias_dof`` (an integer in [3, :data:`MAX_BIAS_DOF`]) the bias is
+Student-t with that many degrees of freedom and the same SD: ``b`` and its
+wander are multiplied by the run's factor ``g = sqrt((dof - 2) / chi2)``,
+``chi2`` a chi-square draw with ``dof`` degrees of freedom, fixed for the
+run. It is what the bias of a new occasion is, predicted from the few
+occasions a fit saw (see :mod:`gps_error_ros.fit.population_fit`).
+
 Draws: the scale from the stream domain ``population_scale`` at position 0
 (an agent's phone keeps its scale whenever it starts); the initial bias
 from ``init_bias`` at the start step; the wander from ``bias`` at each
-step. One agent alone, in a crowd or in a shard has the same errors.
+step; a Student-t bias's chi-square from ``bias_mix``, ``ceil(dof / 2)``
+normal pairs at the start step's first initial-state positions. One agent
+alone, in a crowd or in a shard has the same errors.
 
 Covariances (``stationary_cov`` and ``predictive_cov``): a consumer that
 knows nothing of the agent (the stationary covariance, and the first step's
 conditional one) covers the population's spread, ``C + diag(bias_sd_m^2)``;
 given the state a step before (the ``conditional`` mode) the agent's scale
 and bias are known, so it is ``f^2`` times the process's one-step
-covariance plus the bias's own one-step variance ``(1 - a^2)
-bias_sd_m^2``.
+covariance plus the bias's own one-step variance ``(1 - a^2) g^2
+bias_sd_m^2`` (``g`` 1 for a normal bias).
 """
 
 from dataclasses import dataclass
@@ -48,7 +58,9 @@ import numpy as np
 from gps_error_ros.model import streams
 
 SECTION_KEYS = ('bias_sd_m', 'scale_sd_log')
-OPTIONAL_KEYS = ('bias_time_constant_s',)
+OPTIONAL_KEYS = ('bias_time_constant_s', 'bias_dof')
+#: The most degrees of freedom a Student-t bias may have (beyond, it is all but normal).
+MAX_BIAS_DOF = 30
 #: The largest bias SD a profile may carry, m.
 MAX_BIAS_SD_M = 1000.0
 #: The largest SD of the log scale (a factor of e^2 between phones at 1 SD).
@@ -66,6 +78,7 @@ class Population:
     bias_sd_m: tuple
     scale_sd_log: float
     bias_time_constant_s: float = None
+    bias_dof: int = None
 
     def to_dict(self):
         """Return the section as plain data."""
@@ -73,6 +86,8 @@ class Population:
                'scale_sd_log': round(float(self.scale_sd_log), 4)}
         if self.bias_time_constant_s is not None:
             out['bias_time_constant_s'] = round(float(self.bias_time_constant_s), 1)
+        if self.bias_dof is not None:
+            out['bias_dof'] = int(self.bias_dof)
         return out
 
     def persistence(self, rate_hz=1.0):
@@ -109,8 +124,14 @@ def population_from_dict(raw, source='<profile>'):
         raise PopulationError(f'{source}: key {key}.bias_time_constant_s: expected a '
                               f'number of seconds in (0, 1e9], or the key left out '
                               f'(a bias constant for the run), got {tau!r}')
+    dof = raw.get('bias_dof')
+    if dof is not None and not (isinstance(dof, int) and not isinstance(dof, bool)
+                                and 3 <= dof <= MAX_BIAS_DOF):
+        raise PopulationError(f'{source}: key {key}.bias_dof: expected an integer in '
+                              f'[3, {MAX_BIAS_DOF}], or the key left out (a normal '
+                              f'bias), got {dof!r}')
     return Population(tuple(float(v) for v in sd), float(s),
-                      None if tau is None else float(tau))
+                      None if tau is None else float(tau), dof)
 
 
 def agent_scales(keys, scale_sd_log):
@@ -122,12 +143,33 @@ def agent_scales(keys, scale_sd_log):
     return np.exp(scale_sd_log * z - scale_sd_log ** 2)
 
 
+def bias_factors(keys, start, dof):
+    """
+    Return each run's Student-t factor ``g = sqrt((dof - 2) / chi2)`` (n,); ones without ``dof``.
+
+    ``chi2`` is the sum of ``dof`` squared normals of the ``bias_mix``
+    stream at the start step's initial-state positions.
+    """
+    keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+    if dof is None:
+        return np.ones(keys.size)
+    chi2 = np.zeros(keys.size)
+    for slot in range((dof + 1) // 2):
+        z = streams.normal_pairs(keys, streams.DOMAIN_BIAS_MIX,
+                                 streams.init_position(start, slot))
+        chi2 += z[:, 0] ** 2
+        if 2 * slot + 1 < dof:
+            chi2 += z[:, 1] ** 2
+    return np.sqrt((dof - 2) / chi2)
+
+
 class WithPopulation:
     """
     An error model of one agent drawn from a population (see the module docstring).
 
     The state is the inner model's with two more columns: ``[:, :, -2]`` the
-    run's bias (north, east) and ``[:, 0, -1]`` the agent's scale ``f``.
+    run's bias (north, east), ``[:, 0, -1]`` the agent's scale ``f`` and
+    ``[:, 1, -1]`` the run's Student-t factor ``g`` (1 for a normal bias).
     Errors, moments and covariances are the inner model's, turned into the
     agent's by its scale and bias.
     """
@@ -172,9 +214,11 @@ class WithPopulation:
     def _wider(self, inner_state, keys, index):
         state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 2,))
         state[:, :, :-2] = inner_state
-        state[:, :, -2] = self.bias_sd * streams.normal_pairs(
+        g = bias_factors(keys, index, self.population.bias_dof)
+        state[:, :, -2] = self.bias_sd * g[:, None] * streams.normal_pairs(
             keys, streams.DOMAIN_INIT_BIAS, index)
         state[:, 0, -1] = agent_scales(keys, self.population.scale_sd_log)
+        state[:, 1, -1] = g
         return state
 
     def empty_state(self, n):
@@ -187,11 +231,12 @@ class WithPopulation:
         m = np.asarray(self.inner.mean, dtype=float)
         return m + state[:, 0, -1][:, None] * (inner_err - m) + state[:, :, -2]
 
-    def _wander(self, bias, keys, index):
-        """Advance the biases ``bias`` (n, 2) in place to model step ``index``."""
+    def _wander(self, bias, g, keys, index):
+        """Advance the biases ``bias`` (n, 2), factors ``g``, in place to model step ``index``."""
         if self.a < 1.0:
             bias *= self.a
-            bias += self._wander_sd * streams.normal_pairs(keys, streams.DOMAIN_BIAS, index)
+            bias += self._wander_sd * g[:, None] * streams.normal_pairs(
+                keys, streams.DOMAIN_BIAS, index)
 
     def initial_state(self, keys, index):
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
@@ -202,7 +247,7 @@ class WithPopulation:
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         err = self.inner.advance(state[:, :, :-2], keys, index, *args, **kwargs)
-        self._wander(state[:, :, -2], keys, index)
+        self._wander(state[:, :, -2], state[:, 1, -1], keys, index)
         return self._agent(err, state)
 
     def errors(self, state):
@@ -215,7 +260,7 @@ class WithPopulation:
         inner = self.inner.state_after(keys, start, step, *args, **kwargs)
         state = self._wider(inner, keys, start)
         for k in range(start + 1, step + 1):
-            self._wander(state[:, :, -2], keys, k)
+            self._wander(state[:, :, -2], state[:, 1, -1], keys, k)
         return state
 
     def simulate(self, keys, n_steps, start=0, out=None):
@@ -226,10 +271,12 @@ class WithPopulation:
             return out
         m = np.asarray(self.inner.mean, dtype=float)
         scale = agent_scales(keys, self.population.scale_sd_log)[:, None]
-        bias = self.bias_sd * streams.normal_pairs(keys, streams.DOMAIN_INIT_BIAS, start)
+        g = bias_factors(keys, start, self.population.bias_dof)
+        bias = self.bias_sd * g[:, None] * streams.normal_pairs(
+            keys, streams.DOMAIN_INIT_BIAS, start)
         for k in range(n_steps):
             if k:
-                self._wander(bias, keys, start + k)
+                self._wander(bias, g, keys, start + k)
             out[k] = m + scale * (out[k] - m) + bias
         return out
 
@@ -245,8 +292,8 @@ class WithPopulation:
         cov = self.inner.predictive_cov(state[:, :, :-2], first)
         if first:
             return cov + np.diag(self.bias_sd ** 2)
-        f2 = state[:, 0, -1] ** 2
-        return cov * f2[:, None, None] + np.diag(self._wander_sd ** 2)
+        f2, g2 = state[:, 0, -1] ** 2, state[:, 1, -1] ** 2
+        return cov * f2[:, None, None] + g2[:, None, None] * np.diag(self._wander_sd ** 2)
 
     def predictive_mean(self, state, first=False):
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""

@@ -92,6 +92,8 @@ DOMAIN_POPULATION_SCALE = 18
 DOMAIN_INIT_BIAS = 19
 #: Population: the bias's wander, one normal pair per model step.
 DOMAIN_BIAS = 20
+#: Population: a Student-t bias's chi-square, pairs 0.. at ``init_position(start, slot)``.
+DOMAIN_BIAS_MIX = 21
 
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
@@ -107,7 +109,7 @@ DOMAINS = {
     'init_outlier_jump': DOMAIN_INIT_OUTLIER_JUMP,
     'failure': DOMAIN_FAILURE, 'failure_direction': DOMAIN_FAILURE_DIRECTION,
     'population_scale': DOMAIN_POPULATION_SCALE, 'init_bias': DOMAIN_INIT_BIAS,
-    'bias': DOMAIN_BIAS,
+    'bias': DOMAIN_BIAS, 'bias_mix': DOMAIN_BIAS_MIX,
 }
 
 

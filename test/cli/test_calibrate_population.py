@@ -36,10 +36,17 @@ def test_recordings_with_different_biases_give_a_population(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert re.search(r'population \(1[5-9] blocks of 300 s\)', printed), printed
     raw = yaml.safe_load(out.read_text())
-    sd = raw['population']['bias_sd_m']
+    sd = raw['fit']['population']['bias_sd_estimate_m']
     # the runs' north biases have SD 4.7 m; the east ones differ by sampling alone
     assert 3.0 < sd[0] < 7.0 and sd[1] < 1.0, sd
     assert raw['fit']['population']['fitted'] is True
+    # five runs (a little more: the fit lets the bias wander within a run):
+    # a sixth's bias is t(4) about a mean known to 1/sqrt(k)
+    k = raw['fit']['population']['independent_draws']
+    assert 5.0 <= k < 5.5 and raw['population']['bias_dof'] == 4
+    np.testing.assert_allclose(raw['population']['bias_sd_m'],
+                               np.array(sd) * np.sqrt(1 + 1 / k) * np.sqrt(2.0), atol=2e-4)
+    assert 'Student-t with 4 degrees of freedom' in printed, printed
     model = load_profile_file(out).model()
     assert isinstance(model, WithPopulation)
     # without --population the biases' spread goes into the one process instead

@@ -5,7 +5,8 @@ from dataclasses import replace
 import numpy as np
 import yaml
 
-from gps_error_ros.fit.population_fit import fit_population, MIN_BLOCKS
+from gps_error_ros.fit.population_fit import (Block, blocks_of, fit_population,
+                                              independent_draws, MIN_BLOCKS, predictive)
 from gps_error_ros.model import streams
 from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
 
@@ -97,7 +98,10 @@ def test_an_occasion_recorded_by_many_receivers_counts_once():
                                atol=0.3)
     np.testing.assert_allclose(weighed.mean, mean + biases.mean(axis=0), atol=0.3)
     spread = biases.std(axis=0, ddof=1)
-    np.testing.assert_allclose(weighed.population.bias_sd_m, spread, rtol=0.1)
+    np.testing.assert_allclose(weighed.evidence['bias_sd_estimate_m'], spread, rtol=0.1)
+    # twelve draws: a new run's bias is t(11), its SD the estimate's x 1.15
+    assert weighed.evidence['independent_draws'] == 12.0
+    assert weighed.population.bias_dof == 11
 
 
 def test_the_walks_of_one_occasion_are_found_from_their_truths():
@@ -117,3 +121,50 @@ def test_the_walks_of_one_occasion_are_found_from_their_truths():
     standing = [replace(walks[0], truth_lat=np.full(len(walks[0]), 51.76),
                         truth_lon=np.full(len(walks[0]), -1.257)) for _ in range(2)]
     assert occasions(standing) == [0, 1]
+
+
+def _chain(t0, m, weight=1.0):
+    """Return ``m`` neighbouring blocks of 300 s from ``t0``."""
+    return [Block(np.zeros((300, 2)), t0 + 300.0 * j, t0 + 300.0 * j + 299.0, weight)
+            for j in range(m)]
+
+
+def test_a_new_occasions_bias_is_predicted_from_the_independent_draws():
+    three_runs = _chain(0.0, 3) + _chain(5000.0, 3) + _chain(9000.0, 3)
+    assert independent_draws(three_runs) == 3.0              # a constant bias per run
+    assert independent_draws(three_runs, r=0.0) == 9.0       # blocks independent
+    # a wandering bias: four neighbours correlated 0.86 are worth 1.19 draws
+    assert abs(independent_draws(_chain(0.0, 4), r=0.86) - 1.195) < 0.01
+    # three receivers on one walk (weight 1/3 each) are one draw
+    shared = _chain(0.0, 2, 1 / 3) + _chain(2000.0, 2, 1 / 3) + _chain(4000.0, 2, 1 / 3)
+    assert abs(independent_draws(shared) - 1.0) < 1e-12
+    # Student-t with k - 1 degrees of freedom (rounded, at least 3),
+    # scale s sqrt(1 + 1/k): the factor on s is the SD of that law
+    dof, factor = predictive(5.27)
+    assert dof == 4 and abs(factor - np.sqrt(1 + 1 / 5.27) * np.sqrt(2.0)) < 1e-12
+    assert predictive(2.0)[0] == 3
+    dof, factor = predictive(100.0)
+    assert dof is None and abs(factor - np.sqrt(1.01)) < 1e-12
+
+
+def test_a_population_of_few_runs_is_written_wide_and_heavy_tailed():
+    model = _model({'bias_sd_m': [3.0, 3.0], 'scale_sd_log': 0.0})
+    segs, times = _runs(model, 6, 900, seed=2)
+    fit = fit_population(segs, times)
+    pop, ev = fit.population, fit.evidence
+    assert ev['independent_draws'] == 6.0 and pop.bias_dof == 5
+    factor = np.sqrt(1 + 1 / 6) * np.sqrt(5 / 3)
+    np.testing.assert_allclose(pop.bias_sd_m, np.array(ev['bias_sd_estimate_m']) * factor,
+                               rtol=1e-3)
+
+
+def test_no_block_holds_samples_of_two_recordings():
+    # two recordings of 450 s joined 100 s apart: each is cut from its own start
+    first = np.arange(450, dtype=float)
+    second = first[-1] + 100.0 + np.arange(450, dtype=float)
+    segs = [np.zeros((450, 2)), np.ones((450, 2))]
+    blocks = blocks_of(segs, [first, second])
+    assert [(b.t0, b.t1) for b in blocks] == [(0.0, 299.0), (300.0, 449.0),
+                                              (549.0, 848.0), (849.0, 998.0)]
+    assert [float(b.err.mean()) for b in blocks] == [0.0, 0.0, 1.0, 1.0]
+    assert independent_draws(blocks) == 2.0

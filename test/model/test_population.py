@@ -11,6 +11,7 @@ from gps_error_ros.model.profiles import (builtin_dir, load_profile, profile_fro
 
 SECTION = {'bias_sd_m': [2.0, 3.0], 'scale_sd_log': 0.3}
 WANDER = dict(SECTION, bias_time_constant_s=200.0)
+HEAVY = dict(WANDER, bias_dof=4)
 
 
 def _profile(section=SECTION, base='DS5', **extra):
@@ -78,9 +79,10 @@ def test_a_wandering_bias_has_its_time_constant():
     assert abs(b.std() - 2.0) < 0.1
 
 
-def test_every_path_gives_the_same_errors():
+@pytest.mark.parametrize('section', [WANDER, HEAVY], ids=['normal', 'student-t'])
+def test_every_path_gives_the_same_errors(section):
     """simulate, stepping, state_after, a late start, alone or with others: one function."""
-    model = _profile(WANDER).model()
+    model = _profile(section).model()
     keys = streams.agent_keys(9, ['x', 'y', 'z'])
     whole = model.simulate(keys, 60, start=100)
     state = model.initial_state(keys, 100)
@@ -133,8 +135,43 @@ def test_the_section_round_trips_and_wraps_inside_failures():
     ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 3.0}, '[0, 2]'),
     ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'bias_time_constant_s': 0}, '(0, 1e9]'),
     ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'other': 1}, 'optionally'),
+    ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'bias_dof': 2}, '[3, 30]'),
+    ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'bias_dof': 4.5}, '[3, 30]'),
 ])
 def test_a_bad_section_is_refused_with_what_was_expected(bad, says):
     with pytest.raises(ProfileError) as err:
         _profile(bad)
     assert 'population' in str(err.value) and says in str(err.value)
+
+
+def test_a_student_t_bias_keeps_its_sd_and_has_heavy_tails():
+    keys = streams.agent_keys(6, [f't{i}' for i in range(20000)])
+    section = {'bias_sd_m': [2.0, 2.0], 'scale_sd_log': 0.0}
+    normal = _profile(section).model().simulate(keys, 1)[0]
+    heavy = _profile(dict(section, bias_dof=4)).model().simulate(keys, 1)[0]
+    plain = load_profile('DS5').model().simulate(keys, 1)[0]
+    for x in (normal, heavy):
+        b = (x - plain).ravel()                    # the bias alone (scale 1)
+        # the SD stated, 2 m: t(4)'s SD estimate varies more than a normal's
+        assert abs(b.std() - 2.0) < 0.12, b.std()
+    beyond = [np.mean(np.abs(x - plain) > 6.0) for x in (normal, heavy)]
+    # beyond 3 SD: 0.27 % of normal draws; 1.3 % of t(4) draws of that SD
+    assert beyond[0] < 0.005 and 0.008 < beyond[1] < 0.02, beyond
+    # the same normal draws under the factor: one stream, a different law
+    g = (heavy - plain) / (normal - plain)
+    np.testing.assert_allclose(g[:, 0], g[:, 1], rtol=1e-9)
+
+
+def test_the_conditional_covariance_knows_a_student_t_runs_factor():
+    model = _profile(HEAVY).model()
+    inner = load_profile('DS5').model()
+    keys = streams.agent_keys(5, ['a', 'b', 'c'])
+    state = model.state_after(keys, 0, 20)
+    f, g = state[:, 0, -1], state[:, 1, -1]
+    assert np.all(g > 0) and not np.allclose(g, 1.0)
+    a2 = np.exp(-2.0 / 200.0)
+    want = inner.predictive_cov(state[:, :, :-2]) * (f ** 2)[:, None, None] + \
+        np.diag([4.0, 9.0]) * (1 - a2) * (g ** 2)[:, None, None]
+    np.testing.assert_allclose(model.predictive_cov(state), want, rtol=1e-12)
+    np.testing.assert_allclose(model.stationary_cov,
+                               inner.stationary_cov + np.diag([4.0, 9.0]), rtol=1e-12)
