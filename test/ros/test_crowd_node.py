@@ -205,7 +205,8 @@ def _cycle_profile(tmp_path, population=False):
     """
     Write DS7 with the periodic effect (8-step cycle), variance regimes, outliers, failures.
 
-    ``population``: with a population section too (a wandering bias, a spread of scales).
+    ``population``: with a population section too (a wandering Student-t bias, a
+    spread of scales).
     """
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
@@ -220,7 +221,7 @@ def _cycle_profile(tmp_path, population=False):
     raw['gross_failures'] = {'rate': 0.1, 'sizes_m': [60.0, 400.0, 9000.0]}
     if population:
         raw['population'] = {'bias_sd_m': [4.0, 2.5], 'scale_sd_log': 0.5,
-                             'bias_time_constant_s': 20.0}
+                             'bias_time_constant_s': 20.0, 'bias_dof': 4}
     path = tmp_path / 'cycle.yaml'
     path.write_text(yaml.safe_dump(raw))
     return str(path)
@@ -296,6 +297,7 @@ def test_simulate_reproduces_what_the_node_publishes(tmp_path, cycle):
             bias = state[:, :, -3]
             assert np.all(np.abs(bias).max(axis=1) > 0.1), bias
             assert state[0, 0, -2] != state[1, 0, -2]
+            assert np.all(state[:, 1, -2] != 1.0)     # each run's Student-t factor
 
 
 def _zone_map(path):
