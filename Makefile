@@ -44,8 +44,8 @@ demo-sumo: setup
 
 # Two workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py).
 # A third worker on the two cores was faster (about 6 min against 7.5) but
-# loaded the machine enough to expose a race in the churn soak's returning
-# agents (docs/performance.md, The test suite).
+# loaded the machine enough for the churn soak's returning agents to lose
+# fixes, not yet explained (docs/performance.md, The test suite).
 test: setup
 	$(PY) -m pytest -n 2
 
