@@ -211,12 +211,16 @@ class WithPopulation:
 
     # --- state -----------------------------------------------------------
 
+    def _run_bias(self, keys, start):
+        """Return the biases (n, 2) runs started at ``start`` draw, and their factors ``g``."""
+        g = bias_factors(keys, start, self.population.bias_dof)
+        return self.bias_sd * g[:, None] * streams.normal_pairs(
+            keys, streams.DOMAIN_INIT_BIAS, start), g
+
     def _wider(self, inner_state, keys, index):
         state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 2,))
         state[:, :, :-2] = inner_state
-        g = bias_factors(keys, index, self.population.bias_dof)
-        state[:, :, -2] = self.bias_sd * g[:, None] * streams.normal_pairs(
-            keys, streams.DOMAIN_INIT_BIAS, index)
+        state[:, :, -2], g = self._run_bias(keys, index)
         state[:, 0, -1] = agent_scales(keys, self.population.scale_sd_log)
         state[:, 1, -1] = g
         return state
@@ -271,9 +275,7 @@ class WithPopulation:
             return out
         m = np.asarray(self.inner.mean, dtype=float)
         scale = agent_scales(keys, self.population.scale_sd_log)[:, None]
-        g = bias_factors(keys, start, self.population.bias_dof)
-        bias = self.bias_sd * g[:, None] * streams.normal_pairs(
-            keys, streams.DOMAIN_INIT_BIAS, start)
+        bias, g = self._run_bias(keys, start)
         for k in range(n_steps):
             if k:
                 self._wander(bias, g, keys, start + k)
