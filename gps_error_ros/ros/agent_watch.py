@@ -104,7 +104,9 @@ class AgentWatcher:
     :meth:`scan` runs once a second of wall time: new matching topics get a
     slot (the engine grows by doubling when none is free), a subscription and
     a publisher; agents stale for ``timeout_s`` of the ROS clock whose topic
-    has no publisher left are released.
+    has no publisher left are released. The engine's catch-up runs once at
+    construction, so that the first agent does not stop the node for the
+    imports the catch-up needs.
     """
 
     def __init__(self, node, pattern, timeout_s):
@@ -118,6 +120,7 @@ class AgentWatcher:
         self.warned = set()
         self.stale = 0
         self.released = 0
+        node.groups[0].engine.prepare_attach()
 
     def scan(self):
         """Serve new agents and release departed ones."""

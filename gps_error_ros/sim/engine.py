@@ -270,6 +270,26 @@ class FixEngine:
                 step.side[name][slots] = ws[step.model_step - self.start_index]
             side.w[slots] = ws[-1]
 
+    def prepare_attach(self):
+        """
+        Run :meth:`attach`'s catch-up once on a throwaway agent, to load what it needs.
+
+        The catch-up simulates through ``scipy.signal``, whose import takes
+        1-2 s (several on a loaded machine). Paid at the first agent attached
+        while a simulator drives the clock, it stopped the node that long:
+        the clock ran on past steps whose truth was still queued, and those
+        steps got no fix. A node that attaches agents as they come calls
+        this before it starts.
+        """
+        keys = np.zeros(1, dtype=np.uint64)
+        span = 64
+        if self.conditional_cov:
+            state_and_cov(self.model, keys, 0, span)
+        else:
+            self.model.state_after(keys, 0, span)
+        for side in self.side.values():
+            side.history(keys, 0, span)
+
     def _caught_up(self, keys, m):
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
         if not self.conditional_cov:

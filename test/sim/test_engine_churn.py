@@ -140,3 +140,32 @@ def test_conditional_covariance_is_the_regimes_prediction_even_after_a_late_atta
         np.testing.assert_allclose(c, expected[k], rtol=1e-12)
     sizes = {round(float(c[0, 0]), 9) for c in covs['whole'].values()}
     assert len(sizes) == 3          # the first step (regimes unknown), then each regime
+
+
+PREPARED = '''
+import sys
+import numpy as np
+from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.model.streams import agent_key
+from gps_error_ros.sim.engine import FixEngine, NS
+eng = FixEngine(load_profile({profile!r}).model(), np.zeros(4, dtype=np.uint64),
+                active=False, conditional_cov={cov})
+eng.prepare_attach()
+for k in range(1000, 1100):
+    eng.on_clock(k * NS)
+before = set(sys.modules)
+eng.attach([0, 1], [agent_key(3, 'a'), agent_key(3, 'b')])
+print(sorted(set(sys.modules) - before))
+'''
+
+
+@pytest.mark.parametrize('profile,cov', [('DS1', False), ('DS1', True), ('DS7', False)])
+def test_an_attach_after_prepare_attach_imports_nothing(profile, cov):
+    # The first attach once imported scipy.signal (1-2 s; more under load),
+    # stopping a pattern node while the simulator's clock ran on. In a fresh
+    # interpreter, so that other tests' imports do not hide it.
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, '-c', PREPARED.format(profile=profile, cov=cov)],
+                         capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.strip() == '[]', out.stdout
