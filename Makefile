@@ -42,11 +42,12 @@ demo: setup
 demo-sumo: setup
 	$(PY) -m gps_error_ros.ros.sumo_demo --out demo_sumo_output
 
-# Two workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py).
-# A third worker on the two cores is faster (about 6 min against 7.5); see
-# docs/performance.md, The test suite.
+# Three workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py):
+# on two cores faster than two workers (about 6.8 min against 7.5), since the
+# node tests spend much of their time waiting on a peer process or the graph
+# (docs/performance.md, The test suite).
 test: setup
-	$(PY) -m pytest -n 2
+	$(PY) -m pytest -n 3
 
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup

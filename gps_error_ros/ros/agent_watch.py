@@ -120,7 +120,7 @@ class AgentWatcher:
         self.warned = set()
         self.stale = 0
         self.released = 0
-        node.groups[0].engine.prepare_attach()
+        node.prepare_attach()
 
     def scan(self):
         """Serve new agents and release departed ones."""
@@ -216,6 +216,10 @@ class PatternAgents:
         msg_type = conversions.TRUTH_INPUTS[self.input_type][1]
         type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
         return AgentPattern(cfg['agent_pattern'], self.get_namespace(), type_name)
+
+    def prepare_attach(self):
+        """Load what attaching an agent needs, before the first one comes."""
+        self.groups[0].engine.prepare_attach()
 
     def open_agents(self, new, fix_topics):
         """Serve ``new`` [(name, truth topic)] on ``fix_topics``; return their slots."""

@@ -14,6 +14,10 @@ class Graph:
         self.topics, self.publishers = {}, set()
         self.slots, self.newest, self.now = [], np.zeros(0, dtype=np.int64), 0
         self.opened, self.closed = [], []
+        self.prepared = False
+
+    def prepare_attach(self):
+        self.prepared = True
 
     def add(self, name, t_ns):
         self.topics[f'/peds/{name}/pose'] = [POSE]
@@ -64,6 +68,7 @@ class Graph:
 def test_agents_are_served_released_and_served_again():
     g = Graph()
     w = AgentWatcher(g, AgentPattern('/peds/*/pose', '/', POSE), timeout_s=5.0)
+    assert g.prepared                               # before the first agent comes
     for i in range(3):
         g.add(f'p{i}', 1_000_000_000)
     w.scan()
