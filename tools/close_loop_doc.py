@@ -41,7 +41,7 @@ CAVEATS = {
     'filtered output; 484 samples give 339 for training and 145 held out, '
     'so the held-out interval is wide.',
     'gmt-static-phone-2016-08-22.csv': 'a static phone, 207 samples: too short '
-    'for a split (the diagnosis needs 300 training and 100 held-out '
+    'for a split (the diagnosis needs 180 training and 80 held-out '
     'samples) and without motion, so no conclusion about pedestrians.',
 }
 

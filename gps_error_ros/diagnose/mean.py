@@ -23,6 +23,7 @@ import numpy as np
 from scipy import optimize
 
 from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS
+from gps_error_ros.model.ar_model import inverse_root_modulus
 from gps_error_ros.model.effects import MOVING_M
 from gps_error_ros.model.motion_lag import lag_offsets
 
@@ -137,12 +138,35 @@ class MeanFit:
         return r
 
 
+#: The largest spectral radius of a fitted AR part (see :func:`stationary_phi`).
+MAX_RADIUS = 0.999
+
+
+def stationary_phi(phi):
+    """
+    Return ``phi``, or, when its AR part is not stationary, the nearest of its shape that is.
+
+    Conditional least squares, unlike Yule-Walker, can give an AR part with
+    a root on or inside the unit circle (seen on a strongly persistent
+    300-sample trace: phi 1.027), which no simulator can run. Scaling
+    ``phi_i`` by ``c**i`` scales every inverse root by ``c``: the spectral
+    radius is brought to :data:`MAX_RADIUS`, the dynamics keep their shape.
+    """
+    radius = inverse_root_modulus(phi)
+    if radius < MAX_RADIUS:
+        return phi
+    c = MAX_RADIUS / radius
+    return phi * c ** np.arange(1, len(phi) + 1)
+
+
 def least_squares(d, lag_s=0.0, gain=1.0, period=0):
     """
     Fit the design per axis by least squares; return (MeanFit, residuals).
 
     With ``period``, one constant per phase in place of the one constant:
-    ``const`` is their average and ``offsets`` the rest.
+    ``const`` is their average and ``offsets`` the rest. An AR part fitted
+    outside stationarity is pulled inside (:func:`stationary_phi`) and the
+    constants refitted given it.
     """
     const, phis = np.zeros(2), []
     offsets = np.zeros((period, 2)) if period else None
@@ -153,6 +177,11 @@ def least_squares(d, lag_s=0.0, gain=1.0, period=0):
     k = ones.shape[1]
     for a in range(2):
         beta = np.linalg.lstsq(np.column_stack([ones, d.lags[a]]), d.y[:, a], rcond=None)[0]
+        fitted = beta[k:]
+        phi = stationary_phi(fitted)
+        if phi is not fitted:       # pulled inside: the constants refitted given it
+            beta = np.r_[np.linalg.lstsq(ones, d.y[:, a] - d.lags[a] @ phi,
+                                         rcond=None)[0], phi]
         const[a] = beta[:k].mean()
         if period:
             offsets[:, a] = beta[:k] - const[a]

@@ -150,7 +150,9 @@ def split_step(trace):
         raise DiagnosisError(
             f'{trace.name}: {split.train.n} training and {split.test.n} held-out '
             f'samples on the 1 Hz grid; need at least {MIN_TRAIN} and {MIN_TEST} '
-            f'(a trace of about {int((MIN_TRAIN + MIN_TEST) / 0.7)} s or more)')
+            f'(a trace of about '
+            f'{math.ceil(max(MIN_TRAIN / TRAIN_FRACTION, MIN_TEST / (1 - TRAIN_FRACTION)))} '
+            f's or more)')
     return split
 
 

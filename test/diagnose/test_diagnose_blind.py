@@ -62,7 +62,7 @@ def test_every_scenario_has_its_own_fixed_stream():
 
 
 def test_too_short_trace_is_refused_with_the_reason():
-    tr = synthetic_trace('none', 0, 300)
+    tr = synthetic_trace('none', 0, 200)
     with pytest.raises(DiagnosisError) as exc:
         diagnose(tr, sims=5)
     assert 'training' in str(exc.value) and 'need at least' in str(exc.value)

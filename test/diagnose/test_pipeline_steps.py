@@ -39,7 +39,7 @@ def test_split_cuts_the_grid_in_time(coupled):
     span = trace.t[-1] - t0
     assert split.cut_time_s == pytest.approx(TRAIN_FRACTION * span, abs=1.5)
     with pytest.raises(DiagnosisError, match='need at least'):
-        split_step(synthetic_trace('none', 0, 300))
+        split_step(synthetic_trace('none', 0, 200))
 
 
 def test_base_model_takes_calibrations_pacf_orders(coupled):
