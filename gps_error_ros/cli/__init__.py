@@ -194,8 +194,10 @@ def cmd_validate(args):
         d = summary[ax]
         print(f'  {ax}: autocorrelation inside the envelope at '
               f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
-              f'{summary["max_lag"]}; quantiles inside at '
-              f'{100 * d["quantiles_inside_envelope"]:.0f} %')
+              f'{summary["max_lag"]} (percentile {d["acf_share_percentile"]:.0f} among '
+              f'the simulated traces\' own shares); quantiles inside at '
+              f'{100 * d["quantiles_inside_envelope"]:.0f} % (percentile '
+              f'{d["quantiles_share_percentile"]:.0f})')
     for name, d in summary.get('reported_accuracy', {}).items():
         print(f'  stated accuracy {name}: measured {d["measured"]:.4g}, simulated '
               f'{d["sim_median"]:.4g} (95 % {d["sim_lo"]:.4g} to {d["sim_hi"]:.4g}), '

@@ -12,6 +12,9 @@ the simulated values):
   envelope accounts for the large sampling spread of a persistent process's
   sample autocorrelation, where a fixed bound does not;
 * quantiles of the errors per axis (QQ plot with envelope, Fig. 7);
+* the share of lags and of quantiles inside the envelopes, beside the same
+  share of each simulated trace (:func:`share_percentile`): what a trace of
+  the model's own would show;
 * a map of truth, measured fixes and one simulated trace (Fig. 8; drawn by
   :mod:`gps_error_ros.reports.validation_figure`).
 """
@@ -66,6 +69,7 @@ class ValidationResult:
     availability: dict = None   # outage statistics, measured against simulated
     per_zone: dict = None       # zone name -> the same checks on its samples (--zones)
     reported: dict = None       # stated accuracy, measured against simulated
+    share_pct: dict = None      # axis -> {'acf', 'quantiles'}: see share_percentile
 
     def summary(self):
         """Return the numbers behind the figures as plain data."""
@@ -90,6 +94,8 @@ class ValidationResult:
                 'quantiles_simulated_median_m': np.round(qenv[1], 3).tolist(),
                 'quantiles_envelope_high_m': np.round(qenv[2], 3).tolist(),
                 'quantiles_inside_envelope': float(qin.mean()),
+                **({f'{k}_share_percentile': v for k, v in self.share_pct[ax].items()}
+                   if self.share_pct else {}),
                 'mean_m': float(self.measured[:, AXES.index(ax)].mean()),
                 'sd_m': float(self.measured[:, AXES.index(ax)].std()),
             }
@@ -139,7 +145,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
         sim = simulate_along(zones[1], keys, steps, zone)
         per_zone = zone_checks(measured, sim, steps, zone, zones[0].names, max_lag)
     lags = np.arange(max_lag + 1)
-    acf, acf_env, quant, quant_env = {}, {}, {}, {}
+    acf, acf_env, quant, quant_env, share_pct = {}, {}, {}, {}, {}
     for a, ax in enumerate(AXES):
         meas_segs = [measured[b0:b1, a] for b0, b1 in zip(bounds[:-1], bounds[1:])]
         acf[ax] = pooled_acf(meas_segs, max_lag)
@@ -150,6 +156,9 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
         quant[ax] = np.quantile(measured[:, a], QQ_PROBS)
         sim_q = np.quantile(sim[:, :, a], QQ_PROBS, axis=0).T    # (sims, probs)
         quant_env[ax] = np.percentile(sim_q, [2.5, 50, 97.5], axis=0)
+        share_pct[ax] = {
+            'acf': share_percentile(acf[ax][1:], sim_acf[:, 1:], acf_env[ax][:, 1:]),
+            'quantiles': share_percentile(quant[ax], sim_q, quant_env[ax])}
     truth = (trace.truth_lat[grid.rows], trace.truth_lon[grid.rows])
     stated = None
     if reported is not None and zones is None:
@@ -157,7 +166,28 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
     return ValidationResult(trace.name, grid.n, len(grid.segments), sims, lags,
                             acf, acf_env, quant, quant_env, steps, measured,
                             sim[:, 0, :], truth,
-                            availability_check(model, with_failures, keys), per_zone, stated)
+                            availability_check(model, with_failures, keys), per_zone, stated,
+                            share_pct)
+
+
+def share_percentile(measured, simulated, env):
+    """
+    Return the percentile of the measured share inside ``env`` among the simulated ones.
+
+    The share of lags (or quantiles) inside pointwise 95 % envelopes is not
+    a calibrated test on its own: one trace's values move together (a run's
+    bias shifts all its quantiles at once), so a trace drawn from the model
+    itself can have few inside. Each simulated trace's share against the
+    same envelopes gives the share's law under the model; returned is the
+    percentage of simulated traces whose share is at most the measured one
+    (small: few of the model's own traces look as unlike it).
+
+    ``measured`` (m,), ``simulated`` (sims, m), ``env`` (3, m): 2.5 %, 50 %,
+    97.5 %.
+    """
+    def share(v):
+        return np.mean((v >= env[0]) & (v <= env[2]), axis=-1)
+    return float(100.0 * np.mean(share(simulated) <= share(measured)))
 
 
 #: Fewest samples a zone needs for its own checks in ``validate --zones``.

@@ -93,3 +93,17 @@ def test_the_map_legend_draws_every_marker_at_one_size():
     finally:
         plt.close(fig)
     assert sizes == [LEGEND_MARKER_PT] * 3
+
+
+def test_the_share_percentile_is_what_the_models_own_traces_give():
+    # traces of the true model: the percentile of their share inside is
+    # about uniform, so few fall under 5; a wrong model's trace does
+    low = {'acf': 0, 'quantiles': 0}
+    for seed in range(40):
+        trace, _ = synthetic_trace(300, seed=100 + seed)
+        s = validate(TRUE, trace, sims=100, seed=seed).summary()
+        for k in low:
+            low[k] += s['east'][f'{k}_share_percentile'] < 5
+    assert low['acf'] <= 6 and low['quantiles'] <= 6, low      # about 2 expected
+    bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).summary()
+    assert bad['north']['acf_share_percentile'] < 5
