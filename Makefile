@@ -43,7 +43,7 @@ demo-sumo: setup
 	$(PY) -m gps_error_ros.ros.sumo_demo --out demo_sumo_output
 
 # Three workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py):
-# on two cores faster than two workers (about 6.8 min against 7.5), since the
+# on two cores faster than two workers (about 7 min against 7.5), since the
 # node tests spend much of their time waiting on a peer process or the graph
 # (docs/performance.md, The test suite).
 test: setup
