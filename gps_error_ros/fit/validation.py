@@ -78,22 +78,20 @@ class ValidationResult:
                'max_lag': int(self.lags[-1]), 'qq_probabilities': QQ_PROBS.tolist()}
         for ax in AXES:
             acf, env = self.acf[ax], self.acf_env[ax]
-            inside = (acf[1:] >= env[0, 1:]) & (acf[1:] <= env[2, 1:])
             q, qenv = self.quant[ax], self.quant_env[ax]
-            qin = (q >= qenv[0]) & (q <= qenv[2])
             out[ax] = {
                 'acf_measured': np.round(acf, 4).tolist(),
                 'acf_envelope_low': np.round(env[0], 4).tolist(),
                 'acf_simulated_median': np.round(env[1], 4).tolist(),
                 'acf_envelope_high': np.round(env[2], 4).tolist(),
-                'acf_lags_inside_envelope': float(inside.mean()),
+                'acf_lags_inside_envelope': share_inside(acf[1:], env[:, 1:]),
                 'acf_offset_rms_lags_1_10': float(np.sqrt(np.mean(
                     (acf[1:11] - env[1, 1:11]) ** 2))),
                 'quantiles_measured_m': np.round(q, 3).tolist(),
                 'quantiles_envelope_low_m': np.round(qenv[0], 3).tolist(),
                 'quantiles_simulated_median_m': np.round(qenv[1], 3).tolist(),
                 'quantiles_envelope_high_m': np.round(qenv[2], 3).tolist(),
-                'quantiles_inside_envelope': float(qin.mean()),
+                'quantiles_inside_envelope': share_inside(q, qenv),
                 **({f'{k}_share_percentile': v for k, v in self.share_pct[ax].items()}
                    if self.share_pct else {}),
                 'mean_m': float(self.measured[:, AXES.index(ax)].mean()),
@@ -185,9 +183,13 @@ def share_percentile(measured, simulated, env):
     ``measured`` (m,), ``simulated`` (sims, m), ``env`` (3, m): 2.5 %, 50 %,
     97.5 %.
     """
-    def share(v):
-        return np.mean((v >= env[0]) & (v <= env[2]), axis=-1)
-    return float(100.0 * np.mean(share(simulated) <= share(measured)))
+    return float(100.0 * np.mean(share_inside(simulated, env) <= share_inside(measured, env)))
+
+
+def share_inside(values, env):
+    """Return the share of ``values`` (..., m) inside ``env`` (its first and last rows)."""
+    inside = np.mean((values >= env[0]) & (values <= env[-1]), axis=-1)
+    return float(inside) if np.ndim(inside) == 0 else inside
 
 
 #: Fewest samples a zone needs for its own checks in ``validate --zones``.
@@ -223,9 +225,8 @@ def zone_checks(measured, sim, steps, zone, names, max_lag):
             sd = sim[idx, :, a].std(axis=0)
             entry[ax] = {
                 'max_lag': lag,
-                'acf_lags_inside_envelope': float(np.mean(
-                    (acf[1:] >= env[0, 1:]) & (acf[1:] <= env[1, 1:]))),
-                'quantiles_inside_envelope': float(np.mean((q >= qenv[0]) & (q <= qenv[1]))),
+                'acf_lags_inside_envelope': share_inside(acf[1:], env[:, 1:]),
+                'quantiles_inside_envelope': share_inside(q, qenv),
                 'sd_m': float(measured[idx, a].std()),
                 'sd_simulated_m': [float(v) for v in np.percentile(sd, [2.5, 50, 97.5])]}
     return out

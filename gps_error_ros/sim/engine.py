@@ -281,20 +281,17 @@ class FixEngine:
         steps got no fix. A node that attaches agents as they come calls
         this before it starts.
         """
-        keys = np.zeros(1, dtype=np.uint64)
-        span = 64
-        if self.conditional_cov:
-            state_and_cov(self.model, keys, 0, span)
-        else:
-            self.model.state_after(keys, 0, span)
+        keys, span = np.zeros(1, dtype=np.uint64), 64
+        self._caught_up(keys, span, start=0)
         for side in self.side.values():
             side.history(keys, 0, span)
 
-    def _caught_up(self, keys, m):
+    def _caught_up(self, keys, m, start=None):
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
+        start = self.start_index if start is None else start
         if not self.conditional_cov:
-            return self.model.state_after(keys, self.start_index, m), None
-        return state_and_cov(self.model, keys, self.start_index, m)
+            return self.model.state_after(keys, start, m), None
+        return state_and_cov(self.model, keys, start, m)
 
     def detach(self, slots):
         """Free ``slots``: no more fixes for them, their truth forgotten."""
