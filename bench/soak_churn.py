@@ -306,7 +306,7 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
     names = sorted(crowd.fixes, key=lambda n: (n not in crowd.returned, n))[:check_agents]
     keys = np.array([agent_key(seed, n) for n in names], dtype=np.uint64)
     expected = model.simulate(keys, end_step - T0 + 1, start=T0)
-    worst = 0.0
+    worst, off_stream = 0.0, {}
     for j, name in enumerate(names):
         box = crowd.fixes[name]
         if not box:
@@ -316,14 +316,20 @@ def _verdict(crowd, end_step, seed, profile, origin, check_agents):
         lon = np.array([box[k][1] for k in steps])
         n, e = difference(lat, lon, *origin)
         got = np.stack([n, e], axis=1)
-        worst = max(worst, float(np.abs(got - expected[steps - T0, j]).max()))
+        diff = np.abs(got - expected[steps - T0, j]).max(axis=1)
+        worst = max(worst, float(diff.max()))
+        if (diff > 1e-6).any():     # which steps, and in which life of the agent
+            off_stream[name] = {'steps': steps[diff > 1e-6].tolist()[:20],
+                                'diff_m': np.round(diff[diff > 1e-6], 3).tolist()[:20],
+                                'lives': crowd.lives[name],
+                                'came_back': name in crowd.returned}
     return {'agents_ever': crowd.count, 'returns': crowd.returns,
             'fixes_received': sum(len(b) for b in crowd.fixes.values()),
             'missing_by_agent': missing_by_agent, 'unexpected_by_agent': unexpected_by_agent,
             'poses_before_match': crowd.unseen,
             'departures': len(crowd.gone), 'missing': missing, 'unexpected': unexpected,
             'duplicates': crowd.dup, 'agents_checked': len(names),
-            'max_error_diff_m': worst}
+            'max_error_diff_m': worst, 'off_stream_by_agent': off_stream}
 
 
 def main(argv=None):
