@@ -19,8 +19,9 @@ otherwise:
   ``max(2, 2 x max_pose_age)`` s, as for an agent that comes back before its
   release);
 * every fix's error is the agent's stream: ``gps_error simulate``'s value
-  for (seed, name, step), from the node's first step, to 1e-6 m (all agents
-  up to ``--check-agents``, returners included);
+  for (seed, name, step), from step ``T0`` (the node's ``start_time``: the
+  streams do not depend on when the node read its first clock), to 1e-6 m
+  (all agents up to ``--check-agents``, returners included);
 * the node's resident memory, sampled every ``--sample-s`` simulated
   seconds, stays flat after the warm-up (growth at most ``--rss-growth-mb``);
 * what the node serves follows the agents present, not all that ever came:
@@ -180,7 +181,12 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                           f'    datum: [{lat0}, {lon0}, 0.0]\n    seed: {seed}\n'
                           f'    profile: {profile}\n    max_pose_age: {MAX_POSE_AGE_S:.1f}\n'
                           f'    agent_pattern: {ns}/peds/*/pose\n'
-                          f'    agent_timeout: {AGENT_TIMEOUT_S:.1f}\n')
+                          f'    agent_timeout: {AGENT_TIMEOUT_S:.1f}\n'
+                          # the streams begin at T0 however late the node reads
+                          # the clock: a node slow to start on a loaded machine
+                          # read it first at 1046, and every agent's errors
+                          # were those of a stream begun there
+                          f'    start_time: {T0:.1f}\n')
         node = start_node(ns, params)
         rclpy.init()
         drv = Node('churn_driver')
@@ -211,7 +217,7 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                     raise RuntimeError('the node did not come up')
                 time.sleep(0.1)
             time.sleep(0.5)
-            clock.publish(Clock(clock=to_stamp(T0 * NS)))   # the node's first step
+            clock.publish(Clock(clock=to_stamp(T0 * NS)))   # the streams' first step
             time.sleep(1.0)
             msg = PoseStamped()
             msg.pose.orientation.w = 1.0

@@ -132,7 +132,9 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self._specs = spec_by_name(ERROR_NODE_PARAMS)
         self.frame_id = cfg['frame_id']
         self.max_pose_age = cfg['max_pose_age']
+        self.start_time = cfg['start_time']
         self.late_reported, self.late_reported_start = 0, False
+        self.began_ns = None        # the streams' first step, once logged
         self.input_type = cfg['input_type']
         self.fix_reliability = cfg['fix_reliability']
         self.truth_qos = TRUTH_QOS[cfg['input_reliability']]
@@ -404,6 +406,14 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         resets = self._total('resets')
         for g, group in enumerate(self.groups):
             self.fix_output.publish(g, group.engine.on_clock(now))
+        began = self.groups[0].engine.began_ns
+        if began is not None and began != self.began_ns:
+            self.began_ns = began
+            self.get_logger().info(
+                f'the error streams begin at ROS time {began / 1e9:.3f} s'
+                + ('' if self.start_time >= 0 else
+                   ' (the first clock reading: set start_time for fixes that do not '
+                   'depend on when the node read it)'))
         late = self._total('late_truth')
         if late > self.late_reported:
             self.late_reported = late

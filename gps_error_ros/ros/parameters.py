@@ -158,7 +158,8 @@ ERROR_NODE_PARAMS = (
               'be; gps_error simulate, whose first step is the trajectory\'s first '
               'time). Clock readings before it are ignored; steps between it and the '
               'first reading are served from the truth already received (up to '
-              '1000). -1: the first clock reading.', low=-1.0, high=1e12),
+              '1000). -1: the first clock reading. The node logs the time the streams '
+              'begin at.', low=-1.0, high=1e12),
     ParamSpec('agent_pattern', '', ParameterType.PARAMETER_STRING,
               'Serve agents as their truth topics appear: a topic name with one '
               '* for a whole name segment, e.g. /peds/*/pose; the segment is the '

@@ -129,6 +129,7 @@ class FixEngine:
 
     def _reset_time(self):
         self.state = None
+        self.began_ns = None        # clock time of the streams' first step
         self.model_index = None
         self.start_index = None
         self.last_step = None
@@ -346,6 +347,7 @@ class FixEngine:
         if self.state is None:
             self.state = self.model.initial_state(self.keys, m)
             self.model_index = self.start_index = m
+            self.began_ns = t_ns
             if self.zoned is not None:
                 self.zoned.restart(m)
             for side in self.side.values():

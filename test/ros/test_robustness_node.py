@@ -71,6 +71,9 @@ def test_bad_poses_and_clock_reset(crowd):
     # be the second tick if the first went out before /clock was matched
     first = stamps[0] // NS
     assert T0 <= first <= T0 + 2
+    # and says so, with what makes the first step fixed
+    assert f'the error streams begin at ROS time {first:.3f} s (the first clock ' \
+        'reading: set start_time' in out, out
     assert stamps[:before_reset] == [k * NS for k in range(first, T0 + 10)]
     after = stamps[before_reset:]
     assert after and all((T0 - 100) * NS <= s < (T0 - 95) * NS for s in after)

@@ -83,6 +83,8 @@ def test_sumo_people_get_the_errors_simulate_gives_their_fcd(tmp_path, peer):
         statuses = node_statuses(diag, f'{ns}/gps_error_node')
         rc, log = node.stop()
         assert rc == 0, log
+        # the streams begin at SUMO's begin time, however late the node read the clock
+        assert f'the error streams begin at ROS time {scenario.begin:.3f} s\n' in log, log
     finally:
         node.stop()
         bridge.stop()
