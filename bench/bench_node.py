@@ -260,8 +260,10 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     time.sleep(2.0)
     drv.destroy_node()
     rclpy.try_shutdown()
+    stop0 = time.monotonic()
     node.send_signal(signal.SIGINT)
-    node.wait(timeout=300)    # 10,000 entities take ~30 s to destroy
+    node.wait(timeout=300)
+    stop_s = time.monotonic() - stop0
     node.log.seek(0)
     out = node.log.read()
     counter.send_signal(signal.SIGINT)
@@ -295,7 +297,7 @@ def _drive(n, sim_s, speed, node, counter, count_file):
         'steps_short_of_fixes': short,      # simulated second -> fixes not received
         'agents_missing_by_step': {        # simulated second -> [first, last] agent runs
             int(stamp) // NS - t0: runs for stamp, runs in counts['missing_agents'].items()},
-        'wall_s': wall1 - wall0,
+        'wall_s': wall1 - wall0, 'stop_s': stop_s,
     }
 
 
@@ -402,7 +404,8 @@ def main():
                   f'({100 * r["received_fraction"]:.2f} %); node skipped '
                   f'{r["skipped_without_truth"]} without truth, dropped '
                   f'{r["truth_out_of_order"]} out of order and {r["truth_in_future"]} '
-                  f'stamped in the future', flush=True)
+                  f'stamped in the future; stopped {r["stop_s"]:.1f} s after SIGINT',
+                  flush=True)
             if r['steps_short_of_fixes']:
                 print('       steps short of fixes (simulated s: missing): ' + ', '.join(
                     f'{k}: {v}' for k, v in sorted(r['steps_short_of_fixes'].items())))

@@ -33,6 +33,7 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from gps_error_ros.ros.error_node import DrainedByTheNode, WaitsOnUndrained
 from gps_error_ros.ros.fix_output import FIX_BURST, send_paced
+from gps_error_ros.ros.lifecycle import QUICK_EXIT_PUBLISHERS, exit_at_once
 from gps_error_ros.ros.topics import FIX_QOS, TRUTH_QOS
 
 NS = 1_000_000_000
@@ -115,6 +116,9 @@ def main(argv):
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     print(node.summary(), flush=True)
+    if n > QUICK_EXIT_PUBLISHERS:       # as the error node: not minutes of teardown
+        rclpy.try_shutdown()
+        exit_at_once(0)
     node.destroy_node()
     rclpy.try_shutdown()
     return 0

@@ -4,8 +4,14 @@ The one ``main()`` of the nodes: start, spin, and stop cleanly every time.
 Exit codes: 0 after Ctrl-C, SIGTERM or an external shutdown (the node's
 shutdown work done first); 2 for a bad parameter or a command line rcl
 cannot parse, with a one-line message naming it.
+
+A node with many publishers (a crowd) ends its process without destroying
+them one by one: Fast DDS takes some 5-10 ms per publisher, minutes for
+thousands of agents (see docs/decisions/0011-a-crowd-exits-at-once.md).
 """
 
+import ctypes
+import os
 import re
 import signal
 import sys
@@ -59,7 +65,7 @@ def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
         rclpy.try_shutdown()
         return 0
     logger = rclpy.logging.get_logger(name)
-    node, code, last_words = None, 0, None
+    node, code, last_words, at_once = None, 0, None, 0
     try:
         node = make_node()
         _spin(node, logger)
@@ -81,12 +87,36 @@ def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
         if node is not None:
             if at_shutdown is not None:
                 last_words = at_shutdown(node)
-            node.destroy_node()
+            at_once = sum(1 for _ in node.publishers)
+            if at_once <= QUICK_EXIT_PUBLISHERS:
+                at_once = 0
+                node.destroy_node()
         _shutdown_context()
     if last_words:
         logger.info(last_words)
+    if at_once:
+        logger.info(f'ending without destroying its {at_once} publishers one by one: '
+                    f'peers drop them when the process\'s DDS lease runs out')
+        exit_at_once(code)
     return code
 
+
+def exit_at_once(code):
+    """
+    End the process now with ``code``, its output flushed, no entity destroyed.
+
+    The context is shut down already (its log files closed). Peers see the
+    process's topics go when its DDS participant's lease runs out, as after
+    a kill; destroying thousands of publishers one by one took minutes.
+    """
+    sys.stdout.flush()
+    sys.stderr.flush()
+    ctypes.CDLL(None).fflush(None)        # C stdio: rcutils writes the console log
+    os._exit(code)
+
+
+#: More publishers than this, and the process ends without destroying them.
+QUICK_EXIT_PUBLISHERS = 200
 
 #: What rclpy says when a message taken from the middleware cannot be made a Python object.
 UNTAKEABLE = 'Unable to convert call argument'

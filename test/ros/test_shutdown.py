@@ -7,6 +7,7 @@ wait set: two runs in three; a KeyboardInterrupt inside an rclpy Task).
 """
 
 import csv
+import re
 import signal
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from bag_helpers import write_walk_bag
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.ros.bag_play import play
+from gps_error_ros.ros.lifecycle import QUICK_EXIT_PUBLISHERS
 from ros_harness import DATUM_ARG, Peer, replay_calibration_node, start, unique_ns
 
 pytestmark = pytest.mark.integration
@@ -135,6 +137,27 @@ def test_error_node_ctrl_c(run):
         peer.destroy()
     assert_clean_exit(rc, log)
     assert 'at shutdown:' in log
+
+
+def test_a_crowd_node_ends_at_once_after_its_summary():
+    """Past QUICK_EXIT_PUBLISHERS the process ends without destroying its topics."""
+    ns = unique_ns()
+    n = QUICK_EXIT_PUBLISHERS + 50
+    names = ', '.join(f'"a{i}"' for i in range(n))
+    node = start(ns, DATUM_ARG, 'seed:=1', f'agents:=[{names}]')
+    peer = Peer()
+    try:
+        assert peer.spin_until(
+            lambda: peer.node.count_publishers(f'{ns}/a{n - 1}/fix') > 0, 60), node.stop()[1]
+        peer.spin_for(1.0)
+        rc, log = node.stop()
+    finally:
+        peer.destroy()
+    assert_clean_exit(rc, log)
+    # the summary is written before the process ends, and then why it ends so
+    ending = re.search(r'ending without destroying its (\d+) publishers one by one', log)
+    assert ending and int(ending.group(1)) > n, log       # its fixes, /rosout, ...
+    assert 0 <= log.find('at shutdown:') < ending.start(), log
 
 
 SPIN_PAST_UNTAKEABLE = '''
