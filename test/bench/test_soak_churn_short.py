@@ -16,11 +16,13 @@ def test_short_churn_soak():
     r = soak_churn.run(concurrent=10, sim_s=300, life_s=(20, 80), sample_s=30,
                        warmup_s=60, max_speed=25.0)
     summary = {k: v for k, v in r.items() if k != 'node_log'}
-    # what went wrong first: the agents with fixes off their streams
-    summary = {'off_stream_by_agent': summary.pop('off_stream_by_agent'), **summary}
+    # what went wrong first: which agents have fixes off their streams (all of
+    # them, named: pytest cuts a long dict short), then where
+    off = summary.pop('off_stream_by_agent')
+    summary = {'agents_off_stream': sorted(off), 'off_stream_by_agent': off, **summary}
     assert r['departures'] >= 30 and r['returns'] >= 5, summary
     assert r['missing'] == 0 and r['unexpected'] == 0 and r['duplicates'] == 0, summary
-    assert r['max_error_diff_m'] <= 1e-6, summary
+    assert r['max_error_diff_m'] <= soak_churn.STREAM_TOLERANCE_M, summary
     assert r['agents_checked'] == r['agents_ever'], summary
     assert r['served_max'] < 20, summary
     assert r['served_at_end'] == r['alive_at_end'], summary
