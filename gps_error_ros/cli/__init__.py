@@ -198,6 +198,9 @@ def cmd_validate(args):
               f'the simulated traces\' own shares); quantiles inside at '
               f'{100 * d["quantiles_inside_envelope"]:.0f} % (percentile '
               f'{d["quantiles_share_percentile"]:.0f})')
+    print(f'  the four shares together: percentile {summary["shares_joint_percentile"]:.0f} '
+          'among the simulated traces (below 5: the trace is unlike the model\'s own '
+          'at the 5 % level)')
     for name, d in summary.get('reported_accuracy', {}).items():
         print(f'  stated accuracy {name}: measured {d["measured"]:.4g}, simulated '
               f'{d["sim_median"]:.4g} (95 % {d["sim_lo"]:.4g} to {d["sim_hi"]:.4g}), '

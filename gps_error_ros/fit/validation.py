@@ -14,7 +14,9 @@ the simulated values):
 * quantiles of the errors per axis (QQ plot with envelope, Fig. 7);
 * the share of lags and of quantiles inside the envelopes, beside the same
   share of each simulated trace (:func:`share_percentile`): what a trace of
-  the model's own would show;
+  the model's own would show; and the four shares (two per axis) judged
+  together (:func:`joint_share_percentile`), the one calibrated verdict on
+  the trace;
 * a map of truth, measured fixes and one simulated trace (Fig. 8; drawn by
   :mod:`gps_error_ros.reports.validation_figure`).
 """
@@ -70,6 +72,7 @@ class ValidationResult:
     per_zone: dict = None       # zone name -> the same checks on its samples (--zones)
     reported: dict = None       # stated accuracy, measured against simulated
     share_pct: dict = None      # axis -> {'acf', 'quantiles'}: see share_percentile
+    joint_pct: float = None     # the four shares together: see joint_share_percentile
 
     def summary(self):
         """Return the numbers behind the figures as plain data."""
@@ -97,6 +100,8 @@ class ValidationResult:
                 'mean_m': float(self.measured[:, AXES.index(ax)].mean()),
                 'sd_m': float(self.measured[:, AXES.index(ax)].std()),
             }
+        if self.joint_pct is not None:
+            out['shares_joint_percentile'] = self.joint_pct
         if self.availability is not None:
             out['availability'] = self.availability
         if self.per_zone is not None:
@@ -144,6 +149,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
         per_zone = zone_checks(measured, sim, steps, zone, zones[0].names, max_lag)
     lags = np.arange(max_lag + 1)
     acf, acf_env, quant, quant_env, share_pct = {}, {}, {}, {}, {}
+    shares = []     # (measured share, simulated shares, envelope) of each check
     for a, ax in enumerate(AXES):
         meas_segs = [measured[b0:b1, a] for b0, b1 in zip(bounds[:-1], bounds[1:])]
         acf[ax] = pooled_acf(meas_segs, max_lag)
@@ -157,6 +163,8 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
         share_pct[ax] = {
             'acf': share_percentile(acf[ax][1:], sim_acf[:, 1:], acf_env[ax][:, 1:]),
             'quantiles': share_percentile(quant[ax], sim_q, quant_env[ax])}
+        shares += [(acf[ax][1:], sim_acf[:, 1:], acf_env[ax][:, 1:]),
+                   (quant[ax], sim_q, quant_env[ax])]
     truth = (trace.truth_lat[grid.rows], trace.truth_lon[grid.rows])
     stated = None
     if reported is not None and zones is None:
@@ -165,7 +173,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
                             acf, acf_env, quant, quant_env, steps, measured,
                             sim[:, 0, :], truth,
                             availability_check(model, with_failures, keys), per_zone, stated,
-                            share_pct)
+                            share_pct, joint_share_percentile(shares))
 
 
 def share_percentile(measured, simulated, env):
@@ -184,6 +192,32 @@ def share_percentile(measured, simulated, env):
     97.5 %.
     """
     return float(100.0 * np.mean(share_inside(simulated, env) <= share_inside(measured, env)))
+
+
+def joint_share_percentile(checks):
+    """
+    Return the percentile of a trace's worst share percentile among the model's own traces.
+
+    Each share percentile (:func:`share_percentile`) is a test at its own
+    level; four of them on one trace reject a trace of the model's own more
+    often than any one does. The smallest of the trace's percentiles is
+    judged instead against the smallest of each simulated trace's own
+    percentiles (each among all simulated traces, itself included), which
+    accounts for however the checks move together. Returned is the
+    percentage of simulated traces whose smallest percentile is at most the
+    measured one: below 5, the trace as a whole is unlike the model's traces
+    at the 5 % level.
+
+    ``checks``: ``(measured, simulated, env)`` triples as for
+    :func:`share_percentile`.
+    """
+    measured, simulated = [], []
+    for meas, sims, env in checks:
+        own = share_inside(sims, env)                          # (sims,)
+        measured.append(100.0 * np.mean(own <= share_inside(meas, env)))
+        simulated.append(100.0 * np.mean(own[None, :] <= own[:, None], axis=1))
+    worst = np.min(simulated, axis=0)
+    return float(100.0 * np.mean(worst <= min(measured)))
 
 
 def share_inside(values, env):

@@ -107,3 +107,20 @@ def test_the_share_percentile_is_what_the_models_own_traces_give():
     assert low['acf'] <= 6 and low['quantiles'] <= 6, low      # about 2 expected
     bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).summary()
     assert bad['north']['acf_share_percentile'] < 5
+
+
+def test_the_four_shares_together_reject_the_models_own_traces_at_their_level():
+    # each share percentile alone rejects a model's own trace 5 % of the time,
+    # so the smallest of four does more often; judged against the smallest
+    # of each simulated trace's own, the joint percentile rejects at about 5 %
+    worst, joint = 0, 0
+    for seed in range(60):
+        s = validate(TRUE, synthetic_trace(300, seed=200 + seed)[0], sims=100,
+                     seed=seed).summary()
+        worst += min(s[ax][f'{k}_share_percentile'] for ax in ('north', 'east')
+                     for k in ('acf', 'quantiles')) < 5
+        joint += s['shares_joint_percentile'] < 5
+    assert joint <= 8, joint                     # about 3 expected
+    assert worst > joint, (worst, joint)
+    bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).summary()
+    assert bad['shares_joint_percentile'] < 5
