@@ -26,11 +26,11 @@ setup: $(STAMP)
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
 		requirements-sumo.txt requirements-zones.txt requirements-docs.txt \
-		requirements-fast.txt setup.py setup.cfg package.xml
+		requirements-fast.txt requirements-smoother.txt setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
 		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt \
-		-r requirements-docs.txt -r requirements-fast.txt
+		-r requirements-docs.txt -r requirements-fast.txt -r requirements-smoother.txt
 	$(PIP) --no-deps -e .
 	touch $@
 

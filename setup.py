@@ -30,6 +30,7 @@ setup(
     extras_require={'docs': ['mkdocs', 'mkdocs-material', 'mkdocstrings-python'],
                     'fast': ['numba'],
                     'import': ['pynmea2', 'gpxpy'],
+                    'smoother': ['gtsam'],
                     'sumo': ['eclipse-sumo', 'traci', 'sumolib'],
                     'zones': ['shapely>=2']},
     zip_safe=True,

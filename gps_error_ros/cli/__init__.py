@@ -395,6 +395,9 @@ def cmd_compare(args):
     if args.folds or args.test:
         from gps_error_ros.cli.folds import compare_folds
         return compare_folds(args, clean_recordings)
+    if args.smoother:
+        raise SystemExit('gps_error compare: --smoother goes with --folds or --test '
+                         '(the groups of measures); the single 70/30 split has none')
     from gps_error_ros.diagnose.baselines import compare, compare_json
     from gps_error_ros.diagnose.pipeline import fit_models, STAGES
     from gps_error_ros.reports.compare_figure import compare_figure

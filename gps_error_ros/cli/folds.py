@@ -45,20 +45,31 @@ def compare_folds(args, recordings):
     if args.zones or args.report:
         raise SystemExit('gps_error compare: --folds and --test write JSON only; '
                          '--zones and --report go with the single 70/30 split')
+    smoother = getattr(args, 'smoother', 0)
+    if smoother:
+        from gps_error_ros.diagnose.smoother import available, INSTALL
+        if not available():
+            raise SystemExit(f'gps_error compare: --smoother needs GTSAM, which is not '
+                             f'installed: {INSTALL}')
+        if smoother > args.sims:
+            raise SystemExit(f'gps_error compare: --smoother {smoother}: expected at most '
+                             f'--sims ({args.sims}) traces')
     splits = _splits(args, recordings)
     progress = Progress(len(splits), 'judging the classes on', min_total=2)
     try:
-        folds = judge_folds(splits, args.sims, args.seed, done=progress.update)
+        folds = judge_folds(splits, args.sims, args.seed, done=progress.update,
+                            smoother_sims=smoother)
     finally:
         progress.close()
     summary = summarise(folds)
+    groups = GROUPS + (('smoother',) if smoother else ())
     print(f'{len(folds)} fold(s): ' + '; '.join(
         f'{f["fold"]} ({f["train_samples"]} train / {f["test_samples"]} held out)'
         for f in folds))
-    print(f'  {"class":13} {"NLL":>8} {"best":>5} ' + ' '.join(f'{g[:11]:>11}' for g in GROUPS))
+    print(f'  {"class":13} {"NLL":>8} {"best":>5} ' + ' '.join(f'{g[:11]:>11}' for g in groups))
     for name, c in summary.items():
         print(f'  {name:13} {c["heldout_nll_per_sample"]:8.3f} {c["best_score_folds"]:5d} ' +
-              ' '.join(f'{c["groups"][g]:11.2f}' for g in GROUPS))
+              ' '.join(f'{c["groups"][g]:11.2f}' for g in groups))
     print('  (NLL: held-out NLL per sample, mean over folds; best: folds with the lowest; '
           'groups: share of measures inside their simulated 95 % range, mean over folds)')
     if args.json_out:

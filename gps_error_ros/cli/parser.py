@@ -261,6 +261,12 @@ def _add_compare(sub):
     c.add_argument('--test', nargs='+', default=None, metavar='TEST',
                    help='hold out these recordings (files or folders) and train on the '
                         'INPUTs: another day, another stretch (judged as --folds)')
+    c.add_argument('--smoother', type=number(int, 0, 10000), default=0, metavar='N',
+                   help='with --folds or --test: also feed GTSAM\'s iSAM2 (GPS and '
+                        'odometry factors) the real fixes and N simulated traces of each '
+                        'class, on the first 600 held-out samples: the group smoother '
+                        '(online and smoothed error; needs gtsam: pip install '
+                        '"gps_error_ros[smoother]"; default 0: off)')
 
 
 def _add_import(sub):

@@ -61,6 +61,8 @@ GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails', 'filter', 'v2p')
 POPULATION = 'population'
 POPULATION_AR = 'population_ar'
 ACF_LAGS = 60
+#: Held-out samples the GTSAM smoother is run on (the first ones): it adds a pose per sample.
+SMOOTHER_SAMPLES = 600
 
 
 def split_between(trace, cut_t, end_t, rule):
@@ -175,13 +177,14 @@ class PopulationClass:
 
         A Kalman filter per axis over the Gaussian AR state and the bias (the
         scale taken at its mean square, 1) predicts each sample given every
-        earlier held-out sample (gaps predicted through). With a ``within``
-        model the prediction is that model's, of the error less the bias the
-        filter expected (a plug-in of the bias; the filter sees the errors
-        less the motion lag's offsets). The first ``m0`` samples of each
-        segment are conditioned on, not scored.
+        earlier held-out sample (gaps predicted through; the filter sees the
+        errors less the motion lag's offsets). With a ``within`` model the
+        bias is integrated over instead (:meth:`_mixture_logpdf`). The first
+        ``m0`` samples of each segment are conditioned on, not scored.
         """
         pop = self.fit.population
+        if self.within is not None:
+            return self._mixture_logpdf(part, m0)
         out = np.zeros(part.n)
         bias = np.zeros((part.n, 2))
         free = Part(self._without_lag(part), part.truth, part.t)
@@ -192,15 +195,110 @@ class PopulationClass:
             ll, bias[:, a] = _kalman_ll(free, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
                                         float(self.ar.mean[a]), sd, rate)
             out += ll
-        if self.within is not None:
-            cuts = np.cumsum([len(e) for e in part.err[:-1]])
-            less = [e - self.fit.mean - b for e, b in zip(part.err, np.split(bias, cuts))]
-            shifted = Part(less, part.truth, part.t)
-            return self.within.score(shifted, self.truth, m0)[0]
         starts = np.cumsum([0] + [len(e) for e in part.err[:-1]])
         keep = np.concatenate([s + np.arange(m0, len(e))
                                for s, e in zip(starts, part.err)])
         return out[keep]
+
+    def _mixture_logpdf(self, part, m0):
+        """
+        Return the held-out one-step log densities under the ``within`` model and the population.
+
+        A run's bias and its agent's scale are unknown, so the prediction
+        averages the within model's over their laws: the bias on a grid of
+        :data:`BIAS_NODES` values per axis (out to :data:`BIAS_REACH` SDs,
+        weighted by the law's density: normal, or Student-t with a factor
+        shared by the axes), the scale ``f`` at :data:`SCALE_NODES`
+        Gauss-Hermite nodes of its log-normal law. The weights are updated by
+        each sample's likelihood (the forward pass of a hidden Markov chain
+        over the grid). The scale holds for the run; a bias that wanders with
+        factor ``a`` per second keeps its node with probability ``a ** dt``
+        and is drawn afresh from its law otherwise. Each node's densities are
+        the within model's of ``(error - grand mean - bias) / f`` (less
+        ``2 log f``), so every lag of a prediction sees one bias and scale.
+        """
+        pop = self.fit.population
+        if pop is None:
+            return self.within.score(Part([e - self.fit.mean for e in part.err],
+                                          part.truth, part.t), self.truth, m0)[0]
+        nodes, log_bias = bias_grid(pop)
+        scales, log_scale = scale_nodes(pop.scale_sd_log)
+        lls = np.array([[self.within.score(Part([(e - self.fit.mean - b) / f for e in part.err],
+                                                part.truth, part.t), self.truth, m0)[0]
+                         - 2.0 * np.log(f) for b in nodes] for f in scales])
+        t = np.concatenate([tt[m0:] for tt in part.t])      # lls: (scales, nodes, scored)
+        if t.size != lls.shape[2]:
+            raise AssertionError(f'scored {lls.shape[2]} samples, expected {t.size}')
+        return mixture_forward(lls, log_scale, log_bias, t, pop.persistence())
+
+
+def mixture_forward(lls, log_scale, log_bias, t, rate):
+    """
+    Return each sample's predictive log density, averaged over scale and bias nodes.
+
+    ``lls`` (scales, biases, n): each node's own one-step log densities;
+    ``log_scale``, ``log_bias``: the nodes' log prior weights; ``t`` (n,):
+    the samples' times, s; ``rate``: the bias's factor per second (1: fixed
+    for the run). The scale holds for the run; between samples ``dt``
+    apart the bias keeps its node with probability ``rate ** dt`` and is
+    drawn afresh from its prior otherwise. With ``rate`` 1 the densities
+    sum to the log of the nodes' prior-weighted joint likelihoods.
+    """
+    out = np.empty(t.size)
+    state = log_scale[:, None] + log_bias[None, :]
+    for i in range(t.size):
+        if i and rate < 1.0:
+            keep = rate ** max(1.0, float(t[i] - t[i - 1]))
+            fresh = np.logaddexp.reduce(state, axis=1)[:, None] + log_bias[None, :]
+            state = np.logaddexp(np.log(keep) + state, np.log1p(-keep) + fresh)
+        joint = state + lls[:, :, i]
+        out[i] = np.logaddexp.reduce(joint, axis=None)
+        state = joint - out[i]
+    return out
+
+
+#: Bias values per axis on the grid the within model's predictions are averaged over.
+BIAS_NODES = 21
+#: How far the grid reaches, in SDs of the bias law.
+BIAS_REACH = 4.0
+#: Gauss-Hermite nodes of an agent's log scale.
+SCALE_NODES = 5
+
+
+def scale_nodes(scale_sd_log):
+    """
+    Return (scales ``f``, log weights) of an agent's scale law at Gauss-Hermite nodes.
+
+    ``f = exp(s z - s^2)``, ``z`` standard normal (the population model's
+    law, whose ``f^2`` has mean 1); one node ``f = 1`` when ``s`` is 0.
+    """
+    if scale_sd_log == 0.0:
+        return np.ones(1), np.zeros(1)
+    z, w = np.polynomial.hermite_e.hermegauss(SCALE_NODES)
+    return np.exp(scale_sd_log * z - scale_sd_log ** 2), np.log(w / w.sum())
+
+
+def bias_grid(pop):
+    """
+    Return (nodes (k, 2), log weights (k,)) of a population's bias law on a grid.
+
+    ``BIAS_NODES`` values per axis from ``-BIAS_REACH`` to ``BIAS_REACH``
+    SDs; the weights are the law's density at the nodes, normalised (the
+    Student-t's scale chosen so that its SD is ``bias_sd_m``, one factor
+    shared by the axes as the model draws it). An axis whose SD is 0 has
+    the one node 0.
+    """
+    axes = [np.linspace(-BIAS_REACH, BIAS_REACH, BIAS_NODES) if sd > 0 else np.zeros(1)
+            for sd in pop.bias_sd_m]
+    z = np.array([(a, b) for a in axes[0] for b in axes[1]])           # in SDs
+    q = np.sum(z * z, axis=1)
+    if pop.bias_dof is None:
+        log_w = -0.5 * q
+    else:
+        nu = float(pop.bias_dof)
+        log_w = -0.5 * (nu + 2.0) * np.log1p(q / (nu - 2.0))   # unit SD, 2-D t
+    log_w = log_w - np.logaddexp.reduce(log_w)
+    return z * np.asarray(pop.bias_sd_m, dtype=float), log_w
 
 
 def _within_split(split):
@@ -286,11 +384,14 @@ def _basic(segments, jump_m):
     return out
 
 
-def grouped_measures(part, train, simulated, seed=0):
+def grouped_measures(part, train, simulated, seed=0, smoother_sims=0):
     """
     Return {measure: envelope row} and {group: inside_95} of ``part`` against ``simulated``.
 
     ``simulated``: traces, each a list of segments on ``part``'s samples.
+    With ``smoother_sims``, the group ``smoother`` too: GTSAM's iSAM2
+    (:mod:`.smoother`) on the first :data:`SMOOTHER_SAMPLES` samples, fed
+    the real fixes and those of the first ``smoother_sims`` simulated traces.
     """
     steps = np.concatenate([np.hypot(*np.diff(s, axis=0).T) for s in train.err if len(s) > 1])
     jump_m = float(np.quantile(steps, 0.99))
@@ -301,14 +402,29 @@ def grouped_measures(part, train, simulated, seed=0):
     rows = {n: envelope(measured[n], sims[:, j]) for j, n in enumerate(names)}
     for j, n in enumerate(cn):
         rows[f'{n.split("_")[0]}:{n}'] = envelope(cm[j], cs[:, j])
+    if smoother_sims:
+        from gps_error_ros.diagnose.smoother import head, run_smoother, SMOOTHER_MEASURES
+        short = head(part, SMOOTHER_SAMPLES)
+        n = short.n
+        fix_var = np.mean(np.concatenate(train.err) ** 2, axis=0)
+        errors = np.stack([np.concatenate(part.err)[:n]] +
+                          [np.concatenate(s)[:n] for s in simulated[:smoother_sims]])
+        values = run_smoother(short, errors, fix_var, seed)
+        for j, name in enumerate(SMOOTHER_MEASURES):
+            rows[f'smoother:{name}'] = envelope(values[0, j], values[1:, j])
     groups = {g: float(np.mean([inside(r) for k, r in rows.items()
-                                if k.split(':')[0] == g])) for g in GROUPS}
+                                if k.split(':')[0] == g]))
+              for g in GROUPS + ('smoother',) if any(k.split(':')[0] == g for k in rows)}
     return rows, groups
 
 
-def judge_split(fitted, sims=100, seed=0, within=None):
+def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
+                smoother_classes=None):
     """
     Return {class key: {heldout_nll_per_sample, groups, measures}} on one split.
+
+    ``smoother_sims``: traces of each class (of ``smoother_classes``, by
+    default all) that the GTSAM smoother is fed as well (group ``smoother``).
 
     ``fitted``: the :class:`~.pipeline.FittedModels` of the split (its
     classes come from :func:`~.baselines._classes`); the population classes
@@ -333,9 +449,11 @@ def judge_split(fitted, sims=100, seed=0, within=None):
         classes[label] = (ll, simulate_part(pop, split.test, split.truth, sims, seed))
     out = {}
     for label, (lls, traces) in classes.items():
-        rows, groups = grouped_measures(split.test, split.train, traces, seed)
-        out[KEYS.get(label, label)] = {'heldout_nll_per_sample': float(-np.mean(lls)),
-                                       'groups': groups, 'measures': rows}
+        key = KEYS.get(label, label)
+        smooth = smoother_sims if smoother_classes is None or key in smoother_classes else 0
+        rows, groups = grouped_measures(split.test, split.train, traces, seed, smooth)
+        out[key] = {'heldout_nll_per_sample': float(-np.mean(lls)),
+                    'groups': groups, 'measures': rows}
     for label, pop in pops.items():
         out[label]['fit'] = pop.fit.evidence
         out[label]['section'] = None if pop.fit.population is None else \
@@ -343,13 +461,14 @@ def judge_split(fitted, sims=100, seed=0, within=None):
     return out
 
 
-def judge_folds(splits, sims=100, seed=0, done=None):
+def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_classes=None):
     """
     Fit and judge every class on every ``(label, Split)``; return the folds.
 
     Each fold: ``{'fold', 'rule', 'train_samples', 'test_samples',
-    'train_measures', 'classes'}`` (:func:`judge_split`; the training part's
-    own measures beside them). ``done()`` after each fold.
+    'train_measures', 'train_windows', 'classes'}`` (:func:`judge_split`,
+    with the smoother's arguments; the training part's own measures and
+    :func:`training_windows` beside them). ``done()`` after each fold.
     """
     from gps_error_ros.diagnose.pipeline import fit_split
     folds = []
@@ -359,10 +478,52 @@ def judge_folds(splits, sims=100, seed=0, done=None):
         folds.append({'fold': label, 'rule': split.rule, 'train_samples': split.train.n,
                       'test_samples': split.test.n,
                       'train_measures': _basic(split.train.err, float('inf')),
-                      'classes': judge_split(fitted, sims, seed, within)})
+                      'train_windows': training_windows(split.train, split.test),
+                      'classes': judge_split(fitted, sims, seed, within, smoother_sims,
+                                             smoother_classes)})
         if done is not None:
             done()
     return folds
+
+
+def training_windows(train, test, gap_s=60.0, least=0.8):
+    """
+    Return the range of each error measure over the training part's stretches like ``test``.
+
+    Did what trained ever look like the held-out part? The training part is
+    cut into runs (no gap over ``gap_s``: its recordings); every window of
+    the held-out part's span within a run, stepped by half of it and holding
+    at least ``least`` of the samples such a window can hold, and every run
+    shorter than that span whole, is measured as the held-out part is
+    (:func:`_basic`, the tails' threshold the training part's own). A
+    held-out value outside a measure's range has no precedent in training.
+
+    Returns ``{'span_s', 'windows', 'range': {measure: [low, high]}}``
+    (``windows`` 0 and no ranges when no window qualifies).
+    """
+    t = np.concatenate(train.t)
+    e = np.concatenate(train.err)
+    seg = np.concatenate([np.full(len(x), i) for i, x in enumerate(train.err)])
+    steps = np.concatenate([np.hypot(*np.diff(x, axis=0).T) for x in train.err if len(x) > 1])
+    jump_m = float(np.quantile(steps, 0.99))
+    test_t = np.concatenate(test.t)
+    run = np.r_[0, np.cumsum(np.diff(t) > gap_s)]
+    bounds = [(t[run == r][0], t[run == r][-1]) for r in range(run[-1] + 1)]
+    span = float(test_t[-1] - test_t[0])
+    values = []
+    for a, b in bounds:
+        whole = b - a < span
+        for s0 in ([a] if whole else np.arange(a, b - span + 1e-9, max(span / 2.0, 1.0))):
+            m = (t >= s0) & (t <= b) if whole else (t >= s0) & (t < s0 + span)
+            if m.sum() < 3 or (not whole and m.sum() < least * (span + 1.0)):
+                continue
+            pieces = [e[m & (seg == i)] for i in np.unique(seg[m])]
+            values.append(_basic([p for p in pieces if len(p)], jump_m))
+    if not values:
+        return {'span_s': span, 'windows': 0, 'range': {}}
+    return {'span_s': span, 'windows': len(values),
+            'range': {k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))]
+                      for k in values[0]}}
 
 
 def summarise(folds):
@@ -379,7 +540,8 @@ def summarise(folds):
     for c in classes:
         nll = [f['classes'][c]['heldout_nll_per_sample'] for f in folds]
         groups = {g: float(np.mean([f['classes'][c]['groups'][g] for f in folds]))
-                  for g in GROUPS}
+                  for g in GROUPS + ('smoother',)
+                  if all(g in f['classes'][c]['groups'] for f in folds)}
         worst = min(groups, key=groups.get)
         out[c] = {'heldout_nll_per_sample': float(np.mean(nll)),
                   'heldout_nll_per_fold': nll,

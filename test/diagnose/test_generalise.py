@@ -4,9 +4,12 @@ import numpy as np
 from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
-from gps_error_ros.diagnose.generalise import (_kalman_ll, recording_splits, rolling_splits)
+from gps_error_ros.diagnose.generalise import (_kalman_ll, bias_grid, mixture_forward,
+                                               recording_splits, rolling_splits, scale_nodes,
+                                               training_windows)
 from gps_error_ros.diagnose.split import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.population import Population
 from gps_error_ros.traces.trace_io import Trace
 
 
@@ -75,6 +78,55 @@ def test_the_population_score_is_the_exact_gaussian_likelihood():
     cov = acv[np.abs(np.subtract.outer(t, t))] + bias_sd ** 2
     want = stats.multivariate_normal(np.full(n, 0.4), cov).logpdf(y[:, 0])
     assert abs(ll - want) < 1e-8
+
+
+def test_the_mixture_score_is_the_marginal_likelihood_over_its_nodes():
+    """A bias fixed for the run: the one-step densities sum to the prior-weighted joint one."""
+    rng = np.random.default_rng(8)
+    lls = rng.normal(-2.0, 1.0, (3, 5, 40))
+    log_scale, log_bias = np.log([0.2, 0.5, 0.3]), np.log(np.full(5, 0.2))
+    t = np.arange(40.0)
+    got = mixture_forward(lls, log_scale, log_bias, t, 1.0).sum()
+    want = np.logaddexp.reduce(log_scale[:, None] + log_bias[None, :] + lls.sum(axis=2),
+                               axis=None)
+    assert abs(got - want) < 1e-9
+    # a bias redrawn at every step: each sample is scored by the prior mixture
+    # given only the scale learnt so far
+    fresh = mixture_forward(lls[:1], np.zeros(1), log_bias, t, 1e-300)
+    mix = np.logaddexp.reduce(log_bias[:, None] + lls[0], axis=0)
+    assert np.allclose(fresh, mix)
+
+
+def test_the_population_laws_on_their_nodes():
+    pop = Population((1.5, 3.0), 0.3)
+    nodes, log_w = bias_grid(pop)
+    w = np.exp(log_w)
+    assert abs(w.sum() - 1.0) < 1e-12
+    assert np.allclose(np.sqrt(w @ nodes ** 2), (1.5, 3.0), rtol=0.02)
+    heavy = bias_grid(Population((1.5, 3.0), 0.3, bias_dof=3))[1]
+    far = np.abs(nodes[:, 1]) > 9.0
+    assert np.exp(heavy[far]).sum() > 3 * w[far].sum()         # the t law's tails
+    f, log_f = scale_nodes(0.3)
+    assert abs(np.exp(log_f) @ f ** 2 - 1.0) < 1e-3              # E f^2 = 1, as the model
+    assert scale_nodes(0.0)[0].tolist() == [1.0]
+    assert bias_grid(Population((0.0, 2.0), 0.0))[0].shape == (21, 2)
+
+
+def test_training_windows_tell_a_held_out_stretch_without_precedent():
+    rng = np.random.default_rng(4)
+    err = rng.normal(0.0, 1.0, (600, 2))
+    train = Part([err[:400], err[400:]], [np.zeros((400, 2)), np.zeros((200, 2))],
+                 [np.arange(400.0), 500.0 + np.arange(200.0)])     # two runs
+    test = Part([rng.normal(0.0, 1.0, (300, 2)) + (5.0, 0.0)], [np.zeros((300, 2))],
+                [1000.0 + np.arange(300.0)])
+    w = training_windows(train, test)
+    # the 400-s run holds one window of 299 s (the next would start at 149.5 s and
+    # pass its end); the 200-s run, shorter than that, counts whole
+    assert w['windows'] == 2 and w['span_s'] == 299.0
+    lo, hi = w['range']['bias:mean_north']
+    assert hi < 1.0 < 5.0                                   # a new bias: no precedent
+    lo, hi = w['range']['scale:sd_east']
+    assert lo < 1.0 < hi
 
 
 def test_the_filter_is_consistent_on_errors_it_was_told():
