@@ -135,6 +135,19 @@ def _consumer_rows(folds, classes=('ar1', 'extended', 'population')):
 ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
 
 
+def _precedent_counts(folds, cls='population'):
+    """Return (error measures outside the class's range over folds, those without precedent)."""
+    miss = new = 0
+    for f in folds:
+        rng = f.get('train_windows', {}).get('range', {})
+        for k, r in f['classes'][cls]['measures'].items():
+            if k.split(':')[0] in ERROR_GROUPS and not inside(r):
+                miss += 1
+                lo, hi = rng.get(k, (np.inf, -np.inf))
+                new += not lo <= r['measured'] <= hi
+    return miss, new
+
+
 def _precedent_rows(folds, cls='population'):
     """
     Return table rows: the measures outside the class's range, and those without precedent.
@@ -166,6 +179,70 @@ def _ratio_range(folds, key):
     return min(r), max(r)
 
 
+#: The windows of the floor analysis, s (the population's block), and its simulated traces.
+FLOOR_WINDOW_S = 300
+FLOOR_SIMS = 100
+
+
+def _window_stats(segments, w=FLOOR_WINDOW_S):
+    """Return (SD, lag-1 ACF, variance, lag-1 autocovariance) per window and axis, (k, 2) each."""
+    v, c = [], []
+    for seg in segments:
+        for s0 in range(0, len(seg) - w + 1, w // 2):
+            x = seg[s0:s0 + w] - seg[s0:s0 + w].mean(axis=0)
+            v.append((x ** 2).mean(axis=0))
+            c.append((x[1:] * x[:-1]).mean(axis=0))
+    v, c = np.array(v), np.array(c)
+    return np.sqrt(v), c / v, v, c
+
+
+def _floor_fit(v, c):
+    """Return (floor SD, the persistent part's lag-1 ACF) of ``v = floor^2 + c / rho``."""
+    a = np.stack([np.ones_like(c), c], axis=1)
+    (f2, slope), *_ = np.linalg.lstsq(a, v, rcond=None)
+    return float(np.sqrt(max(f2, 0.0))), float(1.0 / slope) if slope > 0 else float('nan')
+
+
+def _floor_rows(data):
+    """
+    Return table rows: each phone's windows of 300 s, measured against its own AR simulated.
+
+    Per axis: the correlation of the windows' SD and lag-1 ACF, the lowest
+    window lag-1 ACF, and the white floor under a persistent part that a
+    regression of each window's variance on its lag-1 autocovariance gives;
+    beside each, the 95 % range of the same figure over traces of the
+    recording's stationary AR (``calibrate``) simulated on its time grid.
+    """
+    from gps_error_ros.fit.calibration import calibrate, errors_on_grid
+    from gps_error_ros.model import streams
+    from gps_error_ros.model.ar_model import ARErrorModel
+    rows = []
+    for name in PHONES:
+        trace = _clean(data / name)
+        grid = errors_on_grid(trace)
+        model = ARErrorModel(*calibrate(trace).axis_params)
+        keys = streams.agent_keys(0, [f'floor/{i}' for i in range(FLOOR_SIMS)])
+        starts = [int(s - grid.starts[0]) for s in grid.starts]
+        sim = model.simulate(keys, starts[-1] + len(grid.segments[-1]))
+        figures = []
+        for segs in [grid.segments] + [[sim[s:s + len(g), j] for s, g in
+                                        zip(starts, grid.segments)]
+                                       for j in range(FLOOR_SIMS)]:
+            sd, acf, v, c = _window_stats(segs)
+            figures.append([[np.corrcoef(sd[:, a], acf[:, a])[0, 1], acf[:, a].min(),
+                             _floor_fit(v[:, a], c[:, a])[0]] for a in range(2)])
+        f = np.array(figures)                                   # (1 + sims, axis, figure)
+        lo, hi = np.nanpercentile(f[1:], [2.5, 97.5], axis=0)
+        cells = [f'{f[0, a, k]:.2f} ({lo[a, k]:.2f} to {hi[a, k]:.2f})'
+                 + ('' if lo[a, k] <= f[0, a, k] <= hi[a, k] else ' **out**')
+                 for k in range(3) for a in range(2)]
+        rho = [_floor_fit(*(x[:, a] for x in _window_stats(grid.segments)[2:]))[1]
+               for a in range(2)]
+        rows.append(f'| {name} | {len(_window_stats(grid.segments)[0])} | ' + ' | '.join(cells) +
+                    f' | {rho[0]:.2f} / {rho[1]:.2f} |')
+    return rows
+
+
 def _causes(parts):
     """Return bullets (a)-(e) with the figures of this run."""
     out = []
@@ -183,6 +260,10 @@ def _causes(parts):
         above = sum(g['measured'] > g['sim_hi'] for g in gate)
         ext = summary['extended']
         best = max(summary, key=lambda c: min(summary[c]['groups'].values()))
+        miss, new = _precedent_counts(folds)
+        precedent = (f'Of the population class\'s {miss} error measures outside their '
+                     f'ranges, {new} lie outside every training window like the held-out '
+                     f'part as well (no precedent: table below). ' if miss else '')
         out.append(
             f'- **{name}** ({how}). (a) '
             + (f'Block means of 300 s spread {min(wander):.1f}-{max(wander):.1f} times what '
@@ -191,7 +272,7 @@ def _causes(parts):
             +
             f'(b) The held-out SD is {lo:.2f}-{hi:.2f} times the training part\'s; the '
             f'lag-1 ACF goes from {min(a for a, _ in acf):.2f}-{max(a for a, _ in acf):.2f} '
-            f'to {min(b for _, b in acf):.2f}-{max(b for _, b in acf):.2f}. '
+            f'to {min(b for _, b in acf):.2f}-{max(b for _, b in acf):.2f}. {precedent}'
             f'(d) The real gate rate lies above AR(1)\'s simulated range on {above} of '
             f'{len(folds)} folds. (e) The extended class has the best held-out NLL on '
             f'{ext["best_score_folds"]} of {len(folds)} folds, and its worst group averages '
@@ -201,9 +282,15 @@ def _causes(parts):
     return out
 
 
-def _explanation(parts):
+def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
-    out = [CAUSES_HEAD] + _causes(parts) + ['', EXPLAIN_HEAD]
+    out = [CAUSES_HEAD] + _causes(parts) + ['', FLOOR_HEAD,
+                                            '| recording | windows | corr(SD, ACF 1) N | '
+                                            'corr(SD, ACF 1) E | lowest ACF 1 N | '
+                                            'lowest ACF 1 E | floor SD N (m) | '
+                                            'floor SD E (m) | persistent part\'s ACF 1 N / E |',
+                                            '|---|---|---|---|---|---|---|---|---|']
+    out += _floor_rows(data) + ['', FLOOR_TAIL, '', EXPLAIN_HEAD]
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
         out.append('| fold | SD N | SD E | ACF(1) N | ACF(1) E | mean N | mean E |\n'
@@ -272,7 +359,7 @@ def _write_page(args, parts, seconds, date=None):
         text.append('Population fits:\n\n' + '\n'.join(_evidence(folds)) + '\n')
     for name, why in TOO_SHORT.items():
         text.append(f'Not judged: {name} ({why}).\n')
-    text += _explanation(parts)
+    text += _explanation(parts, args.data)
     path = args.out / 'docs' / 'generalisation.md'
     path.write_text('\n'.join(text))
     print(f'wrote {path}')
@@ -325,6 +412,29 @@ the population fit counts an occasion once,
 [decision 0007](decisions/0007-occasions.md)); (d) tails and jumps that a
 Gaussian process under-simulates (the filter's gate); (e) a selection that
 fits one split (the extended class's NLL against its groups).
+"""
+
+FLOOR_HEAD = """## Calm stretches, and what sampling alone gives
+
+Each phone's recording in windows of 300 s (stepped by 150 s), each figure
+beside its 95 % range over 100 traces of the recording's own stationary AR
+(`calibrate`) simulated on its time grid: what sampling alone gives a
+persistent process in such windows (**out** where the measured figure lies
+outside). The figures: the correlation of the windows' SD with their lag-1
+ACF, the lowest window lag-1 ACF, and the floor of a regression of each
+window's variance on its lag-1 autocovariance (`var = floor^2 + cov_1 /
+rho`: a white floor under a persistent part whose amplitude changes between
+windows; `rho` in the last column).
+"""
+
+FLOOR_TAIL = """A stationary persistent process already gives windows whose SD and lag-1
+ACF move together, and a regression floor of a few decimetres, so these two
+say little alone. A correlation below its range says the stretches differ
+in scale more than in persistence (what the population's per-agent scale
+draws). A lowest window ACF below its range says the recording holds
+stretches less persistent than its own stationary process allows (cause (b)
+above), which a profile with one persistence for every agent cannot
+simulate, however its scale and bias are drawn.
 """
 
 EXPLAIN_HEAD = """## How the held-out parts differ from what trained

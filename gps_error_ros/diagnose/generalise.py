@@ -248,7 +248,8 @@ def mixture_forward(lls, log_scale, log_bias, t, rate):
     state = log_scale[:, None] + log_bias[None, :]
     for i in range(t.size):
         if i and rate < 1.0:
-            keep = rate ** max(1.0, float(t[i] - t[i - 1]))
+            # within (0, 1): a wander slower than a float can tell is kept, never -inf
+            keep = min(max(rate ** max(1.0, float(t[i] - t[i - 1])), 1e-300), 1.0 - 1e-16)
             fresh = np.logaddexp.reduce(state, axis=1)[:, None] + log_bias[None, :]
             state = np.logaddexp(np.log(keep) + state, np.log1p(-keep) + fresh)
         joint = state + lls[:, :, i]

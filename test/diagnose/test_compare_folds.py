@@ -35,6 +35,11 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
     # 1800 training samples make 6 blocks of 300 s: a population is fitted
     assert fold['classes']['population']['fit']['fitted'] is True
     assert set(doc['summary']['population']['worst_group']) == {'group', 'inside_95'}
+    # the two training recordings are shorter than the held-out one: each counts whole
+    windows = fold['train_windows']
+    assert windows['windows'] == 2 and abs(windows['span_s'] - 899.0) < 1.0
+    lo, hi = windows['range']['scale:sd_north']
+    assert 0.0 < lo <= hi
 
 
 def test_leaving_recordings_out_needs_two(tmp_path):
