@@ -64,7 +64,7 @@ docs: setup
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
 
 # docs/generalisation.md: every class judged on folds across stretches, recordings
-# and receivers of ../shared/data (about 15 minutes).
+# and receivers of ../shared/data, GTSAM's smoother among the consumers (about 20 minutes).
 generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
 
