@@ -4,9 +4,10 @@ import numpy as np
 from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
-from gps_error_ros.diagnose.generalise import (_kalman_ll, bias_grid, mixture_forward,
-                                               recording_splits, rolling_splits, scale_nodes,
+from gps_error_ros.diagnose.generalise import (recording_splits, rolling_splits,
                                                training_windows)
+from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
+                                                     scale_nodes)
 from gps_error_ros.diagnose.split import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.population import Population

@@ -1,0 +1,253 @@
+"""
+The population class of the folds: a population profile fitted on a training part, scored.
+
+``population_ar`` is the profile ``calibrate --population`` writes (the
+Gaussian AR within blocks of
+:data:`~gps_error_ros.fit.population_fit.BLOCK_S`); ``population`` the same
+section on the extended model fitted on the training errors about their
+blocks' means (:func:`within_part`). Each is scored by the held-out
+predictive of the model it simulates: an exact Kalman filter over the AR and
+the bias for the first, and for the second the within model's densities
+averaged over the run's bias and the agent's scale
+(:meth:`PopulationClass._mixture_logpdf`; why: decision record 0012 in
+``docs/decisions``).
+"""
+
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+
+from gps_error_ros.diagnose.mean import motion_offsets
+from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.population_fit import BLOCK_S, fit_population
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.effects import build_model
+from gps_error_ros.model.population import WithPopulation
+
+
+class PopulationClass:
+    """
+    The population profile fitted on a training part, as a class to judge.
+
+    ``within``: a :class:`~.models.FittedModel` fitted on the training
+    errors about their blocks' means (:func:`within_part`), whose effects
+    the class keeps; without it the process within is the Gaussian AR of
+    :func:`~gps_error_ros.fit.population_fit.fit_population`.
+    """
+
+    def __init__(self, train, within=None, truth=None, weights=None):
+        self.lag = (0.0, 1.0) if within is None else (within.mean.lag_s, within.mean.gain)
+        self.truth = truth
+        fit = fit_population(self._without_lag(train), train.t, weights=weights)
+        self.fit, self.within = fit, within
+        self.ar = ARErrorModel(*fit.axis_params())
+        inner = self.ar
+        if within is not None:
+            axes = [AxisParams((1.0 - sum(p.phi)) * float(m), p.phi, p.sigma_w)
+                    for p, m in zip(within.axis_params(), fit.mean)]
+            inner = build_model(axes[0], axes[1], within.effects_obj())
+        self.axes = axes if within is not None else fit.axis_params()
+        pop = fit.population
+        self.model = inner if pop is None else WithPopulation(inner, pop)
+        self.mean = within.mean if within is not None else SimpleNamespace(lag_s=0.0,
+                                                                           gain=1.0)
+
+    def _without_lag(self, part):
+        """Return ``part``'s error segments less the motion lag's offsets."""
+        offsets = motion_offsets(part, self.truth, *self.lag)
+        return [e - o for e, o in zip(part.err, offsets)]
+
+    def simulator(self):
+        """Return the model to simulate with."""
+        return self.model
+
+    def logpdf(self, part, m0):
+        """
+        Return the held-out one-step log densities of the scored samples.
+
+        A Kalman filter per axis over the Gaussian AR state and the bias (the
+        scale taken at its mean square, 1) predicts each sample given every
+        earlier held-out sample (gaps predicted through; the filter sees the
+        errors less the motion lag's offsets). With a ``within`` model the
+        bias is integrated over instead (:meth:`_mixture_logpdf`). The first
+        ``m0`` samples of each segment are conditioned on, not scored.
+        """
+        pop = self.fit.population
+        if self.within is not None:
+            return self._mixture_logpdf(part, m0)
+        out = np.zeros(part.n)
+        bias = np.zeros((part.n, 2))
+        free = Part(self._without_lag(part), part.truth, part.t)
+        for a in range(2):
+            ax = self.ar.axes[a]
+            sd = 0.0 if pop is None else pop.bias_sd_m[a]
+            rate = 1.0 if pop is None else pop.persistence()
+            ll, bias[:, a] = _kalman_ll(free, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
+                                        float(self.ar.mean[a]), sd, rate)
+            out += ll
+        starts = np.cumsum([0] + [len(e) for e in part.err[:-1]])
+        keep = np.concatenate([s + np.arange(m0, len(e))
+                               for s, e in zip(starts, part.err)])
+        return out[keep]
+
+    def _mixture_logpdf(self, part, m0):
+        """
+        Return the held-out one-step log densities under the ``within`` model and the population.
+
+        A run's bias and its agent's scale are unknown, so the prediction
+        averages the within model's over their laws: the bias on a grid of
+        :data:`BIAS_NODES` values per axis (out to :data:`BIAS_REACH` SDs,
+        weighted by the law's density: normal, or Student-t with a factor
+        shared by the axes), the scale ``f`` at :data:`SCALE_NODES`
+        Gauss-Hermite nodes of its log-normal law. The weights are updated by
+        each sample's likelihood (the forward pass of a hidden Markov chain
+        over the grid). The scale holds for the run; a bias that wanders with
+        factor ``a`` per second keeps its node with probability ``a ** dt``
+        and is drawn afresh from its law otherwise. Each node's densities are
+        the within model's of ``(error - grand mean - bias) / f`` (less
+        ``2 log f``), so every lag of a prediction sees one bias and scale.
+        """
+        pop = self.fit.population
+        if pop is None:
+            return self.within.score(Part([e - self.fit.mean for e in part.err],
+                                          part.truth, part.t), self.truth, m0)[0]
+        nodes, log_bias = bias_grid(pop)
+        scales, log_scale = scale_nodes(pop.scale_sd_log)
+        lls = np.array([[self.within.score(Part([(e - self.fit.mean - b) / f for e in part.err],
+                                                part.truth, part.t), self.truth, m0)[0]
+                         - 2.0 * np.log(f) for b in nodes] for f in scales])
+        t = np.concatenate([tt[m0:] for tt in part.t])      # lls: (scales, nodes, scored)
+        if t.size != lls.shape[2]:
+            raise AssertionError(f'scored {lls.shape[2]} samples, expected {t.size}')
+        return mixture_forward(lls, log_scale, log_bias, t, pop.persistence())
+
+
+def mixture_forward(lls, log_scale, log_bias, t, rate):
+    """
+    Return each sample's predictive log density, averaged over scale and bias nodes.
+
+    ``lls`` (scales, biases, n): each node's own one-step log densities;
+    ``log_scale``, ``log_bias``: the nodes' log prior weights; ``t`` (n,):
+    the samples' times, s; ``rate``: the bias's factor per second (1: fixed
+    for the run). The scale holds for the run; between samples ``dt``
+    apart the bias keeps its node with probability ``rate ** dt`` and is
+    drawn afresh from its prior otherwise. With ``rate`` 1 the densities
+    sum to the log of the nodes' prior-weighted joint likelihoods.
+    """
+    out = np.empty(t.size)
+    state = log_scale[:, None] + log_bias[None, :]
+    for i in range(t.size):
+        if i and rate < 1.0:
+            # within (0, 1): a wander slower than a float can tell is kept, never -inf
+            keep = min(max(rate ** max(1.0, float(t[i] - t[i - 1])), 1e-300), 1.0 - 1e-16)
+            fresh = np.logaddexp.reduce(state, axis=1)[:, None] + log_bias[None, :]
+            state = np.logaddexp(np.log(keep) + state, np.log1p(-keep) + fresh)
+        joint = state + lls[:, :, i]
+        out[i] = np.logaddexp.reduce(joint, axis=None)
+        state = joint - out[i]
+    return out
+
+
+#: Bias values per axis on the grid the within model's predictions are averaged over.
+BIAS_NODES = 21
+#: How far the grid reaches, in SDs of the bias law.
+BIAS_REACH = 4.0
+#: Gauss-Hermite nodes of an agent's log scale.
+SCALE_NODES = 5
+
+
+def scale_nodes(scale_sd_log):
+    """
+    Return (scales ``f``, log weights) of an agent's scale law at Gauss-Hermite nodes.
+
+    ``f = exp(s z - s^2)``, ``z`` standard normal (the population model's
+    law, whose ``f^2`` has mean 1); one node ``f = 1`` when ``s`` is 0.
+    """
+    if scale_sd_log == 0.0:
+        return np.ones(1), np.zeros(1)
+    z, w = np.polynomial.hermite_e.hermegauss(SCALE_NODES)
+    return np.exp(scale_sd_log * z - scale_sd_log ** 2), np.log(w / w.sum())
+
+
+def bias_grid(pop):
+    """
+    Return (nodes (k, 2), log weights (k,)) of a population's bias law on a grid.
+
+    ``BIAS_NODES`` values per axis from ``-BIAS_REACH`` to ``BIAS_REACH``
+    SDs; the weights are the law's density at the nodes, normalised (the
+    Student-t's scale chosen so that its SD is ``bias_sd_m``, one factor
+    shared by the axes as the model draws it). An axis whose SD is 0 has
+    the one node 0.
+    """
+    axes = [np.linspace(-BIAS_REACH, BIAS_REACH, BIAS_NODES) if sd > 0 else np.zeros(1)
+            for sd in pop.bias_sd_m]
+    z = np.array([(a, b) for a in axes[0] for b in axes[1]])           # in SDs
+    q = np.sum(z * z, axis=1)
+    if pop.bias_dof is None:
+        log_w = -0.5 * q
+    else:
+        nu = float(pop.bias_dof)
+        log_w = -0.5 * (nu + 2.0) * np.log1p(q / (nu - 2.0))   # unit SD, 2-D t
+    log_w = log_w - np.logaddexp.reduce(log_w)
+    return z * np.asarray(pop.bias_sd_m, dtype=float), log_w
+
+
+def _within_split(split):
+    """Return ``split`` with its training part about its blocks' means (:func:`within_part`)."""
+    return replace(split, train=within_part(split.train), train_weights=None)
+
+
+def within_part(part, block_s=BLOCK_S):
+    """Return ``part`` with each sample's block mean taken off, segments cut at block edges."""
+    t_first = min(float(t[0]) for t in part.t)
+    ids = [np.floor((t - t_first) / block_s).astype(np.int64) for t in part.t]
+    allid, allerr = np.concatenate(ids), np.concatenate(part.err)
+    means = {int(i): allerr[allid == i].mean(axis=0) for i in np.unique(allid)}
+    out = Part([], [], [])
+    for e, tr, t, i in zip(part.err, part.truth, part.t, ids):
+        cuts = np.flatnonzero(np.diff(i) != 0) + 1
+        for ee, rr, tt, ii in zip(*(np.split(x, cuts) for x in (e, tr, t, i))):
+            out.err.append(ee - means[int(ii[0])])
+            out.truth.append(rr)
+            out.t.append(tt)
+    return out
+
+
+def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
+    """
+    Return the one-step log densities of axis ``a`` of every sample of ``part``.
+
+    And the bias each sample's prediction expected (given the samples before it).
+    """
+    phi = phi if phi.size else np.zeros(1)
+    p = phi.size
+    f = np.zeros((p + 1, p + 1))
+    f[0, :p] = phi
+    f[1:p, :p - 1] = np.eye(p - 1)
+    f[p, p] = rate
+    q = np.zeros((p + 1, p + 1))
+    q[0, 0] = sigma_w ** 2
+    q[p, p] = (1.0 - rate ** 2) * bias_sd ** 2
+    h = np.zeros(p + 1)
+    h[0] = h[p] = 1.0
+    model = ARErrorModel(*(AxisParams(0.0, tuple(phi), sigma_w),) * 2)
+    p0 = np.zeros((p + 1, p + 1))
+    acv = model.autocovariance(p)[:, 0, 0]
+    p0[:p, :p] = acv[np.abs(np.subtract.outer(np.arange(p), np.arange(p)))]
+    p0[p, p] = bias_sd ** 2
+    x, cov = np.zeros(p + 1), p0
+    t = np.concatenate(part.t)
+    y = np.concatenate(part.err)[:, a] - mean
+    out, bias = np.empty(y.size), np.empty(y.size)
+    for i in range(y.size):
+        if i:
+            for _ in range(max(1, int(round(t[i] - t[i - 1])))):
+                x, cov = f @ x, f @ cov @ f.T + q
+        bias[i] = x[p]
+        s = float(h @ cov @ h)
+        nu = y[i] - float(h @ x)
+        out[i] = -0.5 * (np.log(2 * np.pi * s) + nu * nu / s)
+        gain = cov @ h / s
+        x, cov = x + gain * nu, cov - np.outer(gain, h @ cov)
+    return out, bias
