@@ -152,6 +152,12 @@ def _basic(segments, jump_m):
     return out
 
 
+def _jump_threshold(train):
+    """Return the training part's 99 % point of the horizontal step between samples, m."""
+    steps = np.concatenate([np.hypot(*np.diff(s, axis=0).T) for s in train.err if len(s) > 1])
+    return float(np.quantile(steps, 0.99))
+
+
 def grouped_measures(part, train, simulated, seed=0, smoother_sims=0):
     """
     Return {measure: envelope row} and {group: inside_95} of ``part`` against ``simulated``.
@@ -161,8 +167,7 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0):
     (:mod:`.smoother`) on the first :data:`SMOOTHER_SAMPLES` samples, fed
     the real fixes and those of the first ``smoother_sims`` simulated traces.
     """
-    steps = np.concatenate([np.hypot(*np.diff(s, axis=0).T) for s in train.err if len(s) > 1])
-    jump_m = float(np.quantile(steps, 0.99))
+    jump_m = _jump_threshold(train)
     measured = _basic(part.err, jump_m)
     names = list(measured)
     sims = np.array([[m[n] for n in names] for m in (_basic(s, jump_m) for s in simulated)])
@@ -272,8 +277,7 @@ def training_windows(train, test, gap_s=60.0, least=0.8):
     t = np.concatenate(train.t)
     e = np.concatenate(train.err)
     seg = np.concatenate([np.full(len(x), i) for i, x in enumerate(train.err)])
-    steps = np.concatenate([np.hypot(*np.diff(x, axis=0).T) for x in train.err if len(x) > 1])
-    jump_m = float(np.quantile(steps, 0.99))
+    jump_m = _jump_threshold(train)
     test_t = np.concatenate(test.t)
     run = np.r_[0, np.cumsum(np.diff(t) > gap_s)]
     bounds = [(t[run == r][0], t[run == r][-1]) for r in range(run[-1] + 1)]
@@ -286,7 +290,8 @@ def training_windows(train, test, gap_s=60.0, least=0.8):
             if m.sum() < 3 or (not whole and m.sum() < least * (span + 1.0)):
                 continue
             pieces = [e[m & (seg == i)] for i in np.unique(seg[m])]
-            values.append(_basic([p for p in pieces if len(p)], jump_m))
+            if any(len(p) > 1 for p in pieces):             # a step to measure
+                values.append(_basic([p for p in pieces if len(p)], jump_m))
     if not values:
         return {'span_s': span, 'windows': 0, 'range': {}}
     return {'span_s': span, 'windows': len(values),

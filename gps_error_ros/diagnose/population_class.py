@@ -77,15 +77,13 @@ class PopulationClass:
         if self.within is not None:
             return self._mixture_logpdf(part, m0)
         out = np.zeros(part.n)
-        bias = np.zeros((part.n, 2))
         free = Part(self._without_lag(part), part.truth, part.t)
         for a in range(2):
             ax = self.ar.axes[a]
             sd = 0.0 if pop is None else pop.bias_sd_m[a]
             rate = 1.0 if pop is None else pop.persistence()
-            ll, bias[:, a] = _kalman_ll(free, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
-                                        float(self.ar.mean[a]), sd, rate)
-            out += ll
+            out += _kalman_ll(free, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
+                              float(self.ar.mean[a]), sd, rate)
         starts = np.cumsum([0] + [len(e) for e in part.err[:-1]])
         keep = np.concatenate([s + np.arange(m0, len(e))
                                for s, e in zip(starts, part.err)])
@@ -215,11 +213,7 @@ def within_part(part, block_s=BLOCK_S):
 
 
 def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
-    """
-    Return the one-step log densities of axis ``a`` of every sample of ``part``.
-
-    And the bias each sample's prediction expected (given the samples before it).
-    """
+    """Return the one-step log densities of axis ``a`` of every sample of ``part``."""
     phi = phi if phi.size else np.zeros(1)
     p = phi.size
     f = np.zeros((p + 1, p + 1))
@@ -239,15 +233,14 @@ def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
     x, cov = np.zeros(p + 1), p0
     t = np.concatenate(part.t)
     y = np.concatenate(part.err)[:, a] - mean
-    out, bias = np.empty(y.size), np.empty(y.size)
+    out = np.empty(y.size)
     for i in range(y.size):
         if i:
             for _ in range(max(1, int(round(t[i] - t[i - 1])))):
                 x, cov = f @ x, f @ cov @ f.T + q
-        bias[i] = x[p]
         s = float(h @ cov @ h)
         nu = y[i] - float(h @ x)
         out[i] = -0.5 * (np.log(2 * np.pi * s) + nu * nu / s)
         gain = cov @ h / s
         x, cov = x + gain * nu, cov - np.outer(gain, h @ cov)
-    return out, bias
+    return out

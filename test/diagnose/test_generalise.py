@@ -72,7 +72,7 @@ def test_the_population_score_is_the_exact_gaussian_likelihood():
     y = rng.normal(0, 3, (n, 2))
     part = Part([y[:50], y[50:]], [np.zeros((50, 2)), np.zeros((30, 2))],
                 [np.arange(50.0), 53.0 + np.arange(30.0)])       # a gap of 3 steps
-    ll = _kalman_ll(part, 0, np.array(phi), sw, 0.4, bias_sd, 1.0)[0].sum()
+    ll = _kalman_ll(part, 0, np.array(phi), sw, 0.4, bias_sd, 1.0).sum()
     model = ARErrorModel(AxisParams(0.0, phi, sw), AxisParams(0.0, phi, sw))
     acv = model.autocovariance(90)[:, 0, 0]
     t = np.concatenate(part.t).astype(int)
