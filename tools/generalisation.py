@@ -24,8 +24,9 @@ import time
 
 import numpy as np
 
-from gps_error_ros.diagnose.generalise import (GROUPS, judge_folds, recording_splits,
-                                               rolling_splits, split_between, summarise)
+from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
+                                               recording_splits, rolling_splits,
+                                               split_between, summarise)
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.traces.trace_io import join_recordings, read_trace_csv
@@ -72,8 +73,8 @@ def sets(data):
 
 
 def _table(summary):
-    groups = GROUPS + (('smoother',) if any('smoother' in s['groups']
-                                            for s in summary.values()) else ())
+    groups = GROUPS + tuple(g for g in EXTRA_GROUPS
+                            if any(g in s['groups'] for s in summary.values()))
     head = ('| class | held-out NLL | best | ' + ' | '.join(groups) + ' |\n|' +
             '---|' * (3 + len(groups)))
     rows = [f'| {LABELS.get(c, c)} | {s["heldout_nll_per_sample"]:.3f} | '
@@ -383,7 +384,11 @@ method in `gps_error_ros/diagnose/generalise.py`):
   (horizontal 50/68/95/99 %), tails (share of steps beyond the training
   part's 99 % step, the 99 % step), filter (a constant-velocity Kalman
   filter with a velocity aid: RMS, 95 % error, NEES, gate rejections),
-  v2p (conflicts warned, false warnings) and smoother (GTSAM's iSAM2 with
+  v2p (conflicts warned, false warnings), outages where a fold has them
+  (number, steps in outages, median and longest; availability fitted on the
+  training gaps for the extended and population classes, none for the
+  others; on the walks these are the gaps that removed gross failures leave)
+  and smoother (GTSAM's iSAM2 with
   GPS and odometry factors on the first 600 held-out samples: the newest
   pose's RMS and 95 % error, the smoothed track's RMS; judged on 40 of the
   simulated traces, for four classes: "-" for the others).

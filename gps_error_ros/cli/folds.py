@@ -3,8 +3,9 @@
 from dataclasses import replace
 from pathlib import Path
 
-from gps_error_ros.diagnose.generalise import (GROUPS, judge_folds, recording_splits,
-                                               rolling_splits, split_between, summarise)
+from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
+                                               recording_splits, rolling_splits,
+                                               split_between, summarise)
 from gps_error_ros.fit.population_fit import segment_weights
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -62,14 +63,16 @@ def compare_folds(args, recordings):
     finally:
         progress.close()
     summary = summarise(folds)
-    groups = GROUPS + (('smoother',) if smoother else ())
+    groups = GROUPS + tuple(g for g in EXTRA_GROUPS
+                            if any(g in c['groups'] for c in summary.values()))
     print(f'{len(folds)} fold(s): ' + '; '.join(
         f'{f["fold"]} ({f["train_samples"]} train / {f["test_samples"]} held out)'
         for f in folds))
     print(f'  {"class":13} {"NLL":>8} {"best":>5} ' + ' '.join(f'{g[:11]:>11}' for g in groups))
     for name, c in summary.items():
         print(f'  {name:13} {c["heldout_nll_per_sample"]:8.3f} {c["best_score_folds"]:5d} ' +
-              ' '.join(f'{c["groups"][g]:11.2f}' for g in groups))
+              ' '.join(f'{c["groups"][g]:11.2f}' if g in c['groups'] else f'{"-":>11}'
+                       for g in groups))
     print('  (NLL: held-out NLL per sample, mean over folds; best: folds with the lowest; '
           'groups: share of measures inside their simulated 95 % range, mean over folds)')
     if args.json_out:

@@ -37,15 +37,18 @@ import numpy as np
 
 from gps_error_ros.diagnose.baselines import _classes, KEYS
 from gps_error_ros.diagnose.consumers import consumer_measures
-from gps_error_ros.diagnose.fidelity import acf_by_axis, simulate_part
+from gps_error_ros.diagnose.fidelity import acf_by_axis, part_fix_mask, simulate_part
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
 from gps_error_ros.fit.calibration import errors_on_grid
-from gps_error_ros.fit.envelope import envelope, inside
+from gps_error_ros.fit.calibration import availability_from_mask
+from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes, outage_stats
 from gps_error_ros.fit.population_fit import occasions, segment_weights
+from gps_error_ros.model import streams
+from gps_error_ros.model.availability import availability_from_dict, WithAvailability
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.traces.trace_io import join_recordings
+from gps_error_ros.traces.trace_io import join_recordings, RECORDING_GAP_S
 
 #: Rolling origins, as shares of the time span.
 ORIGINS = (0.5, 0.625, 0.75)
@@ -59,6 +62,10 @@ POPULATION_AR = 'population_ar'
 ACF_LAGS = 60
 #: Held-out samples the GTSAM smoother is run on (the first ones): it adds a pose per sample.
 SMOOTHER_SAMPLES = 600
+#: The classes that simulate outages: availability fitted on the training part's gaps.
+OUTAGE_CLASSES = ('extended', 'population_ar', 'population')
+#: Groups that only some folds or classes have, after :data:`GROUPS`.
+EXTRA_GROUPS = ('outages', 'smoother')
 
 
 def split_between(trace, cut_t, end_t, rule):
@@ -158,11 +165,14 @@ def _jump_threshold(train):
     return float(np.quantile(steps, 0.99))
 
 
-def grouped_measures(part, train, simulated, seed=0, smoother_sims=0):
+def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=None):
     """
     Return {measure: envelope row} and {group: inside_95} of ``part`` against ``simulated``.
 
     ``simulated``: traces, each a list of segments on ``part``'s samples.
+    With ``outages`` (``'none'``: the class simulates a fix at every step,
+    or its simulated fix masks over the part's span), the group ``outages``
+    too: their number, the steps in them, the median and longest outage.
     With ``smoother_sims``, the group ``smoother`` too: GTSAM's iSAM2
     (:mod:`.smoother`) on the first :data:`SMOOTHER_SAMPLES` samples, fed
     the real fixes and those of the first ``smoother_sims`` simulated traces.
@@ -185,10 +195,58 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0):
         values = run_smoother(short, errors, fix_var, seed)
         for j, name in enumerate(SMOOTHER_MEASURES):
             rows[f'smoother:{name}'] = envelope(values[0, j], values[1:, j])
+    if outages is not None:
+        mask = part_fix_mask(part)
+        masks = np.ones((len(simulated), mask.size), dtype=bool) \
+            if isinstance(outages, str) else outages
+        for name, row in outage_envelopes(mask, masks).items():
+            rows[f'outages:{name}'] = row
     groups = {g: float(np.mean([inside(r) for k, r in rows.items()
                                 if k.split(':')[0] == g]))
-              for g in GROUPS + ('smoother',) if any(k.split(':')[0] == g for k in rows)}
+              for g in GROUPS + EXTRA_GROUPS if any(k.split(':')[0] == g for k in rows)}
     return rows, groups
+
+
+def run_masks(part):
+    """
+    Return the part's fix masks on the 1 Hz grid, one per recording.
+
+    Recordings joined one after another (:func:`~gps_error_ros.traces.trace_io.join_recordings`)
+    lie :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart, end to
+    start: that time is no outage.
+    """
+    t = np.concatenate(part.t)
+    joins = np.flatnonzero(np.abs(np.diff(t) - RECORDING_GAP_S) < 1e-6) + 1
+    masks = []
+    for times in np.split(t, joins):
+        steps = np.round(times - times[0]).astype(np.int64)
+        mask = np.zeros(int(steps[-1]) + 1, dtype=bool)
+        mask[steps] = True
+        masks.append(mask)
+    return masks
+
+
+def _outage_masks(split, labels, model, sims, seed):
+    """
+    Return {class label: its fix masks over the held-out span, or ``'none'``}, or None.
+
+    None where neither part has an outage. The classes of
+    :data:`OUTAGE_CLASSES` carry availability fitted on the training part's
+    gaps (as ``calibrate`` fits it; none without a gap), drawn from the
+    outage streams of the keys :func:`~.fidelity.simulate_part` uses (the
+    masks depend on nothing else: ``model`` is any of the classes'); the
+    others simulate a fix at every step.
+    """
+    section, _ = availability_from_mask(run_masks(split.train))
+    if section is None and not any(outage_stats(m)[0] for m in run_masks(split.test)):
+        return None
+    masks = 'none'
+    if section is not None:
+        keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
+        masks = WithAvailability(model, availability_from_dict(section)).simulate_availability(
+            keys, part_fix_mask(split.test).size)
+    return {label: masks if KEYS.get(label, label) in OUTAGE_CLASSES else 'none'
+            for label in labels}
 
 
 def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
@@ -220,11 +278,13 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
         if n != {len(ll)}:
             raise AssertionError(f'classes scored on different samples: {n} and {len(ll)}')
         classes[label] = (ll, simulate_part(pop, split.test, split.truth, sims, seed))
+    outages = _outage_masks(split, list(classes), fitted.extended.simulator(), sims, seed)
     out = {}
     for label, (lls, traces) in classes.items():
         key = KEYS.get(label, label)
         smooth = smoother_sims if smoother_classes is None or key in smoother_classes else 0
-        rows, groups = grouped_measures(split.test, split.train, traces, seed, smooth)
+        rows, groups = grouped_measures(split.test, split.train, traces, seed, smooth,
+                                        None if outages is None else outages[label])
         out[key] = {'heldout_nll_per_sample': float(-np.mean(lls)),
                     'groups': groups, 'measures': rows}
     for label, pop in pops.items():
@@ -303,7 +363,8 @@ def summarise(folds):
     """
     Return per class: the held-out NLL per fold and its mean, the folds it scored best.
 
-    And each group's ``inside_95`` averaged over the folds, and the smallest
+    And each group's ``inside_95`` averaged over the folds (those that have
+    it, for the groups of :data:`EXTRA_GROUPS`), and the smallest
     of those (``worst_group``): a class holds where every group is near 0.95.
     """
     classes = list(folds[0]['classes'])
@@ -312,9 +373,9 @@ def summarise(folds):
     out = {}
     for c in classes:
         nll = [f['classes'][c]['heldout_nll_per_sample'] for f in folds]
-        groups = {g: float(np.mean([f['classes'][c]['groups'][g] for f in folds]))
-                  for g in GROUPS + ('smoother',)
-                  if all(g in f['classes'][c]['groups'] for f in folds)}
+        groups = {g: float(np.mean(v)) for g in GROUPS + EXTRA_GROUPS
+                  for v in [[f['classes'][c]['groups'][g] for f in folds
+                             if g in f['classes'][c]['groups']]] if v}
         worst = min(groups, key=groups.get)
         out[c] = {'heldout_nll_per_sample': float(np.mean(nll)),
                   'heldout_nll_per_fold': nll,

@@ -28,10 +28,13 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
     n = [errors_on_grid(read_trace_csv(p)).n for p in paths]
     assert fold['test_samples'] == n[2] and fold['train_samples'] == n[0] + n[1]
     assert set(fold['classes']) == CLASSES
+    # the synthetic walks have outages: every class is judged on them too
     for name, c in fold['classes'].items():
         assert math.isfinite(c['heldout_nll_per_sample']), name
-        assert set(c['groups']) == set(GROUPS)
+        assert set(c['groups']) == set(GROUPS) | {'outages'}
         assert all(0.0 <= v <= 1.0 for v in c['groups'].values())
+    ext, ar1 = (fold['classes'][k]['measures']['outages:outages'] for k in ('extended', 'ar1'))
+    assert ext['sim_hi'] > 0 and ar1['sim_hi'] == 0        # availability, and a fix every step
     # 1800 training samples make 6 blocks of 300 s: a population is fitted
     assert fold['classes']['population']['fit']['fitted'] is True
     assert set(doc['summary']['population']['worst_group']) == {'group', 'inside_95'}

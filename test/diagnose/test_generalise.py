@@ -4,8 +4,8 @@ import numpy as np
 from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
-from gps_error_ros.diagnose.generalise import (recording_splits, rolling_splits,
-                                               training_windows)
+from gps_error_ros.diagnose.generalise import (_outage_masks, recording_splits,
+                                               rolling_splits, run_masks, training_windows)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
@@ -128,6 +128,30 @@ def test_training_windows_tell_a_held_out_stretch_without_precedent():
     assert hi < 1.0 < 5.0                                   # a new bias: no precedent
     lo, hi = w['range']['scale:sd_east']
     assert lo < 1.0 < hi
+
+
+def _without(trace, rows):
+    """Return ``trace`` without the given rows (an outage where they are consecutive)."""
+    keep = np.ones(len(trace.t), dtype=bool)
+    keep[list(rows)] = False
+    return Trace(name=trace.name, t=trace.t[keep], lat=trace.lat[keep], lon=trace.lon[keep],
+                 truth_lat=trace.truth_lat[keep], truth_lon=trace.truth_lon[keep])
+
+
+def test_outages_are_judged_where_a_part_has_them_and_joins_are_none():
+    gappy = [_without(_trace('a', 400, 1), range(100, 104)), _trace('b', 400, 2),
+             _without(_trace('c', 300, 3), range(50, 53))]
+    _, split = recording_splits(gappy)[2]                        # c held out
+    masks = run_masks(split.train)
+    assert [m.size for m in masks] == [400, 400]                 # the join is no outage
+    assert [int((~m).sum()) for m in masks] == [4, 0]
+    model = ARErrorModel(AxisParams(0.0, (0.5,), 1.0), AxisParams(0.0, (0.5,), 1.0))
+    out = _outage_masks(split, ['ar1', 'extended', 'population'], model, 30, 0)
+    assert out['ar1'] == 'none'                                  # a fix at every step
+    assert out['extended'].shape == (30, 300) and out['population'] is out['extended']
+    assert (~out['extended']).any()                              # the training gap's rate
+    clean = [_trace('a', 400, 1), _trace('b', 400, 2), _trace('c', 300, 3)]
+    assert _outage_masks(recording_splits(clean)[2][1], ['ar1'], model, 30, 0) is None
 
 
 def test_the_filter_is_consistent_on_errors_it_was_told():
