@@ -27,7 +27,8 @@ from scipy import optimize, signal
 
 from gps_error_ros.diagnose.common import LOG2PI
 from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, part_fix_mask,
-                                             part_steps, simulate_part, with_outages)
+                                             part_steps, run_masks, simulate_part,
+                                             with_outages)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
 from gps_error_ros.fit.calibration import availability_from_mask
@@ -164,21 +165,23 @@ def _classes(diag, sims, seed, m0=None):
     return {k: out[k] for k in CLASSES}
 
 
-def extended_outages(diag, sims, seed=0):
+def training_outages(split, model, sims, seed=0):
     """
-    Return the extended class's simulated fix masks over the held-out span.
+    Return a class's simulated fix masks over the held-out span, (sims, span).
 
     Availability is fitted on the training part's gaps as ``calibrate``
-    fits it; None when the training part has no outage (the class then
-    simulates none). The masks come from the agents' ``outage`` streams of
-    the keys :func:`~.fidelity.simulate_part` uses.
+    fits it, each recording's own (:func:`~.fidelity.run_masks`: the time
+    between joined recordings is no outage); None when the training part has
+    no outage (the class then simulates none). The masks come from the
+    agents' ``outage`` streams of the keys :func:`~.fidelity.simulate_part`
+    uses.
     """
-    section, _ = availability_from_mask(part_fix_mask(diag.split.train))
+    section, _ = availability_from_mask(run_masks(split.train))
     if section is None:
         return None
-    model = WithAvailability(diag.extended.simulator(), availability_from_dict(section))
+    avail = WithAvailability(model, availability_from_dict(section))
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
-    return model.simulate_availability(keys, part_fix_mask(diag.split.test).size)
+    return avail.simulate_availability(keys, part_fix_mask(split.test).size)
 
 
 def compare(diag, sims=100, seed=0):
@@ -192,7 +195,7 @@ def compare(diag, sims=100, seed=0):
     samples.
     """
     test = diag.split.test
-    masks = extended_outages(diag, sims, seed)
+    masks = training_outages(diag.split, diag.extended.simulator(), sims, seed)
     outages = masks is not None or outage_stats(part_fix_mask(test))[0] > 0
     out = {}
     for label, (ll, traces) in _classes(diag, sims, seed).items():

@@ -17,6 +17,7 @@ from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
 from gps_error_ros.fit.autocorrelation import segment_acf
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes
 from gps_error_ros.model import streams
+from gps_error_ros.traces.trace_io import RECORDING_GAP_S
 
 QUANTILES = (0.5, 0.95, 0.99)
 
@@ -204,10 +205,27 @@ def measure_draws(part, simulated, max_lag=FIDELITY_MAX_LAG):
 
 def part_fix_mask(part):
     """Return the part's fix mask on the 1 Hz grid, first sample to last."""
-    steps = np.concatenate(part_steps(part))
+    return _mask(np.concatenate(part_steps(part)))
+
+
+def _mask(steps):
+    """Return the fix mask of grid steps from 0: True where a step has a fix."""
     mask = np.zeros(int(steps[-1]) + 1, dtype=bool)
     mask[steps] = True
     return mask
+
+
+def run_masks(part):
+    """
+    Return the part's fix masks on the 1 Hz grid, one per recording.
+
+    Recordings joined one after another (:func:`~gps_error_ros.traces.trace_io.join_recordings`)
+    lie :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart, end to
+    start: that time is no outage.
+    """
+    t = np.concatenate(part.t)
+    joins = np.flatnonzero(np.abs(np.diff(t) - RECORDING_GAP_S) < 1e-6) + 1
+    return [_mask(np.round(times - times[0]).astype(np.int64)) for times in np.split(t, joins)]
 
 
 def with_outages(calibrated, part, masks):

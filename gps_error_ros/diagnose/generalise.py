@@ -35,20 +35,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from gps_error_ros.diagnose.baselines import _classes, KEYS
+from gps_error_ros.diagnose.baselines import _classes, KEYS, training_outages
 from gps_error_ros.diagnose.consumers import consumer_measures
-from gps_error_ros.diagnose.fidelity import acf_by_axis, part_fix_mask, simulate_part
+from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
+                                             simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
 from gps_error_ros.fit.calibration import errors_on_grid
-from gps_error_ros.fit.calibration import availability_from_mask
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes, outage_stats
 from gps_error_ros.fit.population_fit import occasions, segment_weights
-from gps_error_ros.model import streams
-from gps_error_ros.model.availability import availability_from_dict, WithAvailability
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.traces.trace_io import join_recordings, RECORDING_GAP_S
+from gps_error_ros.traces.trace_io import join_recordings
 
 #: Rolling origins, as shares of the time span.
 ORIGINS = (0.5, 0.625, 0.75)
@@ -207,46 +205,21 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
     return rows, groups
 
 
-def run_masks(part):
-    """
-    Return the part's fix masks on the 1 Hz grid, one per recording.
-
-    Recordings joined one after another (:func:`~gps_error_ros.traces.trace_io.join_recordings`)
-    lie :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart, end to
-    start: that time is no outage.
-    """
-    t = np.concatenate(part.t)
-    joins = np.flatnonzero(np.abs(np.diff(t) - RECORDING_GAP_S) < 1e-6) + 1
-    masks = []
-    for times in np.split(t, joins):
-        steps = np.round(times - times[0]).astype(np.int64)
-        mask = np.zeros(int(steps[-1]) + 1, dtype=bool)
-        mask[steps] = True
-        masks.append(mask)
-    return masks
-
-
 def _outage_masks(split, labels, model, sims, seed):
     """
     Return {class label: its fix masks over the held-out span, or ``'none'``}, or None.
 
     None where neither part has an outage. The classes of
     :data:`OUTAGE_CLASSES` carry availability fitted on the training part's
-    gaps (as ``calibrate`` fits it; none without a gap), drawn from the
-    outage streams of the keys :func:`~.fidelity.simulate_part` uses (the
-    masks depend on nothing else: ``model`` is any of the classes'); the
-    others simulate a fix at every step.
+    gaps (:func:`~.baselines.training_outages`; the masks depend on nothing
+    but the availability and the keys, so ``model`` is any of the
+    classes'); the others simulate a fix at every step.
     """
-    section, _ = availability_from_mask(run_masks(split.train))
-    if section is None and not any(outage_stats(m)[0] for m in run_masks(split.test)):
+    masks = training_outages(split, model, sims, seed)
+    if masks is None and not any(outage_stats(m)[0] for m in run_masks(split.test)):
         return None
-    masks = 'none'
-    if section is not None:
-        keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
-        masks = WithAvailability(model, availability_from_dict(section)).simulate_availability(
-            keys, part_fix_mask(split.test).size)
-    return {label: masks if KEYS.get(label, label) in OUTAGE_CLASSES else 'none'
-            for label in labels}
+    return {label: masks if masks is not None and KEYS.get(label, label) in OUTAGE_CLASSES
+            else 'none' for label in labels}
 
 
 def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,

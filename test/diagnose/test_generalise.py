@@ -4,8 +4,9 @@ import numpy as np
 from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
+from gps_error_ros.diagnose.fidelity import run_masks
 from gps_error_ros.diagnose.generalise import (_outage_masks, recording_splits,
-                                               rolling_splits, run_masks, training_windows)
+                                               rolling_splits, training_windows)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
