@@ -133,7 +133,17 @@ def _spin(node, logger):
     then exited with status 1). That one message is dropped with a warning
     and spinning goes on.
     """
-    executor = rclpy.get_global_executor()
+    # A stop can come while the node is being built. rclpy then cannot build
+    # its executor on the shut context (TypeError), or hands out none (None:
+    # the context shut down as it built one). Either way nothing is left to spin.
+    try:
+        executor = rclpy.get_global_executor() if node.context.ok() else None
+    except TypeError:
+        if node.context.ok():
+            raise
+        executor = None
+    if executor is None:
+        return
     executor.add_node(node)
     try:
         while node.context.ok():

@@ -200,3 +200,26 @@ def test_a_message_rclpy_cannot_take_is_dropped_and_spinning_goes_on():
     # a defect of ours is not swallowed: the node stops on it, with its traceback
     rc, out = run('defect')
     assert rc != 0 and 'ValueError: a defect of ours' in out, out
+
+
+SPIN_AFTER_A_STOP = """
+import sys
+import rclpy
+from gps_error_ros.ros import lifecycle
+rclpy.init()
+node = rclpy.create_node('spin_after_a_stop')
+rclpy.shutdown()                              # the stop came while the node was built
+if sys.argv[1] == 'none':                     # rclpy's executor went with the context
+    rclpy.get_global_executor = lambda: None
+lifecycle._spin(node, rclpy.logging.get_logger('spin_after_a_stop'))
+node.destroy_node()
+print('spin returned')
+"""
+
+
+@pytest.mark.parametrize('case', ['shut', 'none'])
+def test_a_stop_before_spinning_ends_the_node_cleanly(case):
+    """Seen on a loaded machine: SIGINT right after the start-up line, exit status 1."""
+    done = subprocess.run([sys.executable, '-c', SPIN_AFTER_A_STOP, case],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and 'spin returned' in done.stdout, done.stderr
