@@ -136,40 +136,39 @@ def _consumer_rows(folds, classes=('ar1', 'extended', 'population')):
 ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
 
 
-def _precedent_counts(folds, cls='population'):
-    """Return (error measures outside the class's range over folds, those without precedent)."""
-    miss = new = 0
-    for f in folds:
-        rng = f.get('train_windows', {}).get('range', {})
-        for k, r in f['classes'][cls]['measures'].items():
-            if k.split(':')[0] in ERROR_GROUPS and not inside(r):
-                miss += 1
-                lo, hi = rng.get(k, (np.inf, -np.inf))
-                new += not lo <= r['measured'] <= hi
-    return miss, new
-
-
-def _precedent_rows(folds, cls='population'):
+def _precedent(fold, cls='population'):
     """
-    Return table rows: the measures outside the class's range, and those without precedent.
+    Return (the error measures outside the class's range, those of them without precedent).
 
     A measure without precedent lies outside its range over the training
     part's own windows like the held-out part (``train_windows``): nothing
     that trained looked like it.
     """
+    rng = fold.get('train_windows', {}).get('range', {})
+    miss, new = [], []
+    for k, r in fold['classes'][cls]['measures'].items():
+        if k.split(':')[0] not in ERROR_GROUPS or inside(r):
+            continue
+        miss.append(k.split(':')[1])
+        lo, hi = rng.get(k, (np.inf, -np.inf))
+        if not lo <= r['measured'] <= hi:
+            new.append(k.split(':')[1])
+    return miss, new
+
+
+def _precedent_counts(folds):
+    """Return (error measures outside the population's range, those without precedent)."""
+    found = [_precedent(f) for f in folds]
+    return sum(len(m) for m, _ in found), sum(len(n) for _, n in found)
+
+
+def _precedent_rows(folds):
+    """Return table rows: each fold's misses of the population (:func:`_precedent`)."""
     rows = []
     for f in folds:
-        w = f.get('train_windows', {'windows': 0, 'range': {}})
-        miss, new = [], []
-        for k, r in f['classes'][cls]['measures'].items():
-            if k.split(':')[0] not in ERROR_GROUPS or inside(r):
-                continue
-            miss.append(k.split(':')[1])
-            lo, hi = w['range'].get(k, (np.inf, -np.inf))
-            if not lo <= r['measured'] <= hi:
-                new.append(k.split(':')[1])
-        rows.append(f'| {f["fold"]} | {w["windows"]} | {", ".join(miss) or "none"} | '
-                    f'{", ".join(new) or "none"} |')
+        miss, new = _precedent(f)
+        rows.append(f'| {f["fold"]} | {f.get("train_windows", {}).get("windows", 0)} | '
+                    f'{", ".join(miss) or "none"} | {", ".join(new) or "none"} |')
     return rows
 
 
@@ -225,11 +224,11 @@ def _floor_rows(data):
         keys = streams.agent_keys(0, [f'floor/{i}' for i in range(FLOOR_SIMS)])
         starts = [int(s - grid.starts[0]) for s in grid.starts]
         sim = model.simulate(keys, starts[-1] + len(grid.segments[-1]))
-        figures = []
-        for segs in [grid.segments] + [[sim[s:s + len(g), j] for s, g in
-                                        zip(starts, grid.segments)]
-                                       for j in range(FLOOR_SIMS)]:
-            sd, acf, v, c = _window_stats(segs)
+        figures, measured = [], _window_stats(grid.segments)
+        for stats in [measured] + [_window_stats([sim[s:s + len(g), j] for s, g in
+                                                  zip(starts, grid.segments)])
+                                   for j in range(FLOOR_SIMS)]:
+            sd, acf, v, c = stats
             figures.append([[np.corrcoef(sd[:, a], acf[:, a])[0, 1], acf[:, a].min(),
                              _floor_fit(v[:, a], c[:, a])[0]] for a in range(2)])
         f = np.array(figures)                                   # (1 + sims, axis, figure)
@@ -237,9 +236,8 @@ def _floor_rows(data):
         cells = [f'{f[0, a, k]:.2f} ({lo[a, k]:.2f} to {hi[a, k]:.2f})'
                  + ('' if lo[a, k] <= f[0, a, k] <= hi[a, k] else ' **out**')
                  for k in range(3) for a in range(2)]
-        rho = [_floor_fit(*(x[:, a] for x in _window_stats(grid.segments)[2:]))[1]
-               for a in range(2)]
-        rows.append(f'| {name} | {len(_window_stats(grid.segments)[0])} | ' + ' | '.join(cells) +
+        rho = [_floor_fit(measured[2][:, a], measured[3][:, a])[1] for a in range(2)]
+        rows.append(f'| {name} | {len(measured[0])} | ' + ' | '.join(cells) +
                     f' | {rho[0]:.2f} / {rho[1]:.2f} |')
     return rows
 
