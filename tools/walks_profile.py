@@ -23,6 +23,7 @@ from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre
 from gps_error_ros.fit.population_fit import occasions, population_line
 from gps_error_ros.fit.validation import validate
 from gps_error_ros.model.ar_model import ARErrorModel
+from gps_error_ros.model.failures import failures_from_dict
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import load_profile_file, profile_from_dict, write_profile
 from gps_error_ros.traces.trace_io import read_trace_csv
@@ -76,7 +77,10 @@ def _left_out_rows(traces, seed=1):
         found = find_gross_failures(tr)
         v = validate(model, without_rows(tr, found.mask), sims=LEFT_OUT_SIMS,
                      seed=seed).summary()
-        rate = prof.get('gross_failures', {}).get('rate', 0.0)
+        section = prof.get('gross_failures')
+        rate = section['rate'] if section else 0.0
+        own = (failures_from_dict(section).count_tail(found.count, len(tr))
+               if section and 'rate_sd_log' in section else float('nan'))
         n, e = v['north'], v['east']
         joint[labels[i]] = min(joint.get(labels[i], 100.0), v['shares_joint_percentile'])
         rows.append(f'| {tr.name} | {100 * n["acf_lags_inside_envelope"]:.0f} / '
@@ -89,7 +93,7 @@ def _left_out_rows(traces, seed=1):
                     f'{v["shares_joint_percentile"]:.1f} | '
                     f'{v["north"]["mean_m"]:.1f} / {v["east"]["mean_m"]:.1f} | '
                     f'{found.count} of {len(tr)} | {rate * len(tr):.1f} | '
-                    f'{_poisson_tail(found.count, rate * len(tr)):.2g} |')
+                    f'{_poisson_tail(found.count, rate * len(tr)):.2g} | {own:.2g} |')
     k, low = len(joint), min(joint.values()) / 100.0
     family = 1.0 - (1.0 - low) ** k
     note = (f'As a family, the {k} occasions (walks of one occasion taken at their smallest) '
@@ -239,8 +243,11 @@ def main():
         f'{north.mean:.1f} m north, {east.mean:.1f} m east.',
         f'- {population_line(res.population)}.',
         f'- gross failures: {sum(x.count for x in res.failures)} of '
-        f'{sum(x.rows for x in res.failures)} fixes (rate {f.rate:.4f}), '
-        f'{f.sizes_m[0]:.0f} m to {f.sizes_m[-1]:.0f} m from the truth.',
+        f'{sum(x.rows for x in res.failures)} fixes, '
+        f'{f.sizes_m[0]:.0f} m to {f.sizes_m[-1]:.0f} m from the truth; each agent fails '
+        f'at a rate of its own, log-normal with mean {f.rate:.4f} and log SD '
+        f'{f.rate_sd_log:.2f} (maximum likelihood over the {len(res.failures)} '
+        'recordings\' counts, each an agent).',
         '',
         '## What the receiver does, and how it differs from a phone',
         '',
@@ -270,7 +277,8 @@ def main():
         'to walk far more than one rate gives (the Poisson tails under *Each walk left '
         'out*), and as much between the three receivers of w03-w05 as between walks: the '
         'propensity to fail is the receiver\'s (or where it was carried), not the '
-        'occasion\'s. The section holds one rate for every agent.',
+        'occasion\'s. The section therefore gives each agent a rate of its own '
+        '(`rate_sd_log`), drawn once for the receiver.',
         '',
         '## The bias and the direction walked',
         '',
@@ -307,13 +315,15 @@ def main():
         'each simulated trace\'s own: below 5 the walk is unlike the model\'s traces at '
         'the 5 % level; the smallest of four percentiles alone would reject a fifth of '
         'the model\'s own traces, [checking](checking.md)), the walk\'s mean error, and '
-        'its failures against the number the profile\'s rate expects, with the Poisson '
-        'probability of a count as far out on its side (one rate for every run).',
+        'its failures against the number the profile\'s mean rate expects, with the '
+        'probability of a count as far out on its side: Poisson at that rate (one rate '
+        'for every receiver), and under the profile\'s rates of each agent\'s own '
+        '(`rate_sd_log`, fitted from the other walks\' counts).',
         '',
         '| walk left out | ACF inside N / E (%) | its percentile | quantiles inside N / E (%) '
         '| its percentile | all four together | mean error N / E (m) | gross failures '
-        '| expected | Poisson tail |',
-        '|---|---|---|---|---|---|---|---|---|---|',
+        '| expected | Poisson tail | tail, a rate per agent |',
+        '|---|---|---|---|---|---|---|---|---|---|---|',
         *left_out,
         '',
         family,

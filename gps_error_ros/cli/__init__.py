@@ -81,14 +81,25 @@ def _load_clean(args, mark=None):
 
 
 def _failure_check(profile, found):
-    """Return a line: the failures measured against the profile's rate (binomial 95 % range)."""
+    """
+    Return a line: the failures measured against the profile's rate (95 % range).
+
+    Binomial for one rate; with the section's ``rate_sd_log`` each recording
+    is an agent with a rate of its own, and the range is their total's.
+    """
     from scipy import stats
     count, fixes = sum(f.count for f in found), sum(f.rows for f in found)
-    rate = profile.gross_failures.rate if profile.gross_failures is not None else 0.0
-    lo, hi = (int(v) for v in stats.binom.ppf([0.025, 0.975], fixes, rate))
+    process = profile.gross_failures
+    rate = process.rate if process is not None else 0.0
+    said = f'the profile\'s rate {rate:.4g}'
+    if process is None or not process.rate_sd_log:
+        lo, hi = (int(v) for v in stats.binom.ppf([0.025, 0.975], fixes, rate))
+    else:
+        lo, hi = process.count_range([f.rows for f in found])
+        said += f' (each recording\'s own, log SD {process.rate_sd_log:.2g})'
     inside = 'inside' if lo <= count <= hi else 'OUTSIDE'
-    return (f'  gross failures: measured {count} of {fixes} fixes; the profile\'s rate '
-            f'{rate:.4g} gives {lo}-{hi} (95 %): {inside}')
+    return (f'  gross failures: measured {count} of {fixes} fixes; {said} gives '
+            f'{lo}-{hi} (95 %): {inside}')
 
 
 def cmd_simulate(args):

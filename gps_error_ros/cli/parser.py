@@ -98,7 +98,8 @@ def _add_calibrate(sub):
     c.add_argument('--population', action='store_true',
                    help='describe the receiver across stretches: fit the AR within blocks '
                         'of 300 s and a population section (each simulated agent draws '
-                        'its own bias and scale, as blocks and recordings differ); needs '
+                        'its own bias and scale, as blocks and recordings differ; with 3 '
+                        'recordings or more, its own gross-failure rate too); needs '
                         '3 blocks of 300 s, e.g. 15 min of data or several recordings')
 
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
-from gps_error_ros.fit.gross_failures import without_gross_failures
+from gps_error_ros.fit.gross_failures import fit_rate_spread, without_gross_failures
 from gps_error_ros.fit.population_fit import fit_population, segment_weights
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
@@ -203,11 +203,21 @@ class CalibrationResult:
             population=None if pop is None else pop.population)
 
     def failure_process(self):
-        """Return the profile's ``gross_failures`` section fitted from every recording, or None."""
+        """
+        Return the profile's ``gross_failures`` section fitted from every recording, or None.
+
+        With a population (``calibrate --population``) and enough
+        recordings, each agent's own rate: the recordings' counts differ
+        between receivers more than one rate gives (:func:`fit_rate_spread`).
+        """
+        spread = None
+        if self.population is not None and self.failures:
+            spread = fit_rate_spread([f.count for f in self.failures],
+                                     [f.rows for f in self.failures])
         return failures_from_sizes(sum(f.count for f in self.failures),
                                    sum(f.rows for f in self.failures),
                                    np.concatenate([f.size_m for f in self.failures])
-                                   if self.failures else [])
+                                   if self.failures else [], spread=spread)
 
 
 def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, population=False):

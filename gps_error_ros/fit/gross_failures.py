@@ -210,6 +210,50 @@ def failures_doc(found):
     return {f.name: f.summary() for f in found}
 
 
+#: Recordings needed before the rate's spread between receivers is fitted.
+MIN_RECORDINGS_FOR_SPREAD = 3
+#: A fitted spread below this is written as none (one rate for every agent).
+MIN_RATE_SD_LOG = 0.01
+
+
+def fit_rate_spread(counts, fixes, nodes=40):
+    """
+    Return the mean rate and the SD of the log rate, fitted from each recording's failures.
+
+    Each recording is one agent with rate ``r exp(s z - s^2 / 2)``, ``z``
+    standard normal, and a binomial count of failures among its fixes (the
+    law of :meth:`~gps_error_ros.model.failures.GrossFailureProcess.count_law`);
+    ``(r, s)`` maximise the likelihood of the counts (Gauss-Hermite over
+    ``z``). Returns ``(r, None)``, ``r`` the pooled ``sum(counts) /
+    sum(fixes)``, with fewer than :data:`MIN_RECORDINGS_FOR_SPREAD`
+    recordings, no failure, or a spread below :data:`MIN_RATE_SD_LOG`.
+    """
+    from scipy import optimize, stats
+    from gps_error_ros.model.failures import MAX_AGENT_RATE, MAX_RATE_SD_LOG
+    counts = np.asarray(counts, dtype=float)
+    fixes = np.asarray(fixes, dtype=float)
+    pooled = float(counts.sum() / fixes.sum()) if fixes.sum() > 0 else 0.0
+    if counts.size < MIN_RECORDINGS_FOR_SPREAD or counts.sum() == 0:
+        return pooled, None
+    z, w = np.polynomial.hermite_e.hermegauss(nodes)
+    logw = np.log(w / w.sum())
+
+    def nll(p):
+        r, sd = np.exp(p[0]), p[1]
+        rates = np.minimum(r * np.exp(sd * z - 0.5 * sd * sd), MAX_AGENT_RATE)
+        ll = stats.binom.logpmf(counts[:, None], fixes[:, None], rates[None, :]) + logw
+        top = ll.max(axis=1, keepdims=True)
+        return -float(np.sum(top[:, 0] + np.log(np.exp(ll - top).sum(axis=1))))
+
+    best = min((optimize.minimize(nll, [np.log(pooled), s0], method='L-BFGS-B',
+                                  bounds=[(np.log(1e-9), np.log(MAX_AGENT_RATE)),
+                                          (0.0, MAX_RATE_SD_LOG)])
+                for s0 in (0.1, 1.0)), key=lambda res: res.fun)
+    if best.x[1] < MIN_RATE_SD_LOG:
+        return pooled, None
+    return float(np.exp(best.x[0])), float(best.x[1])
+
+
 def without_rows(trace, mask):
     """Return ``trace`` without the rows where ``mask`` is True (same name, extras kept)."""
     keep = ~np.asarray(mask, dtype=bool)

@@ -8,8 +8,14 @@ writes it when a recording had some; the rule that finds them is in
     gross_failures:
       rate: 0.012            # per model step, the chance that the fix failed
       sizes_m: [40, 62, 95, 180, 820, 24000]   # distance from the truth, m: quantiles
+      rate_sd_log: 0.9       # optional: each agent fails at a rate of its own
 
 At each model step, independently, the fix fails with probability ``rate``.
+With ``rate_sd_log`` (``s``) that probability is the agent's own,
+``rate * exp(s z - s^2 / 2)`` with ``z`` standard normal (at most
+:data:`MAX_AGENT_RATE`): receivers, and the ways they are carried, differ in
+how often they fail far more than one rate gives, and the mean over agents
+is still ``rate``.
 A failed fix lies at a distance drawn from ``sizes_m`` (quantiles at evenly
 spaced probabilities from 0 to 1, interpolated in the logarithm of the
 distance) in a direction uniform on the circle, from the truth: it replaces
@@ -19,8 +25,10 @@ what it would have been.
 
 Draws: the failure's and its size's uniforms from the stream domain
 ``failure``, the direction's from ``failure_direction``, one pair each per
-model step. They depend on nothing but (seed, agent, step), so an agent's
-failures are the same alone, in a crowd, in a shard, whenever it started.
+model step; the agent's own rate's normal from ``failure_rate`` at position
+0 (a receiver keeps its rate whenever it starts). They depend on nothing but
+(seed, agent, step), so an agent's failures are the same alone, in a crowd,
+in a shard, whenever it started.
 
 The published covariance does not cover a failure (a receiver does not know
 that its solution failed); the section leaves a profile's covariance as it
@@ -39,7 +47,14 @@ from gps_error_ros.model.wrapped import OneMoreColumn
 MAX_SIZE_M = 2.0e7
 #: The smallest a fitted failure distance is written, m.
 MIN_SIZE_M = 1e-3
+#: The largest SD of the log of an agent's rate (a factor of e^3 between agents at 1 SD).
+MAX_RATE_SD_LOG = 3.0
+#: The largest rate an agent may draw (its failures are still a minority of its fixes).
+MAX_AGENT_RATE = 0.5
 SECTION_KEYS = ('rate', 'sizes_m')
+OPTIONAL_KEYS = ('rate_sd_log',)
+#: Gauss-Hermite nodes over an agent's log rate, for the count's law.
+_RATE_NODES = 40
 
 
 class FailuresError(ValueError):
@@ -52,11 +67,63 @@ class GrossFailureProcess:
 
     rate: float
     sizes_m: tuple
+    rate_sd_log: float = None
 
     def to_dict(self):
         """Return the section as plain data."""
-        return {'rate': round(float(self.rate), 8),
-                'sizes_m': [round(float(v), 3) for v in self.sizes_m]}
+        out = {'rate': round(float(self.rate), 8),
+               'sizes_m': [round(float(v), 3) for v in self.sizes_m]}
+        if self.rate_sd_log is not None:
+            out['rate_sd_log'] = round(float(self.rate_sd_log), 4)
+        return out
+
+    def agent_rates(self, keys):
+        """Return each agent's rate (n,): ``rate`` for all without ``rate_sd_log``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        if not self.rate_sd_log:
+            return np.full(keys.size, self.rate)
+        s = self.rate_sd_log
+        z = streams.normal_pairs(keys, streams.DOMAIN_FAILURE_RATE, 0)[:, 0]
+        return np.minimum(self.rate * np.exp(s * z - 0.5 * s * s), MAX_AGENT_RATE)
+
+    def count_law(self, fixes):
+        """
+        Return the probabilities of 0..``fixes`` failures among one agent's ``fixes`` fixes.
+
+        Binomial at ``rate``; with ``rate_sd_log``, averaged over the
+        agents' rates (Gauss-Hermite nodes of the normal ``z``).
+        """
+        from scipy import stats
+        counts = np.arange(int(fixes) + 1)
+        if not self.rate_sd_log:
+            return stats.binom.pmf(counts, int(fixes), self.rate)
+        z, w = np.polynomial.hermite_e.hermegauss(_RATE_NODES)
+        s = self.rate_sd_log
+        rates = np.minimum(self.rate * np.exp(s * z - 0.5 * s * s), MAX_AGENT_RATE)
+        law = stats.binom.pmf(counts[:, None], int(fixes), rates[None, :]) @ (w / w.sum())
+        return law / law.sum()
+
+    def count_range(self, fixes, level=0.95):
+        """
+        Return the central ``level`` range (lo, hi) of failures among ``fixes``.
+
+        ``fixes``: one agent's number of fixes, or a sequence of them (several
+        agents, each with its own rate: the range of their total).
+        """
+        from scipy import signal
+        law = np.ones(1)
+        for n in np.atleast_1d(fixes):
+            law = np.clip(signal.fftconvolve(law, self.count_law(n)), 0.0, None)
+        cdf = np.cumsum(law) / law.sum()
+        tail = 0.5 * (1.0 - level)
+        return (int(np.searchsorted(cdf, tail)),
+                int(min(np.searchsorted(cdf, 1.0 - tail), law.size - 1)))
+
+    def count_tail(self, count, fixes):
+        """Return the probability of a count as far as ``count`` or further on its side."""
+        law = self.count_law(fixes)
+        mean = float(np.arange(law.size) @ law)
+        return float(min(1.0, law[count:].sum() if count >= mean else law[:count + 1].sum()))
 
     def offsets(self, keys, index):
         """
@@ -66,7 +133,7 @@ class GrossFailureProcess:
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         u = streams.uniform_pairs(keys, streams.DOMAIN_FAILURE, index)
-        fails = u[:, 0] < self.rate
+        fails = u[:, 0] < (self.agent_rates(keys) if self.rate_sd_log else self.rate)
         out = np.zeros((keys.size, 2))
         if fails.any():
             sizes = np.asarray(self.sizes_m, dtype=float)
@@ -85,9 +152,11 @@ class GrossFailureProcess:
 def failures_from_dict(raw, source='<profile>'):
     """Validate a ``gross_failures`` mapping; return :class:`GrossFailureProcess`."""
     key = 'gross_failures'
-    if not isinstance(raw, dict) or sorted(raw) != sorted(SECTION_KEYS):
-        raise FailuresError(f'{source}: key {key!r}: expected a mapping with exactly '
-                            f'{list(SECTION_KEYS)}, got {raw!r}')
+    if not isinstance(raw, dict) or not set(SECTION_KEYS) <= set(raw) or \
+            not set(raw) <= set(SECTION_KEYS + OPTIONAL_KEYS):
+        raise FailuresError(f'{source}: key {key!r}: expected a mapping with '
+                            f'{list(SECTION_KEYS)} and optionally {list(OPTIONAL_KEYS)}, '
+                            f'got {raw!r}')
     rate = raw['rate']
     if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 <= rate < 1:
         raise FailuresError(f'{source}: key {key}.rate: expected a number in [0, 1), '
@@ -100,14 +169,23 @@ def failures_from_dict(raw, source='<profile>'):
         raise FailuresError(f'{source}: key {key}.sizes_m: expected a non-empty, '
                             f'non-decreasing list of distances in (0, {MAX_SIZE_M:g}] m, '
                             f'got {sizes!r}')
-    return GrossFailureProcess(float(rate), tuple(float(v) for v in sizes))
+    spread = raw.get('rate_sd_log')
+    if spread is not None and (isinstance(spread, bool) or not isinstance(spread, (int, float))
+                               or not 0 <= spread <= MAX_RATE_SD_LOG):
+        raise FailuresError(f'{source}: key {key}.rate_sd_log: expected a number in '
+                            f'[0, {MAX_RATE_SD_LOG:g}], or the key left out (one rate for '
+                            f'every agent), got {spread!r}')
+    return GrossFailureProcess(float(rate), tuple(float(v) for v in sizes),
+                               None if spread is None else float(spread))
 
 
-def failures_from_sizes(count, fixes, sizes_m, quantiles=11):
+def failures_from_sizes(count, fixes, sizes_m, quantiles=11, spread=None):
     """
     Return the section fitted from failures found, or None when there were none.
 
-    ``rate`` is ``count / fixes`` (maximum likelihood); ``sizes_m`` the
+    ``rate`` is ``count / fixes`` (maximum likelihood) or, with ``spread``
+    (``(rate, rate_sd_log)`` fitted from the recordings' counts), that
+    rate and its spread between agents; ``sizes_m`` the
     found distances' quantiles at ``quantiles`` evenly spaced probabilities
     (all of them, sorted, when fewer), at least 1 mm (a fix far from the
     recording's median error can lie on the truth itself).
@@ -117,7 +195,10 @@ def failures_from_sizes(count, fixes, sizes_m, quantiles=11):
     sizes = np.clip(np.sort(np.asarray(sizes_m, dtype=float)), MIN_SIZE_M, MAX_SIZE_M)
     if sizes.size > quantiles:
         sizes = np.exp(np.quantile(np.log(sizes), np.linspace(0.0, 1.0, quantiles)))
-    return GrossFailureProcess(count / fixes, tuple(float(v) for v in sizes))
+    sizes = tuple(float(v) for v in sizes)
+    if spread is not None and spread[1] is not None:
+        return GrossFailureProcess(float(spread[0]), sizes, float(spread[1]))
+    return GrossFailureProcess(count / fixes, sizes)
 
 
 class WithFailures(OneMoreColumn):

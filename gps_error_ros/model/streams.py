@@ -95,6 +95,9 @@ DOMAIN_BIAS = 20
 #: Population: a Student-t bias's chi-square, pairs 0.. at ``init_position(start, slot)``.
 DOMAIN_BIAS_MIX = 21
 
+#: Gross failures: the agent's own rate, one normal pair (first used) at position 0.
+DOMAIN_FAILURE_RATE = 22
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -110,6 +113,7 @@ DOMAINS = {
     'failure': DOMAIN_FAILURE, 'failure_direction': DOMAIN_FAILURE_DIRECTION,
     'population_scale': DOMAIN_POPULATION_SCALE, 'init_bias': DOMAIN_INIT_BIAS,
     'bias': DOMAIN_BIAS, 'bias_mix': DOMAIN_BIAS_MIX,
+    'failure_rate': DOMAIN_FAILURE_RATE,
 }
 
 

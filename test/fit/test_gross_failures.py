@@ -133,3 +133,38 @@ def test_calibrate_command_on_walks_prints_no_warning(tmp_path):
         assert 'Warning' not in proc.stdout
         assert 'gross failure' in proc.stdout
     assert f'{len(WALKS)} recordings' in proc.stdout
+
+
+@pytest.mark.skipif(len(WALKS) < 3, reason='needs ../shared/data/snapper-walk-*.csv')
+def test_a_profile_of_the_walks_gives_each_receiver_its_own_failure_rate(tmp_path):
+    """
+    With --population, calibrate fits how receivers differ in failing; validate uses it.
+
+    One rate for every walk puts the busiest walk's count outside its 95 %
+    range; a rate per agent, fitted from the walks' counts, holds it.
+    """
+    import yaml
+    folder = tmp_path / 'walks'
+    folder.mkdir()
+    for p in WALKS:
+        (folder / p.name).symlink_to(p)
+    prof = tmp_path / 'p.yaml'
+    cli = [sys.executable, '-m', 'gps_error_ros.cli']
+    proc = subprocess.run([*cli, 'calibrate', '--population', str(folder), '-o', str(prof)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stderr == '', proc.stderr
+    raw = yaml.safe_load(prof.read_text())
+    assert raw['gross_failures']['rate_sd_log'] > 0.5
+    one_rate = tmp_path / 'one.yaml'
+    raw['gross_failures'].pop('rate_sd_log')
+    one_rate.write_text(yaml.safe_dump(raw))
+    busiest = max(WALKS, key=lambda p: find_gross_failures(read_trace_csv(p)).count)
+    lines = {}
+    for name, path in (('own', prof), ('one', one_rate)):
+        proc = subprocess.run([*cli, 'validate', str(path), str(busiest), '--sims', '20',
+                               '--out', str(tmp_path / name)], capture_output=True, text=True)
+        assert proc.returncode == 0 and proc.stderr == '', proc.stderr
+        lines[name] = next(ln for ln in proc.stdout.splitlines()
+                           if 'gross failures: measured' in ln)
+    assert "each recording's own" in lines['own'] and lines['own'].endswith('inside')
+    assert lines['one'].endswith('OUTSIDE'), lines['one']

@@ -206,7 +206,7 @@ def _cycle_profile(tmp_path, population=False):
     Write DS7 with the periodic effect (8-step cycle), variance regimes, outliers, failures.
 
     ``population``: with a population section too (a wandering Student-t bias, a
-    spread of scales).
+    spread of scales) and a failure rate of each agent's own.
     """
     import yaml
     from gps_error_ros.model.profiles import builtin_dir
@@ -222,6 +222,8 @@ def _cycle_profile(tmp_path, population=False):
     if population:
         raw['population'] = {'bias_sd_m': [4.0, 2.5], 'scale_sd_log': 0.5,
                              'bias_time_constant_s': 20.0, 'bias_dof': 4}
+        # a rate per agent (these two draw below the mean: a higher mean keeps failures in)
+        raw['gross_failures'].update(rate=0.3, rate_sd_log=0.5)
     path = tmp_path / 'cycle.yaml'
     path.write_text(yaml.safe_dump(raw))
     return str(path)
