@@ -216,15 +216,15 @@ MIN_RECORDINGS_FOR_SPREAD = 3
 MIN_RATE_SD_LOG = 0.01
 
 
-def fit_rate_spread(counts, fixes, nodes=40):
+def fit_rate_spread(counts, fixes, nodes=241):
     """
     Return the mean rate and the SD of the log rate, fitted from each recording's failures.
 
     Each recording is one agent with rate ``r exp(s z - s^2 / 2)``, ``z``
     standard normal, and a binomial count of failures among its fixes (the
     law of :meth:`~gps_error_ros.model.failures.GrossFailureProcess.count_law`);
-    ``(r, s)`` maximise the likelihood of the counts (Gauss-Hermite over
-    ``z``). Returns ``(r, None)``, ``r`` the pooled ``sum(counts) /
+    ``(r, s)`` maximise the likelihood of the counts (``z`` on a grid of
+    ``nodes`` over +-6 SD). Returns ``(r, None)``, ``r`` the pooled ``sum(counts) /
     sum(fixes)``, with fewer than :data:`MIN_RECORDINGS_FOR_SPREAD`
     recordings, no failure, or a spread below :data:`MIN_RATE_SD_LOG`.
     """
@@ -235,8 +235,8 @@ def fit_rate_spread(counts, fixes, nodes=40):
     pooled = float(counts.sum() / fixes.sum()) if fixes.sum() > 0 else 0.0
     if counts.size < MIN_RECORDINGS_FOR_SPREAD or counts.sum() == 0:
         return pooled, None
-    z, w = np.polynomial.hermite_e.hermegauss(nodes)
-    logw = np.log(w / w.sum())
+    z = np.linspace(-6.0, 6.0, nodes)
+    logw = -0.5 * z * z - np.logaddexp.reduce(-0.5 * z * z)
 
     def nll(p):
         r, sd = np.exp(p[0]), p[1]

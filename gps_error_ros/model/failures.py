@@ -53,8 +53,8 @@ MAX_RATE_SD_LOG = 3.0
 MAX_AGENT_RATE = 0.5
 SECTION_KEYS = ('rate', 'sizes_m')
 OPTIONAL_KEYS = ('rate_sd_log',)
-#: Gauss-Hermite nodes over an agent's log rate, for the count's law.
-_RATE_NODES = 40
+#: Nodes of the normal ``z`` of an agent's log rate, evenly over +-6 SD, for the count's law.
+_RATE_NODES = 241
 
 
 class FailuresError(ValueError):
@@ -91,16 +91,20 @@ class GrossFailureProcess:
         Return the probabilities of 0..``fixes`` failures among one agent's ``fixes`` fixes.
 
         Binomial at ``rate``; with ``rate_sd_log``, averaged over the
-        agents' rates (Gauss-Hermite nodes of the normal ``z``).
+        agents' rates (the normal ``z`` on a fine grid: one agent's count
+        pins its rate more finely than a few quadrature nodes resolve).
         """
         from scipy import stats
         counts = np.arange(int(fixes) + 1)
         if not self.rate_sd_log:
             return stats.binom.pmf(counts, int(fixes), self.rate)
-        z, w = np.polynomial.hermite_e.hermegauss(_RATE_NODES)
+        z = np.linspace(-6.0, 6.0, _RATE_NODES)
+        w = np.exp(-0.5 * z * z)
         s = self.rate_sd_log
         rates = np.minimum(self.rate * np.exp(s * z - 0.5 * s * s), MAX_AGENT_RATE)
-        law = stats.binom.pmf(counts[:, None], int(fixes), rates[None, :]) @ (w / w.sum())
+        law = np.zeros(counts.size)
+        for r, weight in zip(rates, w / w.sum()):
+            law += weight * stats.binom.pmf(counts, int(fixes), r)
         return law / law.sum()
 
     def count_range(self, fixes, level=0.95):
