@@ -38,3 +38,17 @@ def gpx_file(path, points, extra=''):
                     'xmlns="http://www.topografix.com/GPX/1/0"><trk><trkseg>'
                     f'{body}</trkseg></trk></gpx>')
     return path
+
+
+def write_drive(path, steps=1500):
+    """Write a drive north-east, at 1 to 13 m/s (period 90 s), with turns."""
+    t = np.arange(steps, dtype=float)
+    speed = 7.0 + 6.0 * np.sin(2 * np.pi * t / 90.0)
+    heading = np.radians(45.0 + 40.0 * np.sin(2 * np.pi * t / 400.0))
+    lat, lon = np.empty(steps), np.empty(steps)
+    lat[0], lon[0] = 37.4, -122.1
+    for k in range(1, steps):
+        lat[k], lon[k] = offset(lat[k - 1], lon[k - 1], speed[k] * np.cos(heading[k]),
+                                speed[k] * np.sin(heading[k]))
+    path.write_text('t,truth_lat,truth_lon\n' + ''.join(
+        f'{a:g},{float(b)!r},{float(c)!r}\n' for a, b, c in zip(t, lat, lon)))

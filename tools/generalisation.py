@@ -27,6 +27,7 @@ import numpy as np
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
+from gps_error_ros.diagnose.velocity_check import velocity_group
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.traces.trace_io import join_recordings, read_trace_csv
@@ -325,6 +326,8 @@ def main(argv=None):
         docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json')]
         order = list(ALONE) + ['SnapperGPS walks', 'GSDC phones of one drive']
         docs.sort(key=lambda d: order.index(d['set']))
+        if any('velocity' not in f for d in docs for f in d['folds']):
+            _add_velocity(docs, args)
         _write_page(args, [(d['set'], d['how'], d['folds'], d['summary']) for d in docs],
                     docs[0].get('seconds', 0.0), docs[0].get('date'))
         return
@@ -344,6 +347,36 @@ def main(argv=None):
     _write_page(args, [p[:4] for p in parts], seconds, date)
 
 
+def _add_velocity(docs, args):
+    """Give a JSON of a run made before the speed and course group its group, in place."""
+    by_set = {name: splits for name, _, splits in sets(args.data)}
+    for d in docs:
+        for fold, (_, split) in zip(d['folds'], by_set[d['set']]):
+            fold['velocity'] = None if split.velocity is None else \
+                velocity_group(*split.velocity, sims=args.sims, seed=0)
+
+
+def _velocity_rows(folds):
+    """Return the speed and course table of a set's folds, or [] where none has the group."""
+    if not any(f.get('velocity') for f in folds):
+        return []
+    rows = ['Speed and course (the velocity section fitted on the training rows, the same '
+            'for every class; measured on the held-out rows, against the simulated 95 % '
+            'range):\n', '| fold | section: sigma (m/s), phi, lag (s) | measure | held out '
+            '| simulated 95 % |', '|---|---|---|---|---|']
+    for f in folds:
+        g = f.get('velocity')
+        if not g:
+            continue
+        sec = g['section']
+        for name, r in g['measures'].items():
+            out = '' if inside(r) else ' **out**'
+            rows.append(f'| {f["fold"]} | {sec["sigma"]:.3f}, {sec["phi"]:.2f}, '
+                        f'{sec["lag_s"]:.1f} | {name} | {r["measured"]:.3f}{out} | '
+                        f'{r["sim_lo"]:.3f} to {r["sim_hi"]:.3f} |')
+    return rows + ['']
+
+
 def _write_page(args, parts, seconds, date=None):
     machine = f'{platform.machine()}, {platform.python_implementation()} ' \
               f'{platform.python_version()}'
@@ -356,6 +389,7 @@ def _write_page(args, parts, seconds, date=None):
             for f in folds) + '.\n')
         text.append(_table(summary) + '\n')
         text.append('Population fits:\n\n' + '\n'.join(_evidence(folds)) + '\n')
+        text += _velocity_rows(folds)
     for name, why in TOO_SHORT.items():
         text.append(f'Not judged: {name} ({why}).\n')
     text += _explanation(parts, args.data)
@@ -389,7 +423,11 @@ method in `gps_error_ros/diagnose/generalise.py`):
   and smoother (GTSAM's iSAM2 with
   GPS and odometry factors on the first 600 held-out samples: the newest
   pose's RMS and 95 % error, the smoothed track's RMS; judged on 40 of the
-  simulated traces, for four classes: "-" for the others).
+  simulated traces, for four classes: "-" for the others). Where a trace
+  has the phone's and the reference's speed and course, a table under its
+  set judges the profile's `velocity` section by band of the true speed
+  (speed error mean and SD, median absolute course error); every class
+  shares that section.
 
 The population classes are the profile that `calibrate --population`
 writes (Gaussian AR within blocks of 300 s) and the same section on the

@@ -6,6 +6,7 @@ from pathlib import Path
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
+from gps_error_ros.diagnose.velocity_check import velocity_line
 from gps_error_ros.fit.population_fit import segment_weights
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -75,6 +76,9 @@ def compare_folds(args, recordings):
                        for g in groups))
     print('  (NLL: held-out NLL per sample, mean over folds; best: folds with the lowest; '
           'groups: share of measures inside their simulated 95 % range, mean over folds)')
+    line = velocity_line(folds)
+    if line:
+        print(line)
     if args.json_out:
         write_json(Path(args.json_out), {'folds': folds, 'summary': summary,
                                          'sims': args.sims, 'seed': args.seed})

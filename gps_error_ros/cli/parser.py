@@ -256,7 +256,8 @@ def _add_compare(sub):
                    help='judge on several splits, with the population class too and '
                         'the measures in groups (persistence, scale, bias, quantiles, '
                         'tails, a Kalman filter\'s and a V2P warning\'s results, '
-                        'outages where a part has them): '
+                        'outages where a part has them; speed and course by speed band '
+                        'where the trace has them): '
                         'rolling: train before each of 3 origins (50, 62.5, 75 %% of '
                         'the span), hold out the next 12.5 %%; recordings: hold out each '
                         'INPUT recording in turn, train on the others (JSON only)')

@@ -42,8 +42,10 @@ from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_mas
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
+from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes, outage_stats
+from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import occasions, segment_weights
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.trace_io import join_recordings
@@ -90,8 +92,12 @@ def split_between(trace, cut_t, end_t, rule):
             part.truth.append(truth_all[rows[chunk]])
             part.t.append(t[chunk])
         parts.append(part)
+    velocity = None
+    if has_velocity(trace):
+        velocity = (without_rows(trace, trace.t >= cut_t),
+                    without_rows(trace, (trace.t < cut_t) | (trace.t >= end_t)))
     return Split(parts[0], parts[1], TruthTrack(trace.t, truth_all), rule,
-                 float(cut_t - t[0]))
+                 float(cut_t - t[0]), velocity=velocity)
 
 
 def rolling_splits(trace, origins=ORIGINS, horizon=HORIZON):
@@ -272,9 +278,11 @@ def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_c
     Fit and judge every class on every ``(label, Split)``; return the folds.
 
     Each fold: ``{'fold', 'rule', 'train_samples', 'test_samples',
-    'train_measures', 'train_windows', 'classes'}`` (:func:`judge_split`,
-    with the smoother's arguments; the training part's own measures and
-    :func:`training_windows` beside them). ``done()`` after each fold.
+    'train_measures', 'train_windows', 'classes', 'velocity'}``
+    (:func:`judge_split`, with the smoother's arguments; the training part's
+    own measures and :func:`training_windows` beside them; the speed and
+    course group of the profile's velocity section, which every class
+    shares, or None: :func:`~.velocity_check.velocity_group`). ``done()`` after each fold.
     """
     from gps_error_ros.diagnose.pipeline import fit_split
     folds = []
@@ -286,7 +294,9 @@ def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_c
                       'train_measures': _basic(split.train.err, float('inf')),
                       'train_windows': training_windows(split.train, split.test),
                       'classes': judge_split(fitted, sims, seed, within, smoother_sims,
-                                             smoother_classes)})
+                                             smoother_classes),
+                      'velocity': None if split.velocity is None else
+                      velocity_group(*split.velocity, sims=sims, seed=seed)})
         if done is not None:
             done()
     return folds

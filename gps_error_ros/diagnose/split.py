@@ -55,6 +55,9 @@ class Split:
     #: each training segment's weight in a population fit (None: 1 each;
     #: see :func:`~gps_error_ros.fit.population_fit.segment_weights`)
     train_weights: tuple = None
+    #: (training rows, held-out rows) as traces, where the trace has speed and
+    #: course columns (:mod:`~gps_error_ros.diagnose.velocity_check`); else None
+    velocity: tuple = None
 
 
 def split_trace(trace, train_fraction=TRAIN_FRACTION):

@@ -7,10 +7,10 @@ import pytest
 
 from gps_error_ros.cli import main as cli
 from gps_error_ros.model import streams
-from gps_error_ros.model.geodesy import offset
 from gps_error_ros.model.profiles import load_profile, load_profile_file, ProfileError
 from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.sim.simulate import simulate_csv
+from trace_helpers import write_drive
 
 TRUE = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.7, 'standstill': 0.0}
 DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
@@ -35,20 +35,6 @@ def test_the_error_process_and_what_the_phone_reports():
     _, c = v.report(walk, w[100])
     spread = np.degrees(np.sqrt(np.mean(np.radians((c + 180) % 360 - 180) ** 2)))
     assert abs(spread - np.degrees(0.15 / 1.4)) < 2.0
-
-
-def write_drive(path, steps=1500):
-    """Write a drive north-east, at 1 to 13 m/s (period 90 s), with turns."""
-    t = np.arange(steps, dtype=float)
-    speed = 7.0 + 6.0 * np.sin(2 * np.pi * t / 90.0)
-    heading = np.radians(45.0 + 40.0 * np.sin(2 * np.pi * t / 400.0))
-    lat, lon = np.empty(steps), np.empty(steps)
-    lat[0], lon[0] = 37.4, -122.1
-    for k in range(1, steps):
-        lat[k], lon[k] = offset(lat[k - 1], lon[k - 1], speed[k] * np.cos(heading[k]),
-                                speed[k] * np.sin(heading[k]))
-    path.write_text('t,truth_lat,truth_lon\n' + ''.join(
-        f'{a:g},{float(b)!r},{float(c)!r}\n' for a, b, c in zip(t, lat, lon)))
 
 
 def test_calibrate_recovers_a_known_velocity_section(tmp_path):
