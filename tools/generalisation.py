@@ -76,11 +76,15 @@ def sets(data):
 def _table(summary):
     groups = GROUPS + tuple(g for g in EXTRA_GROUPS
                             if any(g in s['groups'] for s in summary.values()))
-    head = ('| class | held-out NLL | best | ' + ' | '.join(groups) + ' |\n|' +
-            '---|' * (3 + len(groups)))
+    own = all('own' in s for s in summary.values())
+    extra = ['worst, own %', 'own at 0.90'] if own else []
+    head = ('| class | held-out NLL | best | ' + ' | '.join(list(groups) + extra) + ' |\n|' +
+            '---|' * (3 + len(groups) + len(extra)))
     rows = [f'| {LABELS.get(c, c)} | {s["heldout_nll_per_sample"]:.3f} | '
             f'{s["best_score_folds"]} | ' +
-            ' | '.join(f'{s["groups"][g]:.2f}' if g in s['groups'] else '-' for g in groups) +
+            ' | '.join([f'{s["groups"][g]:.2f}' if g in s['groups'] else '-' for g in groups] +
+                       ([f'{s["own"]["worst"]:.2f}, {s["own"]["percentile"]:.0f} %',
+                         f'{s["own"]["own_meet_bar"]:.0f} %'] if own else [])) +
             ' |' for c, s in summary.items()]
     return '\n'.join([head] + rows)
 
@@ -341,6 +345,9 @@ def main(argv=None):
         print(f'{name}: {len(folds)} folds done ({time.time() - started:.0f} s)', flush=True)
     seconds, date = time.time() - started, dt.date.today().isoformat()
     for name, how, folds, summary, stem in parts:
+        for f in folds:             # each simulated trace's shares: summarised, not kept
+            for c in f['classes'].values():
+                c.pop('own_groups', None)
         (json_dir / f'{stem}.json').write_text(json.dumps(
             {'set': name, 'how': how, 'folds': folds, 'summary': summary,
              'seconds': seconds, 'date': date}, indent=1, default=float))
@@ -428,6 +435,13 @@ method in `gps_error_ros/diagnose/generalise.py`):
   set judges the profile's `velocity` section by band of the true speed
   (speed error mean and SD, median absolute course error); every class
   shares that section.
+- **worst, own %**: the class's worst group (over the groups every
+  simulated trace has: not the smoother's) and how often a trace of the
+  class's own, judged as the real one is, has its worst group as low or
+  lower (the k-th simulated trace of each fold together make one set of
+  folds from the model; below 5 % the real trace is unlike the class's
+  own); **own at 0.90**: how often the class's own traces have every such
+  group at 0.90 or more, the bar a perfect simulator would have to clear.
 
 The population classes are the profile that `calibrate --population`
 writes (Gaussian AR within blocks of 300 s) and the same section on the

@@ -3,7 +3,7 @@
 from dataclasses import replace
 from pathlib import Path
 
-from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
+from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUP_BAR, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import velocity_line
@@ -76,6 +76,14 @@ def compare_folds(args, recordings):
                        for g in groups))
     print('  (NLL: held-out NLL per sample, mean over folds; best: folds with the lowest; '
           'groups: share of measures inside their simulated 95 % range, mean over folds)')
+    if all('own' in c for c in summary.values()):
+        print('  worst group against the class\'s own traces (over the groups every trace '
+              'has; own: the median of its own; %: own sets of folds as low or lower; '
+              f'bar: own sets with every group >= {GROUP_BAR:.2f}):')
+        for name, c in summary.items():
+            o = c['own']
+            print(f'  {name:13} {o["worst"]:5.2f}  own {o["own_worst_median"]:4.2f}  '
+                  f'{o["percentile"]:5.1f} %  bar {o["own_meet_bar"]:5.1f} %')
     line = velocity_line(folds)
     if line:
         print(line)

@@ -44,7 +44,8 @@ from gps_error_ros.diagnose.population_class import _within_split, PopulationCla
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
 from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
 from gps_error_ros.fit.calibration import errors_on_grid
-from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes, outage_stats
+from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outage_envelopes,
+                                        outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import occasions, segment_weights
 from gps_error_ros.model.geodesy import difference
@@ -180,6 +181,10 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
     With ``smoother_sims``, the group ``smoother`` too: GTSAM's iSAM2
     (:mod:`.smoother`) on the first :data:`SMOOTHER_SAMPLES` samples, fed
     the real fixes and those of the first ``smoother_sims`` simulated traces.
+
+    Returns (rows, groups, own): ``own`` {group: each simulated trace's
+    share inside} (:func:`own_shares`), over the groups every simulated
+    trace has measures of (not the smoother's).
     """
     jump_m = _jump_threshold(train)
     measured = _basic(part.err, jump_m)
@@ -187,8 +192,10 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
     sims = np.array([[m[n] for n in names] for m in (_basic(s, jump_m) for s in simulated)])
     cn, cm, cs = consumer_measures(part, part.err, simulated, train.err, seed)
     rows = {n: envelope(measured[n], sims[:, j]) for j, n in enumerate(names)}
+    values = {n: sims[:, j] for j, n in enumerate(names)}
     for j, n in enumerate(cn):
         rows[f'{n.split("_")[0]}:{n}'] = envelope(cm[j], cs[:, j])
+        values[f'{n.split("_")[0]}:{n}'] = cs[:, j]
     if smoother_sims:
         from gps_error_ros.diagnose.smoother import head, run_smoother, SMOOTHER_MEASURES
         short = head(part, SMOOTHER_SAMPLES)
@@ -205,10 +212,35 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
             if isinstance(outages, str) else outages
         for name, row in outage_envelopes(mask, masks).items():
             rows[f'outages:{name}'] = row
+        stats = np.array([outage_stats(m) for m in masks], dtype=float)
+        for j, name in enumerate(OUTAGE_MEASURES):
+            values[f'outages:{name}'] = stats[:, j]
     groups = {g: float(np.mean([inside(r) for k, r in rows.items()
                                 if k.split(':')[0] == g]))
               for g in GROUPS + EXTRA_GROUPS if any(k.split(':')[0] == g for k in rows)}
-    return rows, groups
+    return rows, groups, own_shares(values)
+
+
+def own_shares(values):
+    """
+    Return {group: each simulated trace's share of the group's measures inside (list)}.
+
+    ``values`` {measure: the simulated traces' values (sims,)}: each trace
+    is judged as the real one is, against the central 95 % of all the
+    simulated traces (itself among them: one of 100 or more moves the
+    range little). What a class's own traces score is what the real
+    trace's shares are read against (:func:`own_verdict`).
+    """
+    names = list(values)
+    v = np.column_stack([np.asarray(values[n], dtype=float) for n in names])
+    lo, hi = np.percentile(v, [2.5, 97.5], axis=0)
+    ins = (v >= lo) & (v <= hi)
+    out = {}
+    for g in GROUPS + EXTRA_GROUPS:
+        cols = [j for j, n in enumerate(names) if n.split(':')[0] == g]
+        if cols:
+            out[g] = [round(float(x), 4) for x in ins[:, cols].mean(axis=1)]
+    return out
 
 
 def _outage_masks(split, labels, model, sims, seed):
@@ -262,10 +294,10 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     for label, (lls, traces) in classes.items():
         key = KEYS.get(label, label)
         smooth = smoother_sims if smoother_classes is None or key in smoother_classes else 0
-        rows, groups = grouped_measures(split.test, split.train, traces, seed, smooth,
-                                        None if outages is None else outages[label])
+        rows, groups, own = grouped_measures(split.test, split.train, traces, seed, smooth,
+                                             None if outages is None else outages[label])
         out[key] = {'heldout_nll_per_sample': float(-np.mean(lls)),
-                    'groups': groups, 'measures': rows}
+                    'groups': groups, 'measures': rows, 'own_groups': own}
     for label, pop in pops.items():
         out[label]['fit'] = pop.fit.evidence
         out[label]['section'] = None if pop.fit.population is None else \
@@ -349,6 +381,8 @@ def summarise(folds):
     And each group's ``inside_95`` averaged over the folds (those that have
     it, for the groups of :data:`EXTRA_GROUPS`), and the smallest
     of those (``worst_group``): a class holds where every group is near 0.95.
+    Where the folds carry the class's own traces' shares, ``own``
+    (:func:`own_verdict`): the worst group read against them.
     """
     classes = list(folds[0]['classes'])
     best = [min(f['classes'], key=lambda c: f['classes'][c]['heldout_nll_per_sample'])
@@ -365,7 +399,42 @@ def summarise(folds):
                   'best_score_folds': int(sum(b == c for b in best)),
                   'groups': groups,
                   'worst_group': {'group': worst, 'inside_95': groups[worst]}}
+        own = own_verdict([f['classes'][c] for f in folds])
+        if own is not None:
+            out[c]['own'] = own
     return out
+
+
+#: The done-when's bar: every group's mean share inside at least this.
+GROUP_BAR = 0.90
+
+
+def own_verdict(fold_classes):
+    """
+    Return the class's worst group read against its own traces', or None.
+
+    ``fold_classes``: the class's entry of each fold, with ``groups`` and
+    ``own_groups``. Over the groups every fold has own shares of, the
+    simulated trace ``k`` of each fold together make one set of folds from
+    the model (the folds' traces are independent draws): its groups' means
+    over the folds, and their smallest. Returns ``{'groups', 'worst',
+    'own_worst_median', 'percentile'`` (the share of own sets whose worst is
+    at or below the real one's, %), ``'own_meet_bar'`` (the share of own
+    sets with every group at :data:`GROUP_BAR` or more, %)``}``.
+    """
+    if not all('own_groups' in fc for fc in fold_classes):
+        return None
+    names = [g for g in GROUPS + EXTRA_GROUPS
+             if all(g in fc['own_groups'] and g in fc['groups'] for fc in fold_classes)]
+    sims = min(len(fc['own_groups'][g]) for fc in fold_classes for g in names)
+    own = np.array([[np.mean([fc['own_groups'][g][k] for fc in fold_classes])
+                     for g in names] for k in range(sims)])           # (sims, groups)
+    real = np.array([np.mean([fc['groups'][g] for fc in fold_classes]) for g in names])
+    worst, own_worst = float(real.min()), own.min(axis=1)
+    return {'groups': names, 'worst': worst,
+            'own_worst_median': float(np.median(own_worst)),
+            'percentile': float(100.0 * np.mean(own_worst <= worst + 1e-12)),
+            'own_meet_bar': float(100.0 * np.mean(np.all(own >= GROUP_BAR - 1e-12, axis=1)))}
 
 
 def population_profile(split, name, source, seed=0):

@@ -23,6 +23,7 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
                 '--sims', '20', '--json', str(out)]) == 0
     printed = capsys.readouterr().out
     assert 'population' in printed and 'persistence' in printed
+    assert "worst group against the class's own traces" in printed
     doc = json.loads(out.read_text())
     (fold,) = doc['folds']
     n = [errors_on_grid(read_trace_csv(p)).n for p in paths]
@@ -38,6 +39,9 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
     # 1800 training samples make 6 blocks of 300 s: a population is fitted
     assert fold['classes']['population']['fit']['fitted'] is True
     assert set(doc['summary']['population']['worst_group']) == {'group', 'inside_95'}
+    own = doc['summary']['population']['own']
+    assert 0.0 <= own['percentile'] <= 100.0 and 'outages' in own['groups']
+    assert len(fold['classes']['ar1']['own_groups']['bias']) == 20
     # the two training recordings are shorter than the held-out one: each counts whole
     windows = fold['train_windows']
     assert windows['windows'] == 2 and abs(windows['span_s'] - 899.0) < 1.0

@@ -5,8 +5,9 @@ from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks
-from gps_error_ros.diagnose.generalise import (_outage_masks, recording_splits,
-                                               rolling_splits, training_windows)
+from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
+                                               recording_splits, rolling_splits,
+                                               training_windows)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
@@ -196,3 +197,31 @@ def test_v2p_warnings_on_exact_positions():
     assert abs(false - 1.0 / 3.0) < 0.02
     big = v2p_warnings(part, np.full((1, 20000, 2), 50.0), 1.5)[0]
     assert big[0] < 0.2 and CONFLICT_M > 0
+
+
+def test_a_classes_own_traces_are_judged_as_the_real_one():
+    """Each simulated trace inside its own range about 95 % of the time, group by group."""
+    rng = np.random.default_rng(2)
+    values = {f'bias:m{j}': rng.normal(size=400) for j in range(2)}
+    values.update({f'filter:f{j}': rng.normal(size=400) for j in range(4)})
+    own = own_shares(values)
+    assert set(own) == {'bias', 'filter'} and len(own['bias']) == 400
+    assert abs(np.mean(own['bias']) - 0.95) < 0.01 and abs(np.mean(own['filter']) - 0.95) < 0.01
+    # two independent measures: both inside for about 0.95^2 of the traces
+    assert abs(np.mean(np.array(own['bias']) == 1.0) - 0.95 ** 2) < 0.05
+
+
+def test_the_worst_group_is_read_against_the_classes_own():
+    # two folds; own traces 0..3; the real trace is worst in bias; the smoother
+    # has no own shares, so it is not among the groups judged
+    folds = [{'groups': {'bias': 0.5, 'filter': 1.0, 'smoother': 0.0},
+              'own_groups': {'bias': [1.0, 0.5, 1.0, 1.0], 'filter': [1.0, 1.0, 0.5, 1.0]}},
+             {'groups': {'bias': 0.5, 'filter': 1.0, 'smoother': 0.0},
+              'own_groups': {'bias': [1.0, 0.5, 1.0, 0.5], 'filter': [1.0, 1.0, 1.0, 1.0]}}]
+    got = own_verdict(folds)
+    assert got['groups'] == ['bias', 'filter']
+    # own worst per trace (mean over folds, smallest group): 1.0, 0.5, 0.75, 0.75
+    assert got['worst'] == 0.5 and got['own_worst_median'] == 0.75
+    assert got['percentile'] == 25.0                 # one own set as low as the real 0.5
+    assert got['own_meet_bar'] == 25.0               # only trace 0 has every group >= 0.90
+    assert own_verdict([{'groups': {'bias': 1.0}}]) is None
