@@ -192,10 +192,10 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
     sims = np.array([[m[n] for n in names] for m in (_basic(s, jump_m) for s in simulated)])
     cn, cm, cs = consumer_measures(part, part.err, simulated, train.err, seed)
     rows = {n: envelope(measured[n], sims[:, j]) for j, n in enumerate(names)}
-    values = {n: sims[:, j] for j, n in enumerate(names)}
+    per_trace = {n: sims[:, j] for j, n in enumerate(names)}
     for j, n in enumerate(cn):
         rows[f'{n.split("_")[0]}:{n}'] = envelope(cm[j], cs[:, j])
-        values[f'{n.split("_")[0]}:{n}'] = cs[:, j]
+        per_trace[f'{n.split("_")[0]}:{n}'] = cs[:, j]
     if smoother_sims:
         from gps_error_ros.diagnose.smoother import head, run_smoother, SMOOTHER_MEASURES
         short = head(part, SMOOTHER_SAMPLES)
@@ -214,11 +214,11 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
             rows[f'outages:{name}'] = row
         stats = np.array([outage_stats(m) for m in masks], dtype=float)
         for j, name in enumerate(OUTAGE_MEASURES):
-            values[f'outages:{name}'] = stats[:, j]
+            per_trace[f'outages:{name}'] = stats[:, j]
     groups = {g: float(np.mean([inside(r) for k, r in rows.items()
                                 if k.split(':')[0] == g]))
               for g in GROUPS + EXTRA_GROUPS if any(k.split(':')[0] == g for k in rows)}
-    return rows, groups, own_shares(values)
+    return rows, groups, own_shares(per_trace)
 
 
 def own_shares(values):
