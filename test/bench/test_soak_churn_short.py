@@ -26,6 +26,10 @@ def test_short_churn_soak():
     assert r['agents_checked'] == r['agents_ever'], summary
     assert r['served_max'] < 20, summary
     assert r['served_at_end'] == r['alive_at_end'], summary
-    assert r['released'] >= r['departures'] - r['returns'], summary
+    # the node releases what it served: a life that ended between two of its
+    # scans (a second or two of wall time at 25x, on a loaded machine) was
+    # never served; they stay few
+    assert r['lives_never_served'] <= r['departures'] // 5, summary
+    assert r['released'] >= r['departures'] - r['returns'] - r['lives_never_served'], summary
     assert r['rss_growth_mb'] <= 20.0, summary
     assert r['passed']
