@@ -282,8 +282,22 @@ def _causes(parts):
             f'{ext["best_score_folds"]} of {len(folds)} folds, and its worst group averages '
             f'{ext["worst_group"]["inside_95"]:.2f} ({ext["worst_group"]["group"]}); the '
             f'class whose worst group is highest is {LABELS.get(best, best)} '
-            f'({min(summary[best]["groups"].values()):.2f}).')
+            f'({min(summary[best]["groups"].values()):.2f}).' + _own_sentence(summary))
     return out
+
+
+def _own_sentence(summary, cls='population'):
+    """Return a sentence: the population's worst group read against its own traces'."""
+    own = summary.get(cls, {}).get('own')
+    if own is None:
+        return ''
+    others = [LABELS.get(c, c) for c, s in summary.items()
+              if c != cls and 'own' in s and s['own']['percentile'] >= 5.0]
+    return (f' (f) Read against its own traces, the population class\'s worst group '
+            f'({own["worst"]:.2f}) is matched or undercut by {own["percentile"]:.0f} % of '
+            f'them (below 5 % would say it is unlike them), and its own traces have every '
+            f'group at 0.90 or more in {own["own_meet_bar"]:.0f} % of sets of folds; '
+            f'other classes at 5 % or more: ' + ('; '.join(others) or 'none') + '.')
 
 
 def _explanation(parts, data):
@@ -466,7 +480,11 @@ metre while separate walks differ by metres: the bias is the occasion's, and
 the population fit counts an occasion once,
 [decision 0007](decisions/0007-occasions.md)); (d) tails and jumps that a
 Gaussian process under-simulates (the filter's gate); (e) a selection that
-fits one split (the extended class's NLL against its groups).
+fits one split (the extended class's NLL against its groups). And (f), what
+the bar itself asks: groups of two to four measures are coarse, so a trace
+of a class's own has some group below 0.90 more often than not (column *own
+at 0.90* of each set's table); the worst group's percentile among the
+class's own traces says whether a miss is evidence against the class.
 """
 
 FLOOR_HEAD = """## Calm stretches, and what sampling alone gives
