@@ -229,18 +229,17 @@ def fit_rate_spread(counts, fixes, nodes=241):
     recordings, no failure, or a spread below :data:`MIN_RATE_SD_LOG`.
     """
     from scipy import optimize, stats
-    from gps_error_ros.model.failures import MAX_AGENT_RATE, MAX_RATE_SD_LOG
+    from gps_error_ros.model.failures import (MAX_AGENT_RATE, MAX_RATE_SD_LOG, rate_nodes,
+                                              rate_of)
     counts = np.asarray(counts, dtype=float)
     fixes = np.asarray(fixes, dtype=float)
     pooled = float(counts.sum() / fixes.sum()) if fixes.sum() > 0 else 0.0
     if counts.size < MIN_RECORDINGS_FOR_SPREAD or counts.sum() == 0:
         return pooled, None
-    z = np.linspace(-6.0, 6.0, nodes)
-    logw = -0.5 * z * z - np.logaddexp.reduce(-0.5 * z * z)
+    z, logw = rate_nodes(nodes)
 
     def nll(p):
-        r, sd = np.exp(p[0]), p[1]
-        rates = np.minimum(r * np.exp(sd * z - 0.5 * sd * sd), MAX_AGENT_RATE)
+        rates = rate_of(np.exp(p[0]), p[1], z)
         ll = stats.binom.logpmf(counts[:, None], fixes[:, None], rates[None, :]) + logw
         top = ll.max(axis=1, keepdims=True)
         return -float(np.sum(top[:, 0] + np.log(np.exp(ll - top).sum(axis=1))))

@@ -57,6 +57,19 @@ OPTIONAL_KEYS = ('rate_sd_log',)
 _RATE_NODES = 241
 
 
+def rate_of(rate, rate_sd_log, z):
+    """Return the rates of agents whose log-rate normals are ``z``: the section's law."""
+    s = rate_sd_log
+    return np.minimum(rate * np.exp(s * np.asarray(z) - 0.5 * s * s), MAX_AGENT_RATE)
+
+
+def rate_nodes(nodes=_RATE_NODES):
+    """Return (``z``, log weights) of the standard normal on an even grid over +-6 SD."""
+    z = np.linspace(-6.0, 6.0, nodes)
+    log_w = -0.5 * z * z
+    return z, log_w - np.logaddexp.reduce(log_w)
+
+
 class FailuresError(ValueError):
     """A ``gross_failures`` section that is not valid."""
 
@@ -82,9 +95,8 @@ class GrossFailureProcess:
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         if not self.rate_sd_log:
             return np.full(keys.size, self.rate)
-        s = self.rate_sd_log
         z = streams.normal_pairs(keys, streams.DOMAIN_FAILURE_RATE, 0)[:, 0]
-        return np.minimum(self.rate * np.exp(s * z - 0.5 * s * s), MAX_AGENT_RATE)
+        return rate_of(self.rate, self.rate_sd_log, z)
 
     def count_law(self, fixes):
         """
@@ -98,12 +110,9 @@ class GrossFailureProcess:
         counts = np.arange(int(fixes) + 1)
         if not self.rate_sd_log:
             return stats.binom.pmf(counts, int(fixes), self.rate)
-        z = np.linspace(-6.0, 6.0, _RATE_NODES)
-        w = np.exp(-0.5 * z * z)
-        s = self.rate_sd_log
-        rates = np.minimum(self.rate * np.exp(s * z - 0.5 * s * s), MAX_AGENT_RATE)
+        z, log_w = rate_nodes()
         law = np.zeros(counts.size)
-        for r, weight in zip(rates, w / w.sum()):
+        for r, weight in zip(rate_of(self.rate, self.rate_sd_log, z), np.exp(log_w)):
             law += weight * stats.binom.pmf(counts, int(fixes), r)
         return law / law.sum()
 
