@@ -27,7 +27,6 @@ import numpy as np
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
-from gps_error_ros.diagnose.velocity_check import velocity_group
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.traces.trace_io import join_recordings, read_trace_csv
@@ -344,8 +343,6 @@ def main(argv=None):
         docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json')]
         order = list(ALONE) + ['SnapperGPS walks', 'GSDC phones of one drive']
         docs.sort(key=lambda d: order.index(d['set']))
-        if any('velocity' not in f for d in docs for f in d['folds']):
-            _add_velocity(docs, args)
         _write_page(args, [(d['set'], d['how'], d['folds'], d['summary']) for d in docs],
                     docs[0].get('seconds', 0.0), docs[0].get('date'))
         return
@@ -366,15 +363,6 @@ def main(argv=None):
             {'set': name, 'how': how, 'folds': folds, 'summary': summary,
              'seconds': seconds, 'date': date}, indent=1, default=float))
     _write_page(args, [p[:4] for p in parts], seconds, date)
-
-
-def _add_velocity(docs, args):
-    """Give a JSON of a run made before the speed and course group its group, in place."""
-    by_set = {name: splits for name, _, splits in sets(args.data)}
-    for d in docs:
-        for fold, (_, split) in zip(d['folds'], by_set[d['set']]):
-            fold['velocity'] = None if split.velocity is None else \
-                velocity_group(*split.velocity, sims=args.sims, seed=0)
 
 
 def _velocity_rows(folds):

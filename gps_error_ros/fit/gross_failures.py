@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from gps_error_ros.model.failures import MAX_AGENT_RATE, MAX_RATE_SD_LOG, rate_nodes, rate_of
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.trace_io import recordings_of
 
@@ -216,27 +217,25 @@ MIN_RECORDINGS_FOR_SPREAD = 3
 MIN_RATE_SD_LOG = 0.01
 
 
-def fit_rate_spread(counts, fixes, nodes=241):
+def fit_rate_spread(counts, fixes):
     """
     Return the mean rate and the SD of the log rate, fitted from each recording's failures.
 
     Each recording is one agent with rate ``r exp(s z - s^2 / 2)``, ``z``
     standard normal, and a binomial count of failures among its fixes (the
     law of :meth:`~gps_error_ros.model.failures.GrossFailureProcess.count_law`);
-    ``(r, s)`` maximise the likelihood of the counts (``z`` on a grid of
-    ``nodes`` over +-6 SD). Returns ``(r, None)``, ``r`` the pooled ``sum(counts) /
+    ``(r, s)`` maximise the likelihood of the counts (``z`` on the grid of
+    :func:`~gps_error_ros.model.failures.rate_nodes`, as the law has it). Returns ``(r, None)``, ``r`` the pooled ``sum(counts) /
     sum(fixes)``, with fewer than :data:`MIN_RECORDINGS_FOR_SPREAD`
     recordings, no failure, or a spread below :data:`MIN_RATE_SD_LOG`.
     """
     from scipy import optimize, stats
-    from gps_error_ros.model.failures import (MAX_AGENT_RATE, MAX_RATE_SD_LOG, rate_nodes,
-                                              rate_of)
     counts = np.asarray(counts, dtype=float)
     fixes = np.asarray(fixes, dtype=float)
     pooled = float(counts.sum() / fixes.sum()) if fixes.sum() > 0 else 0.0
     if counts.size < MIN_RECORDINGS_FOR_SPREAD or counts.sum() == 0:
         return pooled, None
-    z, logw = rate_nodes(nodes)
+    z, logw = rate_nodes()
 
     def nll(p):
         rates = rate_of(np.exp(p[0]), p[1], z)
