@@ -225,8 +225,9 @@ def fit_rate_spread(counts, fixes):
     standard normal, and a binomial count of failures among its fixes (the
     law of :meth:`~gps_error_ros.model.failures.GrossFailureProcess.count_law`);
     ``(r, s)`` maximise the likelihood of the counts (``z`` on the grid of
-    :func:`~gps_error_ros.model.failures.rate_nodes`, as the law has it). Returns ``(r, None)``, ``r`` the pooled ``sum(counts) /
-    sum(fixes)``, with fewer than :data:`MIN_RECORDINGS_FOR_SPREAD`
+    :func:`~gps_error_ros.model.failures.rate_nodes`, as the law has it).
+    Returns ``(r, None)``, ``r`` the pooled ``sum(counts) / sum(fixes)``,
+    with fewer than :data:`MIN_RECORDINGS_FOR_SPREAD`
     recordings, no failure, or a spread below :data:`MIN_RATE_SD_LOG`.
     """
     from scipy import optimize, stats
