@@ -14,6 +14,11 @@ moves at 1 m/s or more and the phone reports a course:
 * ``sigma``: the RMS of the remaining error's east and north components
   (pooled); ``phi``: its lag-1 autocorrelation on consecutive 1-s rows
   (pooled over both components, about zero);
+* ``sigma_by_speed``: the same RMS per band of the reference's speed
+  (:data:`SPEED_EDGES`; a band with fewer than :data:`BAND_ROWS` rows joins
+  the next faster one, the fastest joins the one before), at the band's
+  median speed; written where two bands or more are left. ``phi`` is then
+  of the error divided by the SD at its speed;
 * ``standstill``: the reference speed (up to 2 m/s) at or below which the
   phone reported exactly 0 with the fewest exceptions either way (at least
   10 zero reports; else 0); the phone reports 0 at or below it.
@@ -25,6 +30,10 @@ NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
 MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
 SLOW_TRUTH = 0.2      # m/s: below it the reference's course is missing and its vector 0
 LAGS = np.round(np.arange(0.0, 1.01, 0.1), 1)
+#: m/s: edges of the speed bands ``sigma_by_speed`` is fitted on (walking, town, open road).
+SPEED_EDGES = (1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, np.inf)
+#: Moving rows a speed band needs; fewer join the next band.
+BAND_ROWS = 30
 
 
 def vectors(speed, course_deg, zero_below=0.0):
@@ -35,6 +44,37 @@ def vectors(speed, course_deg, zero_below=0.0):
     small = ~np.isfinite(c) & np.isfinite(speed) & (speed <= zero_below)
     v[small] = 0.0
     return v
+
+
+def speed_bands(speed, edges=SPEED_EDGES, least=BAND_ROWS):
+    """
+    Return the rows of each band of ``speed``, as index arrays, slowest first.
+
+    A band with fewer than ``least`` rows joins the next faster one; a last
+    band still short joins the one before it. Rows outside the edges are left out.
+    """
+    speed = np.asarray(speed, dtype=float)
+    bands, rows = [], np.zeros(0, dtype=np.int64)
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        rows = np.r_[rows, np.flatnonzero((speed >= lo) & (speed < hi))]
+        if rows.size >= least:
+            bands.append(rows)
+            rows = np.zeros(0, dtype=np.int64)
+    if rows.size:
+        if bands:
+            bands[-1] = np.r_[bands[-1], rows]
+        else:
+            bands.append(rows)
+    return bands
+
+
+def _by_speed(w, speed):
+    """Return ((median speed, RMS of the components), ...) per band, or None below two."""
+    bands = speed_bands(speed)
+    if len(bands) < 2:
+        return None
+    return tuple((round(float(np.median(speed[b])), 3),
+                  round(max(float(np.sqrt(np.mean(w[b] ** 2))), 1e-4), 6)) for b in bands)
 
 
 def _standstill(truth_speed, zero):
@@ -70,11 +110,19 @@ def estimate_velocity(trace):
     w[rows] = left[lag]
     pair = np.flatnonzero(rows[:-1] & rows[1:] & (np.diff(t) == 1.0))
     sigma = float(np.sqrt(np.mean(w[rows] ** 2)))
-    phi = float(np.sum(w[pair] * w[pair + 1]) / np.sum(w[pair] ** 2)) if pair.size else 0.0
+    table = _by_speed(w[rows], ex['truth_speed'][rows])
+    u = w.copy()                # the error in units of its SD at its speed
+    if table is not None:
+        nodes = np.asarray(table)
+        u[rows] = w[rows] / np.interp(ex['truth_speed'][rows], nodes[:, 0], nodes[:, 1])[:, None]
+    phi = float(np.sum(u[pair] * u[pair + 1]) / np.sum(u[pair] ** 2)) if pair.size else 0.0
+    phi = min(max(phi, -0.99), 0.99)
     zero = ex['speed'] == 0
     standstill = _standstill(ex['truth_speed'], zero) if zero.sum() >= 10 else 0.0
-    section = {'sigma': round(sigma, 6), 'phi': round(min(max(phi, -0.99), 0.99), 6),
+    section = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
                'lag_s': float(lag), 'standstill': round(standstill, 4)}
+    if table is not None:
+        section['sigma_by_speed'] = [list(node) for node in table]
     evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),
                 'rms_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
                 'mean_error_east_north': [round(float(np.mean(w[rows, a])), 4)

@@ -126,14 +126,13 @@ class FixOutput:
         """Publish ``vel`` for the rows with a fix and a velocity."""
         node = self.node
         members = node.groups[g].members
-        variance = node.groups[g].engine.vel.velocity.sigma ** 2
         rows = np.flatnonzero(good & np.isfinite(fix.velocity).all(axis=1))
         for row in rows:
             pub = node.vel_pubs[members[fix.agents[row]]]
             if pub is not None:
                 pub.publish(conversions.make_twist(
                     fix.stamp_ns, self.frame_id, fix.velocity[row, 0], fix.velocity[row, 1],
-                    variance))
+                    float(fix.velocity_sd[row]) ** 2))
 
     def _send(self, handles, raws):
         send_paced(handles, raws, self.burst)

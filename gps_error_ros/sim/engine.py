@@ -438,13 +438,13 @@ class FixEngine:
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position
         self.stats.fixes += int(fix.sum())
         self.stats.no_fix += int((~fix).sum())
-        velocity = accuracy = None
+        velocity = velocity_sd = accuracy = None
         if self.vel is not None:
-            velocity = self.vel.reported(self.truth, agents, step.t_ns,
-                                         step.side['vel'][agents], self.max_gap_ns)
+            velocity, velocity_sd = self.vel.reported(
+                self.truth, agents, step.t_ns, step.side['vel'][agents], self.max_gap_ns)
         if self.reported is not None:       # the phone's stated radius, and its covariance
             accuracy = self.reported.radius(step.side['rep'][agents], cov, self.ref_cov)
             cov = self.reported.covariance(accuracy, self.reported_bias)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
                         alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
-                        cov=cov, accuracy=accuracy)
+                        velocity_sd=velocity_sd, cov=cov, accuracy=accuracy)

@@ -38,6 +38,7 @@ class FixBatch:
     error: np.ndarray = field(repr=False)
     fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
     velocity: np.ndarray = field(default=None, repr=False)  # (m, 2) east/north m/s
+    velocity_sd: np.ndarray = field(default=None, repr=False)  # (m,) its error's SD, m/s
     cov: np.ndarray = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
     accuracy: np.ndarray = field(default=None, repr=False)  # (m,) stated 68 % radius, m
 

@@ -61,10 +61,11 @@ class VelocityState(SideStream):
 
     def reported(self, truth, agents, t_ns, w, max_gap_ns):
         """
-        Return the velocity (m, 2) east/north the phones of ``agents`` report at ``t_ns``.
+        Return (velocity (m, 2) east/north, its error's SD (m,)) the phones report at ``t_ns``.
 
         ``truth`` is the engine's truth ring, ``w`` the agents' errors at the
         step. NaN rows: the truth does not reach back to the chord's start.
+        The SD is the section's at each agent's true speed (``sigma_by_speed``).
         """
         end = min(t_ns - self.lag_ns + NS // 2, t_ns)     # the chord centred at t - lag
         c1, ok1 = truth.interpolate(agents, end, max_gap_ns)
@@ -72,7 +73,8 @@ class VelocityState(SideStream):
         ok = ok1 & ok0 & (truth.newest[agents] >= end)
         north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
         v_true = np.stack([east, north], axis=1)
-        out = v_true + w
-        out[np.hypot(v_true[:, 0], v_true[:, 1]) <= self.velocity.standstill] = 0.0
+        out = v_true + self.velocity.scaled(v_true, w)
+        speed = np.hypot(v_true[:, 0], v_true[:, 1])
+        out[speed <= self.velocity.standstill] = 0.0
         out[~ok] = np.nan
-        return out
+        return out, self.velocity.sd_at(speed)

@@ -37,6 +37,37 @@ def test_the_error_process_and_what_the_phone_reports():
     assert abs(spread - np.degrees(0.15 / 1.4)) < 2.0
 
 
+def test_a_speed_table_scales_the_same_stream():
+    plain = velocity_from_dict(TRUE)
+    table = velocity_from_dict(dict(TRUE, sigma_by_speed=[[2.0, 0.4], [12.0, 0.1]]))
+    keys = streams.agent_keys(2, [f'a{i}' for i in range(4000)])
+    w = plain.errors(keys, 3, start=5)[-1]
+    assert np.array_equal(table.errors(keys, 3, start=5)[-1], w)   # one stream, one sigma
+    for speed, sd in ((1.0, 0.4), (7.0, 0.25), (30.0, 0.1)):      # flat outside, linear inside
+        v_true = np.tile([0.0, speed], (keys.size, 1))
+        err = np.stack(v_true + table.scaled(v_true, w) - v_true)
+        assert table.sd_at(speed) == pytest.approx(sd)
+        np.testing.assert_allclose(err, w * sd / 0.15, atol=1e-14)
+        assert abs(err.std() - sd) < 4 * sd / np.sqrt(2 * keys.size)
+    assert plain.scaled(v_true, w) is w                     # no table: the error untouched
+    assert table.to_dict()['sigma_by_speed'] == [[2.0, 0.4], [12.0, 0.1]]
+    assert velocity_from_dict(table.to_dict()) == table
+
+
+def test_calibrate_recovers_a_speed_table(tmp_path):
+    write_drive(tmp_path / 'truth.csv', steps=3000)         # 1 to 13 m/s
+    velocity = velocity_from_dict(dict(TRUE, sigma_by_speed=[[2.0, 0.4], [12.0, 0.1]]))
+    simulate_csv(tmp_path / 'truth.csv', tmp_path / 'noisy.csv', load_profile('DS1').model(),
+                 1.0, 5, velocity)
+    assert cli(['calibrate', str(tmp_path / 'noisy.csv'), '-o', str(tmp_path / 'p.yaml'),
+                '--order', '3']) == 0
+    got = load_profile_file(tmp_path / 'p.yaml').velocity
+    assert len(got.sigma_by_speed) >= 3, got
+    for speed in (2.5, 5.0, 8.0, 11.0):
+        assert got.sd_at(speed) == pytest.approx(velocity.sd_at(speed), rel=0.2), got
+    assert got.phi == pytest.approx(0.7, abs=0.08)      # of the error in units of its SD
+
+
 def test_calibrate_recovers_a_known_velocity_section(tmp_path):
     write_drive(tmp_path / 'truth.csv')
     velocity = velocity_from_dict(TRUE)
@@ -59,6 +90,8 @@ def test_the_measured_phones_give_a_half_second_lag_and_decimetre_errors(tmp_pat
         fitted = load_profile_file(tmp_path / 'p.yaml')
         v = fitted.velocity
         assert 0.3 <= v.lag_s <= 0.7 and 0.05 < v.sigma < 0.3 and 0.3 < v.phi < 0.9, v
+        # town errs several times more than the open road (decimetres against centimetres)
+        assert v.sd_at(7.0) > 0.4 and v.sd_at(27.0) < 0.12 and v.sd_at(7.0) > 4 * v.sd_at(27.0), v
         assert fitted.fit['velocity']['moving_rows'] > 1500
 
 
@@ -67,6 +100,12 @@ def test_the_measured_phones_give_a_half_second_lag_and_decimetre_errors(tmp_pat
     ({'sigma': 0.0, 'phi': 0.5, 'lag_s': 0.0, 'standstill': 0.0}, 'velocity.sigma'),
     ({'sigma': 0.1, 'phi': 1.0, 'lag_s': 0.0, 'standstill': 0.0}, 'velocity.phi'),
     ({'sigma': 0.1, 'phi': 0.5, 'lag_s': -1, 'standstill': 0.0}, 'velocity.lag_s'),
+    (dict(TRUE, sigma_by_speed=[[5.0, 0.2], [5.0, 0.1]]), 'not increasing'),
+    (dict(TRUE, sigma_by_speed=[[5.0, 0.0]]), r'the pair \[5.0, 0.0\]'),
+    (dict(TRUE, sigma_by_speed=[[5.0, float('nan')]]), 'sigma_by_speed'),
+    (dict(TRUE, sigma_by_speed=[]), 'sigma_by_speed'),
+    (dict(TRUE, sigma_by_speed='fast'), 'sigma_by_speed'),
+    (dict(TRUE, extra=1), 'exactly'),
 ])
 def test_a_bad_section_is_refused_naming_the_key(section, expected):
     from gps_error_ros.model.profiles import profile_from_dict

@@ -16,9 +16,13 @@ STEPS = 40
 SPEED = 1.4          # m/s east
 
 
-def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer):
+# without a table, and with one: the error's SD at 1.4 m/s is 0.3 + 0.4 (0.1 - 0.3) = 0.22
+@pytest.mark.parametrize('table, sd', [(None, 0.15), ([[1.0, 0.3], [2.0, 0.1]], 0.22)])
+def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer, table, sd):
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
     raw['velocity'] = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.4, 'standstill': 0.0}
+    if table is not None:
+        raw['velocity']['sigma_by_speed'] = table
     path = tmp_path / 'velocity.yaml'
     path.write_text(yaml.safe_dump(raw))
     ns = unique_ns()
@@ -39,12 +43,13 @@ def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer):
     # on the truth covers it, and every fix then has a vel
     assert stamps == list(range(T0 + 1, T0 + STEPS)), stamps
     got = np.array([[v.twist.twist.linear.x, v.twist.twist.linear.y] for v in vels])
-    expected = np.array([SPEED, 0.0]) + w[1:]
+    expected = np.array([SPEED, 0.0]) + w[1:] * sd / 0.15
     # the chord is measured on the ellipsoid, the walk 23 m below it (the datum's
     # height): 1.4 m/s comes out 3.6 ppm longer, 5 micrometres per second
     np.testing.assert_allclose(got, expected, atol=2e-5)
     cov = np.array(vels[0].twist.covariance).reshape(6, 6)
-    assert np.diag(cov)[:3] == pytest.approx([0.0225] * 3) and np.diag(cov)[3] == 1e6
+    # (the table is read at the chord's speed, 3.6 ppm above 1.4 m/s)
+    assert np.diag(cov)[:3] == pytest.approx([sd ** 2] * 3, rel=1e-4) and np.diag(cov)[3] == 1e6
     # gps_error simulate reports the same speed and course for the same walk
     from gps_error_ros.model.geodesy import LocalTangentFrame
     from gps_error_ros.sim.velocity_sim import speed_and_course
