@@ -29,6 +29,8 @@ MIN_HOLDOUT_SAMPLES = 600
 SIMS = 300
 #: Zone maps drawn from a drive's own environment (docs/calibration/), by trace prefix.
 ZONE_MAPS = {'gsdc2020-mtv1-': 'gsdc2020-mtv1-zones.geojson'}
+#: Recordings calibrated together elsewhere (docs/walks.md, make walks-profile), by prefix.
+ELSEWHERE = ('snapper-walk-',)
 
 
 def _fits(trace):
@@ -60,6 +62,8 @@ def run(data_dir, out_dir):
     sub.mkdir(parents=True, exist_ok=True)
     records = []
     for csv_path in sorted(data_dir.glob('*.csv')):
+        if csv_path.name.startswith(ELSEWHERE):
+            continue
         trace = read_trace_csv(csv_path)
         stem = csv_path.stem
         rec = {'trace': csv_path.name, 'rows': len(trace),

@@ -95,7 +95,8 @@ def _evidence(folds):
         ev = f['classes']['population']['fit']
         sec = f['classes']['population']['section']
         if not ev.get('fitted'):
-            lines.append(f'- {f["fold"]}: no population ({ev["reason"]})')
+            lines.append(f'- {f["fold"]}: no population ({ev["reason"]}): the class is the '
+                         f'extended one fitted on the whole training part, and ties with it')
             continue
         tau = sec.get('bias_time_constant_s')
         lines.append(

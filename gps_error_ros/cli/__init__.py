@@ -365,8 +365,13 @@ def cmd_diagnose(args):
         if args.population:
             from gps_error_ros.diagnose.generalise import population_profile
             prof = population_profile(diag.split, out.stem, s['input'], args.seed)
-            print(f'  population: {prof.get("population", "none")} '
-                  f'({prof["fit"]["population"]["blocks"]} training blocks of 300 s)')
+            blocks = prof['fit']['population']['blocks']
+            if 'population' in prof:
+                print(f'  population: {prof["population"]} ({blocks} training blocks of 300 s)')
+            else:                           # no spread to fit: the whole part's fit
+                print(f'  population: none ({blocks} training block(s) of 300 s, 3 needed): '
+                      f'the extended profile is written')
+                prof = extended_profile(diag, out.stem, s['input'])
         else:
             prof = extended_profile(diag, out.stem, s['input'])
         write_profile(out, prof, 'diagnose')

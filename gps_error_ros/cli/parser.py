@@ -214,7 +214,8 @@ def _add_diagnose(sub):
                    help='with --profile-out: write the population profile instead, the '
                         'extended model fitted within blocks of 300 s of the training part '
                         'and a population section (each agent its own bias and scale), the '
-                        'class that holds best on recordings left out (docs/generalisation.md)')
+                        'class that holds best on recordings left out (docs/generalisation.md); '
+                        'with fewer than 3 blocks, no spread to fit: the extended profile')
     d.add_argument('--sims', type=number(int, MIN_SIMS), default=100,
                    help='simulated traces for the fidelity measures (default 100)')
     d.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,

@@ -60,6 +60,9 @@ GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails', 'filter', 'v2p')
 #: The classes of this module, beside :data:`~.baselines.CLASSES`.
 POPULATION = 'population'
 POPULATION_AR = 'population_ar'
+#: The class a population class is when its training part has too few blocks for a
+#: ``population`` section (as ``calibrate --population`` then writes the whole part's fit).
+WRAPS = {POPULATION: 'extended', POPULATION_AR: 'AR(p), PACF'}
 ACF_LAGS = 60
 #: Held-out samples the GTSAM smoother is run on (the first ones): it adds a pose per sample.
 SMOOTHER_SAMPLES = 600
@@ -284,6 +287,9 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
         pops[POPULATION] = PopulationClass(split.train, within, split.truth,
                                            split.train_weights)
     for label, pop in pops.items():
+        if pop.fit.population is None:     # nothing to pool over: the class it wraps
+            classes[label] = classes[WRAPS[label]]
+            continue
         ll = pop.logpdf(split.test, m0)
         n = {len(v[0]) for v in classes.values()}
         if n != {len(ll)}:
@@ -299,6 +305,8 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
         out[key] = {'heldout_nll_per_sample': float(-np.mean(lls)),
                     'groups': groups, 'measures': rows, 'own_groups': own}
     for label, pop in pops.items():
+        if pop.fit.population is None:
+            out[label]['same_as'] = KEYS[WRAPS[label]]
         out[label]['fit'] = pop.fit.evidence
         out[label]['section'] = None if pop.fit.population is None else \
             pop.fit.population.to_dict()
@@ -378,6 +386,9 @@ def summarise(folds):
     """
     Return per class: the held-out NLL per fold and its mean, the folds it scored best.
 
+    A fold's best score is the lowest NLL of any class; classes that tie
+    with it (a population class that is the class it wraps) each count it.
+
     And each group's ``inside_95`` averaged over the folds (those that have
     it, for the groups of :data:`EXTRA_GROUPS`), and the smallest
     of those (``worst_group``): a class holds where every group is near 0.95.
@@ -385,7 +396,7 @@ def summarise(folds):
     (:func:`own_verdict`): the worst group read against them.
     """
     classes = list(folds[0]['classes'])
-    best = [min(f['classes'], key=lambda c: f['classes'][c]['heldout_nll_per_sample'])
+    best = [min(f['classes'][c]['heldout_nll_per_sample'] for c in f['classes'])
             for f in folds]
     out = {}
     for c in classes:
@@ -396,7 +407,7 @@ def summarise(folds):
         worst = min(groups, key=groups.get)
         out[c] = {'heldout_nll_per_sample': float(np.mean(nll)),
                   'heldout_nll_per_fold': nll,
-                  'best_score_folds': int(sum(b == c for b in best)),
+                  'best_score_folds': int(sum(n <= b + 1e-12 for n, b in zip(nll, best))),
                   'groups': groups,
                   'worst_group': {'group': worst, 'inside_95': groups[worst]}}
         own = own_verdict([f['classes'][c] for f in folds])

@@ -35,3 +35,16 @@ def test_population_without_a_profile_out_is_refused(tmp_path):
     with pytest.raises(SystemExit) as exc:
         cli(['diagnose', str(src), '--population'])
     assert '--population goes with --profile-out' in str(exc.value)
+
+
+def test_too_few_blocks_write_the_extended_profile(tmp_path, capsys):
+    src = write_trace_csv(synthetic_trace('none', 3, 600), tmp_path / 'walk.csv')
+    out, ext = tmp_path / 'pop.yaml', tmp_path / 'ext.yaml'
+    assert cli(['diagnose', str(src), '--profile-out', str(out), '--population',
+                '--sims', '20']) == 0
+    assert 'the extended profile is written' in capsys.readouterr().out
+    assert cli(['diagnose', str(src), '--profile-out', str(ext), '--sims', '20']) == 0
+    got, want = (yaml.safe_load(p.read_text()) for p in (out, ext))
+    assert 'population' not in got
+    assert {k: v for k, v in got.items() if k != 'name'} == \
+        {k: v for k, v in want.items() if k != 'name'}

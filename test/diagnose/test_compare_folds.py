@@ -54,3 +54,26 @@ def test_leaving_recordings_out_needs_two(tmp_path):
     with pytest.raises(SystemExit) as exc:
         cli(['compare', str(path), '--folds', 'recordings'])
     assert 'at least 2 recordings' in str(exc.value)
+
+
+def test_without_blocks_to_pool_a_population_class_is_the_class_it_wraps(tmp_path):
+    train, test = (write_trace_csv(synthetic_trace('none', seed, 500), tmp_path / f'r{seed}.csv')
+                   for seed in (4, 5))
+    out = tmp_path / 'folds.json'
+    assert cli(['compare', str(train), '--test', str(test), '--sims', '20',
+                '--json', str(out)]) == 0
+    doc = json.loads(out.read_text())
+    (fold,) = doc['folds']
+    for pop, wrapped in (('population', 'extended'), ('population_ar', 'ar_p')):
+        c, w = fold['classes'][pop], fold['classes'][wrapped]
+        assert c['fit']['fitted'] is False and c['same_as'] == wrapped   # 2 blocks of 300 s
+        assert c['heldout_nll_per_sample'] == w['heldout_nll_per_sample']
+        # the same traces; population_ar simulates the training part's outages, as
+        # calibrate --population's profile carries them, and ar_p a fix at every step
+        same = [g for g in c['groups'] if pop == 'population' or g != 'outages']
+        assert [c['groups'][g] for g in same] == [w['groups'][g] for g in same]
+        assert [c['own_groups'][g] for g in same] == [w['own_groups'][g] for g in same]
+        # a tie is the best score for both, or for neither
+        s = doc['summary']
+        assert s[pop]['best_score_folds'] == s[wrapped]['best_score_folds']
+    assert sum(s[c]['best_score_folds'] for c in s) >= 1
