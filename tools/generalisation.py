@@ -29,11 +29,14 @@ from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds
                                                split_between, summarise)
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.traces.trace_io import join_recordings, read_trace_csv
 
 #: The classes the GTSAM smoother judges (it adds a pose per sample: slow), and their traces.
 SMOOTHER_CLASSES = ('white_bias', 'ar1', 'extended', 'population')
 SMOOTHER_SIMS = 40
+#: m/s: the speeds at which the velocity table reads a section's SD.
+SPEEDS = (3.0, 10.0, 27.0)
 PHONES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv')
 ALONE = PHONES + ('urbannav-hk-tst-ublox-spp.csv',)
 TOO_SHORT = {'gmt-static-phone-2016-08-22.csv': '207 samples: a rolling fold would hold out '
@@ -372,16 +375,18 @@ def _velocity_rows(folds):
         return []
     rows = ['Speed and course (the velocity section fitted on the training rows, the same '
             'for every class; measured on the held-out rows, against the simulated 95 % '
-            'range):\n', '| fold | section: sigma (m/s), phi, lag (s) | measure | held out '
+            'range; the section\'s SD at 3, 10 and 27 m/s from its `sigma_by_speed`):\n',
+            '| fold | section: SD at 3 / 10 / 27 m/s, phi, lag (s) | measure | held out '
             '| simulated 95 % |', '|---|---|---|---|---|']
     for f in folds:
         g = f.get('velocity')
         if not g:
             continue
         sec = g['section']
+        sds = ' / '.join(f'{v:.2f}' for v in velocity_from_dict(sec).sd_at(SPEEDS))
         for name, r in g['measures'].items():
             out = '' if inside(r) else ' **out**'
-            rows.append(f'| {f["fold"]} | {sec["sigma"]:.3f}, {sec["phi"]:.2f}, '
+            rows.append(f'| {f["fold"]} | {sds}, {sec["phi"]:.2f}, '
                         f'{sec["lag_s"]:.1f} | {name} | {r["measured"]:.3f}{out} | '
                         f'{r["sim_lo"]:.3f} to {r["sim_hi"]:.3f} |')
     return rows + ['']
@@ -417,7 +422,9 @@ method in `gps_error_ros/diagnose/generalise.py`):
 
 - **held-out NLL**: the one-step predictive negative log density per
   sample (a proper score; lower is better), mean over folds; **best**: the
-  folds on which the class had the lowest;
+  folds on which the class had the lowest (a tie counts for each: a
+  population class whose training part has too few blocks for a section
+  is the class it wraps);
 - **groups**: the share of a group's measures whose held-out value lies
   inside the central 95 % range of {sims} traces simulated along the
   held-out truth, mean over folds (near 0.95 for a simulator that holds):
