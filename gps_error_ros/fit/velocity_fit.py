@@ -2,7 +2,10 @@
 Fit a profile's ``velocity`` section from a trace's speed and course columns.
 
 Needs ``speed``, ``bearing`` (the phone's) and ``truth_speed``,
-``truth_bearing`` (the reference's), as the GSDC traces carry them. Both are
+``truth_bearing`` (the reference's), as the GSDC traces carry them. Rows
+whose speed (the phone's or the reference's) is negative, not finite or
+100 m/s or more, or whose course lies outside 0-360 degrees, are left out
+(counted as ``implausible_rows``). Both are
 turned into east/north velocity vectors (a course missing where the speed is
 0 is a zero vector; where the reference is slower than 0.2 m/s its course is
 missing and its vector taken as zero). Then, on the rows where the reference
@@ -32,6 +35,8 @@ SLOW_TRUTH = 0.2      # m/s: below it the reference's course is missing and its 
 LAGS = np.round(np.arange(0.0, 1.01, 0.1), 1)
 #: m/s: edges of the speed bands ``sigma_by_speed`` is fitted on (walking, town, open road).
 SPEED_EDGES = (1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, np.inf)
+#: m/s: a speed at or above it is not a walker's or a car's (that row is left out).
+MAX_SPEED = 100.0
 #: Moving rows a speed band needs; fewer join the next band.
 BAND_ROWS = 30
 
@@ -44,6 +49,14 @@ def vectors(speed, course_deg, zero_below=0.0):
     small = ~np.isfinite(c) & np.isfinite(speed) & (speed <= zero_below)
     v[small] = 0.0
     return v
+
+
+def _plausible(speed, course):
+    """Return rows whose speed is in [0, MAX_SPEED) m/s and course, where given, in [0, 360]."""
+    speed, course = np.asarray(speed, dtype=float), np.asarray(course, dtype=float)
+    with np.errstate(invalid='ignore'):
+        return ((speed >= 0.0) & (speed < MAX_SPEED)
+                & (np.isnan(course) | ((course >= 0.0) & (course <= 360.0))))
 
 
 def speed_bands(speed, edges=SPEED_EDGES, least=BAND_ROWS):
@@ -81,7 +94,7 @@ def _standstill(truth_speed, zero):
     """Return the true speed at or below which the phone's zero reports are best told."""
     ok = np.isfinite(truth_speed)
     ts, z = truth_speed[ok], zero[ok]
-    candidates = np.unique(np.r_[0.0, ts[ts <= 2.0]])
+    candidates = np.unique(np.r_[0.0, ts[(ts >= 0.0) & (ts <= 2.0)]])
     wrong = [np.sum(z & (ts > c)) + np.sum(~z & (ts <= c)) for c in candidates]
     return float(candidates[int(np.argmin(wrong))])
 
@@ -92,13 +105,17 @@ def estimate_velocity(trace):
     if missing:
         return None, {'fitted': False, 'reason': f'no column(s) {missing}'}
     ex = trace.extra
+    odd = ~(_plausible(ex['speed'], ex['bearing'])
+            & _plausible(ex['truth_speed'], ex['truth_bearing']))
     phone = vectors(ex['speed'], ex['bearing'], zero_below=0.0)
     truth = vectors(ex['truth_speed'], ex['truth_bearing'], zero_below=SLOW_TRUTH)
+    phone[odd] = truth[odd] = np.nan
     known = np.isfinite(truth).all(axis=1)
     rows = known & np.isfinite(phone).all(axis=1) & (ex['truth_speed'] >= MOVING)
     if rows.sum() < 30 or known.sum() < 2:
         return None, {'fitted': False, 'reason': f'{int(rows.sum())} moving rows with both '
-                                                 f'velocities (30 needed)'}
+                                                 f'velocities (30 needed)',
+                      'implausible_rows': int(odd.sum())}
     t = trace.t
     left = {}                   # lag -> the phone's velocity less the truth's that much earlier
     for lag in LAGS:
@@ -117,8 +134,14 @@ def estimate_velocity(trace):
         u[rows] = w[rows] / np.interp(ex['truth_speed'][rows], nodes[:, 0], nodes[:, 1])[:, None]
     phi = float(np.sum(u[pair] * u[pair + 1]) / np.sum(u[pair] ** 2)) if pair.size else 0.0
     phi = min(max(phi, -0.99), 0.99)
+    sds = [sigma] + ([sd for _, sd in table] if table is not None else [])
+    if not all(0.0 < sd < MAX_SPEED for sd in sds):
+        return None, {'fitted': False, 'implausible_rows': int(odd.sum()),
+                      'reason': f'the error\'s RMS {max(sds):.4g} m/s lies outside (0, '
+                                f'{MAX_SPEED:g}) m/s'}
     zero = ex['speed'] == 0
-    standstill = _standstill(ex['truth_speed'], zero) if zero.sum() >= 10 else 0.0
+    standstill = _standstill(np.where(odd, np.nan, ex['truth_speed']), zero) \
+        if zero.sum() >= 10 else 0.0
     section = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
                'lag_s': float(lag), 'standstill': round(standstill, 4)}
     if table is not None:
@@ -127,5 +150,5 @@ def estimate_velocity(trace):
                 'rms_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
                 'mean_error_east_north': [round(float(np.mean(w[rows, a])), 4)
                                           for a in range(2)],
-                'zero_speed_rows': int(zero.sum())}
+                'zero_speed_rows': int(zero.sum()), 'implausible_rows': int(odd.sum())}
     return section, evidence

@@ -113,3 +113,21 @@ def test_a_bad_section_is_refused_naming_the_key(section, expected):
            'velocity': section}
     with pytest.raises(ProfileError, match=expected):
         profile_from_dict(raw, 'v.yaml')
+
+
+def test_implausible_speeds_and_courses_are_left_out_and_counted():
+    from gps_error_ros.fit.velocity_fit import estimate_velocity
+    from gps_error_ros.traces.trace_io import read_trace_csv
+    trace = read_trace_csv(DATA / 'gsdc2020-mtv1-pixel4.csv')
+    clean, _ = estimate_velocity(trace)
+    rng = np.random.default_rng(3)
+    hit = {k: rng.random(len(trace)) < 0.02 for k in ('speed', 'truth_speed', 'bearing')}
+    trace.extra['speed'][hit['speed']] = 1e9
+    trace.extra['truth_speed'][hit['truth_speed']] = -1.0
+    trace.extra['bearing'][hit['bearing']] = 720.0
+    got, evidence = estimate_velocity(trace)
+    assert evidence['implausible_rows'] == int((hit['speed'] | hit['truth_speed']
+                                                | hit['bearing']).sum())
+    assert got['sigma'] == pytest.approx(clean['sigma'], rel=0.1)
+    # (the RMS is flat near its least: 2 % fewer rows may move the lag a step)
+    assert abs(got['lag_s'] - clean['lag_s']) <= 0.1 and 0.0 <= got['standstill'] <= 2.0

@@ -180,6 +180,17 @@ def traces(draw):
         if kind == 'odd':
             acc[rng.random(n) < 0.3] = rng.choice([0.0, -1.0, np.nan, 1e9])
         extra['accuracy'] = acc
+    vkind = draw(st.sampled_from(['none', 'good', 'odd']))
+    if vkind != 'none':                         # Doppler speed and course, and the truth's
+        truth_speed = np.abs(rng.normal(8.0, 8.0, n)) * (rng.random(n) > 0.1)
+        truth_course = rng.uniform(0.0, 360.0, n)
+        extra.update(truth_speed=truth_speed, truth_bearing=truth_course,
+                     speed=np.abs(truth_speed + rng.normal(0.0, 0.3, n)),
+                     bearing=(truth_course + rng.normal(0.0, 3.0, n)) % 360.0)
+        if vkind == 'odd':
+            for key in ('speed', 'bearing', 'truth_speed', 'truth_bearing'):
+                hit = rng.random(n) < 0.2
+                extra[key][hit] = rng.choice([np.nan, -1.0, 0.0, 720.0, 1e9], hit.sum())
     ones = np.ones(n)
     return Trace('fuzz', t, np.asarray(lat), np.asarray(lon), 51.76 * ones, -1.25 * ones,
                  extra)
