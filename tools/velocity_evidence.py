@@ -7,7 +7,9 @@ the first 70 % (``fit.velocity_fit``), simulate the phone's speed and course
 set the measured held-out statistics beside the simulated median and central
 95 % range, with the measured value's percentile: speed error RMS and bias on
 moving rows (truth >= 1 m/s), course error RMS for 1-3, 3-10 and >= 10 m/s,
-and the share of zero-speed reports at the reference's standstill.
+and the share of zero-speed reports at the reference's standstill. Then,
+over the whole trace, the lag at which the reference's course and speed
+best match the phone's, per speed band (:func:`best_lags`).
 
     python tools/velocity_evidence.py [--data ../shared/data] [--sims 200]
 """
@@ -52,6 +54,35 @@ def statistics(speed, course, truth_speed, truth_course):
     return out
 
 
+def best_lags(trace):
+    """
+    Return lines: per speed band, the lag that best matches the course, and the speed.
+
+    Over the whole trace: the reference's course (unwrapped) and speed taken
+    0, 0.1, .. 1 s earlier (linear in time); the course's lag is the one with
+    the least median absolute course error, the speed's the one with the
+    least SD of the speed error. One ``lag_s`` serves both in the model.
+    """
+    ex, t = trace.extra, trace.t
+    ok = np.isfinite(ex['truth_speed']) & np.isfinite(ex['truth_bearing'])
+    course = np.degrees(np.unwrap(np.radians(ex['truth_bearing'][ok])))
+    out = []
+    for lo, hi in ((1.0, 15.0), (15.0, 100.0)):
+        rows = (ex['truth_speed'] >= lo) & (ex['truth_speed'] < hi) & np.isfinite(ex['bearing'])
+        by_course, by_speed = {}, {}
+        for lag in np.round(np.arange(0.0, 1.01, 0.1), 1):
+            past = t[rows] - lag
+            d = course_error(ex['bearing'][rows], np.interp(past, t[ok], course) % 360.0)
+            by_course[lag] = float(np.median(np.abs(d)))
+            by_speed[lag] = float(np.std(ex['speed'][rows]
+                                         - np.interp(past, t[ok], ex['truth_speed'][ok])))
+        c, v = min(by_course, key=by_course.get), min(by_speed, key=by_speed.get)
+        out.append(f'  {lo:g}-{hi:g} m/s, {int(rows.sum())} rows: the course matches best '
+                   f'{c:.1f} s later (median error {by_course[c]:.3f} deg), the speed '
+                   f'{v:.1f} s later (error SD {by_speed[v]:.3f} m/s)')
+    return out
+
+
 def compare(path, sims):
     """Return the lines of one trace's comparison."""
     trace = read_trace_csv(path)
@@ -81,7 +112,7 @@ def compare(path, sims):
         pct = 100.0 * (np.mean(sim < value) + 0.5 * np.mean(sim == value))
         lines.append(f'  {name}: measured {value:.3f}, simulated median {med:.3f} '
                      f'(95 % {lo:.3f} to {hi:.3f}), percentile {pct:.0f}')
-    return lines
+    return lines + best_lags(trace)
 
 
 def main(argv=None):

@@ -47,3 +47,4 @@ def test_velocity_evidence_on_the_measured_phones():
                         '--sims', '5'], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert r.stdout.count('held out') == 2 and 'course error RMS 10-100 m/s' in r.stdout
+    assert r.stdout.count('the course matches best') == 4       # 2 phones, 2 speed bands
