@@ -315,7 +315,7 @@ def improvement_note(summary):
 
 def cmd_diagnose(args):
     """Run ``gps_error diagnose``; return the exit code."""
-    from gps_error_ros.diagnose import diagnose, extended_profile
+    from gps_error_ros.diagnose import diagnose
     from gps_error_ros.diagnose.pipeline import STAGES
     from gps_error_ros.reports.diagnosis_figure import diagnosis_figure
 
@@ -361,23 +361,28 @@ def cmd_diagnose(args):
     _write_results(args, diag.to_dict(), 'diagnosis.png',
                    lambda path: diagnosis_figure(diag, path, s['input']))
     if args.profile_out:
-        out = Path(args.profile_out)
-        if args.population:
-            from gps_error_ros.diagnose.generalise import population_profile
-            prof = population_profile(diag.split, out.stem, s['input'], args.seed)
-            blocks = prof['fit']['population']['blocks']
-            if 'population' in prof:
-                print(f'  population: {prof["population"]} ({blocks} training blocks of 300 s)')
-            else:                           # no spread to fit: the whole part's fit
-                print(f'  population: none ({blocks} training block(s) of 300 s, 3 needed): '
-                      f'the extended profile is written')
-                prof = extended_profile(diag, out.stem, s['input'])
-        else:
-            prof = extended_profile(diag, out.stem, s['input'])
-        write_profile(out, prof, 'diagnose')
-        load_profile_file(out)          # what we write must load as it is
-        print(f'wrote {out}')
+        _write_diagnosed_profile(args, diag)
     return 0
+
+
+def _write_diagnosed_profile(args, diag):
+    """Write ``diagnose --profile-out``: the extended profile, or with ``--population`` that."""
+    from gps_error_ros.diagnose import extended_profile
+    out, source = Path(args.profile_out), diag.summary['input']
+    prof = extended_profile(diag, out.stem, source)
+    if args.population:
+        from gps_error_ros.diagnose.generalise import population_profile
+        pop = population_profile(diag.split, out.stem, source, args.seed)
+        blocks = pop['fit']['population']['blocks']
+        if 'population' in pop:
+            print(f'  population: {pop["population"]} ({blocks} training blocks of 300 s)')
+            prof = pop
+        else:                           # no spread to fit: the whole part's fit
+            print(f'  population: none ({blocks} training block(s) of 300 s, 3 needed): '
+                  f'the extended profile is written')
+    write_profile(out, prof, 'diagnose')
+    load_profile_file(out)              # what we write must load as it is
+    print(f'wrote {out}')
 
 
 #: Samples from which diagnose and compare show their progress (on a terminal).
