@@ -105,14 +105,19 @@ class Velocity:
         ``v_true`` and ``w`` are (..., 2) east/north, the truth already taken
         ``lag_s`` earlier. At or below ``standstill`` the speed is 0 and the course NaN.
         """
+        v, still = self.vector(v_true, w)
+        return np.hypot(v[..., 0], v[..., 1]), np.where(still, np.nan, course_deg(v))
+
+    def vector(self, v_true, w):
+        """
+        Return (the velocity (..., 2) a phone reports, whether it stands still (...)).
+
+        The truth ``v_true`` (east/north, already ``lag_s`` earlier) plus the
+        error ``w`` scaled to the SD at its speed; 0 at or below ``standstill``.
+        """
         v_true = np.asarray(v_true, dtype=float)
-        v = v_true + self.scaled(v_true, w)
-        speed = np.hypot(v[..., 0], v[..., 1])
-        course = course_deg(v)
         still = np.hypot(v_true[..., 0], v_true[..., 1]) <= self.standstill   # NaN: not still
-        speed = np.where(still, 0.0, speed)
-        course = np.where(still, np.nan, course)
-        return speed, course
+        return np.where(still[..., None], 0.0, v_true + self.scaled(v_true, w)), still
 
 
 def series(process, keys, n_steps, start=0):

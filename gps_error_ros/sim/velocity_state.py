@@ -73,8 +73,6 @@ class VelocityState(SideStream):
         ok = ok1 & ok0 & (truth.newest[agents] >= end)
         north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
         v_true = np.stack([east, north], axis=1)
-        out = v_true + self.velocity.scaled(v_true, w)
-        speed = np.hypot(v_true[:, 0], v_true[:, 1])
-        out[speed <= self.velocity.standstill] = 0.0
+        out, _ = self.velocity.vector(v_true, w)
         out[~ok] = np.nan
-        return out, self.velocity.sd_at(speed)
+        return out, self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1]))
