@@ -29,7 +29,7 @@ between the listed speeds, the end values beyond them. The stream is the
 same (``sigma`` times a unit AR(1), so ``phi`` is the persistence of the
 error divided by its SD), and each step's error is scaled by
 ``sigma_by_speed(speed) / sigma``. The measured phones' Doppler velocity
-errs 0.3-0.8 m/s in town (1-15 m/s) and 0.05-0.1 m/s on the open road: one
+errs 0.2-0.8 m/s in town (1-15 m/s) and 0.05-0.1 m/s on the open road: one
 ``sigma`` is wrong on both. Without the key the error is as before, bit for
 bit.
 
