@@ -29,6 +29,8 @@ moves at 1 m/s or more and the phone reports a course:
 
 import numpy as np
 
+from gps_error_ros.model.velocity import sd_from_table
+
 NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
 MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
 SLOW_TRUTH = 0.2      # m/s: below it the reference's course is missing and its vector 0
@@ -130,8 +132,7 @@ def estimate_velocity(trace):
     table = _by_speed(w[rows], ex['truth_speed'][rows])
     u = w.copy()                # the error in units of its SD at its speed
     if table is not None:
-        nodes = np.asarray(table)
-        u[rows] = w[rows] / np.interp(ex['truth_speed'][rows], nodes[:, 0], nodes[:, 1])[:, None]
+        u[rows] = w[rows] / sd_from_table(table, ex['truth_speed'][rows])[:, None]
     phi = float(np.sum(u[pair] * u[pair + 1]) / np.sum(u[pair] ** 2)) if pair.size else 0.0
     phi = min(max(phi, -0.99), 0.99)
     sds = [sigma] + ([sd for _, sd in table] if table is not None else [])

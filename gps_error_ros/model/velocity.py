@@ -72,11 +72,9 @@ class Velocity:
 
     def sd_at(self, speed):
         """Return the error's SD per component (m/s) at true speeds ``speed``."""
-        speed = np.asarray(speed, dtype=float)
         if self.sigma_by_speed is None:
-            return np.full(speed.shape, self.sigma)
-        nodes = np.asarray(self.sigma_by_speed, dtype=float)
-        return np.interp(speed, nodes[:, 0], nodes[:, 1])
+            return np.full(np.shape(speed), self.sigma)
+        return sd_from_table(self.sigma_by_speed, speed)
 
     def scaled(self, v_true, w):
         """Return the error ``w`` (..., 2) scaled to the SD at the speed of ``v_true``."""
@@ -136,6 +134,12 @@ def series(process, keys, n_steps, start=0):
     for i in range(1, n_steps):
         out[i] = w = process.step(w, keys, start + i)
     return out
+
+
+def sd_from_table(table, speed):
+    """Return a ``sigma_by_speed`` table's SD at ``speed``: linear between, flat beyond."""
+    nodes = np.asarray(table, dtype=float)
+    return np.interp(np.asarray(speed, dtype=float), nodes[:, 0], nodes[:, 1])
 
 
 def course_deg(v):
