@@ -115,11 +115,15 @@ class Driver:
                 self.last.add((name, agent.sent[-1]))
                 self.lives.setdefault(name, []).append((agent.sent[0], agent.sent[-1]))
                 self.departed.append((name, agent.sent[0], agent.sent[-1]))
+            else:
+                # a life that ended before both sides had matched sent no pose:
+                # the node may never have seen it, so it may have nothing to release
+                self.departed.append((name, 1, 0))
             self.gone.append(name)
             self.born(k)
 
     def never_served(self):
-        """Return how many ended lives got no fix at all (the node never matched them)."""
+        """Return how many ended lives got no fix at all (sent none, or none came back)."""
         return sum(not any(a <= k <= b for k in self.fixes.get(name, {}))
                    for name, a, b in self.departed)
 
