@@ -7,14 +7,19 @@ the first 70 % (``fit.velocity_fit``), simulate the phone's speed and course
 set the measured held-out statistics beside the simulated median and central
 95 % range, with the measured value's percentile: speed error RMS and bias on
 moving rows (truth >= 1 m/s), course error RMS for 1-3, 3-10 and >= 10 m/s,
-and the share of zero-speed reports at the reference's standstill. Then,
-over the whole trace, the lag at which the reference's course and speed
-best match the phone's, per speed band (:func:`best_lags`).
+and the share of zero-speed reports at the reference's standstill; and the
+same statistics of the truth's own chord with no error added (the floor
+that ``simulate`` and the node, which take the true velocity from 1-s
+chords of the truth's positions, cannot go below). Then, over the whole
+trace, the lag at which the reference's course and speed best match the
+phone's, per speed band, and the error's RMS across the track and along it
+at those lags (:func:`best_lags`).
 
     python tools/velocity_evidence.py [--data ../shared/data] [--sims 200]
 """
 
 import argparse
+import dataclasses
 from pathlib import Path
 import sys
 
@@ -62,6 +67,8 @@ def best_lags(trace):
     0, 0.1, .. 1 s earlier (linear in time); the course's lag is the one with
     the least median absolute course error, the speed's the one with the
     least SD of the speed error. One ``lag_s`` serves both in the model.
+    Across the track: the phone's speed times the sine of the course error
+    at the course's lag (m/s), its RMS.
     """
     ex, t = trace.extra, trace.t
     ok = np.isfinite(ex['truth_speed']) & np.isfinite(ex['truth_bearing'])
@@ -69,17 +76,20 @@ def best_lags(trace):
     out = []
     for lo, hi in ((1.0, 15.0), (15.0, 100.0)):
         rows = (ex['truth_speed'] >= lo) & (ex['truth_speed'] < hi) & np.isfinite(ex['bearing'])
-        by_course, by_speed = {}, {}
+        by_course, by_speed, across = {}, {}, {}
         for lag in np.round(np.arange(0.0, 1.01, 0.1), 1):
             past = t[rows] - lag
             d = course_error(ex['bearing'][rows], np.interp(past, t[ok], course) % 360.0)
             by_course[lag] = float(np.median(np.abs(d)))
+            across[lag] = float(np.sqrt(np.mean((ex['speed'][rows]
+                                                 * np.sin(np.radians(d))) ** 2)))
             by_speed[lag] = float(np.std(ex['speed'][rows]
                                          - np.interp(past, t[ok], ex['truth_speed'][ok])))
         c, v = min(by_course, key=by_course.get), min(by_speed, key=by_speed.get)
         out.append(f'  {lo:g}-{hi:g} m/s, {int(rows.sum())} rows: the course matches best '
-                   f'{c:.1f} s later (median error {by_course[c]:.3f} deg), the speed '
-                   f'{v:.1f} s later (error SD {by_speed[v]:.3f} m/s)')
+                   f'{c:.1f} s later (median error {by_course[c]:.3f} deg; across the '
+                   f'track RMS {across[c]:.3f} m/s), the speed {v:.1f} s later (error SD '
+                   f'{by_speed[v]:.3f} m/s)')
     return out
 
 
@@ -112,6 +122,13 @@ def compare(path, sims):
         pct = 100.0 * (np.mean(sim < value) + 0.5 * np.mean(sim == value))
         lines.append(f'  {name}: measured {value:.3f}, simulated median {med:.3f} '
                      f'(95 % {lo:.3f} to {hi:.3f}), percentile {pct:.0f}')
+    # the truth's own chords, no error: what simulate's true velocity alone gives
+    still = dataclasses.replace(velocity, sigma=1e-12, sigma_by_speed=None)
+    speed, course, _, _ = speed_and_course(still, 0, data, start, 1.0)
+    floor = statistics(speed, course, ex['truth_speed'], ex['truth_bearing'])
+    lines.append('  the truth\'s 1-s chord alone, no error added: ' + ', '.join(
+        f'{name.split(" (")[0]} {value:.3f}' for name, value in floor.items()
+        if 'standstill' not in name))
     return lines + best_lags(trace)
 
 
