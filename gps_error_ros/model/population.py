@@ -163,6 +163,56 @@ def bias_factors(keys, start, dof):
     return np.sqrt((dof - 2) / chi2)
 
 
+class AgentDraws:
+    """
+    What a population section draws for each agent: its scale, its run's bias and wander.
+
+    Shared by :class:`WithPopulation` and the zone path
+    (:class:`~gps_error_ros.model.zoned.ZonedErrors`), so that an agent's
+    bias and scale are the same numbers with and without a zone map.
+    """
+
+    def __init__(self, population, rate_hz=1.0):
+        self.population = population
+        self.rate_hz = float(rate_hz)
+        self.bias_sd = np.asarray(population.bias_sd_m, dtype=float)
+        self.a = population.persistence(rate_hz)
+        self.wander_sd = self.bias_sd * math.sqrt(max(0.0, 1.0 - self.a * self.a))
+
+    def scales(self, keys):
+        """Return each agent's scale ``f`` (n,)."""
+        return agent_scales(keys, self.population.scale_sd_log)
+
+    def run_bias(self, keys, start):
+        """Return the biases (n, 2) runs started at ``start`` draw, and their factors ``g``."""
+        g = bias_factors(keys, start, self.population.bias_dof)
+        return self.bias_sd * g[:, None] * streams.normal_pairs(
+            keys, streams.DOMAIN_INIT_BIAS, start), g
+
+    def wander(self, bias, g, keys, index):
+        """Advance the biases ``bias`` (n, 2), factors ``g``, in place to model step ``index``."""
+        if self.a < 1.0:
+            bias *= self.a
+            bias += self.wander_sd * g[:, None] * streams.normal_pairs(
+                keys, streams.DOMAIN_BIAS, index)
+
+    def agent_cov(self, cov, mean, pm, scale, g, bias, first=False):
+        """
+        Return (covariance (n, 2, 2), expected error (n, 2)) of agents' next errors.
+
+        ``cov`` and ``pm`` are the process's for the next error given its
+        state a step before (``first``: given nothing), ``mean`` its mean;
+        ``scale``, ``g`` and ``bias`` (the run's bias a step before) the agents'.
+        Nothing known of the agent (``first``): the population's bias spread
+        is added and the expected error is the process's.
+        """
+        if first:
+            return cov + np.diag(self.bias_sd ** 2), pm
+        f2, g2 = scale ** 2, g ** 2
+        return (cov * f2[:, None, None] + g2[:, None, None] * np.diag(self.wander_sd ** 2),
+                mean + scale[:, None] * (pm - mean) + self.a * bias)
+
+
 class WithPopulation:
     """
     An error model of one agent drawn from a population (see the module docstring).
@@ -177,9 +227,8 @@ class WithPopulation:
     def __init__(self, inner, population, rate_hz=1.0):
         self.inner = inner
         self.population = population
-        self.bias_sd = np.asarray(population.bias_sd_m, dtype=float)
-        self.a = population.persistence(rate_hz)
-        self._wander_sd = self.bias_sd * math.sqrt(max(0.0, 1.0 - self.a * self.a))
+        self.draws = AgentDraws(population, rate_hz)
+        self.bias_sd, self.a = self.draws.bias_sd, self.draws.a
 
     def __getattr__(self, name):
         # mean, lag_s, order, needs_heading, ... are the inner model's
@@ -211,17 +260,11 @@ class WithPopulation:
 
     # --- state -----------------------------------------------------------
 
-    def _run_bias(self, keys, start):
-        """Return the biases (n, 2) runs started at ``start`` draw, and their factors ``g``."""
-        g = bias_factors(keys, start, self.population.bias_dof)
-        return self.bias_sd * g[:, None] * streams.normal_pairs(
-            keys, streams.DOMAIN_INIT_BIAS, start), g
-
     def _wider(self, inner_state, keys, index):
         state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 2,))
         state[:, :, :-2] = inner_state
-        state[:, :, -2], g = self._run_bias(keys, index)
-        state[:, 0, -1] = agent_scales(keys, self.population.scale_sd_log)
+        state[:, :, -2], g = self.draws.run_bias(keys, index)
+        state[:, 0, -1] = self.draws.scales(keys)
         state[:, 1, -1] = g
         return state
 
@@ -235,13 +278,6 @@ class WithPopulation:
         m = np.asarray(self.inner.mean, dtype=float)
         return m + state[:, 0, -1][:, None] * (inner_err - m) + state[:, :, -2]
 
-    def _wander(self, bias, g, keys, index):
-        """Advance the biases ``bias`` (n, 2), factors ``g``, in place to model step ``index``."""
-        if self.a < 1.0:
-            bias *= self.a
-            bias += self._wander_sd * g[:, None] * streams.normal_pairs(
-                keys, streams.DOMAIN_BIAS, index)
-
     def initial_state(self, keys, index):
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
@@ -251,7 +287,7 @@ class WithPopulation:
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         err = self.inner.advance(state[:, :, :-2], keys, index, *args, **kwargs)
-        self._wander(state[:, :, -2], state[:, 1, -1], keys, index)
+        self.draws.wander(state[:, :, -2], state[:, 1, -1], keys, index)
         return self._agent(err, state)
 
     def errors(self, state):
@@ -264,7 +300,7 @@ class WithPopulation:
         inner = self.inner.state_after(keys, start, step, *args, **kwargs)
         state = self._wider(inner, keys, start)
         for k in range(start + 1, step + 1):
-            self._wander(state[:, :, -2], state[:, 1, -1], keys, k)
+            self.draws.wander(state[:, :, -2], state[:, 1, -1], keys, k)
         return state
 
     def simulate(self, keys, n_steps, start=0, out=None):
@@ -274,11 +310,11 @@ class WithPopulation:
         if n_steps == 0:
             return out
         m = np.asarray(self.inner.mean, dtype=float)
-        scale = agent_scales(keys, self.population.scale_sd_log)[:, None]
-        bias, g = self._run_bias(keys, start)
+        scale = self.draws.scales(keys)[:, None]
+        bias, g = self.draws.run_bias(keys, start)
         for k in range(n_steps):
             if k:
-                self._wander(bias, g, keys, start + k)
+                self.draws.wander(bias, g, keys, start + k)
             out[k] = m + scale * (out[k] - m) + bias
         return out
 
@@ -295,7 +331,7 @@ class WithPopulation:
         if first:
             return cov + np.diag(self.bias_sd ** 2)
         f2, g2 = state[:, 0, -1] ** 2, state[:, 1, -1] ** 2
-        return cov * f2[:, None, None] + g2[:, None, None] * np.diag(self._wander_sd ** 2)
+        return cov * f2[:, None, None] + g2[:, None, None] * np.diag(self.draws.wander_sd ** 2)
 
     def predictive_mean(self, state, first=False):
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""

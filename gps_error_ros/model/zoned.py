@@ -23,6 +23,16 @@ model step, the parameters of the zone its truth is in. The transition:
   replaces the zone's error, and the zone's process runs on beneath it, as
   :class:`~.failures.WithFailures` does without zones; the same draws, so a
   failure falls at the same step and place in every zone.
+* An agent's bias and scale (the default profile's ``population`` section,
+  as availability comes from it): the zone's process runs as above, and
+  what the agent reports is ``m_z + f (e - m_z) + b(k)``, ``m_z`` the mean
+  of the zone it is in, ``f`` the agent's scale and ``b`` its run's bias
+  and wander, drawn as without zones (:class:`~.population.AgentDraws`):
+  the same bias and scale in every zone, and outside every zone the same
+  errors as the default profile's model without a map. The stated
+  covariances cover the population as :class:`~.population.WithPopulation`
+  does (the bias spread in the stationary one; given the state, the
+  agent's scale and bias known).
 * Which zone a model step belongs to: the zone of the truth that serves
   the agent's fix at that step. Steps an agent gets no fix for (no truth, a
   later attach) are advanced with the zone of the next fix's truth; an
@@ -39,11 +49,12 @@ import math
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.ar_model import state_and_cov
+from gps_error_ros.model.about_truth import AboutTruth, mean_square
 from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.effects import ExtendedModel, MOVING_M
 from gps_error_ros.model.failures import WithFailures
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.population import AgentDraws, WithPopulation
 from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.zones import OUTSIDE, zone_models
 
@@ -68,6 +79,16 @@ def _has_regimes(model):
     return isinstance(model, ExtendedModel) and model.scales.size > 1
 
 
+def _core(model):
+    """Return (the model beneath an :class:`AboutTruth`, whether it was wrapped)."""
+    return (model.core, True) if isinstance(model, AboutTruth) else (model, False)
+
+
+#: Per-slot arrays of :class:`ZonedErrors` (grown, kept and forgotten together).
+_SLOT_ARRAYS = ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading',
+                'bias', 'scale', 'bias_factor')
+
+
 class ZonedErrors:
     """
     Per-slot error state over zone models, advanced lazily per agent.
@@ -86,10 +107,13 @@ class ZonedErrors:
         ``covariance_mode`` conditional); else the zone's stationary one.
     failures : GrossFailureProcess or None
         The gross failures of every zone (the default profile's section).
+    population : AgentDraws or None
+        Each agent's bias and scale in every zone (the default profile's
+        ``population`` section).
 
     """
 
-    def __init__(self, models, n=0, conditional_cov=False, failures=None):
+    def __init__(self, models, n=0, conditional_cov=False, failures=None, population=None):
         assert OUTSIDE == -1
         self.models = []                       # distinct models
         index = {}
@@ -102,7 +126,11 @@ class ZonedErrors:
         self.order = max(m.order for m in self.models)
         self.conditional_cov = conditional_cov
         self.failures = failures
+        self.population = population
+        self.means = np.array([m.mean for m in self.models], dtype=float)
         self.stationary = np.array([m.stationary_cov for m in self.models])
+        if population is not None:
+            self.stationary = self.stationary + np.diag(population.bias_sd ** 2)
         #: whether any zone's innovations turn with the direction of travel
         self.needs_heading = any(m.needs_heading for m in self.models)
         self.start = None
@@ -116,6 +144,9 @@ class ZonedErrors:
         self.started = np.zeros(n, dtype=bool)
         self.cov = np.zeros((n, 2, 2))             # of the current error
         self.heading = np.zeros(n)                 # last direction of travel, rad
+        self.bias = np.zeros((n, 2))               # the run's bias (population)
+        self.scale = np.ones(n)                    # the agent's scale f
+        self.bias_factor = np.ones(n)              # the run's Student-t factor g
 
     @property
     def n(self):
@@ -124,15 +155,14 @@ class ZonedErrors:
 
     def grow(self, n):
         """Add ``n`` slots (not started)."""
-        names = ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading')
-        old = [getattr(self, k) for k in names]
+        old = [getattr(self, k) for k in _SLOT_ARRAYS]
         self._alloc(n)
-        for k, a in zip(names, old):
+        for k, a in zip(_SLOT_ARRAYS, old):
             setattr(self, k, np.concatenate([a, getattr(self, k)]))
 
     def keep(self, mask):
         """Keep only the slots where ``mask`` is True (in order)."""
-        for name in ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading'):
+        for name in _SLOT_ARRAYS:
             setattr(self, name, getattr(self, name)[mask])
 
     def restart(self, start, rows=slice(None)):
@@ -178,6 +208,9 @@ class ZonedErrors:
                 self._advance(r[due], k[due], s, z[due])
         cov = self.cov[rows] if self.conditional_cov else self.stationary[self.zone[rows]]
         err = self.err[rows, :, 0].copy()
+        if self.population is not None:             # m + f (e - m) + b
+            m = self.means[self.zone[rows]]
+            err = m + self.scale[rows, None] * (err - m) + self.bias[rows]
         if self.failures is not None:
             off, fails = self.failures.offsets(keys, step)
             err[fails] = off[fails]
@@ -189,13 +222,14 @@ class ZonedErrors:
 
     def _begin(self, rows, keys, step, zones):
         """Start ``rows`` at ``step``: the state of a run from the start in one zone."""
+        if self.population is not None:            # the bias a step before, the scale
+            self._draw(rows, keys, step)
         for z, sel in self._groups(zones):
             model, r, k = self.models[z], rows[sel], keys[sel]
             if model.needs_heading:
                 state = self._street_start(model, r, k, step)
             elif self.conditional_cov:
-                state, cov = state_and_cov(model, k, self.start, step)
-                self.cov[r] = cov
+                state = self._conditional_start(model, r, k, step)
             else:
                 state = model.state_after(k, self.start, step)
             p = model.order
@@ -205,6 +239,44 @@ class ZonedErrors:
             self.zone[r] = z
             self.step[r] = step
             self.started[r] = True
+        if self.population is not None and step > self.start:
+            self._wander(rows, keys, step)
+
+    def _draw(self, rows, keys, step):
+        """Draw the agents' scales and their runs' biases, wandered to ``step - 1``."""
+        draws = self.population
+        bias, g = draws.run_bias(keys, self.start)
+        for k in range(self.start + 1, step):
+            draws.wander(bias, g, keys, k)
+        self.bias[rows], self.bias_factor[rows] = bias, g
+        self.scale[rows] = draws.scales(keys)
+
+    def _wander(self, rows, keys, step):
+        """Wander the runs' biases of ``rows`` to model step ``step``."""
+        bias = self.bias[rows]
+        self.population.wander(bias, self.bias_factor[rows], keys, step)
+        self.bias[rows] = bias
+
+    def _stated(self, model, rows, state, first=False):
+        """Return the covariances (m, 2, 2) of ``rows``' next errors given ``state``."""
+        core, about = _core(model)
+        if self.population is None:
+            return model.predictive_cov(state, first)
+        cov, pm = self.population.agent_cov(
+            core.predictive_cov(state, first), core.mean, core.predictive_mean(state, first),
+            self.scale[rows], self.bias_factor[rows], self.bias[rows], first)
+        return mean_square(cov, pm) if about else cov
+
+    def _conditional_start(self, model, rows, keys, step):
+        """Return the state at ``step`` of a run from the start; set its covariance."""
+        if step == self.start:
+            state = model.initial_state(keys, step)
+            self.cov[rows] = self._stated(model, rows, state, first=True)
+            return state
+        state = model.state_after(keys, self.start, step - 1)
+        self.cov[rows] = self._stated(model, rows, state)
+        model.advance(state, keys, step)
+        return state
 
     def _street_start(self, model, rows, keys, step):
         """Return the state at ``step`` of a street-frame run from the start, heading now."""
@@ -212,11 +284,11 @@ class ZonedErrors:
             state = model.initial_state(keys, step)
             state[:, 1, model.order] = self.heading[rows]
             if self.conditional_cov:
-                self.cov[rows] = model.predictive_cov(state, first=True)
+                self.cov[rows] = self._stated(model, rows, state, first=True)
             return state
         state = model.state_after(keys, self.start, step - 1, heading=self.heading[rows])
         if self.conditional_cov:
-            self.cov[rows] = model.predictive_cov(state)
+            self.cov[rows] = self._stated(model, rows, state)
         model.advance(state, keys, step)
         return state
 
@@ -238,13 +310,15 @@ class ZonedErrors:
                     regime[entering] = np.searchsorted(model.cum_pi, u, side='right')
                 tmp[:, 0, p] = regime
             if self.conditional_cov:
-                self.cov[r] = model.predictive_cov(tmp)
+                self.cov[r] = self._stated(model, r, tmp)
             e = model.advance(tmp, k, step)
             self.err[r, :, 1:] = self.err[r, :, :-1]
             self.err[r, :, 0] = e
             self.regime[r] = tmp[:, 0, p] if _has_regimes(model) else 0
             self.zone[r] = z
             self.step[r] = step
+        if self.population is not None:
+            self._wander(rows, keys, step)
 
 
 def one_zone(model, conditional_cov=False):
@@ -253,17 +327,20 @@ def one_zone(model, conditional_cov=False):
 
     A street frame needs each fix's direction of travel, which the
     zone path carries: one zone, the error process beneath the availability
-    and failure wrappers, with the failures applied as in zones. Raises
-    ValueError for a population section, which the zone path does not carry.
+    and failure wrappers, with the failures and the population's draws
+    applied as in zones.
     """
     failures = None
     while isinstance(model, (WithAvailability, WithFailures)):
         failures = getattr(model, 'failures', failures)
         model = model.inner
-    if hasattr(model, 'population'):
-        raise ValueError('a profile with both a street_frame effect and a population '
-                         'section is not simulated yet: expected one of them')
-    return ZonedErrors([model], conditional_cov=conditional_cov, failures=failures)
+    core, about = _core(model)
+    draws = None
+    if isinstance(core, WithPopulation):
+        draws = core.draws
+        model = AboutTruth(core.inner) if about else core.inner
+    return ZonedErrors([model], conditional_cov=conditional_cov, failures=failures,
+                       population=draws)
 
 
 def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=False):
@@ -276,9 +353,11 @@ def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=Fa
     the error's mean square about the truth (:mod:`about_truth`).
     """
     default, models = zone_models(zone_map, profile, about_truth)
+    draws = None if default.population is None else \
+        AgentDraws(default.population, default.rate_hz)
     return default, default.model(about_truth=about_truth), (zone_map, ZonedErrors(
         models, conditional_cov=needs_predictive(covariance_mode, default.reported_accuracy),
-        failures=default.gross_failures))
+        failures=default.gross_failures, population=draws))
 
 
 def simulate_along(zoned, keys, steps, zones):

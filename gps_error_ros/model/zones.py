@@ -28,13 +28,15 @@ Rules:
   the default profile, so a zone profile must have the default's
   ``rate_hz`` and ``motion_lag`` and none of those sections (unless it is
   the default profile itself, as in the fallback zones ``calibrate
-  --zones`` writes). A ``population`` section is refused in every profile
-  of a map: zones do not yet share one agent's bias and scale.
+  --zones`` writes). The same holds for ``population``: an agent's bias
+  and scale are the receiver's, drawn once from the default profile's
+  section and kept in every zone (:mod:`zoned`).
 
 Point-in-polygon is vectorised over agents: one query of a shapely 2
 ``STRtree`` per step (the optional extra ``zones``).
 """
 
+from dataclasses import replace
 import json
 from pathlib import Path
 
@@ -279,14 +281,11 @@ def zone_models(zone_map, profile, about_truth=False):
     default (see the module doc).
     """
     default = zone_map.default or profile
-    for zp in [default] + list(zone_map.profiles):
-        if zp.population is not None:
-            raise ZoneMapError(f'{zone_map.path}: profile {zp.name} has a population '
-                               f'section; zone maps do not simulate it yet: '
-                               f'expected profiles without it')
-    base = default.model(gross_failures=False, about_truth=about_truth)
+    # the default's error process alone: its availability and population serve
+    # every zone (zoned.ZonedErrors draws the population)
+    inner = replace(default, availability=None, population=None).model(
+        gross_failures=False, about_truth=about_truth)
     models, built = [], {}
-    inner = getattr(base, 'inner', base)
     _no_cycle(inner, f'{zone_map.path}: default profile {default.name}')
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
@@ -298,7 +297,8 @@ def zone_models(zone_map, profile, about_truth=False):
                                f'profile {default.name}\'s {default.rate_hz}; expected '
                                f'the same model rate in every zone')
         for section, article in (('availability', 'an'), ('velocity', 'a'),
-                                 ('reported_accuracy', 'a'), ('gross_failures', 'a')):
+                                 ('reported_accuracy', 'a'), ('gross_failures', 'a'),
+                                 ('population', 'a')):
             if getattr(zp, section) is not None:
                 raise ZoneMapError(
                     f'{where}: has {article} {section} section; expected none: '
@@ -306,9 +306,9 @@ def zone_models(zone_map, profile, about_truth=False):
                     f'everywhere')
         model = built.setdefault(zp.path, zp.model(about_truth=about_truth))   # may be shared
         _no_cycle(model, where)
-        if model.lag_s != base.lag_s:
+        if model.lag_s != inner.lag_s:
             raise ZoneMapError(f'{where}: motion_lag {model.lag_s} s differs from the '
-                               f'default profile {default.name}\'s {base.lag_s} s; '
+                               f'default profile {default.name}\'s {inner.lag_s} s; '
                                f'expected the same lag in every zone')
         models.append(model)
     models.append(inner)

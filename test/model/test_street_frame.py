@@ -80,8 +80,8 @@ def test_travel_directions_of_a_streamed_walk():
     assert got[4] == pytest.approx(math.pi / 2, abs=1e-3)
 
 
-def test_a_street_frame_keeps_its_failures_and_refuses_a_population():
-    """Without zones a street frame runs on the zone path: failures carried, not dropped."""
+def test_a_street_frame_keeps_its_failures_and_its_population():
+    """Without zones a street frame runs on the zone path: failures and population carried."""
     from gps_error_ros.model.failures import GrossFailureProcess, WithFailures
     from gps_error_ros.model.population import Population, WithPopulation
     from gps_error_ros.model.zoned import one_zone
@@ -99,6 +99,23 @@ def test_a_street_frame_keeps_its_failures_and_refuses_a_population():
     failed = np.any(a != b, axis=2)
     assert 0.2 < failed.mean() < 0.4
     np.testing.assert_allclose(np.hypot(*b[failed].T), 70.0)
-    pop = WithPopulation(m, Population(bias_sd_m=(1.0, 1.0), scale_sd_log=0.1))
-    with pytest.raises(ValueError, match='street_frame effect and a population'):
-        one_zone(pop)
+    # a population: the same process, each agent's scale and its run's wandering bias
+    section = Population(bias_sd_m=(1.0, 2.0), scale_sd_log=0.3, bias_time_constant_s=20.0)
+    pop, again = one_zone(WithPopulation(m, section), True), one_zone(m, True)
+    for z in (pop, again):
+        z.grow(2)
+        z.restart(0)
+    draws = pop.population
+    f, (bias, g) = draws.scales(keys), draws.run_bias(keys, 0)
+    assert np.ptp(f) > 0.01             # two agents, two scales
+    for k in range(200):
+        if k:
+            draws.wander(bias, g, keys, k)
+        err, cov = pop.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])
+        e, c = again.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])
+        np.testing.assert_allclose(e, a[k], atol=1e-12)
+        np.testing.assert_allclose(err, m.mean + f[:, None] * (e - m.mean) + bias, atol=1e-12)
+        expected = c + np.diag([1.0, 4.0]) if k == 0 else \
+            f[:, None, None] ** 2 * c + np.diag(draws.wander_sd ** 2)
+        np.testing.assert_allclose(cov, expected, atol=1e-12)
+    assert not np.allclose(c[0], again.stationary[0])     # given the state: not the law

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.ar_model import state_and_cov
 from gps_error_ros.model.profiles import builtin_dir, load_profile
 from gps_error_ros.model.zoned import zoned_errors, ZonedErrors
 from gps_error_ros.model.zones import load_zone_map, OUTSIDE, zone_models, ZoneMapError
@@ -128,7 +129,7 @@ def test_zone_profiles_that_cannot_mix_with_the_default(tmp_path):
                            ('fast', 'rate_hz 2.0 differs'),
                            ('outages', 'has an availability section'),
                            ('fails', 'has a gross_failures section; expected none'),
-                           ('crowd', 'has a population section; zone maps do not')):
+                           ('crowd', 'has a population section; expected none')):
         path = write_map(tmp_path / f'{name}.geojson',
                          [feature(square(LON0, LAT0, 0.01), profile=f'{name}.yaml')])
         with pytest.raises(ZoneMapError, match=expected):
@@ -155,6 +156,51 @@ def test_the_default_profiles_failures_serve_every_zone(tmp_path):
     assert 0.1 < failed.mean() < 0.3
     # where no fix failed, DS5's process outside the zones runs on beneath the failures
     np.testing.assert_allclose(got[~failed[:, 2], 2], alone[~failed[:, 2], 2], atol=1e-9)
+
+
+def _population_profile(tmp_path, section):
+    """Write DS5 with a population section; return its path."""
+    path = tmp_path / 'crowd.yaml'
+    path.write_text((builtin_dir() / 'DS5.yaml').read_text() + f'population: {section}\n')
+    return path
+
+
+def test_the_default_profiles_population_serves_every_zone(tmp_path):
+    """Outside the zones an agent is the default profile's; in them it keeps its bias."""
+    crowd = _population_profile(tmp_path, '{bias_sd_m: [3, 4], scale_sd_log: 0.3, '
+                                          'bias_time_constant_s: 50, bias_dof: 4}')
+    path = two_zones(tmp_path, default_profile=str(crowd))
+    for mode, about in (('stationary', False), ('conditional', False),
+                        ('stationary', True), ('conditional', True)):
+        default, model, (_, zoned) = zoned_errors(load_zone_map(path), load_profile('DS1'),
+                                                  mode, about_truth=about)
+        keys = streams.agent_keys(4, [f'a{i}' for i in range(6)])
+        zoned.grow(keys.size)
+        zoned.restart(0)
+        got = [zoned.errors(np.arange(6), keys, k, np.full(6, OUTSIDE)) for k in range(300)]
+        np.testing.assert_allclose(np.array([e for e, _ in got]), model.simulate(keys, 300),
+                                   atol=1e-9)
+        for k in (0, 1, 57, 299):
+            expected = state_and_cov(model, keys, 0, k)[1] if mode == 'conditional' else \
+                np.broadcast_to(model.stationary_cov, (6, 2, 2))
+            np.testing.assert_allclose(got[k][1], expected, atol=1e-9)
+    # a bias of 20 m and one scale: an agent's mean error is its bias in both zones
+    crowd = _population_profile(tmp_path, '{bias_sd_m: [20, 20], scale_sd_log: 0.0}')
+    default, _, (zmap, zoned) = zoned_errors(load_zone_map(path), load_profile(str(crowd)))
+    n = 400
+    keys = streams.agent_keys(7, [f'p{i}' for i in range(n)])
+    zoned.grow(n)
+    zoned.restart(0)
+    lat = np.full(n, LAT0 + 0.005)
+    out = np.array([zoned.errors(np.arange(n), keys, k, zmap.lookup(
+        lat, np.full(n, LON0 + (0.005 if k < 300 else 0.015))))[0] for k in range(600)])
+    means = [out[100:300].mean(axis=0) - zmap.profiles[0].model().mean,
+             out[400:].mean(axis=0) - zmap.profiles[1].model().mean]
+    for axis in (0, 1):
+        assert np.corrcoef(means[0][:, axis], means[1][:, axis])[0, 1] > 0.95
+        assert 17 < means[0][:, axis].std() < 23
+    np.testing.assert_allclose(zoned.stationary[0], zmap.profiles[0].model().stationary_cov
+                               + 400 * np.eye(2))
 
 
 def test_one_zone_is_the_plain_model():
@@ -212,11 +258,17 @@ def test_walk_through_two_zones_has_each_zones_statistics(tmp_path):
     assert rms['crossing'] <= 1.15 * max(rms['ninth'], rms['seventh']), rms
 
 
-def test_an_agents_errors_do_not_depend_on_who_else_is_served(tmp_path):
+WANDERING = '{bias_sd_m: [2, 3], scale_sd_log: 0.4, bias_time_constant_s: 30}'
+
+
+@pytest.mark.parametrize('population', [None, WANDERING])
+def test_an_agents_errors_do_not_depend_on_who_else_is_served(tmp_path, population):
     """Shards, late starts and the order agents are served in change nothing."""
     zmap = load_zone_map(two_zones(tmp_path))
-    _, _, (_, whole) = zoned_errors(zmap, load_profile('DS2'), 'conditional')
-    _, _, (_, shard) = zoned_errors(zmap, load_profile('DS2'), 'conditional')
+    profile = load_profile('DS2') if population is None else \
+        load_profile(str(_population_profile(tmp_path, population)))
+    _, _, (_, whole) = zoned_errors(zmap, profile, 'conditional')
+    _, _, (_, shard) = zoned_errors(zmap, profile, 'conditional')
     names = [f'p{i}' for i in range(6)]
     keys = streams.agent_keys(5, names)
     whole.grow(6)

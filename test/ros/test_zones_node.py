@@ -57,14 +57,20 @@ def truth_msg(k, agent):
     return m
 
 
-def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
+# without and with a population: each agent's bias (SD 2 m north, 3 m east,
+# wandering) and scale, the same in every zone
+@pytest.mark.parametrize('bias_sd', [None, (2.0, 3.0)])
+def test_fixes_follow_the_zone_and_match_simulate(tmp_path, bias_sd):
     from gps_error_ros.cli import main as gps_error
     from gps_error_ros.model.profiles import builtin_dir
     zones = zone_map(tmp_path / 'zones.geojson')
     # the default profile (DS2) with gross failures: they serve every zone
     default = tmp_path / 'ds2-failing.yaml'
     default.write_text((builtin_dir() / 'DS2.yaml').read_text()
-                       + 'gross_failures: {rate: 0.1, sizes_m: [60, 200]}\n')
+                       + 'gross_failures: {rate: 0.1, sizes_m: [60, 200]}\n'
+                       + ('' if bias_sd is None else
+                          f'population: {{bias_sd_m: {list(bias_sd)}, scale_sd_log: 0.3, '
+                          f'bias_time_constant_s: 30}}\n'))
     ns = unique_ns()
     node = NodeProcess(['--ros-args', '-r', f'__ns:={ns}', '-p', 'use_sim_time:=true',
                         '-p', 'input_type:=navsatfix', '-p', 'seed:=9',
@@ -103,7 +109,7 @@ def test_fixes_follow_the_zone_and_match_simulate(tmp_path):
     sim = {(r['agent'], int(float(r['t']))): r for r in csv.DictReader(open(dst))}
     # about the truth (the default): the zone's mean square error matrix
     var = {name: np.diag(load_profile(name).model(about_truth=True).stationary_cov)
-           for name in ('DS1', 'DS5')}
+           + (0.0 if bias_sd is None else np.square(bias_sd)) for name in ('DS1', 'DS5')}
     seen = {'DS1': 0, 'DS5': 0, 'failed': 0}
     for a in AGENTS:
         for m in boxes[a]:
