@@ -6,15 +6,19 @@ grid of square zones (about 2 km across, profiles DS1, DS2, DS5, DS7 in
 turn), one truth sample per agent per step, once without zones and once with
 them, in the same run. Printed: milliseconds per step (truth in, clock, fixes
 out) of each, their ratio, and the point-in-polygon lookup's own share (one
-vectorised ``STRtree`` query per step). Best of a few repeats.
+vectorised ``STRtree`` query per step). Then the same with a ``population``
+section in the default profile (each agent's bias, wandering, and scale,
+kept across zones), without and with zones. Best of a few repeats.
 """
 
 import argparse
+from dataclasses import replace
 import json
 import time
 
 import numpy as np
 
+from gps_error_ros.model.population import Population
 from gps_error_ros.model.profiles import load_profile
 from gps_error_ros.model.streams import agent_keys
 from gps_error_ros.model.zoned import zoned_errors
@@ -54,9 +58,8 @@ def walk(n, steps, seed=0):
     return lat + k * dlat, lon + k * dlon
 
 
-def run_engine(zones, n, steps, lat, lon):
+def run_engine(zones, n, steps, lat, lon, profile):
     """Return seconds per step of a FixEngine run (truth in, clock, fixes out)."""
-    profile = load_profile('DS2')
     z = None
     if zones is not None:
         profile, model, z = zoned_errors(zones, profile)
@@ -77,8 +80,9 @@ def run_engine(zones, n, steps, lat, lon):
 def run(n=5000, steps=120, repeats=3):
     zmap = grid_map()
     lat, lon = walk(n, steps + 1)
-    plain = min(run_engine(None, n, steps, lat, lon) for _ in range(repeats))
-    zoned = min(run_engine(zmap, n, steps, lat, lon) for _ in range(repeats))
+    ds2 = load_profile('DS2')
+    plain = min(run_engine(None, n, steps, lat, lon, ds2) for _ in range(repeats))
+    zoned = min(run_engine(zmap, n, steps, lat, lon, ds2) for _ in range(repeats))
     t0 = time.perf_counter()
     for k in range(steps):
         zmap.lookup(lat[k], lon[k])
@@ -91,6 +95,15 @@ def run(n=5000, steps=120, repeats=3):
           f'without zones, {row["ms_per_step_with_zones"]:.2f} ms/step with '
           f'(x{row["ratio"]:.2f}); '
           f'point-in-polygon {row["ms_per_step_lookup"]:.2f} ms/step', flush=True)
+    crowd = replace(ds2, population=Population((2.0, 3.0), 0.3, 600.0))
+    alone = min(run_engine(None, n, steps, lat, lon, crowd) for _ in range(repeats))
+    mixed = min(run_engine(zmap, n, steps, lat, lon, crowd) for _ in range(repeats))
+    row['population'] = {'ms_per_step_without_zones': 1e3 * alone,
+                         'ms_per_step_with_zones': 1e3 * mixed, 'ratio': mixed / alone,
+                         'ratio_to_plain': mixed / plain}
+    print(f'  with a population section: {1e3 * alone:.2f} ms/step without zones, '
+          f'{1e3 * mixed:.2f} with (x{mixed / alone:.2f}; x{mixed / plain:.2f} the engine '
+          f'without either)', flush=True)
     return row
 
 
