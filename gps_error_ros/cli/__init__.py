@@ -238,7 +238,8 @@ def cmd_validate(args):
 def cmd_calibrate(args):
     """Run ``gps_error calibrate``; return the exit code."""
     if args.zones:
-        return _calibrate_zones(args)
+        from gps_error_ros.cli.zones import calibrate_per_zone
+        return calibrate_per_zone(args, _load_input)
     _check_output_dir(args.output, '-o')
     traces = _load_inputs(args)
     result = calibrate(traces, order=args.order, max_order=args.max_order,
@@ -270,33 +271,6 @@ def cmd_calibrate(args):
     if note:
         print(f'  note: {note}')
     print(f'wrote {out}')
-    return 0
-
-
-def _calibrate_zones(args):
-    """Run ``gps_error calibrate --zones``: a profile per zone; return the exit code."""
-    from gps_error_ros.fit.zone_calibration import (calibrate_zones, MIN_ZONE_SAMPLES,
-                                                    write_zone_profiles)
-    from gps_error_ros.model.zones import load_zone_map
-
-    out = Path(args.output)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f'-o {out}: with --zones, expected a directory for the '
-                         f'profiles and the zone map, got an existing file')
-    zone_map = load_zone_map(args.zones)
-    trace = _load_input(args)
-    whole, fits = calibrate_zones(trace, zone_map, args.order, args.max_order)
-    dst = write_zone_profiles(out, trace.name, args.zones, zone_map, whole, fits)
-    print(f'{trace.name}: {whole.grid.n} samples; zones need {MIN_ZONE_SAMPLES} '
-          f'samples for a profile of their own')
-    for fit in fits:
-        if fit.fits is None:
-            print(f'  {fit.name}: fallback all.yaml ({fit.reason})')
-            continue
-        orders = '/'.join(str(f.params.order) for f in fit.fits)
-        print(f'  {fit.name}: {fit.samples} samples in {fit.segments} segment(s), '
-              f'AR orders north/east {orders}')
-    print(f'wrote {dst} and the profiles beside it')
     return 0
 
 

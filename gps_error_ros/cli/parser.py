@@ -100,7 +100,9 @@ def _add_calibrate(sub):
                         'of 300 s and a population section (each simulated agent draws '
                         'its own bias and scale, as blocks and recordings differ; with 3 '
                         'recordings or more, its own gross-failure rate too); needs '
-                        '3 blocks of 300 s, e.g. 15 min of data or several recordings')
+                        '3 blocks of 300 s, e.g. 15 min of data or several recordings; '
+                        'not with --zones (a zone map takes the population of its '
+                        'default_profile)')
 
 
 def _add_validate(sub):

@@ -97,6 +97,16 @@ def test_a_file_where_a_directory_is_expected(tmp_path):
     assert out.read_text() == 'x'
 
 
+def test_population_with_zones_is_refused_not_ignored(tmp_path, capsys):
+    from gps_error_ros.cli import main as gps_error
+    zones = tmp_path / 'zones.geojson'
+    zones.write_text('{}')
+    out = tmp_path / 'profiles'
+    assert gps_error(['calibrate', str(tmp_path / 'missing.csv'), '--zones', str(zones),
+                      '--population', '-o', str(out)]) == 2
+    assert '--population with --zones' in capsys.readouterr().err and not out.exists()
+
+
 @pytest.mark.parametrize('bad', ['{"type": "Feature"}', '{'])
 def test_a_bad_map_fails_before_anything_is_written(tmp_path, bad, capsys):
     from gps_error_ros.cli import main as gps_error
