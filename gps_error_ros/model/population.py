@@ -174,7 +174,6 @@ class AgentDraws:
 
     def __init__(self, population, rate_hz=1.0):
         self.population = population
-        self.rate_hz = float(rate_hz)
         self.bias_sd = np.asarray(population.bias_sd_m, dtype=float)
         self.a = population.persistence(rate_hz)
         self.wander_sd = self.bias_sd * math.sqrt(max(0.0, 1.0 - self.a * self.a))
@@ -196,21 +195,36 @@ class AgentDraws:
             bias += self.wander_sd * g[:, None] * streams.normal_pairs(
                 keys, streams.DOMAIN_BIAS, index)
 
-    def agent_cov(self, cov, mean, pm, scale, g, bias, first=False):
-        """
-        Return (covariance (n, 2, 2), expected error (n, 2)) of agents' next errors.
+    def bias_at(self, keys, start, step):
+        """Return the biases (n, 2) of runs started at ``start``, at ``step``, and ``g``."""
+        bias, g = self.run_bias(keys, start)
+        for k in range(start + 1, step + 1):
+            self.wander(bias, g, keys, k)
+        return bias, g
 
-        ``cov`` and ``pm`` are the process's for the next error given its
-        state a step before (``first``: given nothing), ``mean`` its mean;
-        ``scale``, ``g`` and ``bias`` (the run's bias a step before) the agents'.
-        Nothing known of the agent (``first``): the population's bias spread
-        is added and the expected error is the process's.
+    def agent_cov(self, cov, scale, g, first=False):
+        """
+        Return agents' covariances (n, 2, 2) of the next error from the process's ``cov``.
+
+        ``cov`` is given the process's state a step before; ``scale`` and
+        ``g`` are the agents'. Nothing known of the agent (``first``): the
+        process's first-step covariance plus the population's bias spread.
         """
         if first:
-            return cov + np.diag(self.bias_sd ** 2), pm
-        f2, g2 = scale ** 2, g ** 2
-        return (cov * f2[:, None, None] + g2[:, None, None] * np.diag(self.wander_sd ** 2),
-                mean + scale[:, None] * (pm - mean) + self.a * bias)
+            return cov + np.diag(self.bias_sd ** 2)
+        return cov * (scale ** 2)[:, None, None] + \
+            (g ** 2)[:, None, None] * np.diag(self.wander_sd ** 2)
+
+    def agent_mean(self, mean, pm, scale, bias, first=False):
+        """
+        Return agents' expected next errors (n, 2) from the process's ``pm``.
+
+        ``mean`` is the process's mean, ``scale`` and ``bias`` (the run's
+        bias a step before) the agents'; ``first``: the process's own.
+        """
+        if first:
+            return pm
+        return mean + scale[:, None] * (pm - mean) + self.a * bias
 
 
 class WithPopulation:
@@ -228,7 +242,6 @@ class WithPopulation:
         self.inner = inner
         self.population = population
         self.draws = AgentDraws(population, rate_hz)
-        self.bias_sd, self.a = self.draws.bias_sd, self.draws.a
 
     def __getattr__(self, name):
         # mean, lag_s, order, needs_heading, ... are the inner model's
@@ -239,7 +252,7 @@ class WithPopulation:
     @property
     def stationary_cov(self):
         """Return the population's covariance about the mean: the process's plus the bias's."""
-        return np.asarray(self.inner.stationary_cov) + np.diag(self.bias_sd ** 2)
+        return np.asarray(self.inner.stationary_cov) + np.diag(self.draws.bias_sd ** 2)
 
     @property
     def stationary_sd(self):
@@ -248,9 +261,9 @@ class WithPopulation:
 
     def autocovariance(self, max_lag):
         """Return the population's autocovariance at lags 0..max_lag, (max_lag + 1, 2, 2)."""
-        decay = self.a ** np.arange(max_lag + 1)
+        decay = self.draws.a ** np.arange(max_lag + 1)
         return self.inner.autocovariance(max_lag) + \
-            decay[:, None, None] * np.diag(self.bias_sd ** 2)[None]
+            decay[:, None, None] * np.diag(self.draws.bias_sd ** 2)[None]
 
     def autocorrelation(self, max_lag):
         """Return the population's autocorrelation per axis (max_lag + 1, 2)."""
@@ -260,10 +273,11 @@ class WithPopulation:
 
     # --- state -----------------------------------------------------------
 
-    def _wider(self, inner_state, keys, index):
+    def _wider(self, inner_state, keys, bias, g):
+        """Return ``inner_state`` with the run's ``bias``, ``g`` and the agents' scales."""
         state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 2,))
         state[:, :, :-2] = inner_state
-        state[:, :, -2], g = self.draws.run_bias(keys, index)
+        state[:, :, -2] = bias
         state[:, 0, -1] = self.draws.scales(keys)
         state[:, 1, -1] = g
         return state
@@ -281,7 +295,8 @@ class WithPopulation:
     def initial_state(self, keys, index):
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return self._wider(self.inner.initial_state(keys, index), keys, index)
+        return self._wider(self.inner.initial_state(keys, index), keys,
+                           *self.draws.run_bias(keys, index))
 
     def advance(self, state, keys, index, *args, **kwargs):
         """Advance in place to model step ``index``; return the agent's errors."""
@@ -298,10 +313,7 @@ class WithPopulation:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         inner = self.inner.state_after(keys, start, step, *args, **kwargs)
-        state = self._wider(inner, keys, start)
-        for k in range(start + 1, step + 1):
-            self.draws.wander(state[:, :, -2], state[:, 1, -1], keys, k)
-        return state
+        return self._wider(inner, keys, *self.draws.bias_at(keys, start, step))
 
     def simulate(self, keys, n_steps, start=0, out=None):
         """Return the agents' errors at steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
@@ -327,16 +339,11 @@ class WithPopulation:
         ``first`` (nothing known of the agent): the process's first-step
         covariance plus the population's bias spread.
         """
-        cov = self.inner.predictive_cov(state[:, :, :-2], first)
-        if first:
-            return cov + np.diag(self.bias_sd ** 2)
-        f2, g2 = state[:, 0, -1] ** 2, state[:, 1, -1] ** 2
-        return cov * f2[:, None, None] + g2[:, None, None] * np.diag(self.draws.wander_sd ** 2)
+        return self.draws.agent_cov(self.inner.predictive_cov(state[:, :, :-2], first),
+                                    state[:, 0, -1], state[:, 1, -1], first)
 
     def predictive_mean(self, state, first=False):
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""
-        pm = self.inner.predictive_mean(state[:, :, :-2], first)
-        if first:
-            return pm
-        m = np.asarray(self.inner.mean, dtype=float)
-        return m + state[:, 0, -1][:, None] * (pm - m) + self.a * state[:, :, -2]
+        return self.draws.agent_mean(np.asarray(self.inner.mean, dtype=float),
+                                     self.inner.predictive_mean(state[:, :, :-2], first),
+                                     state[:, 0, -1], state[:, :, -2], first)

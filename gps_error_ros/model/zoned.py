@@ -244,12 +244,9 @@ class ZonedErrors:
 
     def _draw(self, rows, keys, step):
         """Draw the agents' scales and their runs' biases, wandered to ``step - 1``."""
-        draws = self.population
-        bias, g = draws.run_bias(keys, self.start)
-        for k in range(self.start + 1, step):
-            draws.wander(bias, g, keys, k)
-        self.bias[rows], self.bias_factor[rows] = bias, g
-        self.scale[rows] = draws.scales(keys)
+        self.bias[rows], self.bias_factor[rows] = self.population.bias_at(keys, self.start,
+                                                                          step - 1)
+        self.scale[rows] = self.population.scales(keys)
 
     def _wander(self, rows, keys, step):
         """Wander the runs' biases of ``rows`` to model step ``step``."""
@@ -259,13 +256,16 @@ class ZonedErrors:
 
     def _stated(self, model, rows, state, first=False):
         """Return the covariances (m, 2, 2) of ``rows``' next errors given ``state``."""
-        core, about = _core(model)
         if self.population is None:
             return model.predictive_cov(state, first)
-        cov, pm = self.population.agent_cov(
-            core.predictive_cov(state, first), core.mean, core.predictive_mean(state, first),
-            self.scale[rows], self.bias_factor[rows], self.bias[rows], first)
-        return mean_square(cov, pm) if about else cov
+        core, about = _core(model)
+        draws, scale = self.population, self.scale[rows]
+        cov = draws.agent_cov(core.predictive_cov(state, first), scale,
+                              self.bias_factor[rows], first)
+        if not about:
+            return cov
+        return mean_square(cov, draws.agent_mean(core.mean, core.predictive_mean(state, first),
+                                                 scale, self.bias[rows], first))
 
     def _conditional_start(self, model, rows, keys, step):
         """Return the state at ``step`` of a run from the start; set its covariance."""
