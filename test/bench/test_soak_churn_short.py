@@ -12,9 +12,11 @@ pytestmark = pytest.mark.integration
 
 
 def test_short_churn_soak():
-    # about 12 s of wall time at 25x: some 50 departures and 10 returns
+    # about 20 s of wall time at 15x: some 50 departures and 10 returns. At 25x a
+    # 20-s life lasted 0.8 s of wall time, less than the node's scan period, and a
+    # loaded machine (the suite's three workers) left 12 of 51 lives unmatched
     r = soak_churn.run(concurrent=10, sim_s=300, life_s=(20, 80), sample_s=30,
-                       warmup_s=60, max_speed=25.0)
+                       warmup_s=60, max_speed=15.0)
     summary = {k: v for k, v in r.items() if k != 'node_log'}
     # what went wrong first: which agents have fixes off their streams (all of
     # them, named: pytest cuts a long dict short), then where
@@ -32,7 +34,7 @@ def test_short_churn_soak():
     assert r['served_max'] < 20, summary
     assert r['served_at_end'] == r['alive_at_end'], summary
     # the node releases what it served: a life that ended between two of its
-    # scans (a second or two of wall time at 25x, on a loaded machine) was
+    # scans (a second or two of wall time at 15x, on a loaded machine) was
     # never served; they stay few
     assert r['lives_never_served'] <= r['departures'] // 5, summary
     assert r['released'] >= r['departures'] - r['returns'] - r['lives_never_served'], summary
