@@ -413,10 +413,15 @@ def cmd_compare(args):
     doc['gross_failures'] = failures_doc(fitted.failures)
     print(f'{fitted.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
           f'out; {args.sims} simulated traces per class')
-    print(f'  {"class":12} {"held-out NLL":>13} {"inside_95":>10}')
+    print(f'  {"class":12} {"held-out NLL":>13} {"- lowest (95 % interval)":>28} '
+          f'{"inside_95":>10}')
     for name, c in doc['classes'].items():
-        print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} '
+        d = c['nll_minus_best']
+        print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} {d["mean"]:9.4f} '
+              f'({d["ci95"][0]:7.4f} .. {d["ci95"][1]:7.4f}) '
               f'{c["fidelity"]["inside_95"]:10.2f}')
+    print('  (- lowest: the NLL minus the lowest class\'s, paired on the held-out samples; '
+          'an interval that holds 0 cannot tell the two apart)')
     if args.zones:
         _compare_zones(args, recordings[0], fitted.split, doc)
     _write_results(args, doc, 'compare.png', lambda path: compare_figure(doc, path))

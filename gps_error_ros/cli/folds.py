@@ -69,12 +69,17 @@ def compare_folds(args, recordings):
     print(f'{len(folds)} fold(s): ' + '; '.join(
         f'{f["fold"]} ({f["train_samples"]} train / {f["test_samples"]} held out)'
         for f in folds))
-    print(f'  {"class":13} {"NLL":>8} {"best":>5} ' + ' '.join(f'{g[:11]:>11}' for g in groups))
+    print(f'  {"class":13} {"NLL":>8} {"best":>5} {"- pop.":>7} {"<,>":>5} ' +
+          ' '.join(f'{g[:11]:>11}' for g in groups))
     for name, c in summary.items():
-        print(f'  {name:13} {c["heldout_nll_per_sample"]:8.3f} {c["best_score_folds"]:5d} ' +
+        d = c['nll_minus_population']
+        print(f'  {name:13} {c["heldout_nll_per_sample"]:8.3f} {c["best_score_folds"]:5d} '
+              f'{d["mean"]:+7.3f} {d["lower_folds"]:>2d},{d["higher_folds"]:<2d} ' +
               ' '.join(f'{c["groups"][g]:11.2f}' if g in c['groups'] else f'{"-":>11}'
                        for g in groups))
     print('  (NLL: held-out NLL per sample, mean over folds; best: folds with the lowest; '
+          '- pop.: NLL minus the population class\'s, mean over folds; <,>: folds on which '
+          'it is lower, higher beyond its 95 % interval (paired samples, block bootstrap); '
           'groups: share of measures inside their simulated 95 % range, mean over folds)')
     if all('own' in c for c in summary.values()):
         print('  worst group against the class\'s own traces (over the groups every trace '

@@ -27,8 +27,8 @@ from scipy import optimize, signal
 
 from gps_error_ros.diagnose.common import LOG2PI
 from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, part_fix_mask,
-                                             part_steps, run_masks, simulate_part,
-                                             with_outages)
+                                             part_steps, run_masks, score_differences,
+                                             simulate_part, with_outages)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
 from gps_error_ros.fit.calibration import availability_from_mask
@@ -188,22 +188,28 @@ def compare(diag, sims=100, seed=0):
     """
     Fit every class on the diagnosis's training part; score on its test part.
 
-    Returns a dict: class -> ``heldout_nll_per_sample``, the summary
-    fidelity measures of ``diagnose`` and ``calibrated`` (the measures of
-    :func:`~.fidelity.calibrated_fidelity`, with the outage measures where
-    the held-out part or the extended class has outages), all on the same
-    samples.
+    Returns a dict: class -> ``heldout_nll_per_sample``,
+    ``nll_minus_best`` (its NLL minus the lowest class's, paired on the
+    same samples, with a 95 % interval: :func:`~.fidelity.score_differences`),
+    the summary fidelity measures of ``diagnose`` and ``calibrated`` (the
+    measures of :func:`~.fidelity.calibrated_fidelity`, with the outage
+    measures where the held-out part or the extended class has outages),
+    all on the same samples.
     """
     test = diag.split.test
     masks = training_outages(diag.split, diag.extended.simulator(), sims, seed)
     outages = masks is not None or outage_stats(part_fix_mask(test))[0] > 0
+    classes = _classes(diag, sims, seed)
+    lls = {label: ll for label, (ll, _) in classes.items()}
+    against = score_differences(lls, max(lls, key=lambda k: float(np.mean(lls[k]))), seed)
     out = {}
-    for label, (ll, traces) in _classes(diag, sims, seed).items():
+    for label, (ll, traces) in classes.items():
         calibrated = calibrated_fidelity(test, traces)
         if outages:
             calibrated = with_outages(calibrated, test,
                                       masks if label == 'extended' else None)
         out[label] = {'heldout_nll_per_sample': float(-ll.mean()),
+                      'nll_minus_best': against[label],
                       **fidelity_of(test, traces), 'calibrated': calibrated}
     return out
 
@@ -213,6 +219,7 @@ def compare_json(name, split, compared):
     return {'input': name, 'train_samples': split.train.n,
             'test_samples': split.test.n,
             'classes': {KEYS[k]: {'heldout_nll_per_sample': v['heldout_nll_per_sample'],
+                                  'nll_minus_best': v['nll_minus_best'],
                                   'fidelity': {key: v['calibrated'][key] for key in
                                                ('inside_95', 'measures')}}
                         for k, v in compared.items()}}

@@ -38,7 +38,7 @@ import numpy as np
 from gps_error_ros.diagnose.baselines import _classes, KEYS, training_outages
 from gps_error_ros.diagnose.consumers import consumer_measures
 from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
-                                             simulate_part)
+                                             score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
@@ -266,7 +266,12 @@ def _outage_masks(split, labels, model, sims, seed):
 def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
                 smoother_classes=None):
     """
-    Return {class key: {heldout_nll_per_sample, groups, measures}} on one split.
+    Return {class key: {heldout_nll_per_sample, nll_minus_population, groups, measures}}.
+
+    ``nll_minus_population``: the class's held-out NLL per sample minus the
+    population class's (``population`` given ``within``, else
+    ``population_ar``), paired on the same samples, with a 95 % interval
+    (:func:`~.fidelity.score_differences`).
 
     ``smoother_sims``: traces of each class (of ``smoother_classes``, by
     default all) that the GTSAM smoother is fed as well (group ``smoother``).
@@ -296,6 +301,8 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
             raise AssertionError(f'classes scored on different samples: {n} and {len(ll)}')
         classes[label] = (ll, simulate_part(pop, split.test, split.truth, sims, seed))
     outages = _outage_masks(split, list(classes), fitted.extended.simulator(), sims, seed)
+    against = score_differences({label: ll for label, (ll, _) in classes.items()},
+                                POPULATION if within is not None else POPULATION_AR, seed)
     out = {}
     for label, (lls, traces) in classes.items():
         key = KEYS.get(label, label)
@@ -303,6 +310,7 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
         rows, groups, own = grouped_measures(split.test, split.train, traces, seed, smooth,
                                              None if outages is None else outages[label])
         out[key] = {'heldout_nll_per_sample': float(-np.mean(lls)),
+                    'nll_minus_population': against[label],
                     'groups': groups, 'measures': rows, 'own_groups': own}
     for label, pop in pops.items():
         if pop.fit.population is None:
@@ -388,6 +396,10 @@ def summarise(folds):
 
     A fold's best score is the lowest NLL of any class; classes that tie
     with it (a population class that is the class it wraps) each count it.
+    ``nll_minus_population``: the class's NLL minus the population class's,
+    mean over folds, and the folds on which its 95 % interval lies wholly
+    below 0 (``lower_folds``: the class scores better beyond what the
+    held-out samples leave open) or above 0 (``higher_folds``).
 
     And each group's ``inside_95`` averaged over the folds (those that have
     it, for the groups of :data:`EXTRA_GROUPS`), and the smallest
@@ -405,9 +417,14 @@ def summarise(folds):
                   for v in [[f['classes'][c]['groups'][g] for f in folds
                              if g in f['classes'][c]['groups']]] if v}
         worst = min(groups, key=groups.get)
+        diff = [f['classes'][c]['nll_minus_population'] for f in folds]
         out[c] = {'heldout_nll_per_sample': float(np.mean(nll)),
                   'heldout_nll_per_fold': nll,
                   'best_score_folds': int(sum(n <= b + 1e-12 for n, b in zip(nll, best))),
+                  'nll_minus_population': {
+                      'mean': float(np.mean([d['mean'] for d in diff])),
+                      'lower_folds': sum(d['ci95'][1] < 0.0 for d in diff),
+                      'higher_folds': sum(d['ci95'][0] > 0.0 for d in diff)},
                   'groups': groups,
                   'worst_group': {'group': worst, 'inside_95': groups[worst]}}
         own = own_verdict([f['classes'][c] for f in folds])

@@ -95,6 +95,14 @@ def test_compare_writes_the_documented_json_and_a_figure(tmp_path, kind):
         assert all(set(v) == FIELDS for v in c['fidelity']['measures'].values())
     nll = {k: c['heldout_nll_per_sample'] for k, c in doc['classes'].items()}
     assert nll['white_bias'] > nll['ar_p']
+    # each class against the lowest, paired: white noise is far worse than an AR process
+    lowest = min(nll, key=nll.get)
+    for k, c in doc['classes'].items():
+        d = c['nll_minus_best']
+        assert d['mean'] == pytest.approx(nll[k] - nll[lowest], abs=1e-12)
+        assert d['ci95'][0] <= d['mean'] <= d['ci95'][1]
+    assert doc['classes'][lowest]['nll_minus_best'] == {'mean': 0.0, 'ci95': [0.0, 0.0]}
+    assert doc['classes']['white_bias']['nll_minus_best']['ci95'][0] > 0.0
     # the same measures for every class; the bag has no gaps: no outage measures
     names = {tuple(c['fidelity']['measures']) for c in doc['classes'].values()}
     assert len(names) == 1

@@ -42,6 +42,19 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
     own = doc['summary']['population']['own']
     assert 0.0 <= own['percentile'] <= 100.0 and 'outages' in own['groups']
     assert len(fold['classes']['ar1']['own_groups']['bias']) == 20
+    # every class's score against the population's, paired on the same samples
+    pop = fold['classes']['population']
+    assert pop['nll_minus_population'] == {'mean': 0.0, 'ci95': [0.0, 0.0]}
+    for name, c in fold['classes'].items():
+        d = c['nll_minus_population']
+        assert d['mean'] == pytest.approx(
+            c['heldout_nll_per_sample'] - pop['heldout_nll_per_sample'], abs=1e-12), name
+        assert d['ci95'][0] <= d['mean'] <= d['ci95'][1], name
+        s = doc['summary'][name]['nll_minus_population']
+        assert s['mean'] == pytest.approx(d['mean'], abs=1e-12)
+        assert (s['lower_folds'], s['higher_folds']) == (int(d['ci95'][1] < 0),
+                                                         int(d['ci95'][0] > 0)), name
+    assert '- pop.' in printed
     # the two training recordings are shorter than the held-out one: each counts whole
     windows = fold['train_windows']
     assert windows['windows'] == 2 and abs(windows['span_s'] - 899.0) < 1.0
@@ -68,6 +81,8 @@ def test_without_blocks_to_pool_a_population_class_is_the_class_it_wraps(tmp_pat
         c, w = fold['classes'][pop], fold['classes'][wrapped]
         assert c['fit']['fitted'] is False and c['same_as'] == wrapped   # 2 blocks of 300 s
         assert c['heldout_nll_per_sample'] == w['heldout_nll_per_sample']
+        if pop == 'population':     # the score's reference: what it wraps ties it exactly
+            assert w['nll_minus_population'] == {'mean': 0.0, 'ci95': [0.0, 0.0]}
         # the same traces; population_ar simulates the training part's outages, as
         # calibrate --population's profile carries them, and ar_p a fix at every step
         same = [g for g in c['groups'] if pop == 'population' or g != 'outages']

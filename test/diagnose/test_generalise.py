@@ -1,10 +1,11 @@
 """Splits across stretches and recordings, the population class's score, the consumers."""
 
 import numpy as np
+import pytest
 from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
-from gps_error_ros.diagnose.fidelity import run_masks
+from gps_error_ros.diagnose.fidelity import run_masks, score_differences
 from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
                                                recording_splits, rolling_splits,
                                                training_windows)
@@ -225,3 +226,22 @@ def test_the_worst_group_is_read_against_the_classes_own():
     assert got['percentile'] == 25.0                 # one own set as low as the real 0.5
     assert got['own_meet_bar'] == 25.0               # only trace 0 has every group >= 0.90
     assert own_verdict([{'groups': {'bias': 1.0}}]) is None
+
+
+def test_score_differences_tell_a_real_gap_from_the_samples_spread():
+    rng = np.random.default_rng(3)
+    n = 3000
+    # persistent per-sample log densities, as one-step scores of a persistent error are
+    shared = np.convolve(rng.normal(0, 1, n + 19), np.ones(20) / 20 ** 0.5, 'valid')
+    noise = rng.normal(0, 0.3, n)
+    lls = {'pop': shared, 'worse': shared - 0.25 + noise, 'same': shared + noise}
+    d = score_differences(lls, 'pop', seed=1)
+    assert d['pop'] == {'mean': 0.0, 'ci95': [0.0, 0.0]}
+    lo, hi = d['worse']['ci95']
+    assert d['worse']['mean'] == pytest.approx(0.25 - noise.mean()) and 0.0 < lo < 0.25 < hi
+    lo, hi = d['same']['ci95']
+    assert lo < 0.0 < hi
+    # the interval is about 1.96 standard errors of the mean of iid noise each side
+    assert 0.5 < (hi - lo) / (2 * 1.96 * 0.3 / n ** 0.5) < 2.0
+    with pytest.raises(ValueError, match='expected the same samples'):
+        score_differences({'pop': shared, 'short': shared[:-1]}, 'pop')
