@@ -202,7 +202,13 @@ def _class_row(trace, label, m):
 WALKS_NOTE = ('The pedestrian walks of a low-cost snapshot receiver (nearly white errors, '
               'a bias per walk, gross failures) are diagnosed walk by walk in '
               '[walks.md](walks.md), and judged left out one at a time in '
-              '[generalisation.md](generalisation.md).')
+              '[generalisation.md](generalisation.md). Each trace\'s extended profile '
+              '(`close-the-loop/<trace>.extended.yaml`, what `diagnose --profile-out` '
+              'writes) describes the stretch it was fitted on; to simulate another drive, '
+              'day or phone, each phone\'s population profile (`diagnose --profile-out '
+              '--population`) is in `generalisation/`, validated on the other phone of the '
+              'drive in [generalisation.md](generalisation.md#each-phones-profile-on-the-'
+              'other-phone).')
 
 #: Where the long run falls short, and where the choices behind it are recorded.
 PAIRS_WITH_REFLECTIONS = [

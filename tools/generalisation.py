@@ -8,7 +8,8 @@ on every visible recording set in ``--data``:
 * the SnapperGPS walks: leave one walk out, and the walks recorded with it
   (another receiver on the same walk) out of its training;
 * the two GSDC phones of one drive: each trains, the other is held out
-  (another receiver);
+  (another receiver); and each phone's extended and population profiles
+  validated on the other phone (:mod:`phone_transfer`);
 
 and writes ``docs/generalisation.md`` (with the JSON of every fold beside it
 in ``docs/generalisation/``). ``make generalisation`` runs it (about 15
@@ -23,6 +24,7 @@ import platform
 import time
 
 import numpy as np
+from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
@@ -38,6 +40,8 @@ SMOOTHER_SIMS = 40
 #: m/s: the speeds at which the velocity table reads a section's SD.
 SPEEDS = (3.0, 10.0, 27.0)
 PHONES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv')
+#: The rows of the phones' profiles validated on each other (phone_transfer.py).
+TRANSFER_JSON = 'phone-transfer.json'
 ALONE = PHONES + ('urbannav-hk-tst-ublox-spp.csv',)
 TOO_SHORT = {'gmt-static-phone-2016-08-22.csv': '207 samples: a rolling fold would hold out '
                                                 '26'}
@@ -80,15 +84,32 @@ def _table(summary):
                             if any(g in s['groups'] for s in summary.values()))
     own = all('own' in s for s in summary.values())
     extra = ['worst, own %', 'own at 0.90'] if own else []
-    head = ('| class | held-out NLL | best | ' + ' | '.join(list(groups) + extra) + ' |\n|' +
-            '---|' * (3 + len(groups) + len(extra)))
+    head = ('| class | held-out NLL | best | - population (<, >) | ' +
+            ' | '.join(list(groups) + extra) + ' |\n|' +
+            '---|' * (4 + len(groups) + len(extra)))
     rows = [f'| {LABELS.get(c, c)} | {s["heldout_nll_per_sample"]:.3f} | '
-            f'{s["best_score_folds"]} | ' +
+            f'{s["best_score_folds"]} | {_against(s["nll_minus_population"])} | ' +
             ' | '.join([f'{s["groups"][g]:.2f}' if g in s['groups'] else '-' for g in groups] +
                        ([f'{s["own"]["worst"]:.2f}, {s["own"]["percentile"]:.0f} %',
                          f'{s["own"]["own_meet_bar"]:.0f} %'] if own else [])) +
             ' |' for c, s in summary.items()]
     return '\n'.join([head] + rows)
+
+
+def _against(d):
+    """Return a cell: the NLL minus the population's, and the folds beyond its interval."""
+    return f'{d["mean"]:+.3f} ({d["lower_folds"]}, {d["higher_folds"]})'
+
+
+def _score_sentence(summary, folds, cls='population'):
+    """Return a sentence: the classes whose NLL is below the population's beyond noise."""
+    lower = [f'{LABELS.get(c, c)} on {s["nll_minus_population"]["lower_folds"]}'
+             for c, s in summary.items() if c != cls and s['nll_minus_population']['lower_folds']]
+    if not lower:
+        return (f' No class\'s held-out NLL lies below the population class\'s beyond its '
+                f'95 % interval on any of the {len(folds)} folds.')
+    return (f' Held-out NLL below the population class\'s beyond its 95 % interval: '
+            f'{"; ".join(lower)} of {len(folds)} folds.')
 
 
 def _evidence(folds):
@@ -285,7 +306,8 @@ def _causes(parts):
             f'{ext["best_score_folds"]} of {len(folds)} folds, and its worst group averages '
             f'{ext["worst_group"]["inside_95"]:.2f} ({ext["worst_group"]["group"]}); the '
             f'class whose worst group is highest is {LABELS.get(best, best)} '
-            f'({min(summary[best]["groups"].values()):.2f}).' + _own_sentence(summary))
+            f'({min(summary[best]["groups"].values()):.2f}).' + _score_sentence(summary, folds) +
+            _own_sentence(summary))
     return out
 
 
@@ -343,12 +365,14 @@ def main(argv=None):
     started = time.time()
     json_dir = args.out / 'docs' / 'generalisation'
     json_dir.mkdir(parents=True, exist_ok=True)
+    rows_json = json_dir / TRANSFER_JSON
     if args.from_json:
-        docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json')]
+        docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json') if p != rows_json]
         order = list(ALONE) + ['SnapperGPS walks', 'GSDC phones of one drive']
         docs.sort(key=lambda d: order.index(d['set']))
+        rows = json.loads(rows_json.read_text()) if rows_json.exists() else []
         _write_page(args, [(d['set'], d['how'], d['folds'], d['summary']) for d in docs],
-                    docs[0].get('seconds', 0.0), docs[0].get('date'))
+                    docs[0].get('seconds', 0.0), docs[0].get('date'), rows)
         return
     parts = []
     for name, how, splits in sets(args.data):
@@ -358,6 +382,8 @@ def main(argv=None):
         stem = name.replace('.csv', '').replace(' ', '-').lower()
         parts.append((name, how, folds, summary, stem))
         print(f'{name}: {len(folds)} folds done ({time.time() - started:.0f} s)', flush=True)
+    rows = transfer(args.data, PHONES, json_dir, args.out / 'docs' / 'close-the-loop')
+    rows_json.write_text(json.dumps(rows, indent=1))
     seconds, date = time.time() - started, dt.date.today().isoformat()
     for name, how, folds, summary, stem in parts:
         for f in folds:             # each simulated trace's shares: summarised, not kept
@@ -366,7 +392,7 @@ def main(argv=None):
         (json_dir / f'{stem}.json').write_text(json.dumps(
             {'set': name, 'how': how, 'folds': folds, 'summary': summary,
              'seconds': seconds, 'date': date}, indent=1, default=float))
-    _write_page(args, [p[:4] for p in parts], seconds, date)
+    _write_page(args, [p[:4] for p in parts], seconds, date, rows)
 
 
 def _velocity_rows(folds):
@@ -392,7 +418,7 @@ def _velocity_rows(folds):
     return rows + ['']
 
 
-def _write_page(args, parts, seconds, date=None):
+def _write_page(args, parts, seconds, date=None, rows=()):
     machine = f'{platform.machine()}, {platform.python_implementation()} ' \
               f'{platform.python_version()}'
     text = [PAGE_HEAD.format(date=date or dt.date.today().isoformat(), machine=machine,
@@ -407,6 +433,7 @@ def _write_page(args, parts, seconds, date=None):
         text += _velocity_rows(folds)
     for name, why in TOO_SHORT.items():
         text.append(f'Not judged: {name} ({why}).\n')
+    text += transfer_lines(rows)
     text += _explanation(parts, args.data)
     path = args.out / 'docs' / 'generalisation.md'
     path.write_text('\n'.join(text))
@@ -424,7 +451,13 @@ method in `gps_error_ros/diagnose/generalise.py`):
   sample (a proper score; lower is better), mean over folds; **best**: the
   folds on which the class had the lowest (a tie counts for each: a
   population class whose training part has too few blocks for a section
-  is the class it wraps);
+  is the class it wraps); **- population (<, >)**: the class's NLL minus
+  the population class's (extended within), paired on the same held-out
+  samples, mean over folds, and the folds on which the difference lies
+  below (<) or above (>) 0 beyond its 95 % interval (a moving-block
+  bootstrap of the per-sample differences, blocks of 30 samples): a
+  difference whose interval holds 0 is one the held-out samples cannot
+  resolve;
 - **groups**: the share of a group's measures whose held-out value lies
   inside the central 95 % range of {sims} traces simulated along the
   held-out truth, mean over folds (near 0.95 for a simulator that holds):

@@ -55,3 +55,42 @@ def test_velocity_evidence_on_the_measured_phones():
     floors = re.findall(r"chord alone, no error added: .*course error RMS 10-100 m/s ([0-9.]+)",
                         r.stdout)
     assert len(floors) == 2 and all(float(f) > 0.3 for f in floors), r.stdout
+
+
+def test_each_phones_profiles_are_validated_on_the_other(tmp_path):
+    """tools/phone_transfer.py: the profiles a user writes, validated as a user would."""
+    from gps_error_ros.cli import main as cli
+    from gps_error_ros.model.profiles import load_profile_file
+    from gps_error_ros.sim.synthetic import synthetic_trace as walk
+    from gps_error_ros.traces.trace_io import write_trace_csv
+
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from phone_transfer import transfer, transfer_lines
+    finally:
+        sys.path.remove(str(TOOLS))
+    data, close, out = (tmp_path / d for d in ('data', 'close', 'out'))
+    for d in (data, close, out):
+        d.mkdir()
+    phones = ('a.csv', 'b.csv')
+    for seed, name in enumerate(phones):
+        write_trace_csv(walk('none', seed, 1300), data / name)
+        assert cli(['diagnose', str(data / name), '--profile-out',
+                    str(close / name.replace('.csv', '.extended.yaml'))]) == 0
+    rows = transfer(data, phones, out, close, sims=40)
+    # 910 s of training make 3 blocks of 300 s: a population section is fitted
+    assert load_profile_file(out / 'a.population.yaml').population is not None
+    assert [(r['profile'], r['validated_on']) for r in rows] == [
+        ('a.extended.yaml', 'b.csv'), ('a.population.yaml', 'b.csv'),
+        ('b.extended.yaml', 'a.csv'), ('b.population.yaml', 'a.csv')]
+    for r in rows:
+        assert all(0.0 <= r[ax][m] <= 1.0 for ax in ('north', 'east')
+                   for m in ('acf', 'quantiles'))
+        assert 0.0 <= r['joint_percentile'] <= 100.0
+    table = [line for line in transfer_lines(rows) if line.startswith('| a.') or
+             line.startswith('| b.')]
+    assert len(table) == 4
+    r = rows[1]
+    assert table[1].split(' | ')[2:] == [
+        f'{100 * r[ax][m]:.0f} %' for ax in ('north', 'east') for m in ('acf', 'quantiles')
+    ] + [f'{r["joint_percentile"]:.0f} |']
