@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 
 from close_loop_evidence import render_trace, run_evidence
-from data_sources import CREDITS
+from data_sources import CREDITS, WALKS
 
 from gps_error_ros.diagnose import diagnose, DiagnosisError, extended_profile
 from gps_error_ros.diagnose.baselines import CLASSES, compare, compare_json
@@ -110,7 +110,7 @@ def run(data_dir, out_dir, sims=SIMS):
     sub.mkdir(parents=True, exist_ok=True)
     records = []
     for csv_path in sorted(data_dir.glob('*.csv')):
-        if csv_path.match(WALKS_GLOB):      # diagnosed walk by walk in walks.md
+        if csv_path.match(WALKS):      # diagnosed walk by walk in walks.md
             continue
         trace = read_trace_csv(csv_path)
         stem = csv_path.stem
@@ -204,8 +204,6 @@ def _class_row(trace, label, m):
             + ' |')
 
 
-#: The pedestrian walks: diagnosed on their own page (tools/walks_profile.py), not here.
-WALKS_GLOB = 'snapper-walk-*.csv'
 #: Where the pedestrian walks are diagnosed (their own page).
 WALKS_NOTE = ('The pedestrian walks of a low-cost snapshot receiver (nearly white errors, '
               'a bias per walk, gross failures) are diagnosed walk by walk in '

@@ -1,5 +1,8 @@
 """What each measured trace in shared/data is, and its licence (for the docs)."""
 
+#: The SnapperGPS pedestrian walks among the traces (their own page: walks.md).
+WALKS = 'snapper-walk-*.csv'
+
 # Facts from shared/data/README.md: what each trace is, and its licence.
 CREDITS = {
     'gsdc2020-mtv1-pixel4.csv': (

@@ -24,6 +24,7 @@ import platform
 import time
 
 import numpy as np
+from data_sources import WALKS
 from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
@@ -69,7 +70,7 @@ def sets(data):
     """Return [(set name, how, [(label, Split)])] of the visible recordings."""
     out = [(name, 'rolling origin (3 folds)', rolling_splits(_clean(data / name)))
            for name in ALONE]
-    walks = [_clean(p) for p in sorted(data.glob('snapper-walk-*.csv'))]
+    walks = [_clean(p) for p in sorted(data.glob(WALKS))]
     out.append(('SnapperGPS walks', f'leave one walk out, nor train on the walks recorded '
                 f'with it ({len(walks)} folds)',
                 recording_splits(walks)))

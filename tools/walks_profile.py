@@ -16,6 +16,7 @@ from pathlib import Path
 import platform
 
 import numpy as np
+from data_sources import WALKS
 
 from gps_error_ros.fit.calibration import calibrate
 from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre_scale,
@@ -209,9 +210,9 @@ def main():
     p.add_argument('--data', default='../shared/data')
     p.add_argument('--out', default='.', help='the repository root')
     args = p.parse_args()
-    paths = sorted(Path(args.data).glob('snapper-walk-*.csv'))
+    paths = sorted(Path(args.data).glob(WALKS))
     if not paths:
-        raise SystemExit(f'{args.data}: no snapper-walk-*.csv')
+        raise SystemExit(f'{args.data}: no {WALKS}')
     traces = [read_trace_csv(path) for path in paths]
     left_out, family = _left_out_rows(traces)
     res = calibrate(traces, population=True)
