@@ -312,6 +312,53 @@ def _causes(parts):
     return out
 
 
+def _gain(d):
+    return f'{d["mean"]:+.3f} ({d["ci95"][0]:+.3f} to {d["ci95"][1]:+.3f})'
+
+
+def _beaten_lines(parts):
+    """Return the section on the folds where a class scores better than the population."""
+    out = []
+    for name, how, folds, _ in parts:
+        for f in folds:
+            wb = f['classes']['population'].get('where_beaten')
+            if not wb:
+                continue
+            who = ', '.join(LABELS.get(c, c) for c in wb['winners'])
+            far, near = wb['far'], wb['near']
+            out.append(f'**{name}, {f["fold"]}**: {who} (NLL minus the population '
+                       f'class\'s, with its 95 % interval). In the held-out blocks of '
+                       f'{wb["block_samples"]} samples whose mean lies more than '
+                       f'{wb["far_sd"]:g} of the population\'s bias SDs '
+                       f'({wb["bias_sd_m"][0]:.2f} / {wb["bias_sd_m"][1]:.2f} m) from its '
+                       f'mean ({far["samples"]} samples): ' +
+                       ('; '.join(f'{LABELS.get(c, c)} {_gain(far[c])}'
+                                  for c in wb['winners'] if c in far) or 'none') +
+                       f'; in the others ({near["samples"]} samples): ' +
+                       ('; '.join(f'{LABELS.get(c, c)} {_gain(near[c])}'
+                                  for c in wb['winners'] if c in near) or 'none') + '.')
+            pacf = wb.get('pacf') or {}
+            if pacf.get('train') and pacf.get('held_out'):
+                tr, te = pacf['train'], pacf['held_out']
+                lags = len(tr['north'])
+                out.append('\nPartial autocorrelation of the errors, lags 1-'
+                           f'{lags} (beyond the bound, 1.96 / sqrt(n), in bold):\n')
+                out.append('| part, axis | bound | ' +
+                           ' | '.join(str(k) for k in range(1, lags + 1)) + ' |\n|' +
+                           '---|' * (lags + 2))
+                for part, p in (('training', tr), ('held out', te)):
+                    for axis in ('north', 'east'):
+                        cells = [f'**{v:.2f}**' if abs(v) > p['bound'] else f'{v:.2f}'
+                                 for v in p[axis][:lags]]
+                        out.append(f'| {part}, {axis} | {p["bound"]:.3f} | ' +
+                                   ' | '.join(cells) + ' |')
+                out.append('\nLags beyond the bound in the training part and not in the '
+                           'held-out part: ' + '; '.join(
+                               f'{axis} ' + (', '.join(map(str, v)) or 'none')
+                               for axis, v in pacf['only_in_training'].items()) + '.\n')
+    return [BEATEN_HEAD] + out if out else []
+
+
 def _own_sentence(summary, cls='population'):
     """Return a sentence: the population's worst group read against its own traces'."""
     own = summary.get(cls, {}).get('own')
@@ -328,12 +375,10 @@ def _own_sentence(summary, cls='population'):
 
 def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
-    out = [CAUSES_HEAD] + _causes(parts) + ['', FLOOR_HEAD,
-                                            '| recording | windows | corr(SD, ACF 1) N | '
-                                            'corr(SD, ACF 1) E | lowest ACF 1 N | '
-                                            'lowest ACF 1 E | floor SD N (m) | '
-                                            'floor SD E (m) | persistent part\'s ACF 1 N / E |',
-                                            '|---|---|---|---|---|---|---|---|---|']
+    out = [CAUSES_HEAD] + _causes(parts) + [''] + _beaten_lines(parts)
+    out += [FLOOR_HEAD, '| recording | windows | corr(SD, ACF 1) N | corr(SD, ACF 1) E | '
+            'lowest ACF 1 N | lowest ACF 1 E | floor SD N (m) | floor SD E (m) | '
+            'persistent part\'s ACF 1 N / E |', '|---|---|---|---|---|---|---|---|---|']
     out += _floor_rows(data) + ['', FLOOR_TAIL, '', EXPLAIN_HEAD]
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
@@ -503,8 +548,9 @@ CAUSES_HEAD = """## Why a profile of one stretch does not transfer
 Five causes, told apart by the folds (figures of this run, per set): (a) a
 slow wander of the bias that one stretch cannot estimate; (b) scale and
 persistence that change with the environment between training and held-out
-parts; (c) differences between receivers (the GSDC phones of one drive: the
-set's own table) against differences between occasions (three of the walks
+parts; (c) differences between receivers, in bias and in dynamics (the GSDC
+phones of one drive: the set's own table, and where a simpler class scores
+better, below) against differences between occasions (three of the walks
 are one walk with three receivers, whose mean errors agree within half a
 metre while separate walks differ by metres: the bias is the occasion's, and
 the population fit counts an occasion once,
@@ -515,6 +561,18 @@ the bar itself asks: groups of two to four measures are coarse, so a trace
 of a class's own has some group below 0.90 more often than not (column *own
 at 0.90* of each set's table); the worst group's percentile among the
 class's own traces says whether a miss is evidence against the class.
+"""
+
+BEATEN_HEAD = """## Where a simpler class scores better than the population
+
+The folds on which a class's held-out NLL lies below the population class's
+beyond its 95 % interval, and where: the held-out samples cut into blocks in
+time order, split by how far each block's mean error lies from the
+population's mean in its bias SDs (a gain where the held-out level is far
+would say the population's bias law is too narrow for this data), and the
+partial autocorrelation of the training and held-out errors (a structure at
+lags beyond the first that one part has and the other lacks is dynamics that
+a class with more lags carries over and one with fewer does not).
 """
 
 FLOOR_HEAD = """## Calm stretches, and what sampling alone gives

@@ -34,6 +34,34 @@ def _splits(args, recordings):
     return rolling_splits(join_recordings(traces))
 
 
+def _gain(d):
+    return f'{d["mean"]:+.3f} ({d["ci95"][0]:+.3f} to {d["ci95"][1]:+.3f})'
+
+
+def beaten_lines(folds):
+    """Return lines on the folds where a class scores better than the population beyond noise."""
+    out = []
+    for f in folds:
+        wb = f['classes'].get('population', {}).get('where_beaten')
+        if not wb:
+            continue
+        gains = {part: ', '.join(f'{c} {_gain(wb[part][c])}' for c in wb['winners']
+                                 if c in wb[part]) or '-' for part in ('far', 'near')}
+        out.append(f'  {f["fold"]}: {", ".join(wb["winners"])} below the population class '
+                   f'beyond the 95 % interval. NLL minus the population\'s over held-out '
+                   f'blocks of {wb["block_samples"]} samples whose mean lies more than '
+                   f'{wb["far_sd"]:g} bias SDs from the population\'s mean '
+                   f'({wb["far"]["samples"]} samples): {gains["far"]}; over the others '
+                   f'({wb["near"]["samples"]} samples): {gains["near"]}')
+        only = (wb.get('pacf') or {}).get('only_in_training')
+        if only is not None:
+            out.append('    partial autocorrelation beyond 1.96/sqrt(n) in the training part '
+                       'and not held out, lags: ' + '; '.join(
+                           f'{axis} ' + (','.join(map(str, v)) or 'none')
+                           for axis, v in only.items()))
+    return out
+
+
 def compare_folds(args, recordings):
     """
     Run the fold comparison; print a table, write ``--json``; return the exit code.
@@ -89,6 +117,8 @@ def compare_folds(args, recordings):
             o = c['own']
             print(f'  {name:13} {o["worst"]:5.2f}  own {o["own_worst_median"]:4.2f}  '
                   f'{o["percentile"]:5.1f} %  bar {o["own_meet_bar"]:5.1f} %')
+    for line in beaten_lines(folds):
+        print(line)
     line = velocity_line(folds)
     if line:
         print(line)

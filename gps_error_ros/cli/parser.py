@@ -260,7 +260,10 @@ def _add_compare(sub):
     c.add_argument('--folds', choices=('rolling', 'recordings'), default=None,
                    help='judge on several splits, with the population class too, '
                         'each class\'s NLL against the population class\'s (the folds '
-                        'where it is lower or higher beyond its 95 %% interval) and '
+                        'where it is lower or higher beyond its 95 %% interval, and '
+                        'where a lower one gains: far from the population\'s bias or '
+                        'not, the lags of partial autocorrelation only the training '
+                        'part has) and '
                         'the measures in groups (persistence, scale, bias, quantiles, '
                         'tails, a Kalman filter\'s and a V2P warning\'s results, '
                         'outages where a part has them; speed and course by speed band '

@@ -55,6 +55,12 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
         assert (s['lower_folds'], s['higher_folds']) == (int(d['ci95'][1] < 0),
                                                          int(d['ci95'][0] > 0)), name
     assert '- pop.' in printed
+    # where a class scores better than the population beyond noise, the fold says where
+    winners = [k for k, c in fold['classes'].items() if c['nll_minus_population']['ci95'][1] < 0]
+    if winners:
+        assert pop['where_beaten']['winners'] == winners
+    else:
+        assert pop['where_beaten'] is None
     # the two training recordings are shorter than the held-out one: each counts whole
     windows = fold['train_windows']
     assert windows['windows'] == 2 and abs(windows['span_s'] - 899.0) < 1.0
@@ -92,3 +98,23 @@ def test_without_blocks_to_pool_a_population_class_is_the_class_it_wraps(tmp_pat
         s = doc['summary']
         assert s[pop]['best_score_folds'] == s[wrapped]['best_score_folds']
     assert sum(s[c]['best_score_folds'] for c in s) >= 1
+
+
+def test_a_fold_where_a_class_beats_the_population_says_where():
+    from gps_error_ros.cli.folds import beaten_lines
+    from gps_error_ros.diagnose.generalise import pacf_against
+
+    pacf = pacf_against({'north': [0.9, 0.3, 0.01], 'east': [0.8, 0.02, 0.2], 'bound': 0.05},
+                        {'north': [0.9, 0.01, 0.01], 'east': [0.8, 0.02, 0.01], 'bound': 0.05})
+    assert pacf['only_in_training'] == {'north': [2], 'east': [3]}
+    assert pacf_against(None, pacf['train'])['only_in_training'] is None
+    gain = {'mean': -0.3, 'ci95': [-0.5, -0.1]}
+    fold = {'fold': 'test b.csv', 'classes': {'population': {'where_beaten': {
+        'winners': ['ar1'], 'block_samples': 150, 'far_sd': 2.0,
+        'far': {'samples': 300, 'ar1': gain}, 'near': {'samples': 0}, 'pacf': pacf}}}}
+    lines = beaten_lines([fold, {'fold': 'x', 'classes': {'population': {'where_beaten': None}}}])
+    assert len(lines) == 2
+    assert lines[0].startswith('  test b.csv: ar1 below the population class')
+    assert ('(300 samples): ar1 -0.300 (-0.500 to -0.100); over the others (0 samples): -'
+            in lines[0])
+    assert lines[1].endswith('lags: north 2; east 3')

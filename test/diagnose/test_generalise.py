@@ -6,9 +6,9 @@ from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
-from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
-                                               recording_splits, rolling_splits,
-                                               training_windows)
+from gps_error_ros.diagnose.generalise import (_outage_masks, FAR_SD, own_shares, own_verdict,
+                                               part_pacf, recording_splits, rolling_splits,
+                                               training_windows, where_beaten)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
@@ -245,3 +245,57 @@ def test_score_differences_tell_a_real_gap_from_the_samples_spread():
     assert 0.5 < (hi - lo) / (2 * 1.96 * 0.3 / n ** 0.5) < 2.0
     with pytest.raises(ValueError, match='expected the same samples'):
         score_differences({'pop': shared, 'short': shared[:-1]}, 'pop')
+
+
+def test_where_a_class_beats_the_population_is_told_by_the_held_out_level():
+    """
+    A class that wins only where the held-out error sits far from the population's mean.
+
+    600 samples: the first 300 at the population's mean, the last 300 three
+    bias SDs out, where the rival's score is 0.5 nats better per sample;
+    elsewhere the two tie up to noise.
+    """
+    rng = np.random.default_rng(5)
+    n, sd = 600, np.array([0.5, 1.0])
+    err = rng.normal(0.0, 0.1, (n, 2))
+    err[300:, 0] += 3 * sd[0]
+    pop = rng.normal(-1.0, 0.3, n)
+    rival = pop + rng.normal(0.0, 0.05, n)
+    rival[300:] += 0.5
+    got = where_beaten({'population': pop, 'rival': rival, 'worse': pop - 1.0}, 'population',
+                       err, np.arange(n, dtype=float), [0.0, 0.0], sd, block=150)
+    assert got['winners'] == ['rival']
+    assert [b['samples'] for b in got['blocks']] == [150] * 4
+    assert [b['level_sd'] > FAR_SD for b in got['blocks']] == [False, False, True, True]
+    assert got['far']['samples'] == got['near']['samples'] == 300
+    lo, hi = got['far']['rival']['ci95']
+    assert got['far']['rival']['mean'] == pytest.approx(-0.5, abs=0.02) and hi < 0.0
+    lo, hi = got['near']['rival']['ci95']
+    assert lo < 0.0 < hi
+    # no class better beyond its interval: nothing to show
+    assert where_beaten({'population': pop, 'worse': pop - 1.0}, 'population', err,
+                        np.arange(n, dtype=float), [0.0, 0.0], sd) is None
+    with pytest.raises(ValueError, match=r'expected \(600, 2\)'):
+        where_beaten({'population': pop, 'rival': rival}, 'population', err[:10],
+                     np.arange(n, dtype=float), [0.0, 0.0], sd)
+
+
+def test_the_partial_autocorrelation_of_a_part_finds_the_lags_it_has():
+    """An AR(3) axis beside a white one: lags 1-3 beyond the bound on the first only."""
+    rng = np.random.default_rng(2)
+    n = 4000
+    x = np.zeros(n + 100)
+    w = rng.normal(0, 1, n + 100)
+    for k in range(3, n + 100):
+        x[k] = 0.3 * x[k - 1] + 0.2 * x[k - 2] + 0.35 * x[k - 3] + w[k]
+    err = np.stack([x[100:], rng.normal(0, 1, n)], axis=1)
+    got = part_pacf(Part([err[:2000], err[2000:]], [None, None],
+                         [np.arange(2000.0), np.arange(2000.0)]))
+    assert got['bound'] == pytest.approx(1.96 / n ** 0.5, rel=1e-3)
+    assert len(got['north']) == 10
+    assert [abs(v) > got['bound'] for v in got['north'][:3]] == [True] * 3
+    assert got['north'][2] == pytest.approx(0.35, abs=0.05)
+    assert sum(abs(v) > got['bound'] for v in got['east']) <= 2
+    short = part_pacf(Part([err[:30]], [None], [np.arange(30.0)]))
+    assert short is not None and len(short['north']) == 6
+    assert part_pacf(Part([err[:15]], [None], [np.arange(15.0)])) is None

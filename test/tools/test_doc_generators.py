@@ -94,3 +94,32 @@ def test_each_phones_profiles_are_validated_on_the_other(tmp_path):
     assert table[1].split(' | ')[2:] == [
         f'{100 * r[ax][m]:.0f} %' for ax in ('north', 'east') for m in ('acf', 'quantiles')
     ] + [f'{r["joint_percentile"]:.0f} |']
+
+
+def test_the_generalisation_page_shows_where_the_population_is_beaten():
+    """tools/generalisation.py: the section on a fold where a class scores better."""
+    from gps_error_ros.diagnose.generalise import pacf_against
+
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from generalisation import _beaten_lines
+    finally:
+        sys.path.remove(str(TOOLS))
+    pacf = pacf_against({'north': [0.9, 0.3], 'east': [0.8, 0.02], 'bound': 0.05},
+                        {'north': [0.9, 0.01], 'east': [0.8, 0.2], 'bound': 0.06})
+    gain = {'mean': -0.3, 'ci95': [-0.5, -0.1]}
+    beaten = {'winners': ['ar1'], 'block_samples': 150, 'far_sd': 2.0,
+              'bias_sd_m': [0.6, 1.0], 'far': {'samples': 0},
+              'near': {'samples': 300, 'ar1': gain}, 'pacf': pacf}
+    folds = [{'fold': 'f1', 'classes': {'population': {'where_beaten': beaten}}},
+             {'fold': 'f2', 'classes': {'population': {'where_beaten': None}}}]
+    lines = _beaten_lines([('phones', 'across', folds, None)])
+    text = '\n'.join(lines)
+    assert lines[0].startswith('## Where a simpler class scores better')
+    assert '**phones, f1**: AR(1)' in text and 'f2' not in text
+    assert '(0 samples): none; in the others (300 samples): AR(1) -0.300 (-0.500 to -0.100)' \
+        in text
+    assert '| training, north | 0.050 | **0.90** | **0.30** |' in text
+    assert '| held out, east | 0.060 | **0.80** | **0.20** |' in text
+    assert 'held-out part: north 2; east none.' in text
+    assert _beaten_lines([('phones', 'across', folds[1:], None)]) == []
