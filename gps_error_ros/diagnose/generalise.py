@@ -49,7 +49,7 @@ from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outag
                                         outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import occasions, segment_weights
-from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis
+from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -365,7 +365,8 @@ def part_pacf(part, lags=DEFAULT_MAX_ORDER):
     axis's errors (gaps never bridged), and ``b = 1.96 / sqrt(n)``, beyond
     which a lag's partial autocorrelation is significant at 5 % (the
     bound ``calibrate`` chooses an AR order by). Fewer lags where the part
-    has fewer than 4 samples a lag; None under 20 samples.
+    has fewer than 4 samples a lag; None under 20 samples or where an
+    axis's errors are constant.
     """
     n = sum(len(e) for e in part.err)
     lags = min(lags, n // 4 - 1)        # fit_axis needs 4 samples a lag
@@ -373,7 +374,10 @@ def part_pacf(part, lags=DEFAULT_MAX_ORDER):
         return None
     out = {}
     for a, axis in enumerate(('north', 'east')):
-        fit = fit_axis([e[:, a] for e in part.err], max_order=lags, axis=axis)
+        try:
+            fit = fit_axis([e[:, a] for e in part.err], max_order=lags, axis=axis)
+        except CalibrationError:        # an axis with constant errors has no PACF
+            return None
         out[axis] = [float(v) for v in fit.pacf]
         out['bound'] = float(fit.pacf_bound)
     return out

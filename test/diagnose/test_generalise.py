@@ -299,3 +299,6 @@ def test_the_partial_autocorrelation_of_a_part_finds_the_lags_it_has():
     short = part_pacf(Part([err[:30]], [None], [np.arange(30.0)]))
     assert short is not None and len(short['north']) == 6
     assert part_pacf(Part([err[:15]], [None], [np.arange(15.0)])) is None
+    still = err[:100].copy()
+    still[:, 1] = 2.0                   # one axis constant: no PACF, and no error
+    assert part_pacf(Part([still], [None], [np.arange(100.0)])) is None
