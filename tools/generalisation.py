@@ -110,7 +110,8 @@ def _score_sentence(summary, folds, cls='population'):
         return (f' No class\'s held-out NLL lies below the population class\'s beyond its '
                 f'95 % interval on any of the {len(folds)} folds.')
     return (f' Held-out NLL below the population class\'s beyond its 95 % interval: '
-            f'{"; ".join(lower)} of {len(folds)} folds.')
+            f'{"; ".join(lower)} of {len(folds)} folds (where, and why: the next '
+            f'section).')
 
 
 def _evidence(folds):
@@ -356,7 +357,37 @@ def _beaten_lines(parts):
                            'held-out part: ' + '; '.join(
                                f'{axis} ' + (', '.join(map(str, v)) or 'none')
                                for axis, v in pacf['only_in_training'].items()) + '.\n')
+            out.append(_beaten_reading(wb, f['classes']['population']['fit']))
     return [BEATEN_HEAD] + out if out else []
+
+
+def _beaten_reading(wb, fit):
+    """Return what a fold's :func:`_beaten_lines` figures say, as computed from them."""
+    def resolved(part):
+        return [LABELS.get(c, c) for c in wb['winners']
+                if c in wb[part] and wb[part][c]['ci95'][1] < 0.0]
+    near, far = resolved('near'), resolved('far')
+    out = []
+    if near:
+        out.append(f'{", ".join(near)} score better beyond the interval over the blocks '
+                   f'whose level lies within {wb["far_sd"]:g} bias SDs of the population\'s '
+                   f'mean, where its bias law holds the level: there its bias is not what '
+                   f'costs the population.')
+    elif far:
+        out.append(f'Only over the blocks whose level lies beyond {wb["far_sd"]:g} bias SDs '
+                   f'do {", ".join(far)} score better beyond the interval: the population\'s '
+                   f'bias law is narrower than this data.')
+    only = (wb.get('pacf') or {}).get('only_in_training')
+    if only and all(only.values()):
+        order = fit.get('within_order')
+        out.append('The training errors have partial autocorrelation beyond the bound at '
+                   'lags the held-out errors lack, on both axes: the process within that '
+                   'the population carries over' +
+                   (f' (the population fit\'s AR order within blocks: north {order["north"]}, '
+                    f'east {order["east"]})'
+                    if order else '') + ' predicts dynamics the held-out receiver does '
+                   'not have, and a class with fewer lags carries fewer of them.')
+    return ('Reading: ' + ' '.join(out) + '\n') if out else ''
 
 
 def _own_sentence(summary, cls='population'):

@@ -111,7 +111,8 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
     beaten = {'winners': ['ar1'], 'block_samples': 150, 'far_sd': 2.0,
               'bias_sd_m': [0.6, 1.0], 'far': {'samples': 0},
               'near': {'samples': 300, 'ar1': gain}, 'pacf': pacf}
-    folds = [{'fold': 'f1', 'classes': {'population': {'where_beaten': beaten}}},
+    folds = [{'fold': 'f1', 'classes': {'population': {
+        'where_beaten': beaten, 'fit': {'within_order': {'north': 3, 'east': 1}}}}},
              {'fold': 'f2', 'classes': {'population': {'where_beaten': None}}}]
     lines = _beaten_lines([('phones', 'across', folds, None)])
     text = '\n'.join(lines)
@@ -123,3 +124,14 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
     assert '| held out, east | 0.060 | **0.80** | **0.20** |' in text
     assert 'held-out part: north 2; east none.' in text
     assert _beaten_lines([('phones', 'across', folds[1:], None)]) == []
+    # the reading follows the figures: a gain near the population's mean says not the bias;
+    # lags only the training part has on one axis say nothing of the dynamics
+    assert 'Reading: AR(1) score better beyond the interval over the blocks whose level ' \
+           'lies within 2 bias SDs' in text
+    assert 'lags the held-out errors lack' not in text
+    beaten['pacf'] = pacf_against({'north': [0.9, 0.3], 'east': [0.8, 0.3], 'bound': 0.05},
+                                  {'north': [0.9, 0.01], 'east': [0.8, 0.02], 'bound': 0.06})
+    beaten['far'], beaten['near'] = {'samples': 300, 'ar1': gain}, {'samples': 0}
+    text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
+    assert 'Only over the blocks whose level lies beyond 2 bias SDs do AR(1)' in text
+    assert 'within blocks: north 3, east 1) predicts dynamics the held-out receiver' in text
