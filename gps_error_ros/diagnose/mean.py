@@ -25,7 +25,13 @@ from scipy import optimize
 from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS
 from gps_error_ros.model.ar_model import inverse_root_modulus
 from gps_error_ros.model.effects import MOVING_M
-from gps_error_ros.model.motion_lag import lag_offsets
+from gps_error_ros.model.motion_lag import held_across_gaps, lag_offsets
+
+
+#: A truth gap longer than this, s, separates two runs (recordings joined one after
+#: another are :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart): a motion
+#: lag or a direction of travel never reaches back across it.
+RUN_GAP_S = 60.0
 
 
 def motion_offsets(part, truth, lag_s, gain=1.0):
@@ -33,13 +39,15 @@ def motion_offsets(part, truth, lag_s, gain=1.0):
     Return per segment ``gain * (truth(t - lag_s) - truth(t))``, (n_s, 2).
 
     ``truth`` is the whole trace's :class:`~.split.TruthTrack`, so a lag
-    reaches back across the train/test cut.
+    reaches back across the train/test cut, but not across a truth gap over
+    :data:`RUN_GAP_S` (recordings joined one after another): there the
+    truth is held at the later run's first sample.
     """
     if lag_s == 0.0 or gain == 0.0 or not part.t:
         return [np.zeros_like(e) for e in part.err]
     # one interpolation over every segment's times (each costs a pass over the truth)
     whole = lag_offsets(truth.t, truth.north_east[:, 0], truth.north_east[:, 1], lag_s,
-                        at=np.concatenate(part.t))
+                        at=np.concatenate(part.t), gap_s=RUN_GAP_S)
     out = np.split(whole, np.cumsum([len(t) for t in part.t])[:-1])
     return out if gain == 1.0 else [gain * o for o in out]
 
@@ -51,11 +59,14 @@ def travel_headings(truth, times, lag_s=0.0):
     As the node's street frame: the truth's move over the second before
     ``times - lag_s``; where it moved less than ``MOVING_M`` the last
     direction (in the order of ``times``) holds, north before the first.
+    The second never reaches back across a truth gap over :data:`RUN_GAP_S`.
     """
     times = np.asarray(times, dtype=float)
     ne = truth.north_east
-    now = [np.interp(times - lag_s, truth.t, ne[:, a]) for a in range(2)]
-    back = [np.interp(times - lag_s - 1.0, truth.t, ne[:, a]) for a in range(2)]
+    now = [np.interp(held_across_gaps(truth.t, times - lag_s, RUN_GAP_S), truth.t, ne[:, a])
+           for a in range(2)]
+    back = [np.interp(held_across_gaps(truth.t, times - lag_s - 1.0, RUN_GAP_S), truth.t,
+                      ne[:, a]) for a in range(2)]
     dn, de = now[0] - back[0], now[1] - back[1]
     moving = np.hypot(dn, de) >= MOVING_M
     held = np.where(moving, np.arange(times.size), -1)

@@ -10,22 +10,42 @@ trajectory; :class:`LagBuffer` for trajectories streamed one step at a time.
 import numpy as np
 
 
-def lag_offsets(t, north, east, lag_s, at=None):
+def held_across_gaps(t, times, gap_s):
+    """
+    Return ``times`` with each one that falls in a gap of ``t`` over ``gap_s`` moved to its end.
+
+    ``t``: the truth's sample times (s, increasing). A gap longer than
+    ``gap_s`` separates two runs (two recordings one after another): a time
+    inside it is taken as the later run's first sample, whose truth is held
+    back to the gap, as before a trajectory's first sample. None: no limit.
+    """
+    times = np.asarray(times, dtype=float)
+    t = np.asarray(t, dtype=float)
+    if gap_s is None or t.size < 2:
+        return times
+    i = np.clip(np.searchsorted(t, times, side='right') - 1, 0, t.size - 2)
+    inside = (times > t[i]) & (t[i + 1] - t[i] > gap_s)
+    return np.where(inside, t[i + 1], times)
+
+
+def lag_offsets(t, north, east, lag_s, at=None, gap_s=None):
     """
     Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
 
     The truth is sampled at times ``t`` (s, increasing) as ``north``/``east``
     in a local frame and interpolated linearly; ``at`` defaults to ``t``.
     Before the first sample the truth is held (offset toward the first
-    position).
+    position), and, with ``gap_s``, before the first sample after a gap
+    longer than that (:func:`held_across_gaps`).
     """
     t = np.asarray(t, dtype=float)
     at = t if at is None else np.asarray(at, dtype=float)
     out = np.zeros((at.size, 2))
     if lag_s == 0.0 or at.size == 0:
         return out
+    back = held_across_gaps(t, at - lag_s, gap_s)
     for a, x in enumerate((north, east)):
-        out[:, a] = np.interp(at - lag_s, t, x) - np.interp(at, t, x)
+        out[:, a] = np.interp(back, t, x) - np.interp(at, t, x)
     return out
 
 

@@ -8,13 +8,13 @@ from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warning
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
 from gps_error_ros.diagnose.generalise import (_outage_masks, FAR_SD, own_shares, own_verdict,
                                                part_pacf, recording_splits, rolling_splits,
-                                               training_windows, where_beaten)
+                                               split_between, training_windows, where_beaten)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.population import Population
-from gps_error_ros.traces.trace_io import Trace
+from gps_error_ros.traces.trace_io import join_recordings, Trace
 
 
 def _trace(name, n, seed, t0=0.0, place=None):
@@ -302,3 +302,22 @@ def test_the_partial_autocorrelation_of_a_part_finds_the_lags_it_has():
     still = err[:100].copy()
     still[:, 1] = 2.0                   # one axis constant: no PACF, and no error
     assert part_pacf(Part([still], [None], [np.arange(100.0)])) is None
+
+
+def test_a_lag_never_reaches_back_into_the_recording_before():
+    """Two recordings 2.5 km apart, joined: the held-out one's first offset and heading."""
+    from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
+
+    a, b = _trace('a', 400, 1), _trace('b', 400, 2, place=31)
+    joined = join_recordings([a, b])
+    cut = float(joined.t[-len(b.t)])
+    split = split_between(joined, cut, float(joined.t[-1]) + 1.0, 'train a, hold out b')
+    first = float(split.test.t[0][0])
+    assert first == cut
+    offsets = np.concatenate(motion_offsets(split.test, split.truth, 0.5))
+    # walking north at 1.1 m/s: half a second back is 0.55 m south, never 12 m west
+    assert np.abs(offsets[0]).max() < 1e-9
+    assert offsets[5] == pytest.approx([-0.55, 0.0], abs=0.01)
+    heading = travel_headings(split.truth, np.array([first, first + 5.0]), 0.5)
+    assert heading[1] == pytest.approx(0.0, abs=1e-2)              # north
+    assert abs(heading[0]) < 1e-2                # not the jump's west-east direction

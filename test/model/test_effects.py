@@ -11,7 +11,7 @@ from gps_error_ros.sim.simulate import simulate_csv
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.model.effects import (Effects, effects_from_dict, EffectsError,
                                          ExtendedModel)
-from gps_error_ros.model.motion_lag import lag_offsets, LagBuffer
+from gps_error_ros.model.motion_lag import held_across_gaps, lag_offsets, LagBuffer
 from gps_error_ros.sim.engine import FixEngine, NS
 from gps_error_ros.model.geodesy import difference, offset
 from gps_error_ros.model.profiles import load_profile, ProfileError
@@ -165,6 +165,16 @@ def test_lag_helpers():
     off = lag_offsets(t, np.zeros(10), 2.0 * t, 1.5)
     assert off[5:, 1] == pytest.approx(-3.0)
     assert off[0, 1] == 0.0
+    # two runs 100 s apart, 20 km from each other: a lag reaches back within a run,
+    # and at the later run's start holds its first position, not the gap's blend
+    t2 = np.r_[t, 109.0 + t]
+    east = np.r_[2.0 * t, 20000.0 + 2.0 * t]
+    off = lag_offsets(t2, np.zeros(20), east, 1.5, gap_s=60.0)
+    assert off[10, 1] == 0.0 and off[15:, 1] == pytest.approx(-3.0)
+    assert lag_offsets(t2, np.zeros(20), east, 1.5)[10, 1] < -250.0     # bridged: 20 km / 100 s
+    assert held_across_gaps(t2, [5.5, 50.0, 108.9, 109.0, 110.5], 60.0) == \
+        pytest.approx([5.5, 109.0, 109.0, 109.0, 110.5])
+    assert held_across_gaps(t2, [50.0], None) == pytest.approx([50.0])
     buf = LagBuffer(1.5)
     out = [buf.lagged(['a'], float(k), [2.0 * k], [0.0])[0][0] for k in range(6)]
     assert out[:2] == [0.0, 0.0]
