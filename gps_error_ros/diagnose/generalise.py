@@ -393,7 +393,7 @@ def where_beaten(lls, reference, err, t, mean, bias_sd, seed=0, block=WHERE_BLOC
     classes whose NLL lies below the reference's beyond its 95 % interval
     (:func:`~.fidelity.score_differences`) are the *winners*; with none,
     None. The scored samples are cut into consecutive blocks of ``block``
-    (a short last one joins the one before). Each block has its first time,
+    (a last one under half a block joins the one before). Each block has its first time,
     its mean error, its *level* (the largest over the axes of the distance
     of its mean from ``mean``, in ``bias_sd``) and each winner's NLL minus
     the reference's over its samples. ``far``/``near``: over the blocks whose
