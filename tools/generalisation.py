@@ -27,6 +27,7 @@ import numpy as np
 from data_sources import WALKS
 from phone_transfer import transfer, transfer_lines
 
+from gps_error_ros.diagnose.beaten import gain_text
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
@@ -313,10 +314,6 @@ def _causes(parts):
     return out
 
 
-def _gain(d):
-    return f'{d["mean"]:+.3f} ({d["ci95"][0]:+.3f} to {d["ci95"][1]:+.3f})'
-
-
 def _beaten_lines(parts):
     """Return the section on the folds where a class scores better than the population."""
     out = []
@@ -333,10 +330,10 @@ def _beaten_lines(parts):
                        f'{wb["far_sd"]:g} of the population\'s bias SDs '
                        f'({wb["bias_sd_m"][0]:.2f} / {wb["bias_sd_m"][1]:.2f} m) from its '
                        f'mean ({far["samples"]} samples): ' +
-                       ('; '.join(f'{LABELS.get(c, c)} {_gain(far[c])}'
+                       ('; '.join(f'{LABELS.get(c, c)} {gain_text(far[c])}'
                                   for c in wb['winners'] if c in far) or 'none') +
                        f'; in the others ({near["samples"]} samples): ' +
-                       ('; '.join(f'{LABELS.get(c, c)} {_gain(near[c])}'
+                       ('; '.join(f'{LABELS.get(c, c)} {gain_text(near[c])}'
                                   for c in wb['winners'] if c in near) or 'none') + '.')
             pacf = wb.get('pacf') or {}
             if pacf.get('train') and pacf.get('held_out'):

@@ -3,6 +3,7 @@
 from dataclasses import replace
 from pathlib import Path
 
+from gps_error_ros.diagnose.beaten import gain_text
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUP_BAR, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
@@ -34,10 +35,6 @@ def _splits(args, recordings):
     return rolling_splits(join_recordings(traces))
 
 
-def _gain(d):
-    return f'{d["mean"]:+.3f} ({d["ci95"][0]:+.3f} to {d["ci95"][1]:+.3f})'
-
-
 def beaten_lines(folds):
     """Return lines on the folds where a class scores better than the population beyond noise."""
     out = []
@@ -45,7 +42,7 @@ def beaten_lines(folds):
         wb = f['classes'].get('population', {}).get('where_beaten')
         if not wb:
             continue
-        gains = {part: ', '.join(f'{c} {_gain(wb[part][c])}' for c in wb['winners']
+        gains = {part: ', '.join(f'{c} {gain_text(wb[part][c])}' for c in wb['winners']
                                  if c in wb[part]) or '-' for part in ('far', 'near')}
         out.append(f'  {f["fold"]}: {", ".join(wb["winners"])} below the population class '
                    f'beyond the 95 % interval. NLL minus the population\'s over held-out '

@@ -37,9 +37,9 @@ import numpy as np
 
 from gps_error_ros.diagnose.baselines import _classes, KEYS, training_outages
 from gps_error_ros.diagnose.consumers import consumer_measures
-from gps_error_ros.diagnose.fidelity import (acf_by_axis, block_bootstrap_mean,
-                                             part_fix_mask, run_masks, score_differences,
-                                             simulate_part)
+from gps_error_ros.diagnose.beaten import pacf_against, part_pacf, where_beaten
+from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
+                                             score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import Part, Split, TruthTrack
@@ -49,7 +49,6 @@ from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outag
                                         outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import occasions, segment_weights
-from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -72,11 +71,6 @@ SMOOTHER_SAMPLES = 600
 OUTAGE_CLASSES = ('extended', 'population_ar', 'population')
 #: Groups that only some folds or classes have, after :data:`GROUPS`.
 EXTRA_GROUPS = ('outages', 'smoother')
-#: Scored held-out samples per block where :func:`where_beaten` shows a class's gain.
-WHERE_BLOCK = 150
-#: A block whose mean error lies beyond this many of the population's bias SDs from
-#: the population's mean (on either axis) is one the population holds unlikely.
-FAR_SD = 2.0
 
 
 def split_between(trace, cut_t, end_t, rule):
@@ -280,7 +274,8 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     ``population_ar``), paired on the same samples, with a 95 % interval
     (:func:`~.fidelity.score_differences`); the population class's
     ``where_beaten`` says in which held-out blocks the classes that score
-    better than it beyond noise do so (:func:`where_beaten`; None for none).
+    better than it beyond noise do so (:func:`~.beaten.where_beaten`; None
+    for none).
 
     ``smoother_sims``: traces of each class (of ``smoother_classes``, by
     default all) that the GTSAM smoother is fed as well (group ``smoother``).
@@ -332,6 +327,7 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     if fit.population is not None:
         beaten = where_beaten(
             {KEYS.get(label, label): ll for label, ll in scores.items()},
+            {KEYS.get(label, label): d for label, d in against.items()},
             KEYS.get(reference, reference), np.concatenate([e[m0:] for e in split.test.err]),
             np.concatenate([t[m0:] for t in split.test.t]), fit.mean,
             fit.population.bias_sd_m, seed)
@@ -339,104 +335,6 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
             beaten['pacf'] = pacf_against(part_pacf(split.train), part_pacf(split.test))
         out[reference]['where_beaten'] = beaten
     return out
-
-
-def pacf_against(train, held_out):
-    """
-    Return ``{'train', 'held_out', 'only_in_training'}`` from two :func:`part_pacf`.
-
-    ``only_in_training``: per axis, the lags whose partial autocorrelation
-    lies beyond the bound in the training part and not in the held-out one
-    (None where either part has none).
-    """
-    only = None
-    if train is not None and held_out is not None:
-        only = {axis: [k + 1 for k, (a, b) in enumerate(zip(train[axis], held_out[axis]))
-                       if abs(a) > train['bound'] and abs(b) <= held_out['bound']]
-                for axis in ('north', 'east')}
-    return {'train': train, 'held_out': held_out, 'only_in_training': only}
-
-
-def part_pacf(part, lags=DEFAULT_MAX_ORDER):
-    """
-    Return a part's partial autocorrelation at lags 1..``lags`` per axis and its bound, or None.
-
-    ``{'north': [...], 'east': [...], 'bound': b}``: the pooled PACF of each
-    axis's errors (gaps never bridged), and ``b = 1.96 / sqrt(n)``, beyond
-    which a lag's partial autocorrelation is significant at 5 % (the
-    bound ``calibrate`` chooses an AR order by). Fewer lags where the part
-    has fewer than 4 samples a lag; None under 20 samples or where an
-    axis's errors are constant.
-    """
-    n = sum(len(e) for e in part.err)
-    lags = min(lags, n // 4 - 1)        # fit_axis needs 4 samples a lag
-    if lags < 1 or n < 20:
-        return None
-    out = {}
-    for a, axis in enumerate(('north', 'east')):
-        try:
-            fit = fit_axis([e[:, a] for e in part.err], max_order=lags, axis=axis)
-        except CalibrationError:        # an axis with constant errors has no PACF
-            return None
-        out[axis] = [float(v) for v in fit.pacf]
-        out['bound'] = float(fit.pacf_bound)
-    return out
-
-
-def where_beaten(lls, reference, err, t, mean, bias_sd, seed=0, block=WHERE_BLOCK):
-    """
-    Return where the classes that score better than ``reference`` beyond noise do so, or None.
-
-    ``lls``: ``{class: per-sample log densities}`` on the scored held-out
-    samples, whose errors (n, 2) and times are ``err`` and ``t``; ``mean``
-    and ``bias_sd``: the population's mean error and bias SD per axis. The
-    classes whose NLL lies below the reference's beyond its 95 % interval
-    (:func:`~.fidelity.score_differences`) are the *winners*; with none,
-    None. The scored samples are cut into consecutive blocks of ``block``
-    (a last one under half a block joins the one before). Each block has its first time,
-    its mean error, its *level* (the largest over the axes of the distance
-    of its mean from ``mean``, in ``bias_sd``) and each winner's NLL minus
-    the reference's over its samples. ``far``/``near``: over the blocks whose
-    level exceeds :data:`FAR_SD` and the others, the samples and each
-    winner's mean difference with its 95 % interval (the block bootstrap
-    of the per-sample differences, blocks taken in time order).
-    """
-    against = score_differences(lls, reference, seed)
-    winners = [c for c, d in against.items() if c != reference and d['ci95'][1] < 0.0]
-    if not winners:
-        return None
-    ref = np.asarray(lls[reference], dtype=float)
-    err, t = np.asarray(err, dtype=float), np.asarray(t, dtype=float)
-    if err.shape != (ref.size, 2) or t.shape != (ref.size,):
-        raise ValueError(f'{ref.size} scored samples, but errors of shape {err.shape} and '
-                         f'times of shape {t.shape}; expected ({ref.size}, 2) and '
-                         f'({ref.size},)')
-    diffs = {c: ref - np.asarray(lls[c], dtype=float) for c in winners}
-    cuts = list(range(0, ref.size, block))
-    if len(cuts) > 1 and ref.size - cuts[-1] < block // 2:
-        cuts.pop()
-    edges = cuts + [ref.size]
-    sd = np.maximum(np.asarray(bias_sd, dtype=float), 1e-9)
-    rows, far = [], np.zeros(ref.size, dtype=bool)
-    for a, b in zip(edges[:-1], edges[1:]):
-        m = err[a:b].mean(axis=0)
-        level = float(np.max(np.abs(m - np.asarray(mean, dtype=float)) / sd))
-        far[a:b] = level > FAR_SD
-        rows.append({'t0_s': float(t[a]), 'samples': b - a, 'mean_m': [float(v) for v in m],
-                     'level_sd': level,
-                     'minus_reference': {c: float(d[a:b].mean()) for c, d in diffs.items()}})
-
-    def gain(mask):
-        out = {'samples': int(mask.sum())}
-        for c, d in diffs.items():
-            if mask.any():
-                mu, lo, hi = block_bootstrap_mean(d[mask], seed=seed)
-                out[c] = {'mean': mu, 'ci95': [lo, hi]}
-        return out
-
-    return {'block_samples': block, 'far_sd': FAR_SD, 'mean_m': [float(v) for v in mean],
-            'bias_sd_m': [float(v) for v in bias_sd], 'winners': winners, 'blocks': rows,
-            'far': gain(far), 'near': gain(~far)}
 
 
 def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_classes=None):

@@ -6,9 +6,10 @@ from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
-from gps_error_ros.diagnose.generalise import (_outage_masks, FAR_SD, own_shares, own_verdict,
-                                               part_pacf, recording_splits, rolling_splits,
-                                               split_between, training_windows, where_beaten)
+from gps_error_ros.diagnose.beaten import FAR_SD, part_pacf, where_beaten
+from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
+                                               recording_splits, rolling_splits,
+                                               split_between, training_windows)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
@@ -262,7 +263,8 @@ def test_where_a_class_beats_the_population_is_told_by_the_held_out_level():
     pop = rng.normal(-1.0, 0.3, n)
     rival = pop + rng.normal(0.0, 0.05, n)
     rival[300:] += 0.5
-    got = where_beaten({'population': pop, 'rival': rival, 'worse': pop - 1.0}, 'population',
+    lls = {'population': pop, 'rival': rival, 'worse': pop - 1.0}
+    got = where_beaten(lls, score_differences(lls, 'population'), 'population',
                        err, np.arange(n, dtype=float), [0.0, 0.0], sd, block=150)
     assert got['winners'] == ['rival']
     assert [b['samples'] for b in got['blocks']] == [150] * 4
@@ -273,10 +275,12 @@ def test_where_a_class_beats_the_population_is_told_by_the_held_out_level():
     lo, hi = got['near']['rival']['ci95']
     assert lo < 0.0 < hi
     # no class better beyond its interval: nothing to show
-    assert where_beaten({'population': pop, 'worse': pop - 1.0}, 'population', err,
+    lls = {'population': pop, 'worse': pop - 1.0}
+    assert where_beaten(lls, score_differences(lls, 'population'), 'population', err,
                         np.arange(n, dtype=float), [0.0, 0.0], sd) is None
+    lls = {'population': pop, 'rival': rival}
     with pytest.raises(ValueError, match=r'expected \(600, 2\)'):
-        where_beaten({'population': pop, 'rival': rival}, 'population', err[:10],
+        where_beaten(lls, score_differences(lls, 'population'), 'population', err[:10],
                      np.arange(n, dtype=float), [0.0, 0.0], sd)
 
 

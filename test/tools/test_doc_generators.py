@@ -98,7 +98,7 @@ def test_each_phones_profiles_are_validated_on_the_other(tmp_path):
 
 def test_the_generalisation_page_shows_where_the_population_is_beaten():
     """tools/generalisation.py: the section on a fold where a class scores better."""
-    from gps_error_ros.diagnose.generalise import pacf_against
+    from gps_error_ros.diagnose.beaten import pacf_against
 
     sys.path.insert(0, str(TOOLS))
     try:

@@ -1,0 +1,125 @@
+"""
+Where a class scores better than the population class, and what tells the two apart.
+
+When a class's held-out NLL lies below the population class's beyond its
+95 % interval (:func:`~.fidelity.score_differences`), :func:`where_beaten`
+says where: over held-out blocks far from the population's bias law or
+near it (a gain only far out says the bias law is too narrow), and
+:func:`part_pacf` / :func:`pacf_against` which lags of partial
+autocorrelation the training part has and the held-out part lacks (dynamics
+the population's process within carries over to data without them).
+"""
+
+import numpy as np
+
+from gps_error_ros.diagnose.fidelity import block_bootstrap_mean
+from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
+
+#: Scored held-out samples per block where :func:`where_beaten` shows a class's gain.
+WHERE_BLOCK = 150
+#: A block whose mean error lies beyond this many of the population's bias SDs from
+#: the population's mean (on either axis) is one the population holds unlikely.
+FAR_SD = 2.0
+
+
+def pacf_against(train, held_out):
+    """
+    Return ``{'train', 'held_out', 'only_in_training'}`` from two :func:`part_pacf`.
+
+    ``only_in_training``: per axis, the lags whose partial autocorrelation
+    lies beyond the bound in the training part and not in the held-out one
+    (None where either part has none).
+    """
+    only = None
+    if train is not None and held_out is not None:
+        only = {axis: [k + 1 for k, (a, b) in enumerate(zip(train[axis], held_out[axis]))
+                       if abs(a) > train['bound'] and abs(b) <= held_out['bound']]
+                for axis in ('north', 'east')}
+    return {'train': train, 'held_out': held_out, 'only_in_training': only}
+
+
+def part_pacf(part, lags=DEFAULT_MAX_ORDER):
+    """
+    Return a part's partial autocorrelation at lags 1..``lags`` per axis and its bound, or None.
+
+    ``{'north': [...], 'east': [...], 'bound': b}``: the pooled PACF of each
+    axis's errors (gaps never bridged), and ``b = 1.96 / sqrt(n)``, beyond
+    which a lag's partial autocorrelation is significant at 5 % (the
+    bound ``calibrate`` chooses an AR order by). Fewer lags where the part
+    has fewer than 4 samples a lag; None under 20 samples or where an
+    axis's errors are constant.
+    """
+    n = sum(len(e) for e in part.err)
+    lags = min(lags, n // 4 - 1)        # fit_axis needs 4 samples a lag
+    if lags < 1 or n < 20:
+        return None
+    out = {}
+    for a, axis in enumerate(('north', 'east')):
+        try:
+            fit = fit_axis([e[:, a] for e in part.err], max_order=lags, axis=axis)
+        except CalibrationError:        # an axis with constant errors has no PACF
+            return None
+        out[axis] = [float(v) for v in fit.pacf]
+        out['bound'] = float(fit.pacf_bound)
+    return out
+
+
+def where_beaten(lls, against, reference, err, t, mean, bias_sd, seed=0, block=WHERE_BLOCK):
+    """
+    Return where the classes that score better than ``reference`` beyond noise do so, or None.
+
+    ``lls``: ``{class: per-sample log densities}`` on the scored held-out
+    samples, whose errors (n, 2) and times are ``err`` and ``t``;
+    ``against``: each class's NLL minus the reference's on them
+    (:func:`~.fidelity.score_differences`); ``mean`` and ``bias_sd``: the
+    population's mean error and bias SD per axis. The classes whose NLL
+    lies below the reference's beyond its 95 % interval are the *winners*;
+    with none, None. The scored samples are cut into consecutive blocks of ``block``
+    (a last one under half a block joins the one before). Each block has its first time,
+    its mean error, its *level* (the largest over the axes of the distance
+    of its mean from ``mean``, in ``bias_sd``) and each winner's NLL minus
+    the reference's over its samples. ``far``/``near``: over the blocks whose
+    level exceeds :data:`FAR_SD` and the others, the samples and each
+    winner's mean difference with its 95 % interval (the block bootstrap
+    of the per-sample differences, blocks taken in time order).
+    """
+    winners = [c for c, d in against.items() if c != reference and d['ci95'][1] < 0.0]
+    if not winners:
+        return None
+    ref = np.asarray(lls[reference], dtype=float)
+    err, t = np.asarray(err, dtype=float), np.asarray(t, dtype=float)
+    if err.shape != (ref.size, 2) or t.shape != (ref.size,):
+        raise ValueError(f'{ref.size} scored samples, but errors of shape {err.shape} and '
+                         f'times of shape {t.shape}; expected ({ref.size}, 2) and '
+                         f'({ref.size},)')
+    diffs = {c: ref - np.asarray(lls[c], dtype=float) for c in winners}
+    cuts = list(range(0, ref.size, block))
+    if len(cuts) > 1 and ref.size - cuts[-1] < block // 2:
+        cuts.pop()
+    edges = cuts + [ref.size]
+    sd = np.maximum(np.asarray(bias_sd, dtype=float), 1e-9)
+    rows, far = [], np.zeros(ref.size, dtype=bool)
+    for a, b in zip(edges[:-1], edges[1:]):
+        m = err[a:b].mean(axis=0)
+        level = float(np.max(np.abs(m - np.asarray(mean, dtype=float)) / sd))
+        far[a:b] = level > FAR_SD
+        rows.append({'t0_s': float(t[a]), 'samples': b - a, 'mean_m': [float(v) for v in m],
+                     'level_sd': level,
+                     'minus_reference': {c: float(d[a:b].mean()) for c, d in diffs.items()}})
+
+    def gain(mask):
+        out = {'samples': int(mask.sum())}
+        for c, d in diffs.items():
+            if mask.any():
+                mu, lo, hi = block_bootstrap_mean(d[mask], seed=seed)
+                out[c] = {'mean': mu, 'ci95': [lo, hi]}
+        return out
+
+    return {'block_samples': block, 'far_sd': FAR_SD, 'mean_m': [float(v) for v in mean],
+            'bias_sd_m': [float(v) for v in bias_sd], 'winners': winners, 'blocks': rows,
+            'far': gain(far), 'near': gain(~far)}
+
+
+def gain_text(d):
+    """Return a difference ``{'mean', 'ci95'}`` as text: the mean and its interval."""
+    return f'{d["mean"]:+.3f} ({d["ci95"][0]:+.3f} to {d["ci95"][1]:+.3f})'
