@@ -63,10 +63,12 @@ def travel_headings(truth, times, lag_s=0.0):
     """
     times = np.asarray(times, dtype=float)
     ne = truth.north_east
-    now = [np.interp(held_across_gaps(truth.t, times - lag_s, RUN_GAP_S), truth.t, ne[:, a])
-           for a in range(2)]
-    back = [np.interp(held_across_gaps(truth.t, times - lag_s - 1.0, RUN_GAP_S), truth.t,
-                      ne[:, a]) for a in range(2)]
+
+    def at(when):        # the truth at ``when``, held at a run's start (RUN_GAP_S)
+        when = held_across_gaps(truth.t, when, RUN_GAP_S)
+        return [np.interp(when, truth.t, ne[:, a]) for a in range(2)]
+
+    now, back = at(times - lag_s), at(times - lag_s - 1.0)
     dn, de = now[0] - back[0], now[1] - back[1]
     moving = np.hypot(dn, de) >= MOVING_M
     held = np.where(moving, np.arange(times.size), -1)
