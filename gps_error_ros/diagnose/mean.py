@@ -25,13 +25,7 @@ from scipy import optimize
 from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS
 from gps_error_ros.model.ar_model import inverse_root_modulus
 from gps_error_ros.model.effects import MOVING_M
-from gps_error_ros.model.motion_lag import held_across_gaps, lag_offsets
-
-
-#: A truth gap longer than this, s, separates two runs (recordings joined one after
-#: another are :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart): a motion
-#: lag or a direction of travel never reaches back across it.
-RUN_GAP_S = 60.0
+from gps_error_ros.model.motion_lag import held_across_gaps, lag_offsets, RUN_GAP_S
 
 
 def motion_offsets(part, truth, lag_s, gain=1.0):

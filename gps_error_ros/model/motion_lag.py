@@ -9,6 +9,11 @@ trajectory; :class:`LagBuffer` for trajectories streamed one step at a time.
 
 import numpy as np
 
+#: A truth gap longer than this, s, separates two runs (recordings joined one after
+#: another are :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart): a motion
+#: lag, a direction of travel or a velocity's lag never reaches back across it.
+RUN_GAP_S = 60.0
+
 
 def held_across_gaps(t, times, gap_s):
     """

@@ -131,3 +131,31 @@ def test_implausible_speeds_and_courses_are_left_out_and_counted():
     assert got['sigma'] == pytest.approx(clean['sigma'], rel=0.1)
     # (the RMS is flat near its least: 2 % fewer rows may move the lag a step)
     assert abs(got['lag_s'] - clean['lag_s']) <= 0.1 and 0.0 <= got['standstill'] <= 2.0
+
+
+def _turning_drive(name, start_deg, rng):
+    """A 200-s recording at 10 m/s turning 30 degrees, its phone 0.5 s late plus noise."""
+    from gps_error_ros.traces.trace_io import Trace
+    t = np.arange(200.0)
+    course = start_deg + 30.0 * t / t[-1]
+    phone = np.interp(t - 0.5, t, course)           # held before the first sample
+    zeros = np.zeros(t.size)
+    return Trace(name, t, zeros, zeros, zeros, zeros,
+                 extra={'truth_speed': np.full(t.size, 10.0), 'truth_bearing': course,
+                        'speed': 10.0 + rng.normal(0.0, 0.05, t.size),
+                        'bearing': phone % 360.0})
+
+
+def test_a_velocitys_lag_never_reaches_back_into_the_recording_before():
+    # The two recordings drive opposite ways; joined 100 s apart, a lag that
+    # interpolated into the gap would blend the first's last velocity into the
+    # second's first row. Each row's error is then what it is alone.
+    from gps_error_ros.fit.velocity_fit import estimate_velocity
+    from gps_error_ros.traces.trace_io import join_recordings
+    rng = np.random.default_rng(11)
+    north, south = _turning_drive('a', 0.0, rng), _turning_drive('b', 180.0, rng)
+    alone = [estimate_velocity(tr)[0] for tr in (north, south)]
+    joined, _ = estimate_velocity(join_recordings([north, south]))
+    assert [s['lag_s'] for s in alone] == [0.5, 0.5] and joined['lag_s'] == 0.5
+    pooled = np.sqrt(np.mean([s['sigma'] ** 2 for s in alone]))
+    assert joined['sigma'] == pytest.approx(pooled, abs=2e-6)
