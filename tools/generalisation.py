@@ -12,7 +12,7 @@ on every visible recording set in ``--data``:
   validated on the other phone (:mod:`phone_transfer`);
 
 and writes ``docs/generalisation.md`` (with the JSON of every fold beside it
-in ``docs/generalisation/``). ``make generalisation`` runs it (about 15
+in ``docs/generalisation/``). ``make generalisation`` runs it (about 25
 minutes on a 2-core machine).
 """
 
@@ -23,8 +23,11 @@ from pathlib import Path
 import platform
 import time
 
-import numpy as np
+from calm_stretches import calm_section
 from data_sources import WALKS
+from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, LABELS, PAGE_HEAD,
+                                 PRECEDENT_HEAD)
+import numpy as np
 from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.diagnose.beaten import gain_text
@@ -47,10 +50,6 @@ TRANSFER_JSON = 'phone-transfer.json'
 ALONE = PHONES + ('urbannav-hk-tst-ublox-spp.csv',)
 TOO_SHORT = {'gmt-static-phone-2016-08-22.csv': '207 samples: a rolling fold would hold out '
                                                 '26'}
-LABELS = {'white_bias': 'white noise + bias', 'ar1': 'AR(1)', 'arma11': 'ARMA(1,1)',
-          'ar3_paper': 'AR(3), paper', 'ar_p': 'AR(p), PACF', 'extended': 'extended',
-          'population_ar': 'population (Gaussian AR within)',
-          'population': 'population (extended within)'}
 
 
 def _clean(path):
@@ -211,69 +210,6 @@ def _ratio_range(folds, key):
     return min(r), max(r)
 
 
-#: The windows of the floor analysis, s (the population's block), and its simulated traces.
-FLOOR_WINDOW_S = 300
-FLOOR_SIMS = 100
-
-
-def _window_stats(segments, w=FLOOR_WINDOW_S):
-    """Return (SD, lag-1 ACF, variance, lag-1 autocovariance) per window and axis, (k, 2) each."""
-    v, c = [], []
-    for seg in segments:
-        for s0 in range(0, len(seg) - w + 1, w // 2):
-            x = seg[s0:s0 + w] - seg[s0:s0 + w].mean(axis=0)
-            v.append((x ** 2).mean(axis=0))
-            c.append((x[1:] * x[:-1]).mean(axis=0))
-    v, c = np.array(v), np.array(c)
-    return np.sqrt(v), c / v, v, c
-
-
-def _floor_fit(v, c):
-    """Return (floor SD, the persistent part's lag-1 ACF) of ``v = floor^2 + c / rho``."""
-    a = np.stack([np.ones_like(c), c], axis=1)
-    (f2, slope), *_ = np.linalg.lstsq(a, v, rcond=None)
-    return float(np.sqrt(max(f2, 0.0))), float(1.0 / slope) if slope > 0 else float('nan')
-
-
-def _floor_rows(data):
-    """
-    Return table rows: each phone's windows of 300 s, measured against its own AR simulated.
-
-    Per axis: the correlation of the windows' SD and lag-1 ACF, the lowest
-    window lag-1 ACF, and the white floor under a persistent part that a
-    regression of each window's variance on its lag-1 autocovariance gives;
-    beside each, the 95 % range of the same figure over traces of the
-    recording's stationary AR (``calibrate``) simulated on its time grid.
-    """
-    from gps_error_ros.fit.calibration import calibrate, errors_on_grid
-    from gps_error_ros.model import streams
-    from gps_error_ros.model.ar_model import ARErrorModel
-    rows = []
-    for name in PHONES:
-        trace = _clean(data / name)
-        grid = errors_on_grid(trace)
-        model = ARErrorModel(*calibrate(trace).axis_params)
-        keys = streams.agent_keys(0, [f'floor/{i}' for i in range(FLOOR_SIMS)])
-        starts = [int(s - grid.starts[0]) for s in grid.starts]
-        sim = model.simulate(keys, starts[-1] + len(grid.segments[-1]))
-        figures, measured = [], _window_stats(grid.segments)
-        for stats in [measured] + [_window_stats([sim[s:s + len(g), j] for s, g in
-                                                  zip(starts, grid.segments)])
-                                   for j in range(FLOOR_SIMS)]:
-            sd, acf, v, c = stats
-            figures.append([[np.corrcoef(sd[:, a], acf[:, a])[0, 1], acf[:, a].min(),
-                             _floor_fit(v[:, a], c[:, a])[0]] for a in range(2)])
-        f = np.array(figures)                                   # (1 + sims, axis, figure)
-        lo, hi = np.nanpercentile(f[1:], [2.5, 97.5], axis=0)
-        cells = [f'{f[0, a, k]:.2f} ({lo[a, k]:.2f} to {hi[a, k]:.2f})'
-                 + ('' if lo[a, k] <= f[0, a, k] <= hi[a, k] else ' **out**')
-                 for k in range(3) for a in range(2)]
-        rho = [_floor_fit(measured[2][:, a], measured[3][:, a])[1] for a in range(2)]
-        rows.append(f'| {name} | {len(measured[0])} | ' + ' | '.join(cells) +
-                    f' | {rho[0]:.2f} / {rho[1]:.2f} |')
-    return rows
-
-
 def _causes(parts):
     """Return bullets (a)-(e) with the figures of this run."""
     out = []
@@ -404,10 +340,8 @@ def _own_sentence(summary, cls='population'):
 def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
     out = [CAUSES_HEAD] + _causes(parts) + [''] + _beaten_lines(parts)
-    out += [FLOOR_HEAD, '| recording | windows | corr(SD, ACF 1) N | corr(SD, ACF 1) E | '
-            'lowest ACF 1 N | lowest ACF 1 E | floor SD N (m) | floor SD E (m) | '
-            'persistent part\'s ACF 1 N / E |', '|---|---|---|---|---|---|---|---|---|']
-    out += _floor_rows(data) + ['', FLOOR_TAIL, '', EXPLAIN_HEAD]
+    out += calm_section([(name, _clean(data / name)) for name in PHONES])
+    out += ['', EXPLAIN_HEAD]
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
         out.append('| fold | SD N | SD E | ACF(1) N | ACF(1) E | mean N | mean E |\n'
@@ -512,138 +446,6 @@ def _write_page(args, parts, seconds, date=None, rows=()):
     path = args.out / 'docs' / 'generalisation.md'
     path.write_text('\n'.join(text))
     print(f'wrote {path}')
-
-
-PAGE_HEAD = """# Generalisation: each class on data its fit did not see
-
-What a simulator fitted on one stretch does on another stretch, another
-recording and another receiver. Every class is fitted on the training part
-of each fold and judged on its held-out part (`gps_error compare --folds`,
-method in `gps_error_ros/diagnose/generalise.py`):
-
-- **held-out NLL**: the one-step predictive negative log density per
-  sample (a proper score; lower is better), mean over folds; **best**: the
-  folds on which the class had the lowest (a tie counts for each: a
-  population class whose training part has too few blocks for a section
-  is the class it wraps); **- population (<, >)**: the class's NLL minus
-  the population class's (extended within), paired on the same held-out
-  samples, mean over folds, and the folds on which the difference lies
-  below (<) or above (>) 0 beyond its 95 % interval (a moving-block
-  bootstrap of the per-sample differences, blocks of 30 samples): a
-  difference whose interval holds 0 is one the held-out samples cannot
-  resolve;
-- **groups**: the share of a group's measures whose held-out value lies
-  inside the central 95 % range of {sims} traces simulated along the
-  held-out truth, mean over folds (near 0.95 for a simulator that holds):
-  persistence (ACF lag 1, lag 10, integral time scale per axis), scale (SD
-  per axis, north-east correlation), bias (mean per axis), quantiles
-  (horizontal 50/68/95/99 %), tails (share of steps beyond the training
-  part's 99 % step, the 99 % step), filter (a constant-velocity Kalman
-  filter with a velocity aid: RMS, 95 % error, NEES, gate rejections),
-  v2p (conflicts warned, false warnings), outages where a fold has them
-  (number, steps in outages, median and longest; availability fitted on the
-  training gaps for the extended and population classes, none for the
-  others; on the walks these are the gaps that removed gross failures leave)
-  and smoother (GTSAM's iSAM2 with
-  GPS and odometry factors on the first 600 held-out samples: the newest
-  pose's RMS and 95 % error, the smoothed track's RMS; judged on 40 of the
-  simulated traces, for four classes: "-" for the others). Where a trace
-  has the phone's and the reference's speed and course, a table under its
-  set judges the profile's `velocity` section by band of the true speed
-  (speed error mean and SD, median absolute course error); every class
-  shares that section.
-- **worst, own %**: the class's worst group (over the groups every
-  simulated trace has: not the smoother's) and how often a trace of the
-  class's own, judged as the real one is, has its worst group as low or
-  lower (the k-th simulated trace of each fold together make one set of
-  folds from the model; below 5 % the real trace is unlike the class's
-  own); **own at 0.90**: how often the class's own traces have every such
-  group at 0.90 or more, the bar a perfect simulator would have to clear.
-
-The population classes are the profile that `calibrate --population`
-writes (Gaussian AR within blocks of 300 s) and the same section on the
-extended model fitted within blocks (`diagnose --profile-out --population`):
-each simulated agent draws its own bias (and its wander) and scale from the
-spread of the training blocks.
-
-Regenerate with `make generalisation` (data in `../shared/data`).
-Measured on {date}, {machine}; {minutes:.0f} minutes.
-"""
-
-
-CAUSES_HEAD = """## Why a profile of one stretch does not transfer
-
-Five causes, told apart by the folds (figures of this run, per set): (a) a
-slow wander of the bias that one stretch cannot estimate; (b) scale and
-persistence that change with the environment between training and held-out
-parts; (c) differences between receivers, in bias and in dynamics (the GSDC
-phones of one drive: the set's own table, and where a simpler class scores
-better, below) against differences between occasions (three of the walks
-are one walk with three receivers, whose mean errors agree within half a
-metre while separate walks differ by metres: the bias is the occasion's, and
-the population fit counts an occasion once,
-[decision 0007](decisions/0007-occasions.md)); (d) tails and jumps that a
-Gaussian process under-simulates (the filter's gate); (e) a selection that
-fits one split (the extended class's NLL against its groups). And (f), what
-the bar itself asks: groups of two to four measures are coarse, so a trace
-of a class's own has some group below 0.90 more often than not (column *own
-at 0.90* of each set's table); the worst group's percentile among the
-class's own traces says whether a miss is evidence against the class.
-"""
-
-BEATEN_HEAD = """## Where a simpler class scores better than the population
-
-The folds on which a class's held-out NLL lies below the population class's
-beyond its 95 % interval, and where: the held-out samples cut into blocks in
-time order, split by how far each block's mean error lies from the
-population's mean in its bias SDs (a gain where the held-out level is far
-would say the population's bias law is too narrow for this data), and the
-partial autocorrelation of the training and held-out errors (a structure at
-lags beyond the first that one part has and the other lacks is dynamics that
-a class with more lags carries over and one with fewer does not).
-"""
-
-FLOOR_HEAD = """## Calm stretches, and what sampling alone gives
-
-Each phone's recording in windows of 300 s (stepped by 150 s), each figure
-beside its 95 % range over 100 traces of the recording's own stationary AR
-(`calibrate`) simulated on its time grid: what sampling alone gives a
-persistent process in such windows (**out** where the measured figure lies
-outside). The figures: the correlation of the windows' SD with their lag-1
-ACF, the lowest window lag-1 ACF, and the floor of a regression of each
-window's variance on its lag-1 autocovariance (`var = floor^2 + cov_1 /
-rho`: a white floor under a persistent part whose amplitude changes between
-windows; `rho` in the last column).
-"""
-
-FLOOR_TAIL = """A stationary persistent process already gives windows whose SD and lag-1
-ACF move together, and a regression floor of a few decimetres, so these two
-say little alone. A correlation below its range says the stretches differ
-in scale more than in persistence (what the population's per-agent scale
-draws). A lowest window ACF below its range says the recording holds
-stretches less persistent than its own stationary process allows (cause (b)
-above), which a profile with one persistence for every agent cannot
-simulate, however its scale and bias are drawn.
-"""
-
-EXPLAIN_HEAD = """## How the held-out parts differ from what trained
-
-Each fold's training part against its held-out part (training / held out):
-the SD and lag-1 autocorrelation per axis and the mean error per axis. A
-profile fitted on the training part describes its left column; a stationary
-profile can only hold where the right column is a draw of the same process.
-Below each, the share of fixes the filter's gate rejects on the real
-held-out fixes, against the range each class simulates.
-"""
-
-PRECEDENT_HEAD = """
-The error measures on which the population class (extended within) misses
-its simulated 95 % range, and of those the ones without precedent: outside
-their range over the training part's own windows of the held-out part's
-span (stepped by half of it; a training recording shorter than that, whole).
-A stationary profile fitted on that part has no stretch like it to learn
-from:
-"""
 
 
 if __name__ == '__main__':
