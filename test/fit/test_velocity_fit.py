@@ -134,7 +134,7 @@ def test_implausible_speeds_and_courses_are_left_out_and_counted():
 
 
 def _turning_drive(name, start_deg, rng):
-    """A 200-s recording at 10 m/s turning 30 degrees, its phone 0.5 s late plus noise."""
+    """Return a 200-s recording at 10 m/s turning 30 degrees, its phone 0.5 s late, noisy."""
     from gps_error_ros.traces.trace_io import Trace
     t = np.arange(200.0)
     course = start_deg + 30.0 * t / t[-1]
