@@ -269,7 +269,8 @@ def main():
         'smaller part does turn with the walker: on six of the seven walks the median fix '
         'lies 1-4 m to the left of the track (the north error flips sign between going '
         'east and going west on w00-w02; on w03-w05 part of it is the east bias seen '
-        'from legs that go north more often than south); the profile does not model it.',
+        'from legs that go north more often than south); the profile does not model it '
+        '([decision](decisions/0019-no-offset-in-the-walkers-frame.md)).',
         '- **Gross failures.** Failed solutions hundreds of metres to kilometres off, often '
         'within a few fixes of good ones. The rule ([calibrating](calibrating.md), '
         '*Gross failures*) finds them '
