@@ -42,14 +42,12 @@ from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_mas
                                              score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
-from gps_error_ros.diagnose.split import Part, Split, TruthTrack
+from gps_error_ros.diagnose.split import cut_trace, Split
 from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
-from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outage_envelopes,
                                         outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import occasions, segment_weights
-from gps_error_ros.model.geodesy import difference
 from gps_error_ros.traces.trace_io import join_recordings
 
 #: Rolling origins, as shares of the time span.
@@ -79,30 +77,12 @@ def split_between(trace, cut_t, end_t, rule):
 
     Times are the trace's own (seconds); samples after ``end_t`` are in neither part.
     """
-    grid = errors_on_grid(trace)
-    rows = grid.rows
-    lat0, lon0 = float(trace.truth_lat[0]), float(trace.truth_lon[0])
-    tn, te = difference(trace.truth_lat, trace.truth_lon, lat0, lon0)
-    truth_all = np.stack([np.asarray(tn), np.asarray(te)], axis=1)
-    err = np.concatenate(grid.segments)
-    seg_id = np.concatenate([np.full(len(s), i) for i, s in enumerate(grid.segments)])
-    t = trace.t[rows]
-    parts = []
-    for sel in (t < cut_t, (t >= cut_t) & (t < end_t)):
-        idx = np.flatnonzero(sel)
-        part = Part([], [], [])
-        brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
-        for chunk in (np.split(idx, brk) if idx.size else []):
-            part.err.append(err[chunk])
-            part.truth.append(truth_all[rows[chunk]])
-            part.t.append(t[chunk])
-        parts.append(part)
+    train, test, truth, cut_s = cut_trace(trace, cut_t, end_t)
     velocity = None
     if has_velocity(trace):
         velocity = (without_rows(trace, trace.t >= cut_t),
                     without_rows(trace, (trace.t < cut_t) | (trace.t >= end_t)))
-    return Split(parts[0], parts[1], TruthTrack(trace.t, truth_all), rule,
-                 float(cut_t - t[0]), velocity=velocity)
+    return Split(train, test, truth, rule, cut_s, velocity=velocity)
 
 
 def rolling_splits(trace, origins=ORIGINS, horizon=HORIZON):

@@ -60,30 +60,43 @@ class Split:
     velocity: tuple = None
 
 
-def split_trace(trace, train_fraction=TRAIN_FRACTION):
-    """Return the :class:`Split` of a trace on the 1 Hz grid."""
+def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):
+    """
+    Return (train, test, truth, cut_s) of ``trace`` on the 1 Hz grid.
+
+    ``train`` and ``test`` are :class:`Part`: the grid samples before
+    ``cut_t`` and those in [``cut_t``, ``end_t``) (times are the trace's
+    own, s; ``cut_t`` None: ``train_fraction`` of the grid's time span from
+    its first sample); a segment starts anew at a grid gap or at the cut.
+    ``truth`` is the :class:`TruthTrack` of every fix; ``cut_s`` the cut's
+    time from the first grid sample.
+    """
     grid = errors_on_grid(trace)
     rows = grid.rows
     lat0, lon0 = float(trace.truth_lat[0]), float(trace.truth_lon[0])
     tn, te = difference(trace.truth_lat, trace.truth_lon, lat0, lon0)
     truth_all = np.stack([np.asarray(tn), np.asarray(te)], axis=1)
     err = np.concatenate(grid.segments)
-    seg_id = np.concatenate([np.full(len(s), i) for i, s in
-                             enumerate(grid.segments)])
+    seg_id = np.concatenate([np.full(len(s), i) for i, s in enumerate(grid.segments)])
     t = trace.t[rows]
-    cut_t = t[0] + train_fraction * (t[-1] - t[0])
+    if cut_t is None:
+        cut_t = t[0] + train_fraction * (t[-1] - t[0])
     parts = []
-    for sel in (t < cut_t, t >= cut_t):
+    for sel in (t < cut_t, (t >= cut_t) & (t < end_t)):
         idx = np.flatnonzero(sel)
         part = Part([], [], [])
-        if idx.size:
-            # new segment at a grid gap or at the cut
-            brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
-            for chunk in np.split(idx, brk):
-                part.err.append(err[chunk])
-                part.truth.append(truth_all[rows[chunk]])
-                part.t.append(t[chunk])
+        brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
+        for chunk in (np.split(idx, brk) if idx.size else []):
+            part.err.append(err[chunk])
+            part.truth.append(truth_all[rows[chunk]])
+            part.t.append(t[chunk])
         parts.append(part)
-    return Split(parts[0], parts[1], TruthTrack(trace.t, truth_all),
+    return parts[0], parts[1], TruthTrack(trace.t, truth_all), float(cut_t - t[0])
+
+
+def split_trace(trace, train_fraction=TRAIN_FRACTION):
+    """Return the :class:`Split` of a trace on the 1 Hz grid."""
+    train, test, truth, cut_s = cut_trace(trace, train_fraction=train_fraction)
+    return Split(train, test, truth,
                  f'first {100 * train_fraction:.0f} % of the time span trains, '
-                 f'the rest is held out', float(cut_t - t[0]))
+                 f'the rest is held out', cut_s)
