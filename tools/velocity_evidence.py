@@ -13,7 +13,9 @@ that ``simulate`` and the node, which take the true velocity from 1-s
 chords of the truth's positions, cannot go below). Then, over the whole
 trace, the lag at which the reference's course and speed best match the
 phone's, per speed band, and the error's RMS across the track and along it
-at those lags (:func:`best_lags`).
+at those lags (:func:`best_lags`). Last, on the rolling folds of ``compare
+--folds``, what the section's one lag alone adds to the open road's speed
+error (:func:`lag_alone`).
 
     python tools/velocity_evidence.py [--data ../shared/data] [--sims 200]
 """
@@ -25,8 +27,11 @@ import sys
 
 import numpy as np
 
+from gps_error_ros.diagnose.generalise import HORIZON, ORIGINS
+from gps_error_ros.diagnose.velocity_check import BANDS as FOLD_BANDS
+from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.validation import slice_trace
-from gps_error_ros.fit.velocity_fit import estimate_velocity
+from gps_error_ros.fit.velocity_fit import estimate_velocity, SLOW_TRUTH, vectors
 from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.sim.velocity_sim import speed_and_course
 from gps_error_ros.traces.trace_io import read_trace_csv
@@ -93,6 +98,44 @@ def best_lags(trace):
     return out
 
 
+def lag_alone(trace):
+    """
+    Return lines: per rolling fold, the open road's held-out speed error against the section's.
+
+    The section is fitted on the fold's training rows (as ``compare --folds``
+    does). On the held-out rows of the fastest band: the SD of the phone's
+    speed error; the RMS of the section's SD at those rows' speeds; the SD
+    of what the section's ``lag_s`` alone makes of the reference's own
+    velocity (its speed ``lag_s`` earlier, less its speed now); and the two
+    together, what a simulated speed error has.
+    """
+    t = trace.t
+    lo_speed = FOLD_BANDS[-1][0]
+    span = t[-1] - t[0]
+    out = [f'  open road ({lo_speed:g}+ m/s) on the rolling folds: the phone\'s speed error '
+           f'SD against the section\'s SD and its lag alone']
+    for o in ORIGINS:
+        cut, end = t[0] + o * span, t[0] + (o + HORIZON) * span
+        section, _ = estimate_velocity(without_rows(trace, t >= cut))
+        test = without_rows(trace, (t < cut) | (t >= end))
+        fast = test.extra['truth_speed'] >= lo_speed
+        if section is None or fast.sum() < 2:
+            continue
+        v = vectors(test.extra['truth_speed'], test.extra['truth_bearing'],
+                    zero_below=SLOW_TRUTH)
+        known = np.isfinite(v).all(axis=1)
+        past = np.stack([np.interp(test.t - section['lag_s'], test.t[known], v[known, a])
+                         for a in range(2)], axis=1)
+        lag = float(np.std(np.hypot(*past[fast].T) - test.extra['truth_speed'][fast]))
+        table = float(np.sqrt(np.mean(velocity_from_dict(section).sd_at(
+            test.extra['truth_speed'][fast]) ** 2)))
+        phone = float(np.std(test.extra['speed'][fast] - test.extra['truth_speed'][fast]))
+        out.append(f'    origin {o:g}, {int(fast.sum())} rows: phone {phone:.3f} m/s; section '
+                   f'SD {table:.3f}, its lag ({section["lag_s"]:.1f} s) alone {lag:.3f}, '
+                   f'together {np.hypot(table, lag):.3f}')
+    return out
+
+
 def compare(path, sims):
     """Return the lines of one trace's comparison."""
     trace = read_trace_csv(path)
@@ -129,7 +172,7 @@ def compare(path, sims):
     lines.append('  the truth\'s 1-s chord alone, no error added: ' + ', '.join(
         f'{name.split(" (")[0]} {value:.3f}' for name, value in floor.items()
         if 'standstill' not in name))
-    return lines + best_lags(trace)
+    return lines + best_lags(trace) + lag_alone(trace)
 
 
 def main(argv=None):
