@@ -22,7 +22,7 @@ from gps_error_ros.fit.calibration import calibrate
 from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre_scale,
                                               without_rows)
 from gps_error_ros.fit.population_fit import occasions, population_line
-from gps_error_ros.fit.validation import validate
+from gps_error_ros.fit.validation import family_verdict, validate
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.failures import failures_from_dict
 from gps_error_ros.model.geodesy import difference
@@ -95,13 +95,13 @@ def _left_out_rows(traces, seed=1):
                     f'{v["north"]["mean_m"]:.1f} / {v["east"]["mean_m"]:.1f} | '
                     f'{found.count} of {len(tr)} | {rate * len(tr):.1f} | '
                     f'{_poisson_tail(found.count, rate * len(tr)):.2g} | {own:.2g} |')
-    k, low = len(joint), min(joint.values()) / 100.0
-    family = 1.0 - (1.0 - low) ** k
+    fam = family_verdict(list(joint.values()), list(joint))
+    k = fam['occasions']
     note = (f'As a family, the {k} occasions (walks of one occasion taken at their smallest) '
-            f'have their smallest joint percentile at {100 * low:.1f}: among {k} occasions '
-            f'drawn from the model, one as low or lower turns up {100 * family:.0f} % of the '
-            f'time (Sidak), so the walks together are '
-            + ('not unlike' if family >= 0.05 else 'unlike') +
+            f'have their smallest joint percentile at {fam["smallest_percentile"]:.1f}: among '
+            f'{k} occasions drawn from the model, one as low or lower turns up '
+            f'{100 * fam["family_probability"]:.0f} % of the time (Sidak), so the walks '
+            'together are ' + ('unlike' if fam['unlike'] else 'not unlike') +
             ' the model\'s traces at the 5 % level.')
     return rows, note
 

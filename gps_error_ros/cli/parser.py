@@ -133,6 +133,11 @@ def _add_validate(sub):
                         'the last 30 %% held out from a fit on 0,0.7)')
     v.add_argument('--seed', type=number(int, 0, 2 ** 64 - 1), default=0,
                    help='simulation seed')
+    v.add_argument('--each', action='store_true',
+                   help='several recordings: validate each on its own (DIR/NN-NAME/) '
+                        'instead of pooled, and judge them as a family: the smallest '
+                        'joint percentile over their occasions (recordings made together '
+                        'count once), Sidak-adjusted for their number (DIR/family.json)')
     _add_input_options(v)
 
 

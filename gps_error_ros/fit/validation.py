@@ -194,6 +194,28 @@ def share_percentile(measured, simulated, env):
     return float(100.0 * np.mean(share_inside(simulated, env) <= share_inside(measured, env)))
 
 
+def family_verdict(joint_percentiles, labels):
+    """
+    Return how recordings judged one by one fare together (Sidak over their occasions).
+
+    ``joint_percentiles``: each recording's :func:`joint_share_percentile`;
+    ``labels``: each recording's occasion (recordings made together, as
+    :func:`~gps_error_ros.fit.population_fit.occasions` finds them, are one
+    draw and count once, at the smallest of their percentiles). Among ``k``
+    occasions drawn from the model, one as low as the smallest or lower
+    turns up ``1 - (1 - p)^k`` of the time, ``p`` that percentile / 100.
+    Returns ``{'occasions', 'smallest_percentile', 'family_probability',
+    'unlike'}``; ``unlike`` at a family probability below 0.05.
+    """
+    by_occasion = {}
+    for pct, label in zip(joint_percentiles, labels):
+        by_occasion[label] = min(by_occasion.get(label, 100.0), float(pct))
+    k, low = len(by_occasion), min(by_occasion.values()) / 100.0
+    family = 1.0 - (1.0 - low) ** k
+    return {'occasions': k, 'smallest_percentile': 100.0 * low,
+            'family_probability': family, 'unlike': bool(family < 0.05)}
+
+
 def joint_share_percentile(checks):
     """
     Return the percentile of a trace's worst share percentile among the model's own traces.

@@ -4,6 +4,7 @@ import json
 import subprocess
 import sys
 
+import pytest
 
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.fit.validation import slice_trace, validate
@@ -124,3 +125,37 @@ def test_the_four_shares_together_reject_the_models_own_traces_at_their_level():
     assert worst > joint, (worst, joint)
     bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).summary()
     assert bad['shares_joint_percentile'] < 5
+
+
+def test_recordings_judged_one_by_one_are_judged_together_by_occasion():
+    from gps_error_ros.fit.validation import family_verdict
+    # the occasion of two recordings counts once, at the smaller of their percentiles
+    got = family_verdict([40.0, 3.0, 60.0, 20.0], [0, 1, 1, 2])
+    assert got['occasions'] == 3 and got['smallest_percentile'] == pytest.approx(3.0)
+    assert got['family_probability'] == pytest.approx(1.0 - 0.97 ** 3) and not got['unlike']
+    assert family_verdict([1.0], [0])['unlike']
+
+
+def test_validate_each_writes_every_recording_and_the_family(tmp_path):
+    paths = []
+    for seed in (3, 4):
+        trace, _ = synthetic_trace(400, seed=seed)
+        paths.append(tmp_path / f'r{seed}.csv')
+        write_csv(paths[-1], trace)
+    out = tmp_path / 'v'
+    r = subprocess.run([sys.executable, '-m', 'gps_error_ros.cli', 'validate', 'DS1',
+                        *map(str, paths), '--out', str(out), '--sims', '30', '--each'],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    family = json.loads((out / 'family.json').read_text())
+    pcts = [rec['shares_joint_percentile'] for rec in family['recordings']]
+    assert [rec['name'] for rec in family['recordings']] == ['r3.csv', 'r4.csv']
+    assert family['occasions'] == len({rec['occasion'] for rec in family['recordings']})
+    low = min(pcts) / 100.0
+    assert family['family_probability'] == pytest.approx(1.0 - (1.0 - low) ** family['occasions'])
+    for i, name in enumerate(('r3', 'r4')):
+        one = json.loads((out / f'0{i}-{name}' / 'validation.json').read_text())
+        assert one['samples'] == 400 and one['shares_joint_percentile'] == pcts[i]
+        assert (out / f'0{i}-{name}' / 'validation.png').read_bytes()[:4] == b'\x89PNG'
+        assert f'  {name}.csv: ACF inside' in r.stdout
+    assert 'as a family:' in r.stdout and '(Sidak)' in r.stdout
