@@ -9,14 +9,15 @@ each recording on its own and the recordings judged together by occasion
 from pathlib import Path
 
 from gps_error_ros.cli import _failure_check, _load_clean, _part, clean_recordings
+from gps_error_ros.fit.population_fit import occasions
+from gps_error_ros.fit.validation import FAILURE_COLUMN, family_verdict, slice_trace, validate
+from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.reports.jsonfile import write_json
+from gps_error_ros.reports.validation_figure import validation_figure
 
 
 def _validate_one(args, profile, model, zones, trace, out):
-    """Validate ``model`` on ``trace``, write ``out``'s JSON and figure; return (res, summary)."""
-    from gps_error_ros.reports.jsonfile import write_json
-    from gps_error_ros.fit.validation import validate
-    from gps_error_ros.reports.validation_figure import validation_figure
-
+    """Validate ``model`` on ``trace``, write ``out``'s JSON and figure; return the summary."""
     lo, hi = _part(args.part)
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
                    seed=args.seed, zones=zones, reported=profile.reported_accuracy)
@@ -27,22 +28,18 @@ def _validate_one(args, profile, model, zones, trace, out):
     validation_figure(res, out / 'validation.png',
                       f'{args.profile} against {trace.name} '
                       f'(part {lo:g}-{hi:g}, {res.samples} samples)')
-    return res, summary
+    return summary
 
 
 def _validate_each(args, profile, model, zones):
     """``validate --each``: every recording on its own, then the recordings as a family."""
-    from gps_error_ros.fit.population_fit import occasions
-    from gps_error_ros.fit.validation import FAILURE_COLUMN, family_verdict, slice_trace
-    from gps_error_ros.reports.jsonfile import write_json
-
     traces, found = clean_recordings(args, mark=FAILURE_COLUMN)
     lo, hi = _part(args.part)
     out, joint, names = Path(args.out), [], []
     for i, whole in enumerate(traces):
         trace = slice_trace(whole, lo, hi)
         name = f'{i:02d}-{Path(whole.name).stem}'
-        _, summary = _validate_one(args, profile, model, zones, trace, out / name)
+        summary = _validate_one(args, profile, model, zones, trace, out / name)
         n, e = summary['north'], summary['east']
         joint.append(summary['shares_joint_percentile'])
         names.append(whole.name)
@@ -72,9 +69,6 @@ def _validate_each(args, profile, model, zones):
 
 def run_validate(args):
     """Run ``gps_error validate``; return the exit code."""
-    from gps_error_ros.model.profiles import load_profile
-    from gps_error_ros.fit.validation import FAILURE_COLUMN, slice_trace
-
     lo, hi = _part(args.part)
     profile, zones = load_profile(args.profile), None
     if args.zones:
@@ -89,7 +83,7 @@ def run_validate(args):
     whole, found = _load_clean(args, mark=FAILURE_COLUMN)
     trace = slice_trace(whole, lo, hi)
     out = Path(args.out)
-    _, summary = _validate_one(args, profile, model, zones, trace, out)
+    summary = _validate_one(args, profile, model, zones, trace, out)
     for ax in ('north', 'east'):
         d = summary[ax]
         print(f'  {ax}: autocorrelation inside the envelope at '
