@@ -27,11 +27,11 @@ import sys
 
 import numpy as np
 
-from gps_error_ros.diagnose.generalise import HORIZON, ORIGINS
+from gps_error_ros.diagnose.generalise import rolling_splits
 from gps_error_ros.diagnose.velocity_check import BANDS as FOLD_BANDS
-from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.validation import slice_trace
 from gps_error_ros.fit.velocity_fit import estimate_velocity, SLOW_TRUTH, vectors
+from gps_error_ros.model.motion_lag import truth_at
 from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.sim.velocity_sim import speed_and_course
 from gps_error_ros.traces.trace_io import read_trace_csv
@@ -109,28 +109,24 @@ def lag_alone(trace):
     velocity (its speed ``lag_s`` earlier, less its speed now); and the two
     together, what a simulated speed error has.
     """
-    t = trace.t
     lo_speed = FOLD_BANDS[-1][0]
-    span = t[-1] - t[0]
     out = [f'  open road ({lo_speed:g}+ m/s) on the rolling folds: the phone\'s speed error '
            f'SD against the section\'s SD and its lag alone']
-    for o in ORIGINS:
-        cut, end = t[0] + o * span, t[0] + (o + HORIZON) * span
-        section, _ = estimate_velocity(without_rows(trace, t >= cut))
-        test = without_rows(trace, (t < cut) | (t >= end))
+    for label, split in rolling_splits(trace):
+        section, _ = estimate_velocity(split.velocity[0])
+        test = split.velocity[1]
         fast = test.extra['truth_speed'] >= lo_speed
         if section is None or fast.sum() < 2:
             continue
         v = vectors(test.extra['truth_speed'], test.extra['truth_bearing'],
                     zero_below=SLOW_TRUTH)
         known = np.isfinite(v).all(axis=1)
-        past = np.stack([np.interp(test.t - section['lag_s'], test.t[known], v[known, a])
-                         for a in range(2)], axis=1)
+        past = truth_at(test.t[known], v[known], test.t - section['lag_s'])
         lag = float(np.std(np.hypot(*past[fast].T) - test.extra['truth_speed'][fast]))
         table = float(np.sqrt(np.mean(velocity_from_dict(section).sd_at(
             test.extra['truth_speed'][fast]) ** 2)))
         phone = float(np.std(test.extra['speed'][fast] - test.extra['truth_speed'][fast]))
-        out.append(f'    origin {o:g}, {int(fast.sum())} rows: phone {phone:.3f} m/s; section '
+        out.append(f'    {label}, {int(fast.sum())} rows: phone {phone:.3f} m/s; section '
                    f'SD {table:.3f}, its lag ({section["lag_s"]:.1f} s) alone {lag:.3f}, '
                    f'together {np.hypot(table, lag):.3f}')
     return out

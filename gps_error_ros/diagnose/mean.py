@@ -25,7 +25,7 @@ from scipy import optimize
 from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS
 from gps_error_ros.model.ar_model import inverse_root_modulus
 from gps_error_ros.model.effects import MOVING_M
-from gps_error_ros.model.motion_lag import held_across_gaps, lag_offsets, RUN_GAP_S
+from gps_error_ros.model.motion_lag import lag_offsets, RUN_GAP_S, truth_at
 
 
 def motion_offsets(part, truth, lag_s, gain=1.0):
@@ -56,14 +56,9 @@ def travel_headings(truth, times, lag_s=0.0):
     The second never reaches back across a truth gap over :data:`RUN_GAP_S`.
     """
     times = np.asarray(times, dtype=float)
-    ne = truth.north_east
-
-    def at(when):        # the truth at ``when``, held at a run's start (RUN_GAP_S)
-        when = held_across_gaps(truth.t, when, RUN_GAP_S)
-        return [np.interp(when, truth.t, ne[:, a]) for a in range(2)]
-
-    now, back = at(times - lag_s), at(times - lag_s - 1.0)
-    dn, de = now[0] - back[0], now[1] - back[1]
+    now, back = (truth_at(truth.t, truth.north_east, when, RUN_GAP_S)
+                 for when in (times - lag_s, times - lag_s - 1.0))
+    dn, de = now[:, 0] - back[:, 0], now[:, 1] - back[:, 1]
     moving = np.hypot(dn, de) >= MOVING_M
     held = np.where(moving, np.arange(times.size), -1)
     held = np.maximum.accumulate(held) if held.size else held

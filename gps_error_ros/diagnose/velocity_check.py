@@ -19,7 +19,7 @@ import numpy as np
 from gps_error_ros.fit.envelope import envelope, inside
 from gps_error_ros.fit.velocity_fit import estimate_velocity, NEEDED, SLOW_TRUTH, vectors
 from gps_error_ros.model import streams
-from gps_error_ros.model.motion_lag import held_across_gaps, RUN_GAP_S
+from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
 from gps_error_ros.model.velocity import velocity_from_dict
 
 #: Bands of the true speed, m/s: walking and slow traffic, town, open road.
@@ -96,8 +96,7 @@ def velocity_group(train, test, sims=100, seed=0):
     truth = _truth_vectors(test)
     known = np.isfinite(truth).all(axis=1)
     t = test.t
-    back = held_across_gaps(t[known], t - vel.lag_s, RUN_GAP_S)    # not into the run before
-    lagged = np.stack([np.interp(back, t[known], truth[known, a]) for a in range(2)], axis=1)
+    lagged = truth_at(t[known], truth[known], t - vel.lag_s, RUN_GAP_S)   # not the run before
     steps = np.round(t - t[0]).astype(np.int64)
     keys = streams.agent_keys(seed, [f'velocity-check-{i}' for i in range(sims)])
     w = vel.errors(keys, int(steps[-1]) + 1)[steps]             # (rows, sims, 2)

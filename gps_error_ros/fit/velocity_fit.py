@@ -29,7 +29,7 @@ moves at 1 m/s or more and the phone reports a course:
 
 import numpy as np
 
-from gps_error_ros.model.motion_lag import held_across_gaps, RUN_GAP_S
+from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
 from gps_error_ros.model.velocity import sd_from_table
 
 NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
@@ -122,9 +122,8 @@ def estimate_velocity(trace):
     t = trace.t
     left = {}                   # lag -> the phone's velocity less the truth's that much earlier
     for lag in LAGS:            # never reaching back into the recording before (RUN_GAP_S)
-        back = held_across_gaps(t[known], t[rows] - lag, RUN_GAP_S)
-        left[float(lag)] = phone[rows] - np.stack(
-            [np.interp(back, t[known], truth[known, a]) for a in range(2)], axis=1)
+        left[float(lag)] = phone[rows] - truth_at(t[known], truth[known], t[rows] - lag,
+                                                  RUN_GAP_S)
     rms = {lag: float(np.sqrt(np.mean(d ** 2))) for lag, d in left.items()}
     lag = min(rms, key=rms.get)
     w = np.full_like(phone, np.nan)

@@ -33,6 +33,20 @@ def held_across_gaps(t, times, gap_s):
     return np.where(inside, t[i + 1], times)
 
 
+def truth_at(t, values, when, gap_s=None):
+    """
+    Return ``values`` (n, k), sampled at times ``t``, interpolated linearly at ``when``, (m, k).
+
+    Held before the first sample and, with ``gap_s``, before the first
+    sample after a gap longer than that (:func:`held_across_gaps`): a time
+    never reaches back into the run before.
+    """
+    when = held_across_gaps(t, when, gap_s)
+    values = np.asarray(values, dtype=float)
+    return np.stack([np.interp(when, t, values[:, j]) for j in range(values.shape[1])],
+                    axis=1)
+
+
 def lag_offsets(t, north, east, lag_s, at=None, gap_s=None):
     """
     Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
@@ -48,10 +62,8 @@ def lag_offsets(t, north, east, lag_s, at=None, gap_s=None):
     out = np.zeros((at.size, 2))
     if lag_s == 0.0 or at.size == 0:
         return out
-    back = held_across_gaps(t, at - lag_s, gap_s)
-    for a, x in enumerate((north, east)):
-        out[:, a] = np.interp(back, t, x) - np.interp(at, t, x)
-    return out
+    ne = np.stack([north, east], axis=1)
+    return truth_at(t, ne, at - lag_s, gap_s) - truth_at(t, ne, at)
 
 
 class LagBuffer:
