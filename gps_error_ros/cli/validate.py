@@ -16,9 +16,9 @@ from gps_error_ros.reports.jsonfile import write_json
 from gps_error_ros.reports.validation_figure import validation_figure
 
 
-def _validate_one(args, profile, model, zones, trace, out):
+def _validate_one(args, profile, model, zones, trace, out, part):
     """Validate ``model`` on ``trace``, write ``out``'s JSON and figure; return the summary."""
-    lo, hi = _part(args.part)
+    lo, hi = part
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
                    seed=args.seed, zones=zones, reported=profile.reported_accuracy)
     out.mkdir(parents=True, exist_ok=True)
@@ -31,15 +31,15 @@ def _validate_one(args, profile, model, zones, trace, out):
     return summary
 
 
-def _validate_each(args, profile, model, zones):
+def _validate_each(args, profile, model, zones, part):
     """``validate --each``: every recording on its own, then the recordings as a family."""
     traces, found = clean_recordings(args, mark=FAILURE_COLUMN)
-    lo, hi = _part(args.part)
+    lo, hi = part
     out, joint, names = Path(args.out), [], []
     for i, whole in enumerate(traces):
         trace = slice_trace(whole, lo, hi)
         name = f'{i:02d}-{Path(whole.name).stem}'
-        summary = _validate_one(args, profile, model, zones, trace, out / name)
+        summary = _validate_one(args, profile, model, zones, trace, out / name, part)
         n, e = summary['north'], summary['east']
         joint.append(summary['shares_joint_percentile'])
         names.append(whole.name)
@@ -79,11 +79,11 @@ def run_validate(args):
         # the measured failures are left out, so the simulated ones are too
         model = profile.model(gross_failures=False)
     if args.each:
-        return _validate_each(args, profile, model, zones)
+        return _validate_each(args, profile, model, zones, (lo, hi))
     whole, found = _load_clean(args, mark=FAILURE_COLUMN)
     trace = slice_trace(whole, lo, hi)
     out = Path(args.out)
-    summary = _validate_one(args, profile, model, zones, trace, out)
+    summary = _validate_one(args, profile, model, zones, trace, out, (lo, hi))
     for ax in ('north', 'east'):
         d = summary[ax]
         print(f'  {ax}: autocorrelation inside the envelope at '
