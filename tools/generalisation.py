@@ -409,19 +409,22 @@ def _velocity_rows(folds):
         return []
     rows = ['Speed and course (the velocity section fitted on the training rows, the same '
             'for every class; measured on the held-out rows, against the simulated 95 % '
-            'range; the section\'s SD at 3, 10 and 27 m/s from its `sigma_by_speed`):\n',
-            '| fold | section: SD at 3 / 10 / 27 m/s, phi, lag (s) | measure | held out '
+            'range; the section\'s SD at 3, 10 and 27 m/s from its `sigma_by_speed`, its '
+            'lags of the speed and the course):\n',
+            '| fold | section: SD at 3 / 10 / 27 m/s, phi, lags (s) | measure | held out '
             '| simulated 95 % |', '|---|---|---|---|---|']
     for f in folds:
         g = f.get('velocity')
         if not g:
             continue
         sec = g['section']
-        sds = ' / '.join(f'{v:.2f}' for v in velocity_from_dict(sec).sd_at(SPEEDS))
+        vel = velocity_from_dict(sec)
+        sds = ' / '.join(f'{v:.2f}' for v in vel.sd_at(SPEEDS))
+        lags = ' / '.join(f'{v:.1f}' for v in vel.lags)
         for name, r in g['measures'].items():
             out = '' if inside(r) else ' **out**'
             rows.append(f'| {f["fold"]} | {sds}, {sec["phi"]:.2f}, '
-                        f'{sec["lag_s"]:.1f} | {name} | {r["measured"]:.3f}{out} | '
+                        f'{lags} | {name} | {r["measured"]:.3f}{out} | '
                         f'{r["sim_lo"]:.3f} to {r["sim_hi"]:.3f} |')
     return rows + ['']
 

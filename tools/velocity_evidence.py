@@ -14,7 +14,7 @@ chords of the truth's positions, cannot go below). Then, over the whole
 trace, the lag at which the reference's course and speed best match the
 phone's, per speed band, and the error's RMS across the track and along it
 at those lags (:func:`best_lags`). Last, on the rolling folds of ``compare
---folds``, what the section's one lag alone adds to the open road's speed
+--folds``, what the section's speed lag alone adds to the open road's speed
 error (:func:`lag_alone`).
 
     python tools/velocity_evidence.py [--data ../shared/data] [--sims 200]
@@ -71,7 +71,8 @@ def best_lags(trace):
     Over the whole trace: the reference's course (unwrapped) and speed taken
     0, 0.1, .. 1 s earlier (linear in time); the course's lag is the one with
     the least median absolute course error, the speed's the one with the
-    least SD of the speed error. One ``lag_s`` serves both in the model.
+    least SD of the speed error (the section's ``lag_s`` and ``course_lag_s``
+    are fitted the same way over all bands at once).
     Across the track: the phone's speed times the sine of the course error
     at the course's lag (m/s), its RMS.
     """
@@ -105,9 +106,9 @@ def lag_alone(trace):
     The section is fitted on the fold's training rows (as ``compare --folds``
     does). On the held-out rows of the fastest band: the SD of the phone's
     speed error; the RMS of the section's SD at those rows' speeds; the SD
-    of what the section's ``lag_s`` alone makes of the reference's own
-    velocity (its speed ``lag_s`` earlier, less its speed now); and the two
-    together, what a simulated speed error has.
+    of what the section's speed lag ``lag_s`` alone makes of the reference's
+    own velocity (its speed ``lag_s`` earlier, less its speed now); and the
+    two together, what a simulated speed error has.
     """
     lo_speed = FOLD_BANDS[-1][0]
     out = [f'  open road ({lo_speed:g}+ m/s) on the rolling folds: the phone\'s speed error '
@@ -161,8 +162,8 @@ def compare(path, sims):
         pct = 100.0 * (np.mean(sim < value) + 0.5 * np.mean(sim == value))
         lines.append(f'  {name}: measured {value:.3f}, simulated median {med:.3f} '
                      f'(95 % {lo:.3f} to {hi:.3f}), percentile {pct:.0f}')
-    # the truth's own chords, no error: what simulate's true velocity alone gives
-    still = dataclasses.replace(velocity, sigma=1e-12, sigma_by_speed=None)
+    # the truth's own chords at the lags, no error nor bias: simulate's true velocity alone
+    still = dataclasses.replace(velocity, sigma=1e-12, sigma_by_speed=None, speed_bias=None)
     speed, course, _, _ = speed_and_course(still, 0, data, start, 1.0)
     floor = statistics(speed, course, ex['truth_speed'], ex['truth_bearing'])
     lines.append('  the truth\'s 1-s chord alone, no error added: ' + ', '.join(

@@ -5,7 +5,7 @@ Where a trace carries the phone's and the reference's speed and course
 (``speed``, ``bearing``, ``truth_speed``, ``truth_bearing``, as the GSDC
 traces do), the section is fitted on the training rows
 (:func:`~gps_error_ros.fit.velocity_fit.estimate_velocity`) and simulated
-along the held-out rows' truth (its ``lag_s`` and error process, as
+along the held-out rows' truth (its lags and error process, as
 :meth:`~gps_error_ros.model.velocity.Velocity.report` gives the node's
 ``vel``). The measures, per band of the true speed (:data:`BANDS`): the
 speed error's mean and SD (m/s) and the median absolute course error
@@ -96,7 +96,8 @@ def velocity_group(train, test, sims=100, seed=0):
     truth = _truth_vectors(test)
     known = np.isfinite(truth).all(axis=1)
     t = test.t
-    lagged = truth_at(t[known], truth[known], t - vel.lag_s, RUN_GAP_S)   # not the run before
+    lagged = vel.truth_reported(*(truth_at(t[known], truth[known], t - lag, RUN_GAP_S)
+                                  for lag in vel.lags))                 # not the run before
     steps = np.round(t - t[0]).astype(np.int64)
     keys = streams.agent_keys(seed, [f'velocity-check-{i}' for i in range(sims)])
     w = vel.errors(keys, int(steps[-1]) + 1)[steps]             # (rows, sims, 2)

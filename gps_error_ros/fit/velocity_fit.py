@@ -11,12 +11,21 @@ turned into east/north velocity vectors (a course missing where the speed is
 missing and its vector taken as zero). Then, on the rows where the reference
 moves at 1 m/s or more and the phone reports a course:
 
-* ``lag_s``: the delay in 0, 0.1, .. 1.0 s for which the phone's velocity is
-  nearest (least RMS) to the reference's that much earlier (linear
-  interpolation of the reference's vectors in time);
-* ``sigma``: the RMS of the remaining error's east and north components
-  (pooled); ``phi``: its lag-1 autocorrelation on consecutive 1-s rows
-  (pooled over both components, about zero);
+* ``lag_s``: the delay in 0, 0.1, .. 1.0 s for which the phone's speed
+  errs least (least SD of the speed error) against the reference's that
+  much earlier (linear interpolation of the reference's vectors in time,
+  never back across a gap between joined recordings);
+* ``course_lag_s``: the delay in the same steps for which the phone's
+  velocity is nearest (least RMS) to one with the reference's speed
+  ``lag_s`` earlier and its direction that much earlier;
+* ``speed_bias``: per band of the reference's speed (as ``sigma_by_speed``
+  below, at the band's median speed; one band at least), the mean of the
+  phone's velocity less the truth's at those lags, along the truth's
+  direction (not the mean speed error, which the error across the track
+  raises by about ``sigma^2 / (2 speed)``);
+* ``sigma``: at those lags and with that bias, the RMS of the remaining
+  error's east and north components (pooled); ``phi``: its lag-1
+  autocorrelation on consecutive 1-s rows (pooled over both components);
 * ``sigma_by_speed``: the same RMS per band of the reference's speed
   (:data:`SPEED_EDGES`; a band with fewer than :data:`BAND_ROWS` rows joins
   the next faster one, the fastest joins the one before), at the band's
@@ -30,7 +39,7 @@ moves at 1 m/s or more and the phone reports a course:
 import numpy as np
 
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
-from gps_error_ros.model.velocity import sd_from_table
+from gps_error_ros.model.velocity import sd_from_table, speed_along, Velocity
 
 NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
 MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
@@ -93,6 +102,12 @@ def _by_speed(w, speed):
                   round(max(float(np.sqrt(np.mean(w[b] ** 2))), 1e-4), 6)) for b in bands)
 
 
+def _speed_bias(d, speed):
+    """Return ((median speed, mean error along the track), ...) per band of ``speed``."""
+    return tuple((round(float(np.median(speed[b])), 3), round(float(np.mean(d[b])), 6))
+                 for b in speed_bands(speed))
+
+
 def _standstill(truth_speed, zero):
     """Return the true speed at or below which the phone's zero reports are best told."""
     ok = np.isfinite(truth_speed)
@@ -119,15 +134,21 @@ def estimate_velocity(trace):
         return None, {'fitted': False, 'reason': f'{int(rows.sum())} moving rows with both '
                                                  f'velocities (30 needed)',
                       'implausible_rows': int(odd.sum())}
-    t = trace.t
-    left = {}                   # lag -> the phone's velocity less the truth's that much earlier
-    for lag in LAGS:            # never reaching back into the recording before (RUN_GAP_S)
-        left[float(lag)] = phone[rows] - truth_at(t[known], truth[known], t[rows] - lag,
-                                                  RUN_GAP_S)
-    rms = {lag: float(np.sqrt(np.mean(d ** 2))) for lag, d in left.items()}
-    lag = min(rms, key=rms.get)
+    t = trace.t                 # the truth earlier, never reaching back into the recording before
+    past = {float(lag): truth_at(t[known], truth[known], t[rows] - lag, RUN_GAP_S)
+            for lag in LAGS}
+    speed = np.hypot(phone[rows, 0], phone[rows, 1])
+    speed_sd = {lag: float(np.std(speed - np.hypot(v[:, 0], v[:, 1]))) for lag, v in past.items()}
+    lag = min(speed_sd, key=speed_sd.get)
+    left = {c: phone[rows] - speed_along(past[lag], v) for c, v in past.items()}
+    rms = {c: float(np.sqrt(np.mean(d ** 2))) for c, d in left.items()}
+    course_lag = min(rms, key=rms.get)
+    v_true = speed_along(past[lag], past[course_lag])
+    along = v_true / np.maximum(np.hypot(v_true[:, 0], v_true[:, 1]), 1e-9)[:, None]
+    bias = _speed_bias(np.sum((phone[rows] - v_true) * along, axis=1), ex['truth_speed'][rows])
+    biased = Velocity(1.0, 0.0, lag, 0.0, speed_bias=bias).biased(v_true)
     w = np.full_like(phone, np.nan)
-    w[rows] = left[lag]
+    w[rows] = phone[rows] - biased
     pair = np.flatnonzero(rows[:-1] & rows[1:] & (np.diff(t) == 1.0))
     sigma = float(np.sqrt(np.mean(w[rows] ** 2)))
     table = _by_speed(w[rows], ex['truth_speed'][rows])
@@ -145,11 +166,14 @@ def estimate_velocity(trace):
     standstill = _standstill(np.where(odd, np.nan, ex['truth_speed']), zero) \
         if zero.sum() >= 10 else 0.0
     section = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
-               'lag_s': float(lag), 'standstill': round(standstill, 4)}
+               'lag_s': float(lag), 'standstill': round(standstill, 4),
+               'course_lag_s': float(course_lag),
+               'speed_bias': [list(node) for node in bias]}
     if table is not None:
         section['sigma_by_speed'] = [list(node) for node in table]
     evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),
-                'rms_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
+                'speed_sd_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in speed_sd.items()},
+                'rms_by_course_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
                 'mean_error_east_north': [round(float(np.mean(w[rows, a])), 4)
                                           for a in range(2)],
                 'zero_speed_rows': int(zero.sum()), 'implausible_rows': int(odd.sum())}

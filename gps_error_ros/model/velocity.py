@@ -8,6 +8,10 @@ A profile's optional ``velocity`` section::
       phi: 0.75         # the error's lag-1 autocorrelation (per model step)
       lag_s: 0.3        # the reported velocity is the truth's this much earlier
       standstill: 0.0   # m/s: at or below this true speed the phone reports 0, no course
+      course_lag_s: 0.6 # optional: the reported course is the truth's this much earlier
+      speed_bias:       # optional: [true speed m/s, mean speed error m/s] pairs
+        - [7.0, -0.05]
+        - [27.0, -0.01]
       sigma_by_speed:   # optional: [true speed m/s, sigma m/s] pairs, speeds increasing
         - [3.0, 0.45]
         - [27.0, 0.05]
@@ -33,6 +37,21 @@ errs 0.2-0.8 m/s in town (1-15 m/s) and 0.05-0.1 m/s on the open road: one
 ``sigma`` is wrong on both. Without the key the error is as before, bit for
 bit.
 
+With ``course_lag_s`` the truth the phone reports has the speed of the
+truth ``lag_s`` earlier and the direction of the truth ``course_lag_s``
+earlier (where that one stands still, the direction ``lag_s`` earlier): a
+phone's speed and course need not lag by the same time (the measured Pixel
+4's speed 0.2-0.3 s, its course 0.6 s; decision 0017). Without the key both
+lag by ``lag_s``, bit for bit as before.
+
+With ``speed_bias`` the phone's speed errs on average by the table's value
+at the true speed (linear between the listed speeds, the end values beyond;
+the speed is never below 0): the truth's velocity is lengthened or
+shortened along its direction before the error is added. Measured against
+the GSDC reference, both phones' speeds were 0.01-0.03 m/s low on the open
+road in every part of the drive (decision 0021). Without the key the speed
+has no bias, bit for bit as before.
+
 The velocity error is independent of the position error (the
 two come from different observables: Doppler against pseudoranges).
 """
@@ -44,7 +63,7 @@ import numpy as np
 from gps_error_ros.model import streams
 
 _KEYS = ('lag_s', 'phi', 'sigma', 'standstill')
-_OPTIONAL = ('sigma_by_speed',)
+_OPTIONAL = ('sigma_by_speed', 'course_lag_s', 'speed_bias')
 #: Most speed nodes a ``sigma_by_speed`` table may have.
 MAX_NODES = 32
 
@@ -62,13 +81,38 @@ class Velocity:
     lag_s: float
     standstill: float
     sigma_by_speed: tuple = None    # ((speed m/s, sigma m/s), ...), speeds increasing
+    course_lag_s: float = None      # s: the course's own lag (None: ``lag_s``)
+    speed_bias: tuple = None        # ((speed m/s, mean speed error m/s), ...)
 
     def to_dict(self):
         """Return the profile section as plain data."""
         out = {k: float(getattr(self, k)) for k in ('sigma', 'phi', 'lag_s', 'standstill')}
         if self.sigma_by_speed is not None:
             out['sigma_by_speed'] = [[float(v), float(s)] for v, s in self.sigma_by_speed]
+        if self.course_lag_s is not None:
+            out['course_lag_s'] = float(self.course_lag_s)
+        if self.speed_bias is not None:
+            out['speed_bias'] = [[float(v), float(b)] for v, b in self.speed_bias]
         return out
+
+    @property
+    def lags(self):
+        """Return the times (s) the truth is taken back by: the speed's, and any course's."""
+        if self.course_lag_s is None:
+            return (self.lag_s,)
+        return (self.lag_s, self.course_lag_s)
+
+    def truth_reported(self, v_speed, v_course=None):
+        """
+        Return the true velocity (..., 2) the phone reports, from the truth at its lags.
+
+        ``v_speed``: the truth ``lag_s`` earlier; ``v_course``: ``course_lag_s``
+        earlier (ignored without it). The result has the speed of the first and
+        the direction of the second, or of the first where the second stands still.
+        """
+        if self.course_lag_s is None or v_course is None:
+            return v_speed
+        return speed_along(v_speed, v_course)
 
     def sd_at(self, speed):
         """Return the error's SD per component (m/s) at true speeds ``speed``."""
@@ -101,7 +145,8 @@ class Velocity:
         Return (speed m/s, course deg) a phone reports for true velocity ``v_true``.
 
         ``v_true`` and ``w`` are (..., 2) east/north, the truth already taken
-        ``lag_s`` earlier. At or below ``standstill`` the speed is 0 and the course NaN.
+        at the section's lags (:meth:`truth_reported`). At or below
+        ``standstill`` the speed is 0 and the course NaN.
         """
         v, still = self.vector(v_true, w)
         return np.hypot(v[..., 0], v[..., 1]), np.where(still, np.nan, course_deg(v))
@@ -110,12 +155,31 @@ class Velocity:
         """
         Return (the velocity (..., 2) a phone reports, whether it stands still (...)).
 
-        The truth ``v_true`` (east/north, already ``lag_s`` earlier) plus the
+        The truth ``v_true`` (east/north, already at the lags) plus the
         error ``w`` scaled to the SD at its speed; 0 at or below ``standstill``.
         """
         v_true = np.asarray(v_true, dtype=float)
-        still = np.hypot(v_true[..., 0], v_true[..., 1]) <= self.standstill   # NaN: not still
-        return np.where(still[..., None], 0.0, v_true + self.scaled(v_true, w)), still
+        speed = np.hypot(v_true[..., 0], v_true[..., 1])
+        still = speed <= self.standstill                # NaN: not still
+        return np.where(still[..., None], 0.0, self.biased(v_true, speed)
+                        + self.scaled(v_true, w)), still
+
+    def mean_error(self, v_true):
+        """Return the error's mean (..., 2) at true velocities ``v_true``: the speed bias."""
+        v_true = np.asarray(v_true, dtype=float)
+        speed = np.hypot(v_true[..., 0], v_true[..., 1])
+        mean = self.biased(v_true, speed) - v_true
+        return np.where((speed <= self.standstill)[..., None], 0.0, mean)
+
+    def biased(self, v_true, speed=None):
+        """Return ``v_true`` (..., 2) with its speed moved by ``speed_bias`` (never below 0)."""
+        if self.speed_bias is None:
+            return v_true
+        if speed is None:
+            speed = np.hypot(v_true[..., 0], v_true[..., 1])
+        bias = sd_from_table(self.speed_bias, speed)
+        gain = np.maximum(speed + bias, 0.0) / np.where(speed > 0.0, speed, 1.0)
+        return v_true * np.where(speed > 0.0, gain, 1.0)[..., None]
 
 
 def series(process, keys, n_steps, start=0):
@@ -136,8 +200,25 @@ def series(process, keys, n_steps, start=0):
     return out
 
 
+def speed_along(v_speed, v_course):
+    """
+    Return velocities (..., 2) with the speed of ``v_speed`` and the direction of ``v_course``.
+
+    Where ``v_course`` stands still the result is ``v_speed``; where it is
+    unknown (NaN), NaN.
+    """
+    v_speed, v_course = np.asarray(v_speed, dtype=float), np.asarray(v_course, dtype=float)
+    speed = np.hypot(v_speed[..., 0], v_speed[..., 1])
+    toward = np.hypot(v_course[..., 0], v_course[..., 1])
+    moving = toward > 0.0                              # NaN: not moving
+    turned = v_course * (speed / np.where(moving, toward, 1.0))[..., None]
+    out = np.where(moving[..., None], turned, v_speed)
+    out[~np.isfinite(toward)] = np.nan                 # the course's truth is unknown
+    return out
+
+
 def sd_from_table(table, speed):
-    """Return a ``sigma_by_speed`` table's SD at ``speed``: linear between, flat beyond."""
+    """Return a speed table's value (SD, bias) at ``speed``: linear between, flat beyond."""
     nodes = np.asarray(table, dtype=float)
     return np.interp(np.asarray(speed, dtype=float), nodes[:, 0], nodes[:, 1])
 
@@ -147,10 +228,13 @@ def course_deg(v):
     return np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 360.0
 
 
-def _speed_table(raw, source):
-    """Validate ``sigma_by_speed``; return ((speed, sigma), ...)."""
-    what = (f'{source}: key velocity.sigma_by_speed: expected a list of 1 to {MAX_NODES} '
-            f'[speed m/s, sigma m/s] pairs, speeds in [0, 100] increasing, sigma in (0, 100)')
+def _speed_table(raw, source, key='sigma_by_speed'):
+    """Validate ``sigma_by_speed`` (or ``speed_bias``); return ((speed, value), ...)."""
+    value = 'sigma m/s' if key == 'sigma_by_speed' else 'bias m/s'
+    bounds = 'sigma in (0, 100)' if key == 'sigma_by_speed' else 'bias in (-100, 100)'
+    what = (f'{source}: key velocity.{key}: expected a list of 1 to {MAX_NODES} '
+            f'[speed m/s, {value}] pairs, speeds in [0, 100] increasing, {bounds}')
+    low = 0.0 if key == 'sigma_by_speed' else -100.0
 
     def number(v):
         return isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
@@ -160,7 +244,7 @@ def _speed_table(raw, source):
     rows = []
     for pair in raw:
         if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and all(map(number, pair))
-                and 0.0 <= pair[0] <= 100.0 and 0.0 < pair[1] < 100.0):
+                and 0.0 <= pair[0] <= 100.0 and low < pair[1] < 100.0):
             raise VelocityError(f'{what}, got the pair {pair!r}')
         rows.append((float(pair[0]), float(pair[1])))
     if any(b[0] <= a[0] for a, b in zip(rows, rows[1:])):
@@ -176,6 +260,8 @@ def velocity_from_dict(raw, source='<profile>'):
                             f'{list(_KEYS)} (and optionally {list(_OPTIONAL)}), got {raw!r}')
     bounds = {'sigma': (0.0, 100.0, True), 'phi': (-1.0, 1.0, True),
               'lag_s': (0.0, 10.0, False), 'standstill': (0.0, 100.0, False)}
+    if 'course_lag_s' in raw:
+        bounds['course_lag_s'] = bounds['lag_s']
     vals = {}
     for k, (lo, hi, open_ends) in bounds.items():
         v = raw[k]
@@ -186,6 +272,7 @@ def velocity_from_dict(raw, source='<profile>'):
             raise VelocityError(f'{source}: key velocity.{k}: expected a number in '
                                 f'{ends[0]}{lo:g}, {hi:g}{ends[1]}, got {v!r}')
         vals[k] = float(v)
-    if 'sigma_by_speed' in raw:
-        vals['sigma_by_speed'] = _speed_table(raw['sigma_by_speed'], source)
+    for key in ('sigma_by_speed', 'speed_bias'):
+        if key in raw:
+            vals[key] = _speed_table(raw[key], source, key)
     return Velocity(**vals)

@@ -115,12 +115,14 @@ def make_no_fix(stamp, frame_id):
 UNKNOWN_VARIANCE = 1e6
 
 
-def make_twist(stamp, frame_id, east, north, variance):
+def make_twist(stamp, frame_id, east, north, variance, mean=None):
     """
     Return a TwistWithCovarianceStamped: a phone's velocity in ENU (m/s).
 
-    ``variance`` (m^2/s^2) on the linear x, y, z diagonal; the angular part
-    is not reported: zero, with a variance of :data:`UNKNOWN_VARIANCE`.
+    ``variance`` (m^2/s^2) on the linear x, y, z diagonal, plus ``mean mean^T``
+    on x, y where the error has a ``mean`` (east, north m/s: the covariance
+    about the truth); the angular part is not reported: zero, with a
+    variance of :data:`UNKNOWN_VARIANCE`.
     """
     msg = TwistWithCovarianceStamped()
     msg.header.stamp = to_stamp(stamp)
@@ -131,5 +133,9 @@ def make_twist(stamp, frame_id, east, north, variance):
     for i in range(3):
         cov[7 * i] = float(variance)
         cov[7 * (i + 3)] = UNKNOWN_VARIANCE
+    if mean is not None:
+        for i in range(2):
+            for j in range(2):
+                cov[6 * i + j] += float(mean[i]) * float(mean[j])
     msg.twist.covariance = cov
     return msg

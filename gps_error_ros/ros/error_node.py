@@ -161,7 +161,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.invalid_truth = 0              # truth messages that could not be used
         self.fix_output = FixOutput(self, cfg['outage_output'],
                                     self.fix_reliability == 'best_effort',
-                                    cfg['covariance_mode'], per_fix=bool(cfg['zones']))
+                                    cfg['covariance_mode'], per_fix=bool(cfg['zones']),
+                                    about_truth=cfg['covariance_about'] == 'truth')
         self.fix_output.templates(self.frame_id)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)

@@ -43,8 +43,9 @@ class FixOutput:
     """Publish the engine's fix batches on the node's per-agent publishers."""
 
     def __init__(self, node, outage_output, best_effort, covariance_mode='stationary',
-                 per_fix=False):
+                 per_fix=False, about_truth=True):
         self.node = node
+        self.about_truth = about_truth      # vel: its covariance about the truth (with the bias)
         self.outage_output = outage_output
         self.mode = covariance_mode         # conditional, reported: a covariance per fix
         self.per_fix = covariance_mode != 'stationary' or per_fix   # zones: the zone's
@@ -127,12 +128,13 @@ class FixOutput:
         node = self.node
         members = node.groups[g].members
         rows = np.flatnonzero(good & np.isfinite(fix.velocity).all(axis=1))
+        mean = fix.velocity_mean if self.about_truth else None
         for row in rows:
             pub = node.vel_pubs[members[fix.agents[row]]]
             if pub is not None:
                 pub.publish(conversions.make_twist(
                     fix.stamp_ns, self.frame_id, fix.velocity[row, 0], fix.velocity[row, 1],
-                    float(fix.velocity_sd[row]) ** 2))
+                    float(fix.velocity_sd[row]) ** 2, None if mean is None else mean[row]))
 
     def _send(self, handles, raws):
         send_paced(handles, raws, self.burst)

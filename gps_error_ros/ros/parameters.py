@@ -131,7 +131,8 @@ ERROR_NODE_PARAMS = (
               'the error expected given the state a step before, in reported mode '
               'the profile\'s mean added to the stated circle), so that a consumer '
               'that takes the fix as truth plus zero-mean noise is right; mean: the '
-              'error\'s spread about its mean alone (C).',
+              'error\'s spread about its mean alone (C). The vel covariance likewise '
+              'adds, about the truth, the m m^T of the profile\'s velocity speed_bias.',
               choices=('truth', 'mean')),
     ParamSpec('zones', '', ParameterType.PARAMETER_STRING,
               'Zone map (GeoJSON polygons, each with a "profile" property): each '

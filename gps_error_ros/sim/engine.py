@@ -438,13 +438,14 @@ class FixEngine:
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position
         self.stats.fixes += int(fix.sum())
         self.stats.no_fix += int((~fix).sum())
-        velocity = velocity_sd = accuracy = None
+        velocity = velocity_sd = velocity_mean = accuracy = None
         if self.vel is not None:
-            velocity, velocity_sd = self.vel.reported(
+            velocity, velocity_sd, velocity_mean = self.vel.reported(
                 self.truth, agents, step.t_ns, step.side['vel'][agents], self.max_gap_ns)
         if self.reported is not None:       # the phone's stated radius, and its covariance
             accuracy = self.reported.radius(step.side['rep'][agents], cov, self.ref_cov)
             cov = self.reported.covariance(accuracy, self.reported_bias)
         return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
                         alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
-                        velocity_sd=velocity_sd, cov=cov, accuracy=accuracy)
+                        velocity_sd=velocity_sd, velocity_mean=velocity_mean, cov=cov,
+                        accuracy=accuracy)

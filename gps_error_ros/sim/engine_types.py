@@ -39,6 +39,7 @@ class FixBatch:
     fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
     velocity: np.ndarray = field(default=None, repr=False)  # (m, 2) east/north m/s
     velocity_sd: np.ndarray = field(default=None, repr=False)  # (m,) its error's SD, m/s
+    velocity_mean: np.ndarray = field(default=None, repr=False)  # (m, 2) its mean (speed bias)
     cov: np.ndarray = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
     accuracy: np.ndarray = field(default=None, repr=False)  # (m,) stated 68 % radius, m
 

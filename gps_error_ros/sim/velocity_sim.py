@@ -4,7 +4,8 @@ Reported speed and course for trajectories (``gps_error simulate`` CSV mode).
 The true velocity of each agent at time ``t`` is the chord of its truth over
 the second centred at ``t`` (positions linear in time between rows; none
 where the chord leaves them); what the phone reports uses it at
-``t - lag_s``, the chord ending no later than ``t``: the error node's
+``t - lag_s``, the chord ending no later than ``t`` (and its direction
+at ``t - course_lag_s`` where the section has one): the error node's
 definition (:mod:`velocity_state`).
 The velocity error of each agent is its own stream from the run's first step
 (:meth:`Velocity.errors`), indexed by each row's model step, so an agent's
@@ -53,7 +54,8 @@ def speed_and_course(velocity, seed, data, start_step, rate_hz):
         tt = t[rows]
         lat, lon = data['truth_lat'][rows], data['truth_lon'][rows]
         vt = true_velocity(tt, lat, lon, tt)
-        lagged = true_velocity(tt, lat, lon, tt - velocity.lag_s, now=tt)
+        lagged = velocity.truth_reported(*(true_velocity(tt, lat, lon, tt - lag, now=tt)
+                                           for lag in velocity.lags))
         steps = np.floor(tt * rate_hz + 1e-9).astype(np.int64) - start_step
         key = np.array([streams.agent_key(seed, name)], dtype=np.uint64)
         w = velocity.errors(key, int(steps.max()) + 1, start=start_step)[steps, 0]
@@ -136,9 +138,10 @@ class StreamedVelocity:
 
     The same as :func:`speed_and_course` on the whole file: each agent's
     truth is kept back to the start of the chord the phone reports (the
-    second centred at ``t - lag_s``, ending no later than ``t``), linear in
-    time between its rows; no velocity (NaN) before the truth reaches back
-    that far. The velocity error is the agent's own stream from the run's
+    second centred at ``t - lag_s``, ending no later than ``t``; and the one
+    at ``t - course_lag_s`` where the section has it), linear in time
+    between its rows; no velocity (NaN) before the truth reaches back that
+    far. The velocity error is the agent's own stream from the run's
     first model step (:class:`StreamTracker`). ``planar``: positions are
     x/y metres (east, north) instead of latitude/longitude.
     """
@@ -152,20 +155,26 @@ class StreamedVelocity:
         """Store each agent's truth at ``t``; return (speed, course) arrays (NaN: none)."""
         if self.errors is None:
             self.errors = StreamTracker(self.velocity, self.seed, step)
-        end = min(t - self.velocity.lag_s + 0.5, t)
-        ends = np.full((len(names), 4), np.nan)
+        chords = [min(t - lag + 0.5, t) for lag in self.velocity.lags]   # each chord's end
+        earliest = min(chords) - 1.0
+        ends = np.full((len(chords), len(names), 4), np.nan)
         for i, n in enumerate(names):
             first, h = self.hist.setdefault(n, [t, []])
             h.append((t, float(lat[i]), float(lon[i])))
-            while len(h) > 2 and h[1][0] <= end - 1.0:
+            while len(h) > 2 and h[1][0] <= earliest:
                 h.pop(0)
-            if end - 1.0 >= first - 1e-9:
+            if earliest >= first - 1e-9:
                 tt, la, lo = (np.array(c) for c in zip(*h))
-                ends[i] = [np.interp(end, tt, la), np.interp(end, tt, lo),
-                           np.interp(end - 1.0, tt, la), np.interp(end - 1.0, tt, lo)]
+                for j, end in enumerate(chords):
+                    ends[j, i] = [np.interp(end, tt, la), np.interp(end, tt, lo),
+                                  np.interp(end - 1.0, tt, la), np.interp(end - 1.0, tt, lo)]
+        v_true = self.velocity.truth_reported(*(self._chord(e) for e in ends))
+        return self.velocity.report(v_true, self.errors.values(names, step))
+
+    def _chord(self, ends):
+        """Return east/north m/s from chord ends (n, 4): lat/lon (or y/x) at its end, start."""
         if self.planar:                     # (y, x) metres
             north, east = ends[:, 0] - ends[:, 2], ends[:, 1] - ends[:, 3]
         else:
             north, east = difference(ends[:, 0], ends[:, 1], ends[:, 2], ends[:, 3])
-        v_true = np.stack([np.asarray(east, dtype=float), np.asarray(north, dtype=float)], axis=1)
-        return self.velocity.report(v_true, self.errors.values(names, step))
+        return np.stack([np.asarray(east, dtype=float), np.asarray(north, dtype=float)], axis=1)

@@ -8,9 +8,10 @@ The true velocity the phone reports at a step's instant ``t`` is the chord
 of the truth over one second centred at ``t - lag_s`` (truth interpolated
 linearly in time, as for positions), in east/north m/s; the chord never
 ends after ``t`` (the truth a step has), so below a lag of 0.5 s it is the
-second before ``t``. ``gps_error simulate`` uses the same definition
-(:mod:`velocity_sim`), so both report the same speed and course. No velocity
-is reported where the truth does not reach back that far.
+second before ``t``. With a ``course_lag_s`` its direction is that of the
+chord centred at ``t - course_lag_s``. ``gps_error simulate`` uses the same
+definition (:mod:`velocity_sim`), so both report the same speed and
+course. No velocity is reported where the truth does not reach back that far.
 """
 
 import numpy as np
@@ -57,22 +58,27 @@ class VelocityState(SideStream):
     def __init__(self, velocity, n):
         super().__init__(velocity, n)
         self.velocity = velocity
-        self.lag_ns = int(round(velocity.lag_s * NS))
+        self.lags_ns = [int(round(lag * NS)) for lag in velocity.lags]
 
     def reported(self, truth, agents, t_ns, w, max_gap_ns):
         """
-        Return (velocity (m, 2) east/north, its error's SD (m,)) the phones report at ``t_ns``.
+        Return (velocity (m, 2), its error's SD (m,), mean (m, 2) or None) reported at ``t_ns``.
 
         ``truth`` is the engine's truth ring, ``w`` the agents' errors at the
         step. NaN rows: the truth does not reach back to the chord's start.
-        The SD is the section's at each agent's true speed (``sigma_by_speed``).
+        The SD is the section's at each agent's true speed (``sigma_by_speed``),
+        the mean its ``speed_bias`` along the travel, east/north (None without one).
         """
-        end = min(t_ns - self.lag_ns + NS // 2, t_ns)     # the chord centred at t - lag
-        c1, ok1 = truth.interpolate(agents, end, max_gap_ns)
-        c0, ok0 = truth.interpolate(agents, end - NS, max_gap_ns)
-        ok = ok1 & ok0 & (truth.newest[agents] >= end)
-        north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
-        v_true = np.stack([east, north], axis=1)
+        chords, ok = [], True
+        for lag_ns in self.lags_ns:                        # the speed's, the course's
+            end = min(t_ns - lag_ns + NS // 2, t_ns)       # the chord centred at t - lag
+            c1, ok1 = truth.interpolate(agents, end, max_gap_ns)
+            c0, ok0 = truth.interpolate(agents, end - NS, max_gap_ns)
+            ok = ok & ok1 & ok0 & (truth.newest[agents] >= end)
+            north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
+            chords.append(np.stack([east, north], axis=1))
+        v_true = self.velocity.truth_reported(*chords)
         out, _ = self.velocity.vector(v_true, w)
         out[~ok] = np.nan
-        return out, self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1]))
+        mean = None if self.velocity.speed_bias is None else self.velocity.mean_error(v_true)
+        return out, self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1])), mean

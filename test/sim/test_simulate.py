@@ -358,17 +358,21 @@ def test_reported_accuracy_is_each_agents_own_in_csv_and_fcd(tmp_path):
     assert all(v % 0.5 == 0 for v in mine.values())
 
 
-def test_fcd_positions_report_the_phones_speed_and_course(tmp_path):
+@pytest.mark.parametrize('course_lag', [None, 0.9])
+def test_fcd_positions_report_the_phones_speed_and_course(tmp_path, course_lag):
     """
     With a velocity section FCD positions carry the CSV mode's speed and bearing.
 
     As ``reported_speed`` and ``reported_bearing`` (SUMO's ``speed`` and
     ``angle`` stay the truth's); none where the truth does not reach back a
-    second yet.
+    second yet (with a course lag, back to its chord's start).
     """
     from gps_error_ros.model.velocity import velocity_from_dict
     from gps_error_ros.sim.simulate import simulate_csv
-    vel = velocity_from_dict({'sigma': 0.2, 'phi': 0.7, 'lag_s': 0.3, 'standstill': 0.0})
+    section = {'sigma': 0.2, 'phi': 0.7, 'lag_s': 0.3, 'standstill': 0.0}
+    if course_lag is not None:
+        section.update(course_lag_s=course_lag, speed_bias=[[1.0, -0.2], [3.0, 0.1]])
+    vel = velocity_from_dict(section)
     src = tmp_path / 'fcd.xml'
     pos = lambda i, t: (LON0 + 2e-5 * t * (1 + i % 3), LAT0 + 1e-4 * i + 1e-6 * t * t)  # noqa
     write_fcd(src, pos, sumo_comment(True))

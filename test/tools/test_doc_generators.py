@@ -55,12 +55,15 @@ def test_velocity_evidence_on_the_measured_phones():
     floors = re.findall(r"chord alone, no error added: .*course error RMS 10-100 m/s ([0-9.]+)",
                         r.stdout)
     assert len(floors) == 2 and all(float(f) > 0.3 for f in floors), r.stdout
-    # the open road on the rolling folds (docs/velocity.md): the Pixel 4's own speed error
-    # is smaller than the section's SD and its lag together, on every fold
+    # the open road on the rolling folds (docs/velocity.md): with the speed's own lag
+    # (0.2 s) the Pixel 4's section gives its speed error within 8 mm/s on every fold
+    # (with one lag for speed and course, 0.4 s, it gave 0.012-0.022 m/s too much),
+    # the lag's part smaller than the table's
     folds = re.findall(r"origin [0-9.]+, \d+ rows: phone ([0-9.]+) m/s; section SD ([0-9.]+), "
                        r"its lag \([0-9.]+ s\) alone ([0-9.]+), together ([0-9.]+)", r.stdout)
     assert len(folds) == 6, r.stdout
-    assert all(float(t) > float(p) for p, _, _, t in folds[:3]), folds
+    assert all(abs(float(t) - float(p)) <= 0.008 and float(g) < float(sd)
+               for p, sd, g, t in folds[:3]), folds
 
 
 def test_each_phones_profiles_are_validated_on_the_other(tmp_path):
