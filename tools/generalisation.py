@@ -25,12 +25,13 @@ import time
 
 from calm_stretches import calm_section
 from data_sources import WALKS
-from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, LABELS, PAGE_HEAD,
-                                 PRECEDENT_HEAD)
+from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_HEAD, LABELS,
+                                 PAGE_HEAD, PRECEDENT_HEAD)
 import numpy as np
 from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.diagnose.beaten import gain_text
+from gps_error_ros.diagnose.consumers import FILTER_PARTS
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
@@ -161,6 +162,23 @@ def _consumer_rows(folds, classes=('ar1', 'extended', 'population')):
             cells.append(f'{100 * r["sim_lo"]:.1f}-{100 * r["sim_hi"]:.1f}')
         rows.append(f'| {f["fold"]} | {100 * m:.1f} | ' + ' | '.join(cells) + ' |')
     return rows
+
+
+def _filter_rows(folds, cls='population'):
+    """Return the filter-parts table of the folds where the class's filter misses, or []."""
+    rows = []
+    for f in folds:
+        c = f['classes'][cls]
+        parts = c.get('filter_parts')
+        if parts is None or c['groups'].get('filter', 1.0) >= 1.0:
+            continue
+        cells = [c['measures']['filter:filter_rms_m']] + [parts[k] for k in FILTER_PARTS]
+        rows.append(f'| {f["fold"]} | ' + ' | '.join(
+            f'{r["measured"]:.3g} ({r["percentile"]:.0f})' for r in cells) + ' |')
+    if not rows:
+        return []
+    return [FILTER_HEAD, '| fold | filter RMS m | mean size m | SD m | filter RMS per SD '
+            '(the error less its mean) |\n|---|---|---|---|---|'] + rows
 
 
 #: Groups whose measures a training window can be measured on (the rest are the consumers').
@@ -350,6 +368,7 @@ def _explanation(parts, data):
         out.append('\nGate rejections (%), measured and the simulated 95 % range:\n')
         out.append('| fold | measured | AR(1) | extended | population |\n|---|---|---|---|---|')
         out += _consumer_rows(folds)
+        out += _filter_rows(folds)
         out.append(PRECEDENT_HEAD)
         out.append('| fold | training windows | outside the population\'s range | '
                    'without precedent |\n|---|---|---|---|')

@@ -111,6 +111,21 @@ Below each, the share of fixes the filter's gate rejects on the real
 held-out fixes, against the range each class simulates.
 """
 
+FILTER_HEAD = """
+Where the population class's filter measures miss their range, what the
+filter's error is made of: over a held-out part a filter that averages many
+fixes errs by about the error's mean, plus what it lets through of the
+error about that mean. So, against the class's simulated traces (with the
+measured value's percentile among them): the filter's RMS error; the size
+of the error's mean (both axes together; each axis alone is in the bias
+group); the error's SD; and the filter's RMS on the error less its mean,
+divided by that SD (its response to the error's dynamics, whatever their
+scale). When the last is inside, the filter sees nothing the first two do
+not explain: a mean that lands near zero is rare in two dimensions even when
+each axis's mean is central, and a small mean with a small SD make a calm
+filter together.
+"""
+
 PRECEDENT_HEAD = """
 The error measures on which the population class (extended within) misses
 its simulated 95 % range, and of those the ones without precedent: outside

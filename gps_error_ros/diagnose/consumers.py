@@ -29,6 +29,8 @@ the same settings, tuned on the training part as a study would tune them:
 import numpy as np
 from scipy import stats
 
+from gps_error_ros.fit.envelope import envelope
+
 #: The filter's white acceleration, m/s^2.
 ACCEL_SD = 0.5
 #: The velocity aid's noise per axis, m/s.
@@ -40,6 +42,8 @@ CONFLICT_M = 2.0
 #: The measures, in order.
 FILTER_MEASURES = ('filter_rms_m', 'filter_p95_m', 'filter_nees', 'filter_gate_rate')
 V2P_MEASURES = ('v2p_warned', 'v2p_false_warning')
+#: What the filter's error is made of (:func:`filter_parts`), in order.
+FILTER_PARTS = ('mean_size_m', 'sd_m', 'filter_rms_per_sd')
 
 
 def _grid(part):
@@ -147,6 +151,35 @@ def v2p_warnings(part, errors, accuracy_m, seed=0):
     return np.stack([hit, false], axis=1)
 
 
+def _stacked(measured, simulated, train_err):
+    """Return (the fixes' stated variance per axis (2,), the errors (traces, n, 2))."""
+    fix_var = np.mean(np.concatenate(train_err) ** 2, axis=0)
+    errors = np.stack([np.concatenate(measured)] + [np.concatenate(s) for s in simulated])
+    return fix_var, errors
+
+
+def filter_parts(part, measured, simulated, train_err, seed=0):
+    """
+    Return {name: envelope row} of what the filter's RMS error is made of (:data:`FILTER_PARTS`).
+
+    Over the part, a filter that averages many fixes errs by about the
+    error's mean, plus what it lets through of the error about that mean.
+    So, per trace (measured and each simulated, as :func:`consumer_measures`
+    takes them): the size of the error's mean (m, both axes), its SD (m,
+    root of the summed variances), and the filter's RMS on the error less
+    its mean divided by that SD (the filter's response to the error's
+    dynamics, whatever its scale). A filter measure outside its range with
+    these three inside has another cause; with them outside, it is theirs.
+    """
+    fix_var, errors = _stacked(measured, simulated, train_err)
+    mean = errors.mean(axis=1)
+    sd = np.sqrt(errors.var(axis=1).sum(axis=1))
+    rms = run_filter(part, errors - mean[:, None, :], fix_var, seed)[:, 0]
+    values = np.column_stack([np.hypot(mean[:, 0], mean[:, 1]), sd,
+                              rms / np.maximum(sd, 1e-12)])
+    return {name: envelope(values[0, j], values[1:, j]) for j, name in enumerate(FILTER_PARTS)}
+
+
 def consumer_measures(part, measured, simulated, train_err, seed=0):
     """
     Return (names, measured (m,), simulated (sims, m)) of both consumers.
@@ -155,10 +188,7 @@ def consumer_measures(part, measured, simulated, train_err, seed=0):
     traces, each a list of segments; ``train_err``: the training part's
     error segments (the settings are tuned on them).
     """
-    x = np.concatenate(train_err)
-    fix_var = np.mean(x ** 2, axis=0)
-    errors = np.stack([np.concatenate(measured)] +
-                      [np.concatenate(s) for s in simulated])
+    fix_var, errors = _stacked(measured, simulated, train_err)
     filt = run_filter(part, errors, fix_var, seed)
     v2p = v2p_warnings(part, errors, float(np.sqrt(fix_var.mean())), seed)
     values = np.concatenate([filt, v2p], axis=1)

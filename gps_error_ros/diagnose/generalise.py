@@ -36,7 +36,7 @@ from dataclasses import replace
 import numpy as np
 
 from gps_error_ros.diagnose.baselines import _classes, KEYS, training_outages
-from gps_error_ros.diagnose.consumers import consumer_measures
+from gps_error_ros.diagnose.consumers import consumer_measures, filter_parts
 from gps_error_ros.diagnose.beaten import pacf_against, part_pacf, where_beaten
 from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
                                              score_differences, simulate_part)
@@ -257,6 +257,10 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     better than it beyond noise do so (:func:`~.beaten.where_beaten`; None
     for none).
 
+    The reference class (``population``, else ``population_ar``) also has
+    ``filter_parts`` (:func:`~.consumers.filter_parts`): what its filter's
+    error is made of, measured against its simulated traces.
+
     ``smoother_sims``: traces of each class (of ``smoother_classes``, by
     default all) that the GTSAM smoother is fed as well (group ``smoother``).
 
@@ -303,6 +307,8 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
         out[label]['fit'] = pop.fit.evidence
         out[label]['section'] = None if pop.fit.population is None else \
             pop.fit.population.to_dict()
+    out[reference]['filter_parts'] = filter_parts(split.test, split.test.err,
+                                                  classes[reference][1], split.train.err, seed)
     fit = pops[reference].fit
     if fit.population is not None:
         beaten = where_beaten(

@@ -191,6 +191,33 @@ def test_the_filter_is_consistent_on_errors_it_was_told():
     assert rms[1] < np.sqrt(var.sum())
 
 
+def test_what_a_filters_error_is_made_of():
+    """The mean's size and the SD apart, and the filter's response to the rest per SD."""
+    from gps_error_ros.diagnose.consumers import filter_parts
+    n = 1500
+    part = _walk(n)
+    rng = np.random.default_rng(4)
+    sims = [[rng.normal(0, 3.0, (n, 2))] for _ in range(60)]      # white, no mean
+    white = rng.normal(0, 3.0, (n, 2))
+    train = [rng.normal(0, 3.0, (n, 2))]
+    plain = filter_parts(part, [white], sims, train)
+    moved = filter_parts(part, [white + [4.0, -3.0]], sims, train)
+    assert moved['mean_size_m']['measured'] == pytest.approx(5.0, abs=0.3)
+    assert moved['mean_size_m']['percentile'] == 100.0         # white sims: means of ~0.1 m
+    # the bias goes into the mean's size alone: the SD and the response are the same
+    for k in ('sd_m', 'filter_rms_per_sd'):
+        assert moved[k]['measured'] == pytest.approx(plain[k]['measured'], rel=1e-9)
+    assert 2.5 <= plain['filter_rms_per_sd']['percentile'] <= 97.5
+    # a persistent error of the same SD: the filter lets much more of it through
+    ar = np.zeros((n, 2))
+    z = rng.normal(0, 3.0 * np.sqrt(1 - 0.99 ** 2), (n, 2))
+    for i in range(1, n):
+        ar[i] = 0.99 * ar[i - 1] + z[i]
+    slow = filter_parts(part, [ar - ar.mean(axis=0)], sims, train)
+    assert slow['filter_rms_per_sd']['percentile'] == 100.0
+    assert slow['filter_rms_per_sd']['measured'] > 2 * plain['filter_rms_per_sd']['measured']
+
+
 def test_v2p_warnings_on_exact_positions():
     """No error: every conflict warned, and a third of the rest (within W + s of W + 3s)."""
     part = _walk(20000)
