@@ -177,7 +177,9 @@ def _filter_rows(folds, cls='population'):
             f'{r["measured"]:.3g} ({r["percentile"]:.0f})' for r in cells) + ' |')
     if not rows:
         return []
-    return [FILTER_HEAD, '| fold | filter RMS m | mean size m | SD m | filter RMS per SD '
+    return ['\nWhat the population\'s filter error is made of where its filter misses '
+            '(measured, and its percentile among the simulated):\n',
+            '| fold | filter RMS m | mean size m | SD m | filter RMS per SD '
             '(the error less its mean) |\n|---|---|---|---|---|'] + rows
 
 
@@ -359,7 +361,7 @@ def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
     out = [CAUSES_HEAD] + _causes(parts) + [''] + _beaten_lines(parts)
     out += calm_section([(name, _clean(data / name)) for name in PHONES])
-    out += ['', EXPLAIN_HEAD]
+    out += ['', EXPLAIN_HEAD + FILTER_HEAD]
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
         out.append('| fold | SD N | SD E | ACF(1) N | ACF(1) E | mean N | mean E |\n'
