@@ -39,7 +39,7 @@ moves at 1 m/s or more and the phone reports a course:
 import numpy as np
 
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
-from gps_error_ros.model.velocity import sd_from_table, speed_along, Velocity
+from gps_error_ros.model.velocity import sd_from_table, speed_along, with_speed_bias
 
 NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
 MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
@@ -146,9 +146,8 @@ def estimate_velocity(trace):
     v_true = speed_along(past[lag], past[course_lag])
     along = v_true / np.maximum(np.hypot(v_true[:, 0], v_true[:, 1]), 1e-9)[:, None]
     bias = _speed_bias(np.sum((phone[rows] - v_true) * along, axis=1), ex['truth_speed'][rows])
-    biased = Velocity(1.0, 0.0, lag, 0.0, speed_bias=bias).biased(v_true)
     w = np.full_like(phone, np.nan)
-    w[rows] = phone[rows] - biased
+    w[rows] = phone[rows] - with_speed_bias(v_true, bias)
     pair = np.flatnonzero(rows[:-1] & rows[1:] & (np.diff(t) == 1.0))
     sigma = float(np.sqrt(np.mean(w[rows] ** 2)))
     table = _by_speed(w[rows], ex['truth_speed'][rows])

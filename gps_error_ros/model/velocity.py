@@ -110,7 +110,7 @@ class Velocity:
         earlier (ignored without it). The result has the speed of the first and
         the direction of the second, or of the first where the second stands still.
         """
-        if self.course_lag_s is None or v_course is None:
+        if self.course_lag_s is None:
             return v_speed
         return speed_along(v_speed, v_course)
 
@@ -175,11 +175,7 @@ class Velocity:
         """Return ``v_true`` (..., 2) with its speed moved by ``speed_bias`` (never below 0)."""
         if self.speed_bias is None:
             return v_true
-        if speed is None:
-            speed = np.hypot(v_true[..., 0], v_true[..., 1])
-        bias = sd_from_table(self.speed_bias, speed)
-        gain = np.maximum(speed + bias, 0.0) / np.where(speed > 0.0, speed, 1.0)
-        return v_true * np.where(speed > 0.0, gain, 1.0)[..., None]
+        return with_speed_bias(v_true, self.speed_bias, speed)
 
 
 def series(process, keys, n_steps, start=0):
@@ -198,6 +194,15 @@ def series(process, keys, n_steps, start=0):
     for i in range(1, n_steps):
         out[i] = w = process.step(w, keys, start + i)
     return out
+
+
+def with_speed_bias(v_true, table, speed=None):
+    """Return ``v_true`` (..., 2) lengthened by a speed table's bias at its speed (not below 0)."""
+    if speed is None:
+        speed = np.hypot(v_true[..., 0], v_true[..., 1])
+    bias = sd_from_table(table, speed)
+    gain = np.maximum(speed + bias, 0.0) / np.where(speed > 0.0, speed, 1.0)
+    return v_true * np.where(speed > 0.0, gain, 1.0)[..., None]
 
 
 def speed_along(v_speed, v_course):
