@@ -115,10 +115,10 @@ FILTER_HEAD = """
 Where the population class's filter measures miss their range, a second
 table says what the filter's error is made of: over a held-out part a
 filter that averages many fixes errs by about the error's mean, plus what
-it lets through of the error about that mean. So, against the class's simulated traces (with the
-measured value's percentile among them): the filter's RMS error; the size
-of the error's mean (both axes together; each axis alone is in the bias
-group); the error's SD; and the filter's RMS on the error less its mean,
+it lets through of the error about that mean. So, against the class's
+simulated traces (with the measured value's percentile among them): the
+filter's RMS error; the size of the error's mean (both axes together; each
+axis alone is in the bias group); the error's SD; and the filter's RMS on the error less its mean,
 divided by that SD (its response to the error's dynamics, whatever their
 scale). When the last is inside, the filter sees nothing the first two do
 not explain: a mean that lands near zero is rare in two dimensions even when
