@@ -26,7 +26,7 @@ import time
 from calm_stretches import calm_section
 from data_sources import WALKS
 from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_HEAD, LABELS,
-                                 PAGE_HEAD, PRECEDENT_HEAD)
+                                 PAGE_HEAD, PRECEDENT_HEAD, SPREAD_HEAD)
 import numpy as np
 from phone_transfer import transfer, transfer_lines
 
@@ -183,6 +183,37 @@ def _filter_rows(folds, cls='population'):
             '(the error less its mean) |\n|---|---|---|---|---|'] + rows
 
 
+def _spread_cell(row):
+    """Return a cell: a measured figure, its simulated 95 % range, **out** where outside."""
+    return (f'{row["measured"]:.2f} ({row["sim_lo"]:.2f} to {row["sim_hi"]:.2f})'
+            + ('' if inside(row) else ' **out**'))
+
+
+def _spread_rows(folds, cls='population'):
+    """Return the table of the training blocks' lag-1 ACF against the class's own, or []."""
+    rows = []
+    for f in folds:
+        sp = f['classes'][cls].get('persistence_spread')
+        if sp is None:
+            continue
+        rows.append(f'| {f["fold"]} | {sp["windows"]} | ' + ' | '.join(
+            _spread_cell(sp[f'{k}_{ax}']) for k in ('acf1_sd', 'lowest_acf1')
+            for ax in ('north', 'east')) + ' |')
+    if not rows:
+        return []
+    return ['\nThe training part\'s lag-1 ACF from block to block (300 s), against the '
+            'population\'s traces simulated on the same samples:\n',
+            '| fold | blocks | ACF(1) SD N | ACF(1) SD E | lowest ACF(1) N | '
+            'lowest ACF(1) E |\n|---|---|---|---|---|---|'] + rows
+
+
+def _spread_counts(folds, cls='population'):
+    """Return (axes of folds whose block ACF spread lies above the class's range, axes judged)."""
+    rows = [f['classes'][cls]['persistence_spread'][f'acf1_sd_{ax}'] for f in folds
+            if f['classes'][cls].get('persistence_spread') for ax in ('north', 'east')]
+    return sum(r['measured'] > r['sim_hi'] for r in rows), len(rows)
+
+
 #: Groups whose measures a training window can be measured on (the rest are the consumers').
 ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
 
@@ -248,6 +279,10 @@ def _causes(parts):
         ext = summary['extended']
         best = max(summary, key=lambda c: min(summary[c]['groups'].values()))
         miss, new = _precedent_counts(folds)
+        above_spread, judged = _spread_counts(folds)
+        spread = (f'Within the training parts, the 300-s blocks\' lag-1 ACF spreads beyond '
+                  f'what the population\'s own blocks give on {above_spread} of {judged} '
+                  f'axes of folds (table below). ' if judged else '')
         precedent = (f'Of the population class\'s {miss} error measures outside their '
                      f'ranges, {new} lie outside every training window like the held-out '
                      f'part as well (no precedent: table below). ' if miss else '')
@@ -259,7 +294,7 @@ def _causes(parts):
             +
             f'(b) The held-out SD is {lo:.2f}-{hi:.2f} times the training part\'s; the '
             f'lag-1 ACF goes from {min(a for a, _ in acf):.2f}-{max(a for a, _ in acf):.2f} '
-            f'to {min(b for _, b in acf):.2f}-{max(b for _, b in acf):.2f}. {precedent}'
+            f'to {min(b for _, b in acf):.2f}-{max(b for _, b in acf):.2f}. {spread}{precedent}'
             f'(d) The real gate rate lies above AR(1)\'s simulated range on {above} of '
             f'{len(folds)} folds. (e) The extended class has the best held-out NLL on '
             f'{ext["best_score_folds"]} of {len(folds)} folds, and its worst group averages '
@@ -361,7 +396,7 @@ def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
     out = [CAUSES_HEAD] + _causes(parts) + [''] + _beaten_lines(parts)
     out += calm_section([(name, _clean(data / name)) for name in PHONES])
-    out += ['', EXPLAIN_HEAD + FILTER_HEAD]
+    out += ['', EXPLAIN_HEAD + FILTER_HEAD + SPREAD_HEAD]
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
         out.append('| fold | SD N | SD E | ACF(1) N | ACF(1) E | mean N | mean E |\n'
@@ -371,6 +406,7 @@ def _explanation(parts, data):
         out.append('| fold | measured | AR(1) | extended | population |\n|---|---|---|---|---|')
         out += _consumer_rows(folds)
         out += _filter_rows(folds)
+        out += _spread_rows(folds)
         out.append(PRECEDENT_HEAD)
         out.append('| fold | training windows | outside the population\'s range | '
                    'without precedent |\n|---|---|---|---|')

@@ -126,6 +126,18 @@ each axis's mean is central, and a small mean with a small SD make a calm
 filter together.
 """
 
+SPREAD_HEAD = """
+A third table asks whether the training part itself held stretches of
+different persistence: each 300-s block's lag-1 autocorrelation (about the
+block's mean), their SD over the blocks and their lowest value, against the
+same figures of the population's traces simulated on the training samples.
+The population draws each agent's bias and scale, but all its agents share
+one process and so one persistence: an SD above its range says the
+recording's stretches differ in persistence more than that process's
+stretches do by chance, which no draw of bias or scale mends. A fold with
+fewer than three blocks, or without a population section, has no row.
+"""
+
 PRECEDENT_HEAD = """
 The error measures on which the population class (extended within) misses
 its simulated 95 % range, and of those the ones without precedent: outside

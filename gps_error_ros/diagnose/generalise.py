@@ -44,6 +44,7 @@ from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import cut_trace, Split
 from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
+from gps_error_ros.diagnose.window_persistence import persistence_spread
 from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outage_envelopes,
                                         outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
@@ -259,7 +260,11 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
 
     The reference class (``population``, else ``population_ar``) also has
     ``filter_parts`` (:func:`~.consumers.filter_parts`): what its filter's
-    error is made of, measured against its simulated traces.
+    error is made of, measured against its simulated traces; and
+    ``persistence_spread`` (:func:`~.window_persistence.persistence_spread`):
+    how much the training part's lag-1 ACF moves from block to block,
+    against traces it simulates on the training part's samples (None
+    without a section or with too few blocks).
 
     ``smoother_sims``: traces of each class (of ``smoother_classes``, by
     default all) that the GTSAM smoother is fed as well (group ``smoother``).
@@ -310,6 +315,9 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     out[reference]['filter_parts'] = filter_parts(split.test, split.test.err,
                                                   classes[reference][1], split.train.err, seed)
     fit = pops[reference].fit
+    out[reference]['persistence_spread'] = None if fit.population is None else \
+        persistence_spread(split.train, simulate_part(pops[reference], split.train,
+                                                      split.truth, sims, seed))
     if fit.population is not None:
         beaten = where_beaten(
             {KEYS.get(label, label): ll for label, ll in scores.items()},

@@ -218,6 +218,43 @@ def test_what_a_filters_error_is_made_of():
     assert slow['filter_rms_per_sd']['measured'] > 2 * plain['filter_rms_per_sd']['measured']
 
 
+def _ar1(rho, n, rng):
+    """Return an AR(1) (n, 2) of unit variance."""
+    x = np.zeros((n, 2))
+    z = rng.normal(0.0, np.sqrt(1.0 - rho * rho), (n, 2))
+    x[0] = rng.normal(0.0, 1.0, 2)
+    for i in range(1, n):
+        x[i] = rho * x[i - 1] + z[i]
+    return x
+
+
+def test_a_persistence_that_moves_from_block_to_block_is_found():
+    """Blocks of ACF 0.95 and 0.2 in turn lie beyond one AR's spread; that AR's own do not."""
+    from gps_error_ros.diagnose.window_persistence import persistence_spread, window_acf1
+    rng = np.random.default_rng(7)
+    block, blocks = 300, 8
+    t = np.arange(block * blocks, dtype=float)
+    part = _walk(t.size)
+    mixed = np.concatenate([_ar1(0.95 if b % 2 else 0.2, block, rng) for b in range(blocks)])
+    acf = window_acf1([mixed], [t])
+    assert acf.shape == (blocks, 2)
+    assert np.all(acf[1::2] > 0.8) and np.all(acf[::2] < 0.4)
+    # a gap within a block: no lag product across it
+    cut = window_acf1([mixed[:150], mixed[150:]], [t[:150], t[150:]])
+    assert cut[0, 0] != acf[0, 0] and np.allclose(cut[1:], acf[1:])
+    sims = [[_ar1(0.6, t.size, rng)] for _ in range(60)]
+    found = persistence_spread(Part([mixed], part.truth, [t]), sims)
+    assert found['windows'] == blocks
+    for ax in ('north', 'east'):
+        assert found[f'acf1_sd_{ax}']['percentile'] == 100.0
+        assert found[f'lowest_acf1_{ax}']['percentile'] < 2.5
+    own = persistence_spread(Part([_ar1(0.6, t.size, rng)], part.truth, [t]), sims)
+    for ax in ('north', 'east'):
+        assert 2.5 <= own[f'acf1_sd_{ax}']['percentile'] <= 97.5
+    short = Part([mixed[:2 * block]], [part.truth[0][:2 * block]], [t[:2 * block]])
+    assert persistence_spread(short, sims) is None      # two blocks: no spread to judge
+
+
 def test_v2p_warnings_on_exact_positions():
     """No error: every conflict warned, and a third of the rest (within W + s of W + 3s)."""
     part = _walk(20000)

@@ -144,3 +144,28 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
     text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
     assert 'Only over the blocks whose level lies beyond 2 bias SDs do AR(1)' in text
     assert 'within blocks: north 3, east 1) predicts dynamics the held-out receiver' in text
+
+
+def test_the_generalisation_page_shows_the_training_blocks_persistence():
+    """tools/generalisation.py: the blocks' lag-1 ACF spread, out where above its range."""
+    sys.path.insert(0, str(TOOLS))
+    try:
+        from generalisation import _spread_counts, _spread_rows
+    finally:
+        sys.path.remove(str(TOOLS))
+
+    def row(m, lo, hi):
+        return {'measured': m, 'sim_lo': lo, 'sim_hi': hi, 'sim_median': (lo + hi) / 2,
+                'percentile': 50.0}
+
+    spread = {'windows': 4, 'acf1_sd_north': row(0.31, 0.02, 0.12),
+              'acf1_sd_east': row(0.05, 0.02, 0.12), 'lowest_acf1_north': row(0.2, 0.5, 0.9),
+              'lowest_acf1_east': row(0.6, 0.5, 0.9)}
+    folds = [{'fold': 'f1', 'classes': {'population': {'persistence_spread': spread}}},
+             {'fold': 'f2', 'classes': {'population': {'persistence_spread': None}}}]
+    lines = _spread_rows(folds)
+    assert lines[-1] == ('| f1 | 4 | 0.31 (0.02 to 0.12) **out** | 0.05 (0.02 to 0.12) | '
+                         '0.20 (0.50 to 0.90) **out** | 0.60 (0.50 to 0.90) |')
+    assert not any('f2' in line for line in lines)
+    assert _spread_counts(folds) == (1, 2)
+    assert _spread_rows(folds[1:]) == [] and _spread_counts(folds[1:]) == (0, 0)

@@ -1,0 +1,71 @@
+"""
+Persistence from window to window: does a part's lag-1 ACF move more than a model's does?
+
+A population profile draws each agent's bias and scale, but every agent
+shares one process and so one persistence. Whether that holds is told by
+the training part itself: cut into the population fit's blocks
+(:func:`~gps_error_ros.fit.population_fit.block_ids`, each at least
+:data:`~gps_error_ros.fit.population_fit.MIN_BLOCK_SAMPLES` samples), each
+block has a lag-1 autocorrelation about its own mean. Their spread over the
+blocks (SD) and their lowest value are set against the same figures of
+traces the model simulates on the same samples: a spread above the model's
+range says the recording's stretches differ in persistence more than the
+model's own stretches do by chance, which no draw of bias or scale mends.
+"""
+
+import numpy as np
+
+from gps_error_ros.fit.envelope import envelope
+from gps_error_ros.fit.population_fit import block_ids, MIN_BLOCK_SAMPLES
+from gps_error_ros.model.ar_model import AXES
+
+#: Blocks the spread needs (an SD of fewer says nothing).
+MIN_WINDOWS = 3
+
+
+def window_acf1(segments, times):
+    """
+    Return each block's lag-1 autocorrelation per axis, (blocks, 2).
+
+    ``segments``: error segments (n_s, 2); ``times``: their sample times, s.
+    A block's mean is taken over all its samples; the lag-1 products are
+    those of neighbouring samples of one segment (none across a gap).
+    Blocks of fewer than :data:`MIN_BLOCK_SAMPLES` samples are left out.
+    """
+    sums = {}
+    for seg, ids in zip(segments, block_ids(times)):
+        seg = np.asarray(seg, dtype=float)
+        for i in np.unique(ids):
+            sums.setdefault(int(i), []).append(seg[ids == i])
+    out = []
+    for pieces in sums.values():
+        x = np.concatenate(pieces)
+        if len(x) < MIN_BLOCK_SAMPLES:
+            continue
+        mean = x.mean(axis=0)
+        var = ((x - mean) ** 2).sum(axis=0)
+        lag = sum(((p[1:] - mean) * (p[:-1] - mean)).sum(axis=0) for p in pieces)
+        out.append(lag / np.maximum(var, 1e-300))
+    return np.array(out).reshape(-1, 2)
+
+
+def persistence_spread(part, simulated):
+    """
+    Return the spread of ``part``'s block lag-1 ACFs against the simulated traces', or None.
+
+    ``part``: a :class:`~.split.Part`; ``simulated``: traces, each a list of
+    segments on ``part``'s samples. Per axis, :func:`~gps_error_ros.fit.envelope.envelope`
+    rows of the blocks' ACF SD (``acf1_sd_<axis>``) and of their lowest ACF
+    (``lowest_acf1_<axis>``), and ``windows``, the number of blocks; None
+    with fewer than :data:`MIN_WINDOWS`.
+    """
+    measured = window_acf1(part.err, part.t)
+    if len(measured) < MIN_WINDOWS:
+        return None
+    sims = [window_acf1(s, part.t) for s in simulated]
+    out = {'windows': len(measured)}
+    for a, ax in enumerate(AXES):
+        out[f'acf1_sd_{ax}'] = envelope(np.std(measured[:, a], ddof=1),
+                                        [np.std(s[:, a], ddof=1) for s in sims])
+        out[f'lowest_acf1_{ax}'] = envelope(measured[:, a].min(), [s[:, a].min() for s in sims])
+    return out
