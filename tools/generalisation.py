@@ -281,8 +281,8 @@ def _causes(parts):
         miss, new = _precedent_counts(folds)
         above_spread, judged = _spread_counts(folds)
         spread = (f'Within the training parts, the 300-s blocks\' lag-1 ACF spreads beyond '
-                  f'what the population\'s own blocks give on {above_spread} of {judged} '
-                  f'axes of folds (table below). ' if judged else '')
+                  f'what the population\'s own blocks give on {above_spread} of the '
+                  f'{judged} axes of its folds (table below). ' if judged else '')
         precedent = (f'Of the population class\'s {miss} error measures outside their '
                      f'ranges, {new} lie outside every training window like the held-out '
                      f'part as well (no precedent: table below). ' if miss else '')

@@ -134,8 +134,10 @@ same figures of the population's traces simulated on the training samples.
 The population draws each agent's bias and scale, but all its agents share
 one process and so one persistence: an SD above its range says the
 recording's stretches differ in persistence more than that process's
-stretches do by chance, which no draw of bias or scale mends. A fold with
-fewer than three blocks, or without a population section, has no row.
+stretches do by chance, which no draw of bias or scale mends (why none of
+persistence is drawn: [decision 0022](decisions/0022-one-persistence-for-every-agent.md)).
+A fold with fewer than three blocks, or without a population section, has
+no row.
 """
 
 PRECEDENT_HEAD = """

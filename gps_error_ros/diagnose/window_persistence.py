@@ -1,5 +1,5 @@
 """
-Persistence from window to window: does a part's lag-1 ACF move more than a model's does?
+Persistence from window to window: a part's lag-1 ACF from block to block, against a model's.
 
 A population profile draws each agent's bias and scale, but every agent
 shares one process and so one persistence. Whether that holds is told by
