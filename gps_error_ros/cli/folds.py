@@ -8,6 +8,7 @@ from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUP_BAR, GROUPS, 
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import velocity_line
+from gps_error_ros.diagnose.window_persistence import spread_line
 from gps_error_ros.fit.population_fit import segment_weights
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -116,9 +117,9 @@ def compare_folds(args, recordings):
                   f'{o["percentile"]:5.1f} %  bar {o["own_meet_bar"]:5.1f} %')
     for line in beaten_lines(folds):
         print(line)
-    line = velocity_line(folds)
-    if line:
-        print(line)
+    for line in (spread_line(folds), velocity_line(folds)):
+        if line:
+            print(line)
     if args.json_out:
         write_json(Path(args.json_out), {'folds': folds, 'summary': summary,
                                          'sims': args.sims, 'seed': args.seed})

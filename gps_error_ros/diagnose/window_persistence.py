@@ -69,3 +69,24 @@ def persistence_spread(part, simulated):
                                         [np.std(s[:, a], ddof=1) for s in sims])
         out[f'lowest_acf1_{ax}'] = envelope(measured[:, a].min(), [s[:, a].min() for s in sims])
     return out
+
+
+def spread_line(folds, cls='population'):
+    """
+    Return a line on the folds' training blocks' ACF spread (``persistence_spread``), or None.
+
+    None when no fold has the figures; else the folds and axes whose spread
+    lies above the class's simulated 95 % range, with the range, or that
+    none does.
+    """
+    rows = [(f['fold'], ax, f['classes'][cls]['persistence_spread'][f'acf1_sd_{ax}'])
+            for f in folds if f['classes'].get(cls, {}).get('persistence_spread')
+            for ax in AXES]
+    if not rows:
+        return None
+    above = [f'{fold} {ax} {r["measured"]:.2f} ({r["sim_lo"]:.2f}-{r["sim_hi"]:.2f})'
+             for fold, ax, r in rows if r['measured'] > r['sim_hi']]
+    listed = ': ' + '; '.join(above) if above else ''
+    return (f'  persistence from block to block (SD of the training part\'s 300-s blocks\' '
+            f'lag-1 ACF, against the population\'s own traces): above the range on '
+            f'{len(above)} of {len(rows)} fold axes{listed}')

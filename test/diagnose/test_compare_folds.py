@@ -61,6 +61,9 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
         assert pop['where_beaten']['winners'] == winners
     else:
         assert pop['where_beaten'] is None
+    # the training part's blocks, judged for their spread of persistence, and the line printed
+    assert pop['persistence_spread']['windows'] == pop['fit']['blocks']
+    assert 'persistence from block to block' in printed and 'fold axes' in printed
     # the two training recordings are shorter than the held-out one: each counts whole
     windows = fold['train_windows']
     assert windows['windows'] == 2 and abs(windows['span_s'] - 899.0) < 1.0

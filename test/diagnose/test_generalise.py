@@ -230,7 +230,8 @@ def _ar1(rho, n, rng):
 
 def test_a_persistence_that_moves_from_block_to_block_is_found():
     """Blocks of ACF 0.95 and 0.2 in turn lie beyond one AR's spread; that AR's own do not."""
-    from gps_error_ros.diagnose.window_persistence import persistence_spread, window_acf1
+    from gps_error_ros.diagnose.window_persistence import (
+        persistence_spread, spread_line, window_acf1)
     rng = np.random.default_rng(7)
     block, blocks = 300, 8
     t = np.arange(block * blocks, dtype=float)
@@ -253,6 +254,13 @@ def test_a_persistence_that_moves_from_block_to_block_is_found():
         assert 2.5 <= own[f'acf1_sd_{ax}']['percentile'] <= 97.5
     short = Part([mixed[:2 * block]], [part.truth[0][:2 * block]], [t[:2 * block]])
     assert persistence_spread(short, sims) is None      # two blocks: no spread to judge
+    folds = [{'fold': 'f1', 'classes': {'population': {'persistence_spread': found}}},
+             {'fold': 'f2', 'classes': {'population': {'persistence_spread': own}}},
+             {'fold': 'f3', 'classes': {'population': {'persistence_spread': None}}}]
+    line = spread_line(folds)
+    assert 'above the range on 2 of 4 fold axes: f1 north ' in line and 'f2' not in line
+    assert spread_line(folds[1:]).endswith('above the range on 0 of 2 fold axes')
+    assert spread_line(folds[2:]) is None
 
 
 def test_v2p_warnings_on_exact_positions():
