@@ -35,6 +35,7 @@ from gps_error_ros.diagnose.consumers import FILTER_PARTS
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
+from gps_error_ros.diagnose.window_persistence import spread_above
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.model.velocity import velocity_from_dict
@@ -207,13 +208,6 @@ def _spread_rows(folds, cls='population'):
             'lowest ACF(1) E |\n|---|---|---|---|---|---|'] + rows
 
 
-def _spread_counts(folds, cls='population'):
-    """Return (axes of folds whose block ACF spread lies above the class's range, axes judged)."""
-    rows = [f['classes'][cls]['persistence_spread'][f'acf1_sd_{ax}'] for f in folds
-            if f['classes'][cls].get('persistence_spread') for ax in ('north', 'east')]
-    return sum(r['measured'] > r['sim_hi'] for r in rows), len(rows)
-
-
 #: Groups whose measures a training window can be measured on (the rest are the consumers').
 ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
 
@@ -279,9 +273,9 @@ def _causes(parts):
         ext = summary['extended']
         best = max(summary, key=lambda c: min(summary[c]['groups'].values()))
         miss, new = _precedent_counts(folds)
-        above_spread, judged = _spread_counts(folds)
+        above_spread, judged = spread_above(folds)
         spread = (f'Within the training parts, the 300-s blocks\' lag-1 ACF spreads beyond '
-                  f'what the population\'s own blocks give on {above_spread} of the '
+                  f'what the population\'s own blocks give on {len(above_spread)} of the '
                   f'{judged} axes of its folds (table below). ' if judged else '')
         precedent = (f'Of the population class\'s {miss} error measures outside their '
                      f'ranges, {new} lie outside every training window like the held-out '

@@ -4,7 +4,7 @@ Persistence from window to window: a part's lag-1 ACF from block to block, again
 A population profile draws each agent's bias and scale, but every agent
 shares one process and so one persistence. Whether that holds is told by
 the training part itself: cut into the population fit's blocks
-(:func:`~gps_error_ros.fit.population_fit.block_ids`, each at least
+(:func:`~gps_error_ros.fit.population_fit.block_pieces`, each at least
 :data:`~gps_error_ros.fit.population_fit.MIN_BLOCK_SAMPLES` samples), each
 block has a lag-1 autocorrelation about its own mean. Their spread over the
 blocks (SD) and their lowest value are set against the same figures of
@@ -16,7 +16,7 @@ model's own stretches do by chance, which no draw of bias or scale mends.
 import numpy as np
 
 from gps_error_ros.fit.envelope import envelope
-from gps_error_ros.fit.population_fit import block_ids, MIN_BLOCK_SAMPLES
+from gps_error_ros.fit.population_fit import block_pieces, MIN_BLOCK_SAMPLES
 from gps_error_ros.model.ar_model import AXES
 
 #: Blocks the spread needs (an SD of fewer says nothing).
@@ -32,13 +32,11 @@ def window_acf1(segments, times):
     those of neighbouring samples of one segment (none across a gap).
     Blocks of fewer than :data:`MIN_BLOCK_SAMPLES` samples are left out.
     """
-    sums = {}
-    for seg, ids in zip(segments, block_ids(times)):
-        seg = np.asarray(seg, dtype=float)
-        for i in np.unique(ids):
-            sums.setdefault(int(i), []).append(seg[ids == i])
+    by_block = {}
+    for piece, i in block_pieces(segments, times):
+        by_block.setdefault(i, []).append(piece)
     out = []
-    for pieces in sums.values():
+    for pieces in by_block.values():
         x = np.concatenate(pieces)
         if len(x) < MIN_BLOCK_SAMPLES:
             continue
@@ -71,6 +69,19 @@ def persistence_spread(part, simulated):
     return out
 
 
+def spread_above(folds, cls='population'):
+    """
+    Return (the fold axes whose blocks' ACF spread lies above the class's range, those judged).
+
+    The first: ``(fold, axis, envelope row)`` of each; the second, how many
+    fold axes have the figures (``persistence_spread``) at all.
+    """
+    rows = [(f['fold'], ax, f['classes'][cls]['persistence_spread'][f'acf1_sd_{ax}'])
+            for f in folds if f['classes'].get(cls, {}).get('persistence_spread')
+            for ax in AXES]
+    return [r for r in rows if r[2]['measured'] > r[2]['sim_hi']], len(rows)
+
+
 def spread_line(folds, cls='population'):
     """
     Return a line on the folds' training blocks' ACF spread (``persistence_spread``), or None.
@@ -79,14 +90,11 @@ def spread_line(folds, cls='population'):
     lies above the class's simulated 95 % range, with the range, or that
     none does.
     """
-    rows = [(f['fold'], ax, f['classes'][cls]['persistence_spread'][f'acf1_sd_{ax}'])
-            for f in folds if f['classes'].get(cls, {}).get('persistence_spread')
-            for ax in AXES]
-    if not rows:
+    above, judged = spread_above(folds, cls)
+    if not judged:
         return None
-    above = [f'{fold} {ax} {r["measured"]:.2f} ({r["sim_lo"]:.2f}-{r["sim_hi"]:.2f})'
-             for fold, ax, r in rows if r['measured'] > r['sim_hi']]
-    listed = ': ' + '; '.join(above) if above else ''
+    listed = '; '.join(f'{fold} {ax} {r["measured"]:.2f} ({r["sim_lo"]:.2f}-{r["sim_hi"]:.2f})'
+                       for fold, ax, r in above)
     return (f'  persistence from block to block (SD of the training part\'s 300-s blocks\' '
             f'lag-1 ACF, against the population\'s own traces): above the range on '
-            f'{len(above)} of {len(rows)} fold axes{listed}')
+            f'{len(above)} of {judged} fold axes' + (f': {listed}' if above else ''))

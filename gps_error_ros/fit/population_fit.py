@@ -377,13 +377,24 @@ def predictive(draws):
     return dof, location * math.sqrt(dof / (dof - 2.0))
 
 
-def _within_segments(segments, times, block_s):
-    """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
+def block_pieces(segments, times, block_s=BLOCK_S):
+    """
+    Return ``[(piece (k, 2), block number)]``: each segment cut at its blocks' edges, in order.
+
+    Blocks are those of :func:`block_ids`; a piece is gap-free, so that
+    neighbouring samples of one piece are neighbouring steps.
+    """
     pieces = []
     for seg, ids in zip(segments, block_ids(times, block_s)):
         seg = np.asarray(seg, dtype=float)
         cuts = np.flatnonzero(np.diff(ids) != 0) + 1
         pieces += [(s, int(i[0])) for s, i in zip(np.split(seg, cuts), np.split(ids, cuts))]
+    return pieces
+
+
+def _within_segments(segments, times, block_s):
+    """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
+    pieces = block_pieces(segments, times, block_s)
     by_block = {}
     for s, i in pieces:
         by_block.setdefault(i, []).append(s)

@@ -148,9 +148,11 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
 
 def test_the_generalisation_page_shows_the_training_blocks_persistence():
     """tools/generalisation.py: the blocks' lag-1 ACF spread, out where above its range."""
+    from gps_error_ros.diagnose.window_persistence import spread_above
+
     sys.path.insert(0, str(TOOLS))
     try:
-        from generalisation import _spread_counts, _spread_rows
+        from generalisation import _spread_rows
     finally:
         sys.path.remove(str(TOOLS))
 
@@ -167,5 +169,6 @@ def test_the_generalisation_page_shows_the_training_blocks_persistence():
     assert lines[-1] == ('| f1 | 4 | 0.31 (0.02 to 0.12) **out** | 0.05 (0.02 to 0.12) | '
                          '0.20 (0.50 to 0.90) **out** | 0.60 (0.50 to 0.90) |')
     assert not any('f2' in line for line in lines)
-    assert _spread_counts(folds) == (1, 2)
-    assert _spread_rows(folds[1:]) == [] and _spread_counts(folds[1:]) == (0, 0)
+    above, judged = spread_above(folds)
+    assert (len(above), judged) == (1, 2) and above[0][:2] == ('f1', 'north')
+    assert _spread_rows(folds[1:]) == [] and spread_above(folds[1:]) == ([], 0)
