@@ -118,12 +118,12 @@ filter that averages many fixes errs by about the error's mean, plus what
 it lets through of the error about that mean. So, against the class's
 simulated traces (with the measured value's percentile among them): the
 filter's RMS error; the size of the error's mean (both axes together; each
-axis alone is in the bias group); the error's SD; and the filter's RMS on the error less its mean,
-divided by that SD (its response to the error's dynamics, whatever their
-scale). When the last is inside, the filter sees nothing the first two do
-not explain: a mean that lands near zero is rare in two dimensions even when
-each axis's mean is central, and a small mean with a small SD make a calm
-filter together.
+axis alone is in the bias group); the error's SD; and the filter's RMS on
+the error less its mean, divided by that SD (its response to the error's
+dynamics, whatever their scale). When the last is inside, the filter sees
+nothing the first two do not explain: a mean that lands near zero is rare
+in two dimensions even when each axis's mean is central, and a small mean
+with a small SD make a calm filter together.
 """
 
 SPREAD_HEAD = """
@@ -135,9 +135,9 @@ The population draws each agent's bias and scale, but all its agents share
 one process and so one persistence: an SD above its range says the
 recording's stretches differ in persistence more than that process's
 stretches do by chance, which no draw of bias or scale mends (why none of
-persistence is drawn: [decision 0022](decisions/0022-one-persistence-for-every-agent.md)).
-A fold with fewer than three blocks, or without a population section, has
-no row.
+persistence is drawn:
+[decision 0022](decisions/0022-one-persistence-for-every-agent.md)). A fold
+with fewer than three blocks, or without a population section, has no row.
 """
 
 PRECEDENT_HEAD = """
