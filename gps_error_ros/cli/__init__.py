@@ -16,7 +16,8 @@ from pathlib import Path
 import sys
 
 from gps_error_ros.cli.parser import build_parser
-from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
+from gps_error_ros.fit.calibration import (calibrate, CalibrationError, check_sampling,
+                                           little_data_note)
 from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures,
                                               without_gross_failures)
 from gps_error_ros.fit.population_fit import population_line
@@ -38,13 +39,18 @@ ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
 
 
 def _load_inputs(args, paths=None):
-    """Load every INPUT (or ``paths``: files, or folders of them); print how it went."""
+    """
+    Load every INPUT (or ``paths``: files, or folders of them); print how it went.
+
+    A recording sampled slower than the 1-Hz grid is refused (:func:`check_sampling`).
+    """
     traces = []
     for path in expand_inputs(args.input if paths is None else paths):
         trace, notes = load_trace(path, args.fix_topic, args.truth_topic,
                                   parse_datum(args.datum), args.max_truth_gap, args.agent)
         for line in notes:
             print(line)
+        check_sampling(trace)
         traces.append(trace)
     return traces
 

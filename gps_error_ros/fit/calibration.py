@@ -41,7 +41,7 @@ from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import profile_mapping
 from gps_error_ros.traces.trace_io import join_recordings, recordings_of
 
-__all__ = ['AxisFit', 'calibrate', 'CalibrationError', 'CalibrationResult',
+__all__ = ['AxisFit', 'calibrate', 'CalibrationError', 'CalibrationResult', 'check_sampling',
            'DEFAULT_MAX_ORDER', 'errors_on_grid', 'fit_axis', 'GriddedErrors']
 
 
@@ -76,6 +76,33 @@ class GriddedErrors:
         for s, seg in zip(self.starts, self.segments):
             mask[s - first:s - first + len(seg)] = True
         return mask
+
+
+#: The longest median interval between a recording's fixes, in model steps. Beyond
+#: it most fixes have no fix on the next step, and the fits, which take products
+#: of errors on neighbouring steps, have little or nothing to fit.
+MAX_MEDIAN_INTERVAL_STEPS = 1.5
+
+
+def check_sampling(trace, rate_hz=1.0):
+    """
+    Refuse a recording whose fixes are mostly more than a model step apart.
+
+    Raises
+    ------
+    CalibrationError
+        Naming the recording, its median interval and the one needed.
+
+    """
+    if len(trace) < 2:
+        return
+    median = float(np.median(np.diff(trace.t)))
+    if median * rate_hz > MAX_MEDIAN_INTERVAL_STEPS:
+        raise CalibrationError(
+            f'{trace.name}: its fixes are {median:.3g} s apart (median interval): the '
+            f'model steps at {rate_hz:g} Hz and its fits use errors on neighbouring '
+            f'steps, so they need fixes at {rate_hz:g} Hz or faster (a median '
+            f'interval of at most {MAX_MEDIAN_INTERVAL_STEPS / rate_hz:g} s)')
 
 
 def errors_on_grid(trace, rate_hz=1.0):
@@ -247,10 +274,13 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
     Raises
     ------
     CalibrationError
-        Too few samples for the order, constant or non-stationary errors.
+        A recording sampled slower than the grid, too few samples for the
+        order, constant or non-stationary errors.
 
     """
     traces = recordings_of(trace)
+    for t in traces:
+        check_sampling(t, rate_hz)
     kept, failures = without_gross_failures(traces)
     masks = tuple(errors_on_grid(t, rate_hz).fix_mask() for t in traces)
     clean = join_recordings(kept)

@@ -11,7 +11,7 @@ from pathlib import Path
 from gps_error_ros.traces import bag_io
 from gps_error_ros.traces.pairing import pair
 from gps_error_ros.traces.progress import Progress
-from gps_error_ros.traces.trace_io import read_trace_csv, TraceError
+from gps_error_ros.traces.trace_io import read_trace_csv_counted, TraceError
 
 
 def is_bag(path):
@@ -81,9 +81,14 @@ def load_trace(path, fix_topic='/fix', truth_topic='/pose', datum=None,
     """
     bag = is_bag(path)
     if bag is None:
-        trace = read_trace_csv(path, agent)
+        trace, left_out = read_trace_csv_counted(path, agent)
         who = f' of agent {agent!r}' if agent is not None else ''
-        return trace, [f'{trace.name}: {len(trace)} rows{who}']
+        notes = [f'{trace.name}: {len(trace)} rows{who}']
+        if left_out['no_fix'] or left_out['no_truth']:
+            notes.append(f'  left out as gaps: {left_out["no_fix"]} rows without a fix '
+                         f'(lat or lon empty), {left_out["no_truth"]} without truth '
+                         f'(truth_lat or truth_lon empty)')
+        return trace, notes
     if agent is not None:
         raise ValueError(f'--agent {agent!r}: a rosbag2 has no agent column; '
                          f'choose the agent by --fix-topic and --truth-topic')

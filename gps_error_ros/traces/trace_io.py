@@ -7,7 +7,9 @@ One header line, comma-separated, one row per fix sorted by ``t`` (seconds):
 ``truth_speed`` and ``truth_bearing`` are optional (cells may be empty), and so
 is ``agent`` (text: the file then holds several agents' traces,
 one chosen by name). Other columns are ignored. A UTF-8 byte-order mark and
-Windows line endings are accepted.
+Windows line endings are accepted. An empty cell means "not available": a
+row whose ``lat`` or ``lon`` is empty has no fix and one whose ``truth_lat``
+or ``truth_lon`` is empty no truth; either is left out (a gap), and counted.
 """
 
 import csv
@@ -20,6 +22,8 @@ import numpy as np
 from gps_error_ros.model.atomic import atomic_output
 
 REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
+#: Required columns whose empty cell means "not available" (the row is a gap).
+MAY_BE_EMPTY = ('lat', 'lon', 'truth_lat', 'truth_lon')
 OPTIONAL = ('alt', 'truth_alt', 'speed', 'accuracy', 'nsat', 'mean_cn0', 'bearing',
             'hdop', 'truth_speed', 'truth_bearing', 'accuracy_major', 'accuracy_minor',
             'accuracy_orientation')
@@ -77,7 +81,7 @@ def _column(path, body, i, name):
     values = np.empty(len(body))
     for r, row in enumerate(body, start=2):
         cell = row[i].strip() if i < len(row) else ''
-        if cell == '' and name in OPTIONAL:
+        if cell == '' and (name in OPTIONAL or name in MAY_BE_EMPTY):
             values[r - 2] = np.nan
             continue
         try:
@@ -132,7 +136,8 @@ def read_trace_csv(path, agent=None):
 
     A file with an ``agent`` column (``gps_error simulate`` writes one) holds
     several agents' traces; ``agent`` picks one (needed when there are
-    several).
+    several). Rows without a fix or without truth (empty cells) are left
+    out; :func:`read_trace_csv_counted` also says how many.
 
     Parameters
     ----------
@@ -151,6 +156,16 @@ def read_trace_csv(path, agent=None):
     TraceError
         Naming the file, the row or column, and what was expected.
 
+    """
+    return read_trace_csv_counted(path, agent)[0]
+
+
+def read_trace_csv_counted(path, agent=None):
+    """
+    Return (:func:`read_trace_csv`'s trace, the rows left out by why).
+
+    The second is a dict: ``no_fix`` (``lat`` or ``lon`` empty) and
+    ``no_truth`` (a fix, but ``truth_lat`` or ``truth_lon`` empty).
     """
     path = Path(path)
     header, body = _header_and_rows(path)
@@ -171,15 +186,25 @@ def read_trace_csv(path, agent=None):
         kind = 'duplicate' if step[r - 3] == 0 else 'decreasing'
         raise TraceError(f'{path}: line {r}: {kind} time t={float(t[r - 2])!r} after '
                          f'{float(t[r - 3])!r}: expected strictly increasing t')
+    no_fix = np.isnan(data['lat']) | np.isnan(data['lon'])
+    no_truth = ~no_fix & (np.isnan(data['truth_lat']) | np.isnan(data['truth_lon']))
+    keep = ~(no_fix | no_truth)
+    if keep.sum() < 2:
+        raise TraceError(f'{path}: {int(keep.sum())} row(s) with a fix and its truth '
+                         f'(lat, lon, truth_lat, truth_lon all given): a trace needs '
+                         f'at least 2')
+    data = {k: v[keep] for k, v in data.items()}
     for lat_col, lon_col in (('lat', 'lon'), ('truth_lat', 'truth_lon')):
         bad = np.flatnonzero((np.abs(data[lat_col]) > 90)
                              | (np.abs(data[lon_col]) > 180))
         if bad.size:
-            raise TraceError(f'{path}: line {bad[0] + 2}: {lat_col}/{lon_col} '
+            line = int(np.flatnonzero(keep)[bad[0]]) + 2
+            raise TraceError(f'{path}: line {line}: {lat_col}/{lon_col} '
                              f'out of range: expected |lat| <= 90, |lon| <= 180')
-    return Trace(name=path.name, t=t, lat=data['lat'], lon=data['lon'],
-                 truth_lat=data['truth_lat'], truth_lon=data['truth_lon'],
-                 extra={k: data[k] for k in OPTIONAL if k in data})
+    trace = Trace(name=path.name, t=data['t'], lat=data['lat'], lon=data['lon'],
+                  truth_lat=data['truth_lat'], truth_lon=data['truth_lon'],
+                  extra={k: data[k] for k in OPTIONAL if k in data})
+    return trace, {'no_fix': int(no_fix.sum()), 'no_truth': int(no_truth.sum())}
 
 
 #: Seconds put between two recordings joined into one trace: longer than any

@@ -125,3 +125,22 @@ def test_messages_show_plain_numbers_and_the_profiles_that_have_fits(tmp_path, c
     err = capsys.readouterr().err
     assert 'expected one of DS1, DS2, DS5, DS7, snapshot-receiver-on-foot (or DS3, DS4, ' \
         'DS6, which have no published fit)' in err
+
+
+def test_a_recording_slower_than_the_grid_is_refused_by_every_fitting_command(
+        tmp_path, capsys):
+    walk = synthetic_trace('none', 1, 900)
+    keep = slice(None, None, 3)                      # a fix every 3 s
+    slow = write_trace_csv(type(walk)(walk.name, walk.t[keep], walk.lat[keep],
+                                      walk.lon[keep], walk.truth_lat[keep],
+                                      walk.truth_lon[keep]), tmp_path / 'slow.csv')
+    for argv in (['calibrate', str(slow), '-o', str(tmp_path / 'p.yaml')],
+                 ['validate', 'DS5', str(slow), '--out', str(tmp_path / 'v')],
+                 ['diagnose', str(slow)], ['compare', str(slow)]):
+        assert cli(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert err.strip().splitlines() == [
+            f'gps_error {argv[0]}: slow.csv: its fixes are 3 s apart (median interval): '
+            f'the model steps at 1 Hz and its fits use errors on neighbouring steps, so '
+            f'they need fixes at 1 Hz or faster (a median interval of at most 1.5 s)'], err
+    assert not (tmp_path / 'p.yaml').exists()
