@@ -309,6 +309,7 @@ def little_data_note(result):
     autocorrelation is below it are not seen) and the orders PACF and BIC
     chose per axis: far apart, the order is uncertain.
     """
+    from gps_error_ros.diagnose.common import MIN_TEST, MIN_TRAIN
     g = result.grid
     if g.n >= LITTLE_DATA_SAMPLES:
         return None
@@ -318,8 +319,8 @@ def little_data_note(result):
     return (f'{g.n} samples ({g.n / g.rate_hz / 60:.1f} min) is little data: the PACF '
             f'sees only partial autocorrelations beyond +-{bound:.3f}, and the orders '
             f'chosen ({orders}) are uncertain; fix one with --order, or record at '
-            f'least {LITTLE_DATA_SAMPLES} samples (compare and diagnose need 300 to '
-            f'train on, of 70 %)')
+            f'least {LITTLE_DATA_SAMPLES} samples (compare and diagnose need '
+            f'{MIN_TRAIN} to train on and {MIN_TEST} held out, of 70 and 30 %)')
 
 
 #: Share of fixes in truth gaps, or of missing grid steps, that marks a
