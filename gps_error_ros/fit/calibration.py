@@ -88,11 +88,8 @@ def check_sampling(trace, rate_hz=1.0):
     """
     Refuse a recording whose fixes are mostly more than a model step apart.
 
-    Raises
-    ------
-    CalibrationError
-        Naming the recording, its median interval and the one needed.
-
+    The :class:`CalibrationError` names the recording, its median interval
+    and the longest one the grid at ``rate_hz`` takes.
     """
     if len(trace) < 2:
         return
