@@ -398,8 +398,11 @@ def heldout_measures(split, base, extended, sims, seed, name):
     ll_b = base.score(split.test, split.truth, m0)[0]
     ll_e = extended.score(split.test, split.truth, m0)[0]
     if len(ll_b) < MIN_TEST // 2:
-        raise DiagnosisError(f'{name}: only {len(ll_b)} held-out samples '
-                             f'can be scored')
+        raise DiagnosisError(
+            f'{name}: only {len(ll_b)} of {split.test.n} held-out samples can be scored '
+            f'(one is when the {m0} steps before it have fixes too, and the gaps, '
+            f'gross failures included, leave that few); at least {MIN_TEST // 2} are '
+            f'needed')
     mean, lo, hi = block_bootstrap_mean(ll_e - ll_b, seed=seed)
     before = {'heldout_nll_per_sample': float(-ll_b.mean()),
               **fidelity(base, split.test, split.truth, sims, seed)}

@@ -144,3 +144,18 @@ def test_a_recording_slower_than_the_grid_is_refused_by_every_fitting_command(
             f'the model steps at 1 Hz and its fits use errors on neighbouring steps, so '
             f'they need fixes at 1 Hz or faster (a median interval of at most 1.5 s)'], err
     assert not (tmp_path / 'p.yaml').exists()
+
+
+def test_a_held_out_part_too_gappy_to_score_says_why(tmp_path, capsys):
+    import numpy as np
+    walk = synthetic_trace('ar5', 1, 1200)
+    keep = np.ones(len(walk), bool)
+    keep[int(len(walk) * 0.72)::3] = False           # the held-out part: pairs of fixes
+    gappy = write_trace_csv(type(walk)(walk.name, walk.t[keep], walk.lat[keep],
+                                       walk.lon[keep], walk.truth_lat[keep],
+                                       walk.truth_lon[keep]), tmp_path / 'gappy.csv')
+    assert cli(['diagnose', str(gappy), '--sims', '20']) == 2
+    err = capsys.readouterr().err
+    assert re.search(r'gappy.csv: only \d+ of \d+ held-out samples can be scored \(one is '
+                     r'when the \d+ steps before it have fixes too.*at least 40 are needed',
+                     err), err
