@@ -147,12 +147,15 @@ def split_step(trace):
     """Step 1: split ``trace``; refuse parts too short to fit or to score."""
     split = split_trace(trace, TRAIN_FRACTION)
     if split.train.n < MIN_TRAIN or split.test.n < MIN_TEST:
+        need_s = math.ceil(max(MIN_TRAIN / TRAIN_FRACTION, MIN_TEST / (1 - TRAIN_FRACTION)))
+        span_s = float(trace.t[-1] - trace.t[0])
+        why = (f'a trace of about {need_s} s or more' if span_s < need_s else
+               f'its {span_s:.0f} s would do, but its gaps, gross failures included, '
+               f'leave too few')
         raise DiagnosisError(
             f'{trace.name}: {split.train.n} training and {split.test.n} held-out '
             f'samples on the 1 Hz grid; need at least {MIN_TRAIN} and {MIN_TEST} '
-            f'(a trace of about '
-            f'{math.ceil(max(MIN_TRAIN / TRAIN_FRACTION, MIN_TEST / (1 - TRAIN_FRACTION)))} '
-            f's or more)')
+            f'({why}; the first {100 * TRAIN_FRACTION:.0f} % of the time trains)')
     return split
 
 

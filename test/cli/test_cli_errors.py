@@ -159,3 +159,21 @@ def test_a_held_out_part_too_gappy_to_score_says_why(tmp_path, capsys):
     assert re.search(r'gappy.csv: only \d+ of \d+ held-out samples can be scored \(one is '
                      r'when the \d+ steps before it have fixes too.*at least 40 are needed',
                      err), err
+
+
+def test_a_recording_long_enough_but_gappy_is_told_apart_from_a_short_one(tmp_path, capsys):
+    walk = synthetic_trace('none', 1, 700)
+    keep = (walk.t < 300) | (walk.t >= 640)
+    gappy = write_trace_csv(type(walk)(walk.name, walk.t[keep], walk.lat[keep],
+                                       walk.lon[keep], walk.truth_lat[keep],
+                                       walk.truth_lon[keep]), tmp_path / 'gappy.csv')
+    short = write_trace_csv(type(walk)(walk.name, walk.t[:250], walk.lat[:250],
+                                       walk.lon[:250], walk.truth_lat[:250],
+                                       walk.truth_lon[:250]), tmp_path / 'short.csv')
+    assert cli(['compare', str(gappy)]) == 2
+    err = capsys.readouterr().err
+    assert 'need at least 180 and 80 (its 699 s would do, but its gaps, gross failures ' \
+        'included, leave too few; the first 70 % of the time trains)' in err, err
+    assert cli(['diagnose', str(short)]) == 2
+    err = capsys.readouterr().err
+    assert '(a trace of about 267 s or more; the first 70 % of the time trains)' in err, err
