@@ -217,7 +217,8 @@ def cmd_calibrate(args):
                   f'may choose more')
     if result.population is not None:
         print(f'  {population_line(result.population)}')
-    note = little_data_note(result)
+    from gps_error_ros.diagnose.common import MIN_TEST, MIN_TRAIN
+    note = little_data_note(result, (MIN_TRAIN, MIN_TEST))
     if note:
         print(f'  note: {note}')
     print(f'wrote {out}')

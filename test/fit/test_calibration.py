@@ -124,10 +124,10 @@ def test_calibrate_says_how_little_data_it_had(tmp_path, capsys):
     note = little_data_note(calibrate(short))
     assert note.startswith('216 samples (3.6 min) is little data')
     assert '+-0.133' in note and 'north PACF' in note and 'BIC' in note
-    assert 'compare and diagnose need 180 to train on and 80 held out' in note
     assert little_data_note(calibrate(synthetic_trace(600, seed=4)[0])) is None
     src = write_csv(tmp_path / 'short.csv', short)
     assert gps_error(['calibrate', str(src), '-o', str(tmp_path / 'p.yaml')]) == 0
     said = capsys.readouterr().out
     assert 'note: 216 samples (3.6 min) is little data' in said
+    assert 'compare and diagnose need 180 to train on and 80 held out' in said
     assert 'mean error' in said and 'stationary SD' in said
