@@ -101,7 +101,7 @@ diagnose-long: setup
 
 # calibrate, validate, diagnose and compare on altered copies of every recording
 # of ../shared/data (cut, thinned, gappy, failing): each exits 0 quietly or
-# refuses in one line. About 50 minutes on a 2-core machine.
+# refuses in one line. About 25 minutes on a 2-core machine.
 input-sweep: setup
 	$(PY) bench/input_sweep.py --data $(DATA)
 

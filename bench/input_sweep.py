@@ -13,7 +13,7 @@ exits 2 with one line that names the recording (a refusal). Anything
 else, a warning or a traceback among them, fails the sweep. The copies are
 written to a temporary folder and removed.
 
-``make input-sweep`` runs it on ``../shared/data`` (about 50 minutes on two
+``make input-sweep`` runs it on ``../shared/data`` (about 25 minutes on two
 cores); ``--only`` restricts it to recordings whose name holds a text.
 """
 
