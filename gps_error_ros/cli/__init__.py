@@ -217,10 +217,11 @@ def cmd_calibrate(args):
                   f'may choose more')
     if result.population is not None:
         print(f'  {population_line(result.population)}')
-    from gps_error_ros.diagnose.common import MIN_TEST, MIN_TRAIN
-    note = little_data_note(result, (MIN_TRAIN, MIN_TEST))
-    if note:
-        print(f'  note: {note}')
+    note = little_data_note(result)
+    if note:        # diagnose's sizes; its package is imported only for this line
+        from gps_error_ros.diagnose.common import MIN_TEST, MIN_TRAIN
+        print(f'  note: {note} (compare and diagnose need {MIN_TRAIN} to train on and '
+              f'{MIN_TEST} held out, of 70 and 30 %)')
     print(f'wrote {out}')
     return 0
 

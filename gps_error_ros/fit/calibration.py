@@ -298,15 +298,13 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
 LITTLE_DATA_SAMPLES = 600
 
 
-def little_data_note(result, split_need=None):
+def little_data_note(result):
     """
     Return a note on a fit from little data, or None (``LITTLE_DATA_SAMPLES`` or more).
 
     It gives the span, the PACF's 95 % bound (lags whose partial
     autocorrelation is below it are not seen) and the orders PACF and BIC
-    chose per axis: far apart, the order is uncertain. ``split_need``, the
-    training and held-out samples that ``diagnose`` and ``compare`` ask for,
-    adds them.
+    chose per axis: far apart, the order is uncertain.
     """
     g = result.grid
     if g.n >= LITTLE_DATA_SAMPLES:
@@ -317,9 +315,7 @@ def little_data_note(result, split_need=None):
     return (f'{g.n} samples ({g.n / g.rate_hz / 60:.1f} min) is little data: the PACF '
             f'sees only partial autocorrelations beyond +-{bound:.3f}, and the orders '
             f'chosen ({orders}) are uncertain; fix one with --order, or record at '
-            f'least {LITTLE_DATA_SAMPLES} samples' + (
-                '' if split_need is None else f' (compare and diagnose need {split_need[0]} '
-                f'to train on and {split_need[1]} held out, of 70 and 30 %)'))
+            f'least {LITTLE_DATA_SAMPLES} samples')
 
 
 #: Share of fixes in truth gaps, or of missing grid steps, that marks a
