@@ -41,11 +41,6 @@ def _write(path, header, rows):
         w.writerows(rows)
 
 
-def _set(row, header, name, value):
-    if name in header:
-        row[header.index(name)] = value
-
-
 def variants(path, rng):
     """Yield (suffix, header, rows): the altered copies of one trace CSV."""
     header, rows = _rows(path)
@@ -57,10 +52,10 @@ def variants(path, rng):
     yield 'every3', header, rows[::3]
     keep = [c for c in header if c != 'accuracy']
     failed = [[r[col[c]] for c in keep] for r in rows]
-    k = min(25, n // 20)
+    k, klat, klon = min(25, n // 20), keep.index('lat'), keep.index('lon')
     for r in failed[int(n * 0.3):int(n * 0.3) + k + 1]:
-        r[keep.index('lat')] = f'{float(r[keep.index("lat")]) + 0.02 + rng.gauss(0, 0.005):.8f}'
-    failed[3][keep.index('lon')] = f'{float(failed[3][keep.index("lon")]) - 0.3:.8f}'
+        r[klat] = f'{float(r[klat]) + 0.02 + rng.gauss(0, 0.005):.8f}'
+    failed[3][klon] = f'{float(failed[3][klon]) - 0.3:.8f}'
     yield 'failcluster', keep, failed
     mid = float(rows[n // 2][t])
     gaps = [list(r) for r in rows if not mid < float(r[t]) < mid + 200]
@@ -97,7 +92,8 @@ def variants(path, rng):
         r[t] = f'{t0 - 300 + i:.3f}'
         r[lat] = f'{float(first[col["truth_lat"]]) + rng.gauss(0, 2e-5):.8f}'
         r[lon] = f'{float(first[col["truth_lon"]]) + rng.gauss(0, 2e-5):.8f}'
-        _set(r, header, 'speed', '0')
+        if 'speed' in col:
+            r[col['speed']] = '0'
         still.append(r)
     yield 'still', header, still + rows
 
@@ -155,6 +151,9 @@ def main(argv=None):
             for suffix, header, rows in variants(src, rng):
                 copies.append(work / f'{src.stem}__{suffix}.csv')
                 _write(copies[-1], header, rows)
+        if not copies:
+            ap.error(f'--data {args.data} --only {args.only!r}: no trace CSV (*.csv) '
+                     f'to alter')
         print(f'{len(copies)} altered copies of the recordings in {args.data}, '
               f'{len(commands(copies[0], work))} commands each')
         failed = 0
