@@ -13,6 +13,7 @@ from several recordings, or from the blocks of one long recording: see
       bias_time_constant_s: 1800  # optional: the bias wanders (first-order Gauss-Markov)
       scale_sd_log: 0.25          # SD of the log of an agent's scale of the deviations
       bias_dof: 4                 # optional: a run's bias is Student-t (heavy-tailed)
+      run_bias_sd_m: [0.5, 3.8]   # optional: SD of a part of the bias held for the whole run
 
 An agent's error at model step ``k`` is::
 
@@ -34,16 +35,25 @@ wander are multiplied by the run's factor ``g = sqrt((dof - 2) / chi2)``,
 run. It is what the bias of a new occasion is, predicted from the few
 occasions a fit saw (see :mod:`gps_error_ros.fit.population_fit`).
 
+With ``run_bias_sd_m`` the bias has two parts on two time scales: ``b(k) =
+c + w(k)``, ``w`` the wandering part above (``bias_sd_m``, the time
+constant) and ``c`` a part held for the whole run, drawn at the start from
+``N(0, diag(run_bias_sd_m^2))`` and multiplied by the same ``g``. A
+receiver whose bias differs between occasions by more than it wanders
+within one (the pedestrian walks) needs both.
+
 Draws: the scale from the stream domain ``population_scale`` at position 0
 (an agent's phone keeps its scale whenever it starts); the initial bias
 from ``init_bias`` at the start step; the wander from ``bias`` at each
 step; a Student-t bias's chi-square from ``bias_mix``, ``ceil(dof / 2)``
-normal pairs at the start step's first initial-state positions. One agent
+normal pairs at the start step's first initial-state positions; the part
+held for the run from ``run_bias`` at the start step. One agent
 alone, in a crowd or in a shard has the same errors.
 
 Covariances (``stationary_cov`` and ``predictive_cov``): a consumer that
 knows nothing of the agent (the stationary covariance, and the first step's
-conditional one) covers the population's spread, ``C + diag(bias_sd_m^2)``;
+conditional one) covers the population's spread, ``C + diag(bias_sd_m^2 +
+run_bias_sd_m^2)``;
 given the state a step before (the ``conditional`` mode) the agent's scale
 and bias are known, so it is ``f^2`` times the process's one-step
 covariance plus the bias's own one-step variance ``(1 - a^2) g^2
@@ -58,7 +68,7 @@ import numpy as np
 from gps_error_ros.model import streams
 
 SECTION_KEYS = ('bias_sd_m', 'scale_sd_log')
-OPTIONAL_KEYS = ('bias_time_constant_s', 'bias_dof')
+OPTIONAL_KEYS = ('bias_time_constant_s', 'bias_dof', 'run_bias_sd_m')
 #: The most degrees of freedom a Student-t bias may have (beyond, it is all but normal).
 MAX_BIAS_DOF = 30
 #: The largest bias SD a profile may carry, m.
@@ -79,6 +89,7 @@ class Population:
     scale_sd_log: float
     bias_time_constant_s: float = None
     bias_dof: int = None
+    run_bias_sd_m: tuple = None
 
     def to_dict(self):
         """Return the section as plain data."""
@@ -88,6 +99,8 @@ class Population:
             out['bias_time_constant_s'] = round(float(self.bias_time_constant_s), 1)
         if self.bias_dof is not None:
             out['bias_dof'] = int(self.bias_dof)
+        if self.run_bias_sd_m is not None:
+            out['run_bias_sd_m'] = [round(float(v), 4) for v in self.run_bias_sd_m]
         return out
 
     def persistence(self, rate_hz=1.0):
@@ -111,10 +124,10 @@ def population_from_dict(raw, source='<profile>'):
                               f'{list(SECTION_KEYS)} and optionally {list(OPTIONAL_KEYS)}, '
                               f'got {raw!r}')
     sd = raw['bias_sd_m']
-    if not isinstance(sd, list) or len(sd) != 2 or \
-            not all(_positive_number(v, MAX_BIAS_SD_M) for v in sd):
-        raise PopulationError(f'{source}: key {key}.bias_sd_m: expected two numbers '
-                              f'(north, east) in [0, {MAX_BIAS_SD_M:g}] m, got {sd!r}')
+    _check_sd(sd, f'{source}: key {key}.bias_sd_m')
+    run = raw.get('run_bias_sd_m')
+    if run is not None:
+        _check_sd(run, f'{source}: key {key}.run_bias_sd_m')
     s = raw['scale_sd_log']
     if not _positive_number(s, MAX_SCALE_SD_LOG):
         raise PopulationError(f'{source}: key {key}.scale_sd_log: expected a number in '
@@ -131,7 +144,16 @@ def population_from_dict(raw, source='<profile>'):
                               f'[3, {MAX_BIAS_DOF}], or the key left out (a normal '
                               f'bias), got {dof!r}')
     return Population(tuple(float(v) for v in sd), float(s),
-                      None if tau is None else float(tau), dof)
+                      None if tau is None else float(tau), dof,
+                      None if run is None else tuple(float(v) for v in run))
+
+
+def _check_sd(sd, where):
+    """Raise :class:`PopulationError` unless ``sd`` is two SDs (north, east) in range."""
+    if not isinstance(sd, list) or len(sd) != 2 or \
+            not all(_positive_number(v, MAX_BIAS_SD_M) for v in sd):
+        raise PopulationError(f'{where}: expected two numbers (north, east) in '
+                              f'[0, {MAX_BIAS_SD_M:g}] m, got {sd!r}')
 
 
 def agent_scales(keys, scale_sd_log):
@@ -177,6 +199,11 @@ class AgentDraws:
         self.bias_sd = np.asarray(population.bias_sd_m, dtype=float)
         self.a = population.persistence(rate_hz)
         self.wander_sd = self.bias_sd * math.sqrt(max(0.0, 1.0 - self.a * self.a))
+        self.held = population.run_bias_sd_m is not None
+        self.run_sd = np.asarray(population.run_bias_sd_m if self.held else (0.0, 0.0),
+                                 dtype=float)
+        #: The population's spread of biases about the mean, (2, 2).
+        self.spread = np.diag(self.bias_sd ** 2 + self.run_sd ** 2)
 
     def scales(self, keys):
         """Return each agent's scale ``f`` (n,)."""
@@ -187,6 +214,13 @@ class AgentDraws:
         g = bias_factors(keys, start, self.population.bias_dof)
         return self.bias_sd * g[:, None] * streams.normal_pairs(
             keys, streams.DOMAIN_INIT_BIAS, start), g
+
+    def held_part(self, keys, start, g):
+        """Return the parts (n, 2) of the biases held for runs started at ``start``."""
+        if not self.held:
+            return np.zeros((np.size(keys), 2))
+        return self.run_sd * g[:, None] * streams.normal_pairs(
+            keys, streams.DOMAIN_RUN_BIAS, start)
 
     def wander(self, bias, g, keys, index):
         """Advance the biases ``bias`` (n, 2), factors ``g``, in place to model step ``index``."""
@@ -211,20 +245,22 @@ class AgentDraws:
         process's first-step covariance plus the population's bias spread.
         """
         if first:
-            return cov + np.diag(self.bias_sd ** 2)
+            return cov + self.spread
         return cov * (scale ** 2)[:, None, None] + \
             (g ** 2)[:, None, None] * np.diag(self.wander_sd ** 2)
 
-    def agent_mean(self, mean, pm, scale, bias, first=False):
+    def agent_mean(self, mean, pm, scale, bias, first=False, held=None):
         """
         Return agents' expected next errors (n, 2) from the process's ``pm``.
 
         ``mean`` is the process's mean, ``scale`` and ``bias`` (the run's
-        bias a step before) the agents'; ``first``: the process's own.
+        wandering bias a step before) the agents', ``held`` the part of
+        their bias held for the run (None: none); ``first``: the process's own.
         """
         if first:
             return pm
-        return mean + scale[:, None] * (pm - mean) + self.a * bias
+        out = mean + scale[:, None] * (pm - mean) + self.a * bias
+        return out if held is None else out + held
 
 
 class WithPopulation:
@@ -232,16 +268,18 @@ class WithPopulation:
     An error model of one agent drawn from a population (see the module docstring).
 
     The state is the inner model's with two more columns: ``[:, :, -2]`` the
-    run's bias (north, east), ``[:, 0, -1]`` the agent's scale ``f`` and
-    ``[:, 1, -1]`` the run's Student-t factor ``g`` (1 for a normal bias).
-    Errors, moments and covariances are the inner model's, turned into the
-    agent's by its scale and bias.
+    run's (wandering) bias (north, east), ``[:, 0, -1]`` the agent's scale
+    ``f`` and ``[:, 1, -1]`` the run's Student-t factor ``g`` (1 for a
+    normal bias); with ``run_bias_sd_m``, a third, ``[:, :, -3]``, the part
+    of the bias held for the run. Errors, moments and covariances are the
+    inner model's, turned into the agent's by its scale and bias.
     """
 
     def __init__(self, inner, population, rate_hz=1.0):
         self.inner = inner
         self.population = population
         self.draws = AgentDraws(population, rate_hz)
+        self.extra = 3 if self.draws.held else 2
 
     def __getattr__(self, name):
         # mean, lag_s, order, needs_heading, ... are the inner model's
@@ -252,7 +290,7 @@ class WithPopulation:
     @property
     def stationary_cov(self):
         """Return the population's covariance about the mean: the process's plus the bias's."""
-        return np.asarray(self.inner.stationary_cov) + np.diag(self.draws.bias_sd ** 2)
+        return np.asarray(self.inner.stationary_cov) + self.draws.spread
 
     @property
     def stationary_sd(self):
@@ -263,7 +301,8 @@ class WithPopulation:
         """Return the population's autocovariance at lags 0..max_lag, (max_lag + 1, 2, 2)."""
         decay = self.draws.a ** np.arange(max_lag + 1)
         return self.inner.autocovariance(max_lag) + \
-            decay[:, None, None] * np.diag(self.draws.bias_sd ** 2)[None]
+            decay[:, None, None] * np.diag(self.draws.bias_sd ** 2)[None] + \
+            np.diag(self.draws.run_sd ** 2)[None]
 
     def autocorrelation(self, max_lag):
         """Return the population's autocorrelation per axis (max_lag + 1, 2)."""
@@ -273,47 +312,59 @@ class WithPopulation:
 
     # --- state -----------------------------------------------------------
 
-    def _wider(self, inner_state, keys, bias, g):
-        """Return ``inner_state`` with the run's ``bias``, ``g`` and the agents' scales."""
-        state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 2,))
-        state[:, :, :-2] = inner_state
+    def _inner(self, state):
+        """Return the inner model's part of ``state``."""
+        return state[:, :, :-self.extra]
+
+    def _held(self, state):
+        """Return the parts of the agents' biases held for the run (n, 2), or None."""
+        return state[:, :, -3] if self.extra == 3 else None
+
+    def _wider(self, inner_state, keys, start, bias, g):
+        """Return ``inner_state`` with the run's biases, ``g`` and the agents' scales."""
+        state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + self.extra,))
+        state[:, :, :-self.extra] = inner_state
         state[:, :, -2] = bias
         state[:, 0, -1] = self.draws.scales(keys)
         state[:, 1, -1] = g
+        if self.extra == 3:
+            state[:, :, -3] = self.draws.held_part(keys, start, g)
         return state
 
     def empty_state(self, n):
         """Return a state array for ``n`` agents (zeros)."""
         inner = self.inner.empty_state(n)
-        return np.zeros(inner.shape[:2] + (inner.shape[2] + 2,))
+        return np.zeros(inner.shape[:2] + (inner.shape[2] + self.extra,))
 
     def _agent(self, inner_err, state):
         """Return the agent's errors from the inner model's: ``m + f d + b``."""
         m = np.asarray(self.inner.mean, dtype=float)
-        return m + state[:, 0, -1][:, None] * (inner_err - m) + state[:, :, -2]
+        out = m + state[:, 0, -1][:, None] * (inner_err - m) + state[:, :, -2]
+        held = self._held(state)
+        return out if held is None else out + held
 
     def initial_state(self, keys, index):
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return self._wider(self.inner.initial_state(keys, index), keys,
+        return self._wider(self.inner.initial_state(keys, index), keys, index,
                            *self.draws.run_bias(keys, index))
 
     def advance(self, state, keys, index, *args, **kwargs):
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(state[:, :, :-2], keys, index, *args, **kwargs)
+        err = self.inner.advance(self._inner(state), keys, index, *args, **kwargs)
         self.draws.wander(state[:, :, -2], state[:, 1, -1], keys, index)
         return self._agent(err, state)
 
     def errors(self, state):
         """Return each agent's current north/east errors, (n, 2)."""
-        return self._agent(self.inner.errors(state[:, :, :-2]), state)
+        return self._agent(self.inner.errors(self._inner(state)), state)
 
     def state_after(self, keys, start, step, *args, **kwargs):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         inner = self.inner.state_after(keys, start, step, *args, **kwargs)
-        return self._wider(inner, keys, *self.draws.bias_at(keys, start, step))
+        return self._wider(inner, keys, start, *self.draws.bias_at(keys, start, step))
 
     def simulate(self, keys, n_steps, start=0, out=None):
         """Return the agents' errors at steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
@@ -324,10 +375,13 @@ class WithPopulation:
         m = np.asarray(self.inner.mean, dtype=float)
         scale = self.draws.scales(keys)[:, None]
         bias, g = self.draws.run_bias(keys, start)
+        held = self.draws.held_part(keys, start, g) if self.draws.held else None
         for k in range(n_steps):
             if k:
                 self.draws.wander(bias, g, keys, start + k)
             out[k] = m + scale * (out[k] - m) + bias
+            if held is not None:
+                out[k] += held
         return out
 
     # --- what a consumer is told ------------------------------------------
@@ -339,11 +393,12 @@ class WithPopulation:
         ``first`` (nothing known of the agent): the process's first-step
         covariance plus the population's bias spread.
         """
-        return self.draws.agent_cov(self.inner.predictive_cov(state[:, :, :-2], first),
+        return self.draws.agent_cov(self.inner.predictive_cov(self._inner(state), first),
                                     state[:, 0, -1], state[:, 1, -1], first)
 
     def predictive_mean(self, state, first=False):
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""
         return self.draws.agent_mean(np.asarray(self.inner.mean, dtype=float),
-                                     self.inner.predictive_mean(state[:, :, :-2], first),
-                                     state[:, 0, -1], state[:, :, -2], first)
+                                     self.inner.predictive_mean(self._inner(state), first),
+                                     state[:, 0, -1], state[:, :, -2], first,
+                                     self._held(state))

@@ -97,6 +97,8 @@ DOMAIN_BIAS_MIX = 21
 
 #: Gross failures: the agent's own rate, one normal pair (first used) at position 0.
 DOMAIN_FAILURE_RATE = 22
+#: Population: the part of the run's bias held for the run, one normal pair per start step.
+DOMAIN_RUN_BIAS = 23
 
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
@@ -113,7 +115,7 @@ DOMAINS = {
     'failure': DOMAIN_FAILURE, 'failure_direction': DOMAIN_FAILURE_DIRECTION,
     'population_scale': DOMAIN_POPULATION_SCALE, 'init_bias': DOMAIN_INIT_BIAS,
     'bias': DOMAIN_BIAS, 'bias_mix': DOMAIN_BIAS_MIX,
-    'failure_rate': DOMAIN_FAILURE_RATE,
+    'failure_rate': DOMAIN_FAILURE_RATE, 'run_bias': DOMAIN_RUN_BIAS,
 }
 
 

@@ -86,7 +86,7 @@ def _core(model):
 
 #: Per-slot arrays of :class:`ZonedErrors` (grown, kept and forgotten together).
 _SLOT_ARRAYS = ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading',
-                'bias', 'scale', 'bias_factor')
+                'bias', 'scale', 'bias_factor', 'held')
 
 
 class ZonedErrors:
@@ -130,7 +130,7 @@ class ZonedErrors:
         self.means = np.array([m.mean for m in self.models], dtype=float)
         self.stationary = np.array([m.stationary_cov for m in self.models])
         if population is not None:
-            self.stationary = self.stationary + np.diag(population.bias_sd ** 2)
+            self.stationary = self.stationary + population.spread
         #: whether any zone's innovations turn with the direction of travel
         self.needs_heading = any(m.needs_heading for m in self.models)
         self.start = None
@@ -147,6 +147,7 @@ class ZonedErrors:
         self.bias = np.zeros((n, 2))               # the run's bias (population)
         self.scale = np.ones(n)                    # the agent's scale f
         self.bias_factor = np.ones(n)              # the run's Student-t factor g
+        self.held = np.zeros((n, 2))               # the part of the bias held for the run
 
     @property
     def n(self):
@@ -211,6 +212,8 @@ class ZonedErrors:
         if self.population is not None:             # m + f (e - m) + b
             m = self.means[self.zone[rows]]
             err = m + self.scale[rows, None] * (err - m) + self.bias[rows]
+            if self.population.held:
+                err += self.held[rows]
         if self.failures is not None:
             off, fails = self.failures.offsets(keys, step)
             err[fails] = off[fails]
@@ -247,6 +250,7 @@ class ZonedErrors:
         self.bias[rows], self.bias_factor[rows] = self.population.bias_at(keys, self.start,
                                                                           step - 1)
         self.scale[rows] = self.population.scales(keys)
+        self.held[rows] = self.population.held_part(keys, self.start, self.bias_factor[rows])
 
     def _wander(self, rows, keys, step):
         """Wander the runs' biases of ``rows`` to model step ``step``."""
@@ -265,7 +269,8 @@ class ZonedErrors:
         if not about:
             return cov
         return mean_square(cov, draws.agent_mean(core.mean, core.predictive_mean(state, first),
-                                                 scale, self.bias[rows], first))
+                                                 scale, self.bias[rows], first,
+                                                 self.held[rows] if draws.held else None))
 
     def _conditional_start(self, model, rows, keys, step):
         """Return the state at ``step`` of a run from the start; set its covariance."""

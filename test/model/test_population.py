@@ -12,6 +12,7 @@ from gps_error_ros.model.profiles import (builtin_dir, load_profile, profile_fro
 SECTION = {'bias_sd_m': [2.0, 3.0], 'scale_sd_log': 0.3}
 WANDER = dict(SECTION, bias_time_constant_s=200.0)
 HEAVY = dict(WANDER, bias_dof=4)
+TWO = dict(HEAVY, run_bias_sd_m=[1.5, 4.0])
 
 
 def _profile(section=SECTION, base='DS5', **extra):
@@ -79,7 +80,8 @@ def test_a_wandering_bias_has_its_time_constant():
     assert abs(b.std() - 2.0) < 0.1
 
 
-@pytest.mark.parametrize('section', [WANDER, HEAVY], ids=['normal', 'student-t'])
+@pytest.mark.parametrize('section', [WANDER, HEAVY, TWO],
+                         ids=['normal', 'student-t', 'two time scales'])
 def test_every_path_gives_the_same_errors(section):
     """simulate, stepping, state_after, a late start, alone or with others: one function."""
     model = _profile(section).model()
@@ -95,6 +97,36 @@ def test_every_path_gives_the_same_errors(section):
     np.testing.assert_allclose(model.errors(later), whole[30], atol=1e-9, rtol=0)
     alone = model.simulate(keys[1:2], 60, start=100)
     np.testing.assert_array_equal(alone[:, 0], whole[:, 1])
+
+
+def test_a_bias_on_two_time_scales_holds_one_part_for_the_run():
+    """``run_bias_sd_m``: a part drawn at the start and held, beside the wandering part."""
+    section = dict(WANDER, scale_sd_log=0.0, run_bias_sd_m=[1.5, 4.0])
+    model = _profile(section).model()
+    inner = load_profile('DS5').model()
+    held = np.diag([2.25, 16.0])
+    np.testing.assert_allclose(model.stationary_cov,
+                               inner.stationary_cov + np.diag([4.0, 9.0]) + held, rtol=1e-12)
+    np.testing.assert_allclose(model.autocovariance(400)[400], inner.autocovariance(400)[400]
+                               + np.exp(-2.0) * np.diag([4.0, 9.0]) + held, rtol=1e-12)
+    keys = streams.agent_keys(6, [f'h{i}' for i in range(2000)])
+    b = model.simulate(keys, 1200) - inner.simulate(keys, 1200)    # the bias alone
+    # the part held: what the run's bias keeps from its first step to its last
+    start, end = b[:50].mean(axis=0), b[-50:].mean(axis=0)
+    shared = np.mean(start * end, axis=0)
+    # 2000 runs: each product's SD is about var, so the mean's is 2-3 %
+    np.testing.assert_allclose(shared, [2.25, 16.0], rtol=0.15)
+    np.testing.assert_allclose(b.std(axis=(0, 1)), np.sqrt([6.25, 25.0]), rtol=0.05)
+    # the same wander as without the part: the step-to-step changes
+    plain = _profile(dict(WANDER, scale_sd_log=0.0)).model().simulate(keys, 1200) - \
+        inner.simulate(keys, 1200)
+    np.testing.assert_allclose(np.diff(b, axis=0), np.diff(plain, axis=0), atol=1e-9)
+    # given the state, the next error: the held part known, its innovations of unit variance
+    before = model.state_after(keys, 0, 30)
+    pm, cov = model.predictive_mean(before), model.predictive_cov(before)
+    step = model.advance(before.copy(), keys, 31)
+    z = np.linalg.solve(np.linalg.cholesky(cov), (step - pm)[..., None])[..., 0]
+    assert 0.85 < np.mean(z ** 2) < 1.15, np.mean(z ** 2)
 
 
 def test_the_conditional_covariance_knows_the_agent():
@@ -120,7 +152,7 @@ def test_the_conditional_covariance_knows_the_agent():
 
 
 def test_the_section_round_trips_and_wraps_inside_failures():
-    prof = _profile(WANDER, gross_failures={'rate': 0.01, 'sizes_m': [100.0]})
+    prof = _profile(TWO, gross_failures={'rate': 0.01, 'sizes_m': [100.0]})
     model = prof.model()
     assert type(model).__name__ == 'WithFailures'
     assert isinstance(model.inner, WithPopulation)
@@ -137,6 +169,8 @@ def test_the_section_round_trips_and_wraps_inside_failures():
     ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'other': 1}, 'optionally'),
     ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'bias_dof': 2}, '[3, 30]'),
     ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'bias_dof': 4.5}, '[3, 30]'),
+    ({'bias_sd_m': [1.0, 1.0], 'scale_sd_log': 0.1, 'run_bias_sd_m': [1.0]},
+     'run_bias_sd_m: expected two numbers'),
 ])
 def test_a_bad_section_is_refused_with_what_was_expected(bad, says):
     with pytest.raises(ProfileError) as err:

@@ -168,7 +168,8 @@ def _population_profile(tmp_path, section):
 def test_the_default_profiles_population_serves_every_zone(tmp_path):
     """Outside the zones an agent is the default profile's; in them it keeps its bias."""
     crowd = _population_profile(tmp_path, '{bias_sd_m: [3, 4], scale_sd_log: 0.3, '
-                                          'bias_time_constant_s: 50, bias_dof: 4}')
+                                          'bias_time_constant_s: 50, bias_dof: 4, '
+                                          'run_bias_sd_m: [2, 5]}')
     path = two_zones(tmp_path, default_profile=str(crowd))
     for mode, about in (('stationary', False), ('conditional', False),
                         ('stationary', True), ('conditional', True)):
@@ -259,9 +260,11 @@ def test_walk_through_two_zones_has_each_zones_statistics(tmp_path):
 
 
 WANDERING = '{bias_sd_m: [2, 3], scale_sd_log: 0.4, bias_time_constant_s: 30}'
+TWO_SCALES = '{bias_sd_m: [2, 3], scale_sd_log: 0.4, bias_time_constant_s: 30, ' \
+    'run_bias_sd_m: [4, 1]}'
 
 
-@pytest.mark.parametrize('population', [None, WANDERING])
+@pytest.mark.parametrize('population', [None, WANDERING, TWO_SCALES])
 def test_an_agents_errors_do_not_depend_on_who_else_is_served(tmp_path, population):
     """Shards, late starts and the order agents are served in change nothing."""
     zmap = load_zone_map(two_zones(tmp_path))

@@ -221,7 +221,8 @@ def _cycle_profile(tmp_path, population=False):
     raw['gross_failures'] = {'rate': 0.1, 'sizes_m': [60.0, 400.0, 9000.0]}
     if population:
         raw['population'] = {'bias_sd_m': [4.0, 2.5], 'scale_sd_log': 0.5,
-                             'bias_time_constant_s': 20.0, 'bias_dof': 4}
+                             'bias_time_constant_s': 20.0, 'bias_dof': 4,
+                             'run_bias_sd_m': [3.0, 6.0]}
         # a rate per agent (these two draw below the mean: a higher mean keeps failures in)
         raw['gross_failures'].update(rate=0.3, rate_sd_log=0.5)
     path = tmp_path / 'cycle.yaml'
