@@ -134,8 +134,19 @@ def _evidence(folds):
             f'{ev["within_mean_sd_m"][1]:.2f} m; bias SD {sec["bias_sd_m"][0]:.2f} / '
             f'{sec["bias_sd_m"][1]:.2f} m, '
             + ('constant for a run' if tau is None else f'time constant {tau:.0f} s')
-            + f', scale log SD {sec["scale_sd_log"]:.2f}')
+            + f', scale log SD {sec["scale_sd_log"]:.2f}' + _held_words(f))
     return lines
+
+
+def _held_words(fold):
+    """Return how the Gaussian-within population split its bias in two, or ''."""
+    sec = fold['classes'].get('population_ar', {}).get('section') or {}
+    if 'run_bias_sd_m' not in sec:
+        return ''
+    held, wander = sec['run_bias_sd_m'], sec['bias_sd_m']
+    return (f'; with the Gaussian AR within, a part held for the run {held[0]:.2f} / '
+            f'{held[1]:.2f} m and a wander {wander[0]:.2f} / {wander[1]:.2f} m '
+            f'(time constant {sec["bias_time_constant_s"]:.0f} s)')
 
 
 def _drift_rows(folds):

@@ -198,6 +198,19 @@ def _occasion_note(traces):
     return out
 
 
+def _two_scales_words(fit):
+    """Return a sentence on how the fit split the walks' bias, or on why it did not."""
+    pop = fit.population
+    if pop is None or pop.run_bias_sd_m is None:
+        return 'The fit keeps one part: the walks do not tell a held part from a wander.'
+    held, wander = pop.run_bias_sd_m, pop.bias_sd_m
+    return (f'The fit splits it in two ([decision](decisions/0024-a-bias-on-two-time-scales'
+            f'.md)): a part held for the walk, SD {held[0]:.1f} m north and {held[1]:.1f} m '
+            f'east (how the walks\' means differ), and a part that wanders within a walk, '
+            f'{wander[0]:.1f} / {wander[1]:.1f} m with a time constant of '
+            f'{pop.bias_time_constant_s:.0f} s (how a walk\'s 300-s blocks differ).')
+
+
 def _errors(tr, failed):
     """Return the walk's north and east errors without its gross failures, m."""
     north, east = difference(tr.lat, tr.lon, tr.truth_lat, tr.truth_lon)
@@ -263,7 +276,8 @@ def main():
         '`--population` picks higher orders with small coefficients than any walk alone); '
         'the profile\'s `population` section describes it instead, as the spread of the '
         'occasions\' biases, each occasion counted once '
-        '([decision](decisions/0007-occasions.md)). The bias does not turn with the '
+        '([decision](decisions/0007-occasions.md)). ' + _two_scales_words(res.population)
+        + ' The bias does not turn with the '
         'walker: w03-w05\'s east error is -4 to -9 m whichever way they went (table '
         'below), so it is not the body or a wall beside the path but the occasion. A '
         'smaller part does turn with the walker: on six of the seven walks the median fix '

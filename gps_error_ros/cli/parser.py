@@ -98,7 +98,9 @@ def _add_calibrate(sub):
     c.add_argument('--population', action='store_true',
                    help='describe the receiver across stretches: fit the AR within blocks '
                         'of 300 s and a population section (each simulated agent draws '
-                        'its own bias and scale, as blocks and recordings differ; with 3 '
+                        'its own bias and scale, as blocks and recordings differ; the '
+                        'bias split into a part held for a run and a wander where the '
+                        'recordings hold two runs or more; with 3 '
                         'recordings or more, its own gross-failure rate too); needs '
                         '3 blocks of 300 s, e.g. 15 min of data or several recordings; '
                         'not with --zones (a zone map takes the population of its '

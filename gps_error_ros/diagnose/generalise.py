@@ -324,7 +324,7 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
             {KEYS.get(label, label): d for label, d in against.items()},
             KEYS.get(reference, reference), np.concatenate([e[m0:] for e in split.test.err]),
             np.concatenate([t[m0:] for t in split.test.t]), fit.mean,
-            fit.population.bias_sd_m, seed)
+            fit.population.bias_sd_total_m, seed)
         if beaten is not None:
             beaten['pacf'] = pacf_against(part_pacf(split.train), part_pacf(split.test))
         out[reference]['where_beaten'] = beaten

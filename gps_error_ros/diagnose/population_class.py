@@ -39,7 +39,9 @@ class PopulationClass:
     def __init__(self, train, within=None, truth=None, weights=None):
         self.lag = (0.0, 1.0) if within is None else (within.mean.lag_s, within.mean.gain)
         self.truth = truth
-        fit = fit_population(self._without_lag(train), train.t, weights=weights)
+        # a bias on two time scales where the scorer can follow it (the Kalman filter's)
+        fit = fit_population(self._without_lag(train), train.t, weights=weights,
+                             two_scales=within is None)
         self.fit, self.within = fit, within
         self.ar = ARErrorModel(*fit.axis_params())
         inner = self.ar
@@ -82,8 +84,9 @@ class PopulationClass:
             ax = self.ar.axes[a]
             sd = 0.0 if pop is None else pop.bias_sd_m[a]
             rate = 1.0 if pop is None else pop.persistence()
+            held = 0.0 if pop is None or pop.run_bias_sd_m is None else pop.run_bias_sd_m[a]
             out += _kalman_ll(free, a, np.asarray(ax.phi, dtype=float), ax.sigma_w,
-                              float(self.ar.mean[a]), sd, rate)
+                              float(self.ar.mean[a]), sd, rate, held)
         starts = np.cumsum([0] + [len(e) for e in part.err[:-1]])
         keep = np.concatenate([s + np.arange(m0, len(e))
                                for s, e in zip(starts, part.err)])
@@ -248,25 +251,35 @@ def within_part(part, block_s=BLOCK_S):
     return out
 
 
-def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate):
-    """Return the one-step log densities of axis ``a`` of every sample of ``part``."""
+def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate, held_sd=0.0):
+    """
+    Return the one-step log densities of axis ``a`` of every sample of ``part``.
+
+    The state: the AR's ``p`` lags, the wandering bias (factor ``rate`` per
+    step, SD ``bias_sd``) and, with ``held_sd``, the part of the bias held
+    for the run.
+    """
     phi = phi if phi.size else np.zeros(1)
     p = phi.size
-    f = np.zeros((p + 1, p + 1))
+    n = p + 2 if held_sd > 0 else p + 1
+    f = np.zeros((n, n))
     f[0, :p] = phi
     f[1:p, :p - 1] = np.eye(p - 1)
     f[p, p] = rate
-    q = np.zeros((p + 1, p + 1))
+    q = np.zeros((n, n))
     q[0, 0] = sigma_w ** 2
     q[p, p] = (1.0 - rate ** 2) * bias_sd ** 2
-    h = np.zeros(p + 1)
+    h = np.zeros(n)
     h[0] = h[p] = 1.0
     model = ARErrorModel(*(AxisParams(0.0, tuple(phi), sigma_w),) * 2)
-    p0 = np.zeros((p + 1, p + 1))
+    p0 = np.zeros((n, n))
     acv = model.autocovariance(p)[:, 0, 0]
     p0[:p, :p] = acv[np.abs(np.subtract.outer(np.arange(p), np.arange(p)))]
     p0[p, p] = bias_sd ** 2
-    x, cov = np.zeros(p + 1), p0
+    if held_sd > 0:
+        f[p + 1, p + 1] = h[p + 1] = 1.0
+        p0[p + 1, p + 1] = held_sd ** 2
+    x, cov = np.zeros(n), p0
     t = np.concatenate(part.t)
     y = np.concatenate(part.err)[:, a] - mean
     out = np.empty(y.size)

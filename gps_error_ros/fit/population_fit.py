@@ -39,6 +39,21 @@ what differs between blocks:
    :data:`~gps_error_ros.model.population.MAX_BIAS_DOF` the bias is normal
    with SD ``s sqrt(1 + 1 / k)``.
 
+6. **Two time scales**: where the bias wanders (step 3) and the blocks
+   lie in two chains or more (runs of neighbouring blocks, counted by
+   their weights), the bias may have a part held for the run beside the
+   wander (:func:`two_scale_bias`): the spread of the block means within a
+   chain is the wander's (less what the process gives), the spread of the
+   chains' means beyond what the wander and the process give a chain's mean
+   is the held part's, and the neighbours' covariance, less the held part's
+   variance, over the wander's gives the wander's correlation; the three
+   are solved together by :data:`TWO_SCALE_PASSES` passes from step 3's
+   correlation. A run's held part is one draw per chain: step 5 predicts
+   it from the chains (``run_bias_sd_m``, Student-t), and the wander keeps
+   its estimate (``bias_sd_m``, under the same Student-t factor). Where the
+   chains cannot tell the parts apart (one chain, no chain of two blocks, or
+   either part nil on both axes) the bias is the one part of steps 2-5.
+
 Recordings made together (several receivers carried on one walk, phones in
 one car) share their environment, and so their bias: they are one
 *occasion*, one draw of the population, not several. :func:`occasions`
@@ -77,6 +92,8 @@ MIN_BLOCKS = 3
 MIN_PAIRS = 3
 #: Neighbours' correlation at and above which the bias is taken as constant for a run.
 CONSTANT_R = 0.95
+#: Passes of the two-scale fit's fixed point (wander and held SDs, neighbours' correlation).
+TWO_SCALE_PASSES = 20
 #: Largest gap between neighbouring blocks, s.
 ADJACENT_GAP_S = 60.0
 #: Lags of the within process's ACF used for a block mean's variance.
@@ -258,7 +275,7 @@ def fit_within(pieces, sizes, order=None, max_order=DEFAULT_MAX_ORDER, axis='axi
 
 
 def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
-                   block_s=BLOCK_S, weights=None):
+                   block_s=BLOCK_S, weights=None, two_scales=True):
     """
     Fit the within process and the population (see the module docstring).
 
@@ -277,6 +294,9 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     weights : list of float, optional
         Each segment's weight: ``1 / k`` for a recording one of ``k`` of its
         occasion (:func:`segment_weights`); default 1 each.
+    two_scales : bool
+        Whether the bias may have a part held for the run beside its
+        wander (step 6 of the module docstring).
 
     Returns
     -------
@@ -326,13 +346,85 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                     neighbour_pairs=pairs,
                     neighbour_correlation=None if r is None else round(float(r), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
+    two = None if not two_scales or tau is None else \
+        two_scale_bias(blocks, dev, v, c, math.exp(-block_s / tau))
+    pop = _bias_section(blocks, bias_sd, tau, two, math.sqrt(scale_var), block_s, evidence)
+    return PopulationFit(axes[0], axes[1], grand, pop, evidence)
+
+
+def _bias_section(blocks, bias_sd, tau, two, scale_sd, block_s, evidence):
+    """
+    Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
+
+    ``two``: :func:`two_scale_bias`'s (wander SD, held SD, ``a``) or None.
+    """
+    if two is not None:
+        wander_sd, held_sd, a = two
+        draws = independent_draws(blocks)
+        dof, inflate = predictive(draws)
+        evidence.update(wander_sd_m=[round(float(x), 4) for x in wander_sd],
+                        held_sd_estimate_m=[round(float(x), 4) for x in held_sd],
+                        independent_draws=round(draws, 3))
+        return Population(tuple(float(x) for x in wander_sd), scale_sd,
+                          float(-block_s / math.log(a)), dof,
+                          tuple(float(x) * inflate for x in held_sd))
     draws = independent_draws(blocks, None if tau is None else math.exp(-block_s / tau))
     dof, inflate = predictive(draws)
     evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
                     independent_draws=round(draws, 3))
-    pop = Population(tuple(float(x) * inflate for x in bias_sd), math.sqrt(scale_var), tau,
-                     dof)
-    return PopulationFit(axes[0], axes[1], grand, pop, evidence)
+    return Population(tuple(float(x) * inflate for x in bias_sd), scale_sd, tau, dof)
+
+
+def chains_of(blocks):
+    """Return the blocks' indices cut into chains: runs of blocks less than a gap apart."""
+    chains = [[0]] if blocks else []
+    for j in range(1, len(blocks)):
+        if blocks[j].t0 - blocks[j - 1].t1 <= ADJACENT_GAP_S:
+            chains[-1].append(j)
+        else:
+            chains.append([j])
+    return chains
+
+
+def two_scale_bias(blocks, dev, v, process_cov, a):
+    """
+    Return (wander SD (2,), held SD (2,), ``a``) of a bias on two time scales, or None.
+
+    ``dev``: the blocks' mean deviations from the grand mean (k, 2); ``v``:
+    what the process within gives each block's mean as variance (k, 2);
+    ``process_cov``: what it gives neighbours' means as covariance (k, 2);
+    ``a``: the neighbours' correlation of the one-part fit, a start. See
+    step 6 of the module docstring. None where the chains cannot tell the
+    two parts apart: fewer than two chains (counted by their weights), none
+    of two blocks or more, or either part nil on both axes.
+    """
+    chains = chains_of(blocks)
+    w = np.array([blocks[ch[0]].weight for ch in chains])
+    m = np.array([len(ch) for ch in chains], dtype=float)
+    if w.sum() < 2.0 or m.max() < 2:
+        return None
+    means = np.array([dev[ch].mean(axis=0) for ch in chains])
+    ssw = sum(wi * ((dev[ch] - mu) ** 2).sum(axis=0) for wi, ch, mu in zip(w, chains, means))
+    vbar = np.array([v[ch].mean(axis=0) for ch in chains])
+    centre = np.average(means, axis=0, weights=w)
+    spread = (w[:, None] * (means - centre) ** 2).sum(axis=0) / (w.sum() - 1.0)
+    pairs = [j for ch in chains for j in ch[:-1]]
+    near = np.average([dev[j] * dev[j + 1] - process_cov[j] for j in pairs], axis=0,
+                      weights=[blocks[j].weight for j in pairs])
+    for _ in range(TWO_SCALE_PASSES):
+        d = [np.arange(1, k) for k in m.astype(int)]
+        s = np.array([k + 2.0 * float(np.sum((k - dd) * a ** dd)) for k, dd in zip(m, d)])
+        wander = np.maximum(0.0, (ssw - (w * (m - 1.0))[:, None].T @ vbar).ravel() /
+                            float(np.sum(w * (m - s / m))))
+        held = np.maximum(0.0, spread - np.average(wander[None] * (s / m ** 2)[:, None] +
+                                                   vbar / m[:, None], axis=0, weights=w))
+        if not np.any(wander > 0):
+            return None
+        a = float(np.clip((np.sum(near) - np.sum(held)) / np.sum(wander), math.exp(-1.0),
+                          CONSTANT_R))
+    if not np.any(held > 0):
+        return None
+    return np.sqrt(wander), np.sqrt(held), a
 
 
 def independent_draws(blocks, r=None):
@@ -430,6 +522,20 @@ def population_line(fit):
     pop, ev = fit.population, fit.evidence
     if pop is None:
         return f'population: not fitted: {ev["reason"]}'
+    counted = '' if 'weighted_blocks' not in ev else \
+        f', {ev["weighted_blocks"]:.1f} with each occasion\'s recordings counted once'
+    if pop.run_bias_sd_m is not None:
+        held, est = pop.run_bias_sd_m, ev['held_sd_estimate_m']
+        shape = 'normal' if pop.bias_dof is None else \
+            f'Student-t with {pop.bias_dof} degrees of freedom'
+        return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a '
+                f'run\'s bias has a part held for the run, SD {held[0]:.2f} m north, '
+                f'{held[1]:.2f} m east (a new occasion\'s, predicted from '
+                f'{ev["independent_draws"]:.1f} independent draws: the fitted SD is '
+                f'{est[0]:.2f} / {est[1]:.2f} m), and a part that wanders with a time '
+                f'constant of {pop.bias_time_constant_s:.0f} s, SD {pop.bias_sd_m[0]:.2f} / '
+                f'{pop.bias_sd_m[1]:.2f} m; {shape}; an agent\'s scale has log SD '
+                f'{pop.scale_sd_log:.3f}; the AR above is the process within a block')
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
     shape = '' if pop.bias_dof is None else f', Student-t with {pop.bias_dof} degrees of freedom'
@@ -437,8 +543,6 @@ def population_line(fit):
     seen = '' if draws is None else \
         (f' (a new occasion\'s, predicted from {draws:.1f} independent draws: the fitted SD '
          f'is {ev["bias_sd_estimate_m"][0]:.2f} / {ev["bias_sd_estimate_m"][1]:.2f} m)')
-    counted = '' if 'weighted_blocks' not in ev else \
-        f', {ev["weighted_blocks"]:.1f} with each occasion\'s recordings counted once'
     return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a run\'s '
             f'bias has SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east'
             f'{seen}{shape}, {wander}; an agent\'s scale has log SD '

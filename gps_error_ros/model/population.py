@@ -103,6 +103,12 @@ class Population:
             out['run_bias_sd_m'] = [round(float(v), 4) for v in self.run_bias_sd_m]
         return out
 
+    @property
+    def bias_sd_total_m(self):
+        """Return the SD of a run's bias per axis, both parts together."""
+        held = (0.0, 0.0) if self.run_bias_sd_m is None else self.run_bias_sd_m
+        return tuple(math.hypot(b, c) for b, c in zip(self.bias_sd_m, held))
+
     def persistence(self, rate_hz=1.0):
         """Return the bias's factor per model step, ``a`` (1.0: constant for the run)."""
         if self.bias_time_constant_s is None:

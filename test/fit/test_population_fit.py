@@ -6,7 +6,8 @@ import numpy as np
 import yaml
 
 from gps_error_ros.fit.population_fit import (Block, blocks_of, fit_population,
-                                              independent_draws, MIN_BLOCKS, predictive)
+                                              independent_draws, MIN_BLOCKS, population_line,
+                                              predictive)
 from gps_error_ros.model import streams
 from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
 
@@ -49,6 +50,35 @@ def test_one_long_recording_gives_back_a_wandering_bias():
     assert pop.bias_time_constant_s is not None
     assert 600.0 < pop.bias_time_constant_s < 2400.0, pop
     np.testing.assert_allclose(pop.bias_sd_m, [3.0, 3.0], rtol=0.35)
+
+
+def test_runs_whose_bias_has_a_held_and_a_wandering_part_give_back_both():
+    """40 runs of 1500 s: a part held for each run (3 m north, 0.5 m east) and a wander."""
+    model = _model({'bias_sd_m': [1.5, 1.5], 'scale_sd_log': 0.0,
+                    'bias_time_constant_s': 400.0, 'run_bias_sd_m': [3.0, 0.5]})
+    fit = fit_population(*_runs(model, 40, 1500, seed=3))
+    pop = fit.population
+    assert pop.run_bias_sd_m is not None, fit.evidence
+    # 40 draws of the held part: its SD known to about 11 %; the east part is small
+    np.testing.assert_allclose(pop.run_bias_sd_m[0], 3.0, rtol=0.3)
+    assert pop.run_bias_sd_m[1] < 1.5
+    np.testing.assert_allclose(pop.bias_sd_m, [1.5, 1.5], rtol=0.35)
+    assert 300.0 <= pop.bias_time_constant_s < 1200.0, pop
+    assert fit.evidence['independent_draws'] == 40
+    assert 'a part held for the run, SD' in population_line(fit)
+    # asked for one part, the same runs give the one-part fit
+    one = fit_population(*_runs(model, 40, 1500, seed=3), two_scales=False).population
+    assert one.run_bias_sd_m is None
+    np.testing.assert_allclose(np.square(one.bias_sd_m),
+                               np.square(pop.bias_sd_m) + np.square(pop.run_bias_sd_m),
+                               rtol=0.5)
+
+
+def test_one_recording_cannot_tell_a_held_part_from_the_wander():
+    model = _model({'bias_sd_m': [2.0, 2.0], 'scale_sd_log': 0.0,
+                    'bias_time_constant_s': 600.0, 'run_bias_sd_m': [3.0, 3.0]})
+    pop = fit_population(*_runs(model, 1, 7200, seed=8)).population
+    assert pop.run_bias_sd_m is None and pop.bias_time_constant_s is not None, pop
 
 
 def test_phones_that_differ_in_scale_give_back_the_scale_spread():
