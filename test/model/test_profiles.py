@@ -22,8 +22,10 @@ def test_the_receiver_profile_loads_by_name_and_carries_its_failures():
     prof = load_profile('Snapshot-Receiver-On-Foot')
     assert prof.name == 'snapshot-receiver-on-foot' and prof.gross_failures.rate > 0.01
     assert prof.fit['gross_failures']['count'] > 100
-    # the walks' east biases differ by metres: the profile carries their spread
-    assert prof.population is not None and prof.population.bias_sd_m[1] > 2.0
+    # the walks' east biases differ by metres: the profile carries their spread, as a
+    # part held for the walk (it does not wander away within one)
+    assert prof.population is not None and prof.population.run_bias_sd_m[1] > 2.0
+    assert prof.population.bias_sd_total_m[1] > prof.population.bias_sd_m[1]
     err = prof.model().simulate(np.array([1, 2], dtype=np.uint64), 600)
     assert np.isfinite(err).all() and np.hypot(*err.T).max() > 30.0
 
