@@ -4,6 +4,7 @@ import warnings
 
 from hypothesis import given, settings, strategies as st
 import numpy as np
+from scipy.signal import lfilter
 
 from gps_error_ros.fit.population_fit import fit_population, population_line
 from gps_error_ros.model.population import population_from_dict
@@ -21,14 +22,9 @@ def runs(draw):
     segs, times, t0 = [], [], 0.0
     for _ in range(k):
         n = draw(st.one_of(st.integers(2, 400), st.integers(600, 1500)))
-        e = np.zeros((n, 2))
-        for j in range(1, n):
-            e[j] = phi * e[j - 1] + scale * rng.standard_normal(2)
+        e = lfilter([scale], [1.0, -phi], rng.standard_normal((n, 2)), axis=0)
         e += spread * rng.standard_normal(2)
-        w = np.zeros((n, 2))
-        for j in range(1, n):
-            w[j] = 0.997 * w[j - 1] + wander * 0.077 * rng.standard_normal(2)
-        e += w
+        e += lfilter([wander * 0.077], [1.0, -0.997], rng.standard_normal((n, 2)), axis=0)
         cut = draw(st.integers(0, n - 1))           # a gap inside the run, or none
         gap = draw(st.sampled_from([0.0, 30.0, 500.0]))
         t = t0 + np.arange(n, dtype=float) + np.where(np.arange(n) >= cut, gap, 0.0)
