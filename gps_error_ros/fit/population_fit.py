@@ -414,8 +414,7 @@ def two_scale_bias(blocks, dev, v, process_cov, a):
     for _ in range(TWO_SCALE_PASSES):
         d = [np.arange(1, k) for k in m.astype(int)]
         s = np.array([k + 2.0 * float(np.sum((k - dd) * a ** dd)) for k, dd in zip(m, d)])
-        wander = np.maximum(0.0, (ssw - (w * (m - 1.0))[:, None].T @ vbar).ravel() /
-                            float(np.sum(w * (m - s / m))))
+        wander = np.maximum(0.0, (ssw - (w * (m - 1.0)) @ vbar) / float(np.sum(w * (m - s / m))))
         held = np.maximum(0.0, spread - np.average(wander[None] * (s / m ** 2)[:, None] +
                                                    vbar / m[:, None], axis=0, weights=w))
         if not np.any(wander > 0):
