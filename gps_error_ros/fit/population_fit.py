@@ -356,10 +356,11 @@ def _bias_section(blocks, bias_sd, tau, two, scale_sd, block_s, evidence):
     """
     Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
 
-    ``two``: :func:`two_scale_bias`'s (wander SD, held SD, ``a``) or None.
+    ``two``: :func:`two_scale_bias`'s (wander SD, held SD, ``a``, evidence) or None.
     """
     if two is not None:
-        wander_sd, held_sd, a = two
+        wander_sd, held_sd, a, spreads = two
+        evidence.update(spreads)
         draws = independent_draws(blocks)
         dof, inflate = predictive(draws)
         evidence.update(wander_sd_m=[round(float(x), 4) for x in wander_sd],
@@ -388,13 +389,15 @@ def chains_of(blocks):
 
 def two_scale_bias(blocks, dev, v, process_cov, a):
     """
-    Return (wander SD (2,), held SD (2,), ``a``) of a bias on two time scales, or None.
+    Return (wander SD (2,), held SD (2,), ``a``, evidence) of a bias on two time scales, or None.
 
     ``dev``: the blocks' mean deviations from the grand mean (k, 2); ``v``:
     what the process within gives each block's mean as variance (k, 2);
     ``process_cov``: what it gives neighbours' means as covariance (k, 2);
     ``a``: the neighbours' correlation of the one-part fit, a start. See
-    step 6 of the module docstring. None where the chains cannot tell the
+    step 6 of the module docstring. The evidence: the SD of the chains'
+    means and the pooled SD of the block means within a chain, per axis. None
+    where the chains cannot tell the
     two parts apart: fewer than two chains (counted by their weights), none
     of two blocks or more, or either part nil on both axes.
     """
@@ -423,7 +426,10 @@ def two_scale_bias(blocks, dev, v, process_cov, a):
                           CONSTANT_R))
     if not np.any(held > 0):
         return None
-    return np.sqrt(wander), np.sqrt(held), a
+    within = ssw / float(np.sum(w * (m - 1.0)))
+    return np.sqrt(wander), np.sqrt(held), a, {
+        'run_means_sd_m': [round(float(x), 4) for x in np.sqrt(spread)],
+        'block_means_within_run_sd_m': [round(float(x), 4) for x in np.sqrt(within)]}
 
 
 def independent_draws(blocks, r=None):

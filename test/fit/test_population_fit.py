@@ -65,6 +65,8 @@ def test_runs_whose_bias_has_a_held_and_a_wandering_part_give_back_both():
     np.testing.assert_allclose(pop.bias_sd_m, [1.5, 1.5], rtol=0.35)
     assert 300.0 <= pop.bias_time_constant_s < 1200.0, pop
     assert fit.evidence['independent_draws'] == 40
+    # the evidence: the runs' means spread by about the held part, the blocks within by the wander
+    assert fit.evidence['run_means_sd_m'][0] > fit.evidence['block_means_within_run_sd_m'][0]
     assert 'a part held for the run, SD' in population_line(fit)
     # asked for one part, the same runs give the one-part fit
     one = fit_population(*_runs(model, 40, 1500, seed=3), two_scales=False).population
