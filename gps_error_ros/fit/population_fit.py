@@ -334,7 +334,9 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     between = np.maximum(0.0, spread - np.average(v, axis=0, weights=wb))
     bias_sd = np.sqrt(between)
     c = np.array([[neighbour_covariance(rho[:, a], k, gamma0[a]) for a in range(2)] for k in n])
-    tau, pairs, r = _time_constant(blocks, dev, between, c, block_s)
+    pairs = neighbour_pairs(blocks)
+    near = _neighbour_cov(blocks, dev, c, pairs)
+    tau, r = _time_constant(len(pairs), near, between, block_s)
     log_sd = np.array([np.mean(np.log(np.maximum(b.err.std(axis=0), 1e-6))) for b in blocks])
     rho2 = [1.0 + 2.0 * np.sum(rho[1:, a] ** 2) for a in range(2)]
     sampling = np.average([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n], weights=wb)
@@ -343,11 +345,11 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     evidence.update(fitted=True, block_mean_sd_m=[round(float(x), 4) for x in
                                                   np.sqrt(spread)],
                     within_mean_sd_m=[round(float(x), 4) for x in np.sqrt(v.mean(axis=0))],
-                    neighbour_pairs=pairs,
+                    neighbour_pairs=len(pairs),
                     neighbour_correlation=None if r is None else round(float(r), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
     two = None if not two_scales or tau is None else \
-        two_scale_bias(blocks, dev, v, c, math.exp(-block_s / tau))
+        two_scale_bias(blocks, dev, v, near, math.exp(-block_s / tau))
     pop = _bias_section(blocks, bias_sd, tau, two, math.sqrt(scale_var), block_s, evidence)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
 
@@ -360,10 +362,9 @@ def _bias_section(blocks, bias_sd, tau, two, scale_sd, block_s, evidence):
     """
     if two is not None:
         wander_sd, held_sd, a, spreads = two
-        evidence.update(spreads)
         draws = independent_draws(blocks)
         dof, inflate = predictive(draws)
-        evidence.update(wander_sd_m=[round(float(x), 4) for x in wander_sd],
+        evidence.update(spreads, wander_sd_m=[round(float(x), 4) for x in wander_sd],
                         held_sd_estimate_m=[round(float(x), 4) for x in held_sd],
                         independent_draws=round(draws, 3))
         return Population(tuple(float(x) for x in wander_sd), scale_sd,
@@ -387,14 +388,34 @@ def chains_of(blocks):
     return chains
 
 
-def two_scale_bias(blocks, dev, v, process_cov, a):
+def neighbour_pairs(blocks):
+    """Return the indices ``j`` of the blocks whose successor ``j + 1`` lies in their chain."""
+    return [j for chain in chains_of(blocks) for j in chain[:-1]]
+
+
+def _neighbour_cov(blocks, dev, process_cov, pairs):
+    """
+    Return the neighbours' covariance of mean deviations per axis (2,), or None without pairs.
+
+    ``process_cov``: per block, the covariance with its successor's mean
+    that the within process alone gives (:func:`neighbour_covariance`),
+    taken off; the pairs weigh as their first blocks.
+    """
+    if not pairs:
+        return None
+    return np.average([dev[j] * dev[j + 1] - process_cov[j] for j in pairs], axis=0,
+                      weights=[blocks[j].weight for j in pairs])
+
+
+def two_scale_bias(blocks, dev, v, near, a):
     """
     Return (wander SD (2,), held SD (2,), ``a``, evidence) of a bias on two time scales, or None.
 
     ``dev``: the blocks' mean deviations from the grand mean (k, 2); ``v``:
     what the process within gives each block's mean as variance (k, 2);
-    ``process_cov``: what it gives neighbours' means as covariance (k, 2);
-    ``a``: the neighbours' correlation of the one-part fit, a start. See
+    ``near``: the neighbours' covariance beyond the process's
+    (:func:`_neighbour_cov`); ``a``: the neighbours' correlation of the
+    one-part fit, a start. See
     step 6 of the module docstring. The evidence: the SD of the chains'
     means and the pooled SD of the block means within a chain, per axis. None
     where the chains cannot tell the
@@ -411,11 +432,8 @@ def two_scale_bias(blocks, dev, v, process_cov, a):
     vbar = np.array([v[ch].mean(axis=0) for ch in chains])
     centre = np.average(means, axis=0, weights=w)
     spread = (w[:, None] * (means - centre) ** 2).sum(axis=0) / (w.sum() - 1.0)
-    pairs = [j for ch in chains for j in ch[:-1]]
-    near = np.average([dev[j] * dev[j + 1] - process_cov[j] for j in pairs], axis=0,
-                      weights=[blocks[j].weight for j in pairs])
+    d = [np.arange(1, k) for k in m.astype(int)]
     for _ in range(TWO_SCALE_PASSES):
-        d = [np.arange(1, k) for k in m.astype(int)]
         s = np.array([k + 2.0 * float(np.sum((k - dd) * a ** dd)) for k, dd in zip(m, d)])
         wander = np.maximum(0.0, (ssw - (w * (m - 1.0)) @ vbar) / float(np.sum(w * (m - s / m))))
         held = np.maximum(0.0, spread - np.average(wander[None] * (s / m ** 2)[:, None] +
@@ -441,20 +459,15 @@ def independent_draws(blocks, r=None):
     bias whose neighbouring blocks correlate by ``r``, a chain of ``m`` is
     ``m^2 / (m + 2 sum_j (m - j) r^j)`` draws (as many as its mean is worth).
     """
-    chains, total = [[blocks[0]]] if blocks else [], 0.0
-    for prev, b in zip(blocks, blocks[1:]):
-        if b.t0 - prev.t1 <= ADJACENT_GAP_S:
-            chains[-1].append(b)
-        else:
-            chains.append([b])
-    for chain in chains:
+    total = 0.0
+    for chain in chains_of(blocks):
         m = len(chain)
         if r is None:
             n = 1.0
         else:
             j = np.arange(1, m)
             n = m * m / (m + 2.0 * float(np.sum((m - j) * r ** j)))
-        total += chain[0].weight * n
+        total += blocks[chain[0]].weight * n
     return total
 
 
@@ -500,26 +513,22 @@ def _within_segments(segments, times, block_s):
     return [s - means[i] for s, i in pieces if len(s) > 1], sizes
 
 
-def _time_constant(blocks, dev, between, process_cov, block_s):
+def _time_constant(pairs, near, between, block_s):
     """
-    Return (time constant s or None, neighbour pairs, their correlation or None).
+    Return (time constant s or None, the neighbours' correlation or None).
 
-    ``process_cov``: per block, the covariance with its successor's mean
-    that the within process alone gives (:func:`neighbour_covariance`),
-    taken off the neighbours' covariance.
+    ``pairs``: how many neighbour pairs; ``near``: their covariance beyond
+    the process's, per axis (:func:`_neighbour_cov`); the correlation is
+    taken over the axes whose bias variance ``between`` is not nil.
     """
-    pairs = [j for j in range(len(blocks) - 1)
-             if blocks[j + 1].t0 - blocks[j].t1 <= ADJACENT_GAP_S]
-    if len(pairs) < MIN_PAIRS or not np.any(between > 0):
-        return None, len(pairs), None
+    if pairs < MIN_PAIRS or not np.any(between > 0):
+        return None, None
     w = between > 0
-    cov = np.average([dev[j, w] * dev[j + 1, w] - process_cov[j, w] for j in pairs], axis=0,
-                     weights=[blocks[j].weight for j in pairs])
-    r = float(np.sum(cov) / np.sum(between[w]))
+    r = float(np.sum(near[w]) / np.sum(between[w]))
     if r >= CONSTANT_R:
-        return None, len(pairs), r
+        return None, r
     r = max(r, math.exp(-1.0))          # at most one block's decay per block: the AR covers less
-    return float(-block_s / math.log(r)), len(pairs), r
+    return float(-block_s / math.log(r)), r
 
 
 def population_line(fit):
@@ -529,26 +538,36 @@ def population_line(fit):
         return f'population: not fitted: {ev["reason"]}'
     counted = '' if 'weighted_blocks' not in ev else \
         f', {ev["weighted_blocks"]:.1f} with each occasion\'s recordings counted once'
-    if pop.run_bias_sd_m is not None:
-        held, est = pop.run_bias_sd_m, ev['held_sd_estimate_m']
-        shape = 'normal' if pop.bias_dof is None else \
-            f'Student-t with {pop.bias_dof} degrees of freedom'
-        return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a '
-                f'run\'s bias has a part held for the run, SD {held[0]:.2f} m north, '
-                f'{held[1]:.2f} m east (a new occasion\'s, predicted from '
-                f'{ev["independent_draws"]:.1f} independent draws: the fitted SD is '
-                f'{est[0]:.2f} / {est[1]:.2f} m), and a part that wanders with a time '
-                f'constant of {pop.bias_time_constant_s:.0f} s, SD {pop.bias_sd_m[0]:.2f} / '
-                f'{pop.bias_sd_m[1]:.2f} m; {shape}; an agent\'s scale has log SD '
-                f'{pop.scale_sd_log:.3f}; the AR above is the process within a block')
+    bias = _two_part_words(pop, ev) if pop.run_bias_sd_m is not None else \
+        _one_part_words(pop, ev)
+    return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a run\'s '
+            f'bias has {bias}; an agent\'s scale has log SD {pop.scale_sd_log:.3f}; the AR '
+            f'above is the process within a block')
+
+
+def _predicted(ev, estimate):
+    """Return what a new occasion's SD was predicted from, and the SD fitted."""
+    return (f'(a new occasion\'s, predicted from {ev["independent_draws"]:.1f} independent '
+            f'draws: the fitted SD is {estimate[0]:.2f} / {estimate[1]:.2f} m)')
+
+
+def _one_part_words(pop, ev):
+    """Return the words on a bias of one part (see :func:`population_line`)."""
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
     shape = '' if pop.bias_dof is None else f', Student-t with {pop.bias_dof} degrees of freedom'
-    draws = ev.get('independent_draws')
-    seen = '' if draws is None else \
-        (f' (a new occasion\'s, predicted from {draws:.1f} independent draws: the fitted SD '
-         f'is {ev["bias_sd_estimate_m"][0]:.2f} / {ev["bias_sd_estimate_m"][1]:.2f} m)')
-    return (f'population ({ev["blocks"]} blocks of {ev["block_s"]:g} s{counted}): a run\'s '
-            f'bias has SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east'
-            f'{seen}{shape}, {wander}; an agent\'s scale has log SD '
-            f'{pop.scale_sd_log:.3f}; the AR above is the process within a block')
+    seen = '' if ev.get('independent_draws') is None else \
+        ' ' + _predicted(ev, ev['bias_sd_estimate_m'])
+    return (f'SD {pop.bias_sd_m[0]:.2f} m north, {pop.bias_sd_m[1]:.2f} m east{seen}{shape}, '
+            f'{wander}')
+
+
+def _two_part_words(pop, ev):
+    """Return the words on a bias held for the run and a wander (see :func:`population_line`)."""
+    held = pop.run_bias_sd_m
+    shape = 'normal' if pop.bias_dof is None else \
+        f'Student-t with {pop.bias_dof} degrees of freedom'
+    return (f'a part held for the run, SD {held[0]:.2f} m north, {held[1]:.2f} m east '
+            f'{_predicted(ev, ev["held_sd_estimate_m"])}, and a part that wanders with a time '
+            f'constant of {pop.bias_time_constant_s:.0f} s, SD {pop.bias_sd_m[0]:.2f} / '
+            f'{pop.bias_sd_m[1]:.2f} m; {shape}')
