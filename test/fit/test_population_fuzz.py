@@ -53,7 +53,7 @@ def test_the_fit_gives_a_valid_section_or_none(data, two_scales):
     if fit.population is None:
         return
     section = fit.population.to_dict()
-    assert population_from_dict(section) == population_from_dict(section)
+    assert population_from_dict(section).to_dict() == section      # what a profile reads back
     values = np.array([v for x in section.values() for v in np.atleast_1d(x)], dtype=float)
     assert np.all(np.isfinite(values)), section
     if not two_scales:
