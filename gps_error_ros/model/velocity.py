@@ -120,11 +120,12 @@ class Velocity:
             return np.full(np.shape(speed), self.sigma)
         return sd_from_table(self.sigma_by_speed, speed)
 
-    def scaled(self, v_true, w):
+    def scaled(self, v_true, w, speed=None):
         """Return the error ``w`` (..., 2) scaled to the SD at the speed of ``v_true``."""
         if self.sigma_by_speed is None:
             return w
-        speed = np.hypot(v_true[..., 0], v_true[..., 1])
+        if speed is None:
+            speed = np.hypot(v_true[..., 0], v_true[..., 1])
         return w * (self.sd_at(speed) / self.sigma)[..., None]
 
     def initial(self, keys, index):
@@ -158,18 +159,28 @@ class Velocity:
         The truth ``v_true`` (east/north, already at the lags) plus the
         error ``w`` scaled to the SD at its speed; 0 at or below ``standstill``.
         """
-        v_true = np.asarray(v_true, dtype=float)
-        speed = np.hypot(v_true[..., 0], v_true[..., 1])
-        still = speed <= self.standstill                # NaN: not still
-        return np.where(still[..., None], 0.0, self.biased(v_true, speed)
-                        + self.scaled(v_true, w)), still
+        v, still, _ = self.vector_and_mean(v_true, w)
+        return v, still
 
     def mean_error(self, v_true):
         """Return the error's mean (..., 2) at true velocities ``v_true``: the speed bias."""
         v_true = np.asarray(v_true, dtype=float)
         speed = np.hypot(v_true[..., 0], v_true[..., 1])
-        mean = self.biased(v_true, speed) - v_true
-        return np.where((speed <= self.standstill)[..., None], 0.0, mean)
+        still = speed <= self.standstill                # NaN: not still
+        return np.where(still[..., None], 0.0, self.biased(v_true, speed) - v_true)
+
+    def vector_and_mean(self, v_true, w):
+        """
+        Return (what :meth:`vector` returns, and :meth:`mean_error`), in one pass.
+
+        The speed and the biased truth are taken once for the three.
+        """
+        v_true = np.asarray(v_true, dtype=float)
+        speed = np.hypot(v_true[..., 0], v_true[..., 1])
+        still = speed <= self.standstill                # NaN: not still
+        biased = self.biased(v_true, speed)
+        v = np.where(still[..., None], 0.0, biased + self.scaled(v_true, w, speed))
+        return v, still, np.where(still[..., None], 0.0, biased - v_true)
 
     def biased(self, v_true, speed=None):
         """Return ``v_true`` (..., 2) with its speed moved by ``speed_bias`` (never below 0)."""

@@ -78,7 +78,7 @@ class VelocityState(SideStream):
             north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
             chords.append(np.stack([east, north], axis=1))
         v_true = self.velocity.truth_reported(*chords)
-        out, _ = self.velocity.vector(v_true, w)
+        out, _, mean = self.velocity.vector_and_mean(v_true, w)
         out[~ok] = np.nan
-        mean = None if self.velocity.speed_bias is None else self.velocity.mean_error(v_true)
-        return out, self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1])), mean
+        sd = self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1]))
+        return out, sd, (None if self.velocity.speed_bias is None else mean)

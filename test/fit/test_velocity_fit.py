@@ -104,6 +104,20 @@ def test_a_speed_bias_moves_the_speed_along_the_track_and_never_below_zero():
     assert velocity_from_dict(biased.to_dict()) == biased
 
 
+def test_the_one_pass_gives_the_reported_velocity_and_its_mean_as_the_two_calls_do():
+    section = velocity_from_dict(dict(TRUE, speed_bias=[[2.0, -0.5], [12.0, 0.5]],
+                                      sigma_by_speed=[[1.0, 0.3], [10.0, 0.1]]))
+    v_true = np.array([[0.0, 7.0], [3.0, 4.0], [0.0, 0.3], [0.0, 0.0], [np.nan, np.nan]])
+    w = np.random.default_rng(3).normal(size=(5, 2))
+    v, still, mean = section.vector_and_mean(v_true, w)
+    want_v, want_still = section.vector(v_true, w)
+    np.testing.assert_array_equal(v, want_v)
+    np.testing.assert_array_equal(still, want_still)
+    np.testing.assert_array_equal(mean, section.mean_error(v_true))
+    assert np.isnan(v[4]).all() and not still[4]                  # unknown truth: unknown
+    np.testing.assert_allclose(mean[1], np.array([3.0, 4.0]) * -0.2 / 5.0)
+
+
 def test_calibrate_recovers_a_speed_bias(tmp_path):
     bias = [[2.0, 0.2], [12.0, -0.3]]
     got = _fitted(tmp_path, velocity_from_dict(dict(TRUE, sigma=0.1, speed_bias=bias)), 3000)
