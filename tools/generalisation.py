@@ -30,7 +30,7 @@ from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_
 import numpy as np
 from phone_transfer import transfer, transfer_lines
 
-from gps_error_ros.diagnose.beaten import gain_text
+from gps_error_ros.diagnose.beaten import gain_text, ORDER_GAIN
 from gps_error_ros.diagnose.consumers import FILTER_PARTS
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
@@ -350,8 +350,53 @@ def _beaten_lines(parts):
                            'held-out part: ' + '; '.join(
                                f'{axis} ' + (', '.join(map(str, v)) or 'none')
                                for axis, v in pacf['only_in_training'].items()) + '.\n')
+            out.extend(_orders_lines(wb.get('orders')))
             out.append(_beaten_reading(wb, f['classes']['population']['fit']))
     return [BEATEN_HEAD] + out if out else []
+
+
+def _orders_lines(orders):
+    """Return the sentence on the AR orders each part's own blocks choose, or none."""
+    if not orders or not orders.get('train'):
+        return []
+
+    def part(name, o):
+        if o is None:
+            return f'{name}: fewer than 3 blocks'
+        gains = ' / '.join(f'{o[a]["gain_per_sample"]:.2f}' for a in ('north', 'east'))
+        return (f'{name} ({o["blocks"]} blocks): north {o["north"]["order"]}, east '
+                f'{o["east"]["order"]} ({gains} nats per sample below AR(1))')
+    return ['The AR order within blocks that predicts each 300-s block of a part best from '
+            'the part\'s other blocks (orders 1-10, least squares, one-step NLL): ' +
+            part('training part', orders['train']) + '; ' +
+            part('held-out part', orders.get('held_out')) + '.\n']
+
+
+def _orders_reading(orders, within):
+    """
+    Return what :func:`_orders_lines`' figures say of the lags, or ''.
+
+    ``within``: the population fit's AR order within blocks per axis, or None.
+    """
+    train, held = (orders or {}).get('train'), (orders or {}).get('held_out')
+    if not train:
+        return ''
+    axes = ('north', 'east')
+    if held and all(train[a]['order'] > held[a]['order']
+                    and train[a]['gain_per_sample'] >= ORDER_GAIN for a in axes):
+        return ('The training part\'s blocks, each predicted from the others, choose more '
+                'lags than the held-out part\'s do: the lags hold across the training '
+                'data\'s own stretches, so they are its dynamics, not a selection fitted to '
+                'one split, and the held-out data has other dynamics (another receiver, or '
+                'another stretch).')
+    more = [a for a in axes if within and within[a] > train[a]['order']]
+    if more:
+        return ('The population fit\'s order within blocks is more than the training '
+                'part\'s own blocks choose (' + ', '.join(
+                    f'{a} {within[a]} against {train[a]["order"]}' for a in more) +
+                '): the lags beyond fit the training part as a whole, not each of its '
+                'stretches.')
+    return ''
 
 
 def _beaten_reading(wb, fit):
@@ -380,6 +425,9 @@ def _beaten_reading(wb, fit):
                     f'east {order["east"]})'
                     if order else '') + ' predicts dynamics the held-out receiver does '
                    'not have, and a class with fewer lags carries fewer of them.')
+    said = _orders_reading(wb.get('orders'), fit.get('within_order'))
+    if said:
+        out.append(said)
     return ('Reading: ' + ' '.join(out) + '\n') if out else ''
 
 

@@ -98,7 +98,11 @@ population's mean in its bias SDs (a gain where the held-out level is far
 would say the population's bias law is too narrow for this data), and the
 partial autocorrelation of the training and held-out errors (a structure at
 lags beyond the first that one part has and the other lacks is dynamics that
-a class with more lags carries over and one with fewer does not).
+a class with more lags carries over and one with fewer does not). The AR
+order that each part's own 300-s blocks choose, each block predicted from
+the others, tells which: lags that predict every block of the training part
+are its dynamics; lags that only the part as a whole supports are a fit to
+that split.
 """
 
 EXPLAIN_HEAD = """## How the held-out parts differ from what trained

@@ -7,12 +7,15 @@ says where: over held-out blocks far from the population's bias law or
 near it (a gain only far out says the bias law is too narrow), and
 :func:`part_pacf` / :func:`pacf_against` which lags of partial
 autocorrelation the training part has and the held-out part lacks (dynamics
-the population's process within carries over to data without them).
+the population's process within carries over to data without them), and
+:func:`block_orders` whether a part's lags hold across its own blocks (a
+receiver's dynamics) or fit one stretch (a selection that over-fits).
 """
 
 import numpy as np
 
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean
+from gps_error_ros.fit.population_fit import BLOCK_S, MIN_BLOCK_SAMPLES, MIN_BLOCKS
 from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
 
 #: Scored held-out samples per block where :func:`where_beaten` shows a class's gain.
@@ -20,6 +23,9 @@ WHERE_BLOCK = 150
 #: A block whose mean error lies beyond this many of the population's bias SDs from
 #: the population's mean (on either axis) is one the population holds unlikely.
 FAR_SD = 2.0
+#: An order's gain over AR(1) in :func:`block_orders` (nats per scored sample) below which
+#: the lags beyond the first are not read as dynamics: a nat per hundred samples.
+ORDER_GAIN = 0.01
 
 
 def pacf_against(train, held_out):
@@ -62,6 +68,72 @@ def part_pacf(part, lags=DEFAULT_MAX_ORDER):
         out[axis] = [float(v) for v in fit.pacf]
         out['bound'] = float(fit.pacf_bound)
     return out
+
+
+def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
+    """
+    Return the AR order per axis that predicts each block of ``part`` best from the others.
+
+    The part is cut into blocks of ``block_s`` (from its first sample; gaps
+    never bridged), each taken about its own mean (as the population's
+    process within is fitted); blocks under :data:`MIN_BLOCK_SAMPLES` are
+    left out. For each order ``p`` up to ``max_order`` and each block, an
+    AR(p) fitted by least squares on the other blocks predicts the block's
+    samples one step ahead (Gaussian, the fit's residual variance; every
+    order scores the same samples, those ``max_order`` or more into a run
+    of the block). The order with the least summed negative log density
+    wins. ``{'blocks': k, 'north': {'order', 'gain_per_sample'}, 'east':
+    ...}``, the gain being the winner's NLL below AR(1)'s per scored
+    sample; None with fewer than :data:`MIN_BLOCKS` blocks.
+    """
+    blocks = _blocks(part, block_s, max_order)
+    if len(blocks) < MIN_BLOCKS:
+        return None
+    out = {'blocks': len(blocks)}
+    for a, axis in enumerate(('north', 'east')):
+        runs = [[r[:, a] for r in b] for b in blocks]
+        nll = np.array([_left_out_nll(runs, p, max_order) for p in range(1, max_order + 1)])
+        best = int(np.argmin(nll))
+        scored = sum(max(len(r) - max_order, 0) for b in runs for r in b)
+        out[axis] = {'order': best + 1, 'gain_per_sample': float((nll[0] - nll[best]) / scored)}
+    return out
+
+
+def _blocks(part, block_s, max_order):
+    """Return the blocks of ``part``: each a list of runs (n, 2) about the block's mean."""
+    t0 = min(float(t[0]) for t in part.t)
+    pieces = {}
+    for e, t in zip(part.err, part.t):
+        ids = np.floor((np.asarray(t, dtype=float) - t0) / block_s).astype(np.int64)
+        cuts = np.flatnonzero(np.diff(ids) != 0) + 1
+        for ee, ii in zip(np.split(np.asarray(e, dtype=float), cuts), np.split(ids, cuts)):
+            pieces.setdefault(int(ii[0]), []).append(ee)
+    out = []
+    for runs in pieces.values():
+        if sum(len(r) for r in runs) < MIN_BLOCK_SAMPLES:
+            continue
+        mean = np.concatenate(runs).mean(axis=0)
+        out.append([r - mean for r in runs if len(r) > max_order])
+    return [b for b in out if b]
+
+
+def _lagged(runs, p, first):
+    """Return (design (m, p), targets (m,)) of the runs' samples from index ``first`` on."""
+    xs = [np.column_stack([r[first - i - 1:len(r) - i - 1] for i in range(p)]) for r in runs]
+    return np.vstack(xs), np.concatenate([r[first:] for r in runs])
+
+
+def _left_out_nll(runs, p, max_order):
+    """Return the summed one-step NLL of each block of ``runs``, an AR(p) fitted on the rest."""
+    total = 0.0
+    for k in range(len(runs)):
+        rest = [r for j, b in enumerate(runs) if j != k for r in b]
+        x, y = _lagged(rest, p, p)
+        phi = np.linalg.lstsq(x, y, rcond=None)[0]
+        var = max(float(np.mean((y - x @ phi) ** 2)), 1e-12)
+        xo, yo = _lagged(runs[k], p, max_order)
+        total += 0.5 * float(np.sum(np.log(2.0 * np.pi * var) + (yo - xo @ phi) ** 2 / var))
+    return total
 
 
 def where_beaten(lls, against, reference, err, t, mean, bias_sd, seed=0, block=WHERE_BLOCK):

@@ -37,7 +37,7 @@ import numpy as np
 
 from gps_error_ros.diagnose.baselines import _classes, KEYS, training_outages
 from gps_error_ros.diagnose.consumers import consumer_measures, filter_parts
-from gps_error_ros.diagnose.beaten import pacf_against, part_pacf, where_beaten
+from gps_error_ros.diagnose.beaten import block_orders, pacf_against, part_pacf, where_beaten
 from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
                                              score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
@@ -327,6 +327,8 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
             fit.population.bias_sd_total_m, seed)
         if beaten is not None:
             beaten['pacf'] = pacf_against(part_pacf(split.train), part_pacf(split.test))
+            beaten['orders'] = {'train': block_orders(split.train),
+                                'held_out': block_orders(split.test)}
         out[reference]['where_beaten'] = beaten
     return out
 

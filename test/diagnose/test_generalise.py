@@ -6,7 +6,8 @@ from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
-from gps_error_ros.diagnose.beaten import FAR_SD, part_pacf, where_beaten
+from gps_error_ros.diagnose.beaten import (block_orders, FAR_SD, ORDER_GAIN, part_pacf,
+                                           where_beaten)
 from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
                                                recording_splits, rolling_splits,
                                                split_between, training_windows)
@@ -354,6 +355,35 @@ def test_where_a_class_beats_the_population_is_told_by_the_held_out_level():
     with pytest.raises(ValueError, match=r'expected \(600, 2\)'):
         where_beaten(lls, score_differences(lls, 'population'), 'population', err[:10],
                      np.arange(n, dtype=float), [0.0, 0.0], sd)
+
+
+def _ar3(rng, n):
+    x = np.zeros(n + 100)
+    w = rng.normal(0, 1, n + 100)
+    for k in range(3, n + 100):
+        x[k] = 0.3 * x[k - 1] + 0.2 * x[k - 2] + 0.35 * x[k - 3] + w[k]
+    return x[100:]
+
+
+def test_the_blocks_choose_the_lags_that_hold_across_them_not_one_stretchs():
+    """AR(3) in every block: order 3; in one block of six only: next to no gain over AR(1)."""
+    rng = np.random.default_rng(5)
+    n = 1800                                            # six blocks of 300 s
+    t = np.arange(float(n))
+    every = np.stack([_ar3(rng, n), rng.normal(0, 1, n)], axis=1)
+    got = block_orders(Part([every[:1000], every[1000:]], [None, None], [t[:1000], t[1000:]]))
+    assert got['blocks'] == 6
+    assert got['north']['order'] == 3 and got['north']['gain_per_sample'] > 0.05, got
+    assert got['east']['order'] <= 2 and got['east']['gain_per_sample'] < ORDER_GAIN, got
+    one = rng.normal(0, 1, (n, 2))
+    one[:300, 0] = _ar3(rng, 300)                       # one stretch's dynamics
+    got = block_orders(Part([one], [None], [t]))
+    assert got['north']['gain_per_sample'] < ORDER_GAIN, got     # (seeds 5-9: 0 to 0.003)
+    # blocks of fewer than 60 samples do not count: three blocks' worth is needed
+    sparse = Part([every[:300], every[600:660], every[1200:1259]], [None] * 3,
+                  [t[:300], t[600:660], t[1200:1259]])
+    assert block_orders(sparse) is None
+    assert block_orders(Part([every[:900]], [None], [t[:900]]))['blocks'] == 3
 
 
 def test_the_partial_autocorrelation_of_a_part_finds_the_lags_it_has():

@@ -144,6 +144,27 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
     text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
     assert 'Only over the blocks whose level lies beyond 2 bias SDs do AR(1)' in text
     assert 'within blocks: north 3, east 1) predicts dynamics the held-out receiver' in text
+    assert 'choose more lags' not in text and 'The AR order within blocks' not in text
+    # the orders each part's own blocks choose, and what they say of the lags
+    order = {'order': 3, 'gain_per_sample': 0.3}
+    beaten['orders'] = {'train': {'blocks': 6, 'north': order, 'east': order},
+                        'held_out': {'blocks': 5, 'north': {'order': 1, 'gain_per_sample': 0.0},
+                                     'east': {'order': 2, 'gain_per_sample': 0.002}}}
+    text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
+    assert ('training part (6 blocks): north 3, east 3 (0.30 / 0.30 nats per sample below '
+            'AR(1)); held-out part (5 blocks): north 1, east 2 (0.00 / 0.00 nats') in text
+    assert "The training part's blocks, each predicted from the others, choose more lags" \
+        in text
+    beaten['orders']['train']['east'] = {'order': 3, 'gain_per_sample': 0.004}   # noise
+    text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
+    assert 'choose more lags' not in text
+    beaten['orders'] = {'train': {'blocks': 4, 'north': {'order': 1, 'gain_per_sample': 0.0},
+                                  'east': {'order': 1, 'gain_per_sample': 0.0}},
+                        'held_out': None}
+    text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
+    assert 'held-out part: fewer than 3 blocks' in text
+    assert ("order within blocks is more than the training part's own blocks choose (north 3 "
+            'against 1): the lags beyond') in text
 
 
 def test_the_generalisation_page_shows_the_training_blocks_persistence():
