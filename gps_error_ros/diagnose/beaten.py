@@ -23,8 +23,8 @@ WHERE_BLOCK = 150
 #: A block whose mean error lies beyond this many of the population's bias SDs from
 #: the population's mean (on either axis) is one the population holds unlikely.
 FAR_SD = 2.0
-#: An order's gain over AR(1) in :func:`block_orders` (nats per scored sample) below which
-#: the lags beyond the first are not read as dynamics: a nat per hundred samples.
+#: Nats per scored sample that more lags must gain in :func:`block_orders` to be chosen,
+#: and be read as dynamics: a nat per hundred samples.
 ORDER_GAIN = 0.01
 
 
@@ -81,10 +81,12 @@ def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
     AR(p) fitted by least squares on the other blocks predicts the block's
     samples one step ahead (Gaussian, the fit's residual variance; every
     order scores the same samples, those ``max_order`` or more into a run
-    of the block). The order with the least summed negative log density
-    wins. ``{'blocks': k, 'north': {'order', 'gain_per_sample'}, 'east':
-    ...}``, the gain being the winner's NLL below AR(1)'s per scored
-    sample; None with fewer than :data:`MIN_BLOCKS` blocks.
+    of the block). The order is the smallest whose summed negative log
+    density lies within :data:`ORDER_GAIN` per scored sample of the least
+    (more lags must earn their keep). ``{'blocks': k, 'north': {'order',
+    'gain_per_sample'}, 'east': ...}``, the gain being the chosen order's
+    NLL below AR(1)'s per scored sample; None with fewer than
+    :data:`MIN_BLOCKS` blocks.
     """
     blocks = _blocks(part, block_s, max_order)
     if len(blocks) < MIN_BLOCKS:
@@ -93,8 +95,8 @@ def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
     for a, axis in enumerate(('north', 'east')):
         runs = [[r[:, a] for r in b] for b in blocks]
         nll = np.array([_left_out_nll(runs, p, max_order) for p in range(1, max_order + 1)])
-        best = int(np.argmin(nll))
         scored = sum(max(len(r) - max_order, 0) for b in runs for r in b)
+        best = int(np.flatnonzero(nll <= nll.min() + ORDER_GAIN * scored)[0])
         out[axis] = {'order': best + 1, 'gain_per_sample': float((nll[0] - nll[best]) / scored)}
     return out
 

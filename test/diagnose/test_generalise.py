@@ -6,8 +6,7 @@ from scipy import stats
 
 from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
-from gps_error_ros.diagnose.beaten import (block_orders, FAR_SD, ORDER_GAIN, part_pacf,
-                                           where_beaten)
+from gps_error_ros.diagnose.beaten import block_orders, FAR_SD, part_pacf, where_beaten
 from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
                                                recording_splits, rolling_splits,
                                                split_between, training_windows)
@@ -366,7 +365,7 @@ def _ar3(rng, n):
 
 
 def test_the_blocks_choose_the_lags_that_hold_across_them_not_one_stretchs():
-    """AR(3) in every block: order 3; in one block of six only: next to no gain over AR(1)."""
+    """AR(3) in every block: order 3; in one block of six only: the others say AR(1)."""
     rng = np.random.default_rng(5)
     n = 1800                                            # six blocks of 300 s
     t = np.arange(float(n))
@@ -374,11 +373,11 @@ def test_the_blocks_choose_the_lags_that_hold_across_them_not_one_stretchs():
     got = block_orders(Part([every[:1000], every[1000:]], [None, None], [t[:1000], t[1000:]]))
     assert got['blocks'] == 6
     assert got['north']['order'] == 3 and got['north']['gain_per_sample'] > 0.05, got
-    assert got['east']['order'] <= 2 and got['east']['gain_per_sample'] < ORDER_GAIN, got
+    assert got['east'] == {'order': 1, 'gain_per_sample': 0.0}, got
     one = rng.normal(0, 1, (n, 2))
     one[:300, 0] = _ar3(rng, 300)                       # one stretch's dynamics
     got = block_orders(Part([one], [None], [t]))
-    assert got['north']['gain_per_sample'] < ORDER_GAIN, got     # (seeds 5-9: 0 to 0.003)
+    assert got['north']['order'] == 1, got         # (so on seeds 5-14; argmin alone took 6 once)
     # blocks of fewer than 60 samples do not count: three blocks' worth is needed
     sparse = Part([every[:300], every[600:660], every[1200:1259]], [None] * 3,
                   [t[:300], t[600:660], t[1200:1259]])
