@@ -57,7 +57,19 @@ def beaten_lines(folds):
                        'and not held out, lags: ' + '; '.join(
                            f'{axis} ' + (','.join(map(str, v)) or 'none')
                            for axis, v in only.items()))
+        orders = wb.get('orders') or {}
+        if orders.get('train'):
+            out.append('    AR order that predicts each 300-s block best from the part\'s '
+                       f'others: training part {_orders_text(orders["train"])}; held out '
+                       f'{_orders_text(orders.get("held_out"))}')
     return out
+
+
+def _orders_text(o):
+    """Return a part's :func:`~gps_error_ros.diagnose.beaten.block_orders` in words."""
+    if o is None:
+        return 'fewer than 3 blocks'
+    return f'north {o["north"]["order"]}, east {o["east"]["order"]} ({o["blocks"]} blocks)'
 
 
 def compare_folds(args, recordings):

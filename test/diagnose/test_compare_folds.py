@@ -121,3 +121,10 @@ def test_a_fold_where_a_class_beats_the_population_says_where():
     assert ('(300 samples): ar1 -0.300 (-0.500 to -0.100); over the others (0 samples): -'
             in lines[0])
     assert lines[1].endswith('lags: north 2; east 3')
+    order = {'order': 4, 'gain_per_sample': 0.2}
+    fold['classes']['population']['where_beaten']['orders'] = {
+        'train': {'blocks': 6, 'north': order, 'east': order}, 'held_out': None}
+    lines = beaten_lines([fold])
+    assert lines[2] == ('    AR order that predicts each 300-s block best from the part\'s '
+                        'others: training part north 4, east 4 (6 blocks); held out fewer '
+                        'than 3 blocks')
