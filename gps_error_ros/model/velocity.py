@@ -171,15 +171,18 @@ class Velocity:
 
     def vector_and_mean(self, v_true, w):
         """
-        Return (what :meth:`vector` returns, and :meth:`mean_error`), in one pass.
+        Return (what :meth:`vector` returns, and :meth:`mean_error` or None), in one pass.
 
-        The speed and the biased truth are taken once for the three.
+        The speed and the biased truth are taken once for the three; the
+        mean only with a ``speed_bias`` (None without one, where it is 0).
         """
         v_true = np.asarray(v_true, dtype=float)
         speed = np.hypot(v_true[..., 0], v_true[..., 1])
         still = speed <= self.standstill                # NaN: not still
         biased = self.biased(v_true, speed)
         v = np.where(still[..., None], 0.0, biased + self.scaled(v_true, w, speed))
+        if self.speed_bias is None:
+            return v, still, None
         return v, still, np.where(still[..., None], 0.0, biased - v_true)
 
     def biased(self, v_true, speed=None):

@@ -80,5 +80,4 @@ class VelocityState(SideStream):
         v_true = self.velocity.truth_reported(*chords)
         out, _, mean = self.velocity.vector_and_mean(v_true, w)
         out[~ok] = np.nan
-        sd = self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1]))
-        return out, sd, (None if self.velocity.speed_bias is None else mean)
+        return out, self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1])), mean

@@ -116,6 +116,10 @@ def test_the_one_pass_gives_the_reported_velocity_and_its_mean_as_the_two_calls_
     np.testing.assert_array_equal(mean, section.mean_error(v_true))
     assert np.isnan(v[4]).all() and not still[4]                  # unknown truth: unknown
     np.testing.assert_allclose(mean[1], np.array([3.0, 4.0]) * -0.2 / 5.0)
+    plain = velocity_from_dict(TRUE)                            # no speed bias: no mean to take
+    v, still, mean = plain.vector_and_mean(v_true, w)
+    assert mean is None
+    np.testing.assert_array_equal(v, plain.vector(v_true, w)[0])
 
 
 def test_calibrate_recovers_a_speed_bias(tmp_path):
