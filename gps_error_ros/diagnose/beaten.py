@@ -15,7 +15,8 @@ receiver's dynamics) or fit one stretch (a selection that over-fits).
 import numpy as np
 
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean
-from gps_error_ros.fit.population_fit import BLOCK_S, MIN_BLOCK_SAMPLES, MIN_BLOCKS
+from gps_error_ros.fit.population_fit import (block_pieces, BLOCK_S, MIN_BLOCK_SAMPLES,
+                                              MIN_BLOCKS)
 from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
 
 #: Scored held-out samples per block where :func:`where_beaten` shows a class's gain.
@@ -74,11 +75,12 @@ def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
     """
     Return the AR order per axis that predicts each block of ``part`` best from the others.
 
-    The part is cut into blocks of ``block_s`` (from its first sample; gaps
-    never bridged), each taken about its own mean (as the population's
-    process within is fitted); blocks under :data:`MIN_BLOCK_SAMPLES` are
-    left out. For each order ``p`` up to ``max_order`` and each block, an
-    AR(p) fitted by least squares on the other blocks predicts the block's
+    The part is cut into the population fit's blocks of ``block_s``
+    (:func:`~gps_error_ros.fit.population_fit.block_pieces`; gaps never
+    bridged), each taken about its own mean (as the population's process
+    within is fitted); blocks under :data:`MIN_BLOCK_SAMPLES` are left out.
+    For each order ``p`` up to ``max_order`` and each block, an AR(p)
+    fitted by least squares on the other blocks predicts the block's
     samples one step ahead (Gaussian, the fit's residual variance; every
     order scores the same samples, those ``max_order`` or more into a run
     of the block). The order is the smallest whose summed negative log
@@ -103,15 +105,11 @@ def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
 
 def _blocks(part, block_s, max_order):
     """Return the blocks of ``part``: each a list of runs (n, 2) about the block's mean."""
-    t0 = min(float(t[0]) for t in part.t)
-    pieces = {}
-    for e, t in zip(part.err, part.t):
-        ids = np.floor((np.asarray(t, dtype=float) - t0) / block_s).astype(np.int64)
-        cuts = np.flatnonzero(np.diff(ids) != 0) + 1
-        for ee, ii in zip(np.split(np.asarray(e, dtype=float), cuts), np.split(ids, cuts)):
-            pieces.setdefault(int(ii[0]), []).append(ee)
+    by_block = {}
+    for piece, i in block_pieces(part.err, part.t, block_s):
+        by_block.setdefault(i, []).append(piece)
     out = []
-    for runs in pieces.values():
+    for runs in by_block.values():
         if sum(len(r) for r in runs) < MIN_BLOCK_SAMPLES:
             continue
         mean = np.concatenate(runs).mean(axis=0)
