@@ -348,16 +348,16 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                     neighbour_pairs=len(pairs),
                     neighbour_correlation=None if r is None else round(float(r), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
-    two = None if not two_scales or tau is None else \
-        two_scale_bias(blocks, dev, v, near, math.exp(-block_s / tau))
-    pop = _bias_section(blocks, bias_sd, tau, two, math.sqrt(scale_var), block_s, evidence)
+    two = None if not two_scales or tau is None else two_scale_bias(blocks, dev, v, near, r)
+    pop = _bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
 
 
-def _bias_section(blocks, bias_sd, tau, two, scale_sd, block_s, evidence):
+def _bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence):
     """
     Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
 
+    ``r``: the neighbours' correlation that gave the time constant ``tau``;
     ``two``: :func:`two_scale_bias`'s (wander SD, held SD, ``a``, evidence) or None.
     """
     if two is not None:
@@ -370,7 +370,7 @@ def _bias_section(blocks, bias_sd, tau, two, scale_sd, block_s, evidence):
         return Population(tuple(float(x) for x in wander_sd), scale_sd,
                           float(-block_s / math.log(a)), dof,
                           tuple(float(x) * inflate for x in held_sd))
-    draws = independent_draws(blocks, None if tau is None else math.exp(-block_s / tau))
+    draws = independent_draws(blocks, None if tau is None else r)
     dof, inflate = predictive(draws)
     evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
                     independent_draws=round(draws, 3))
