@@ -204,11 +204,16 @@ def _two_scales_words(fit):
     if pop is None or pop.run_bias_sd_m is None:
         return 'The fit keeps one part: the walks do not tell a held part from a wander.'
     held, wander = pop.run_bias_sd_m, pop.bias_sd_m
+    ev = fit.evidence
+    fitted = ev['wander_sd_estimate_m']
     return (f'The fit splits it in two ([decision](decisions/0024-a-bias-on-two-time-scales'
             f'.md)): a part held for the walk, SD {held[0]:.1f} m north and {held[1]:.1f} m '
             f'east (how the walks\' means differ), and a part that wanders within a walk, '
             f'{wander[0]:.1f} / {wander[1]:.1f} m with a time constant of '
-            f'{pop.bias_time_constant_s:.0f} s (how a walk\'s 300-s blocks differ).')
+            f'{pop.bias_time_constant_s:.0f} s (how a walk\'s 300-s blocks differ: '
+            f'{fitted[0]:.1f} / {fitted[1]:.1f} m as fitted, predicted for a new walk from '
+            f'{ev["wander_contrasts"]:.1f} contrasts of blocks within walks, '
+            f'[decision](decisions/0025-the-wander-predicted-too.md)).')
 
 
 def _errors(tr, failed):

@@ -49,8 +49,15 @@ what differs between blocks:
    variance, over the wander's gives the wander's correlation; the three
    are solved together by :data:`TWO_SCALE_PASSES` passes from step 3's
    correlation. A run's held part is one draw per chain: step 5 predicts
-   it from the chains (``run_bias_sd_m``, Student-t), and the wander keeps
-   its estimate (``bias_sd_m``, under the same Student-t factor). Where the
+   it from the chains (``run_bias_sd_m``, Student-t). The wander's
+   variance is estimated from the blocks' deviations within their chains,
+   ``nu = sum (m - 1)`` contrasts (a chain of ``m`` blocks, counted by its
+   weight; :func:`wander_contrasts`), and is predicted as step 5 predicts
+   the held part's, for the variance alone (its mean is nil within a run):
+   ``bias_sd_m`` is the estimate times ``sqrt(nu / (nu - 2))``, ``nu``
+   rounded and at least 3, the estimate itself beyond
+   :data:`~gps_error_ros.model.population.MAX_BIAS_DOF`; both parts take the
+   same Student-t factor. Where the
    chains cannot tell the parts apart (one chain, no chain of two blocks, or
    either part nil on both axes) the bias is the one part of steps 2-5.
 
@@ -364,10 +371,13 @@ def _bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence):
         wander_sd, held_sd, a, spreads = two
         draws = independent_draws(blocks)
         dof, inflate = predictive(draws)
-        evidence.update(spreads, wander_sd_m=[round(float(x), 4) for x in wander_sd],
+        contrasts = wander_contrasts(blocks)
+        evidence.update(spreads, wander_sd_estimate_m=[round(float(x), 4) for x in wander_sd],
+                        wander_contrasts=round(contrasts, 3),
                         held_sd_estimate_m=[round(float(x), 4) for x in held_sd],
                         independent_draws=round(draws, 3))
-        return Population(tuple(float(x) for x in wander_sd), scale_sd,
+        spread = variance_predictive(contrasts)
+        return Population(tuple(float(x) * spread for x in wander_sd), scale_sd,
                           float(-block_s / math.log(a)), dof,
                           tuple(float(x) * inflate for x in held_sd))
     draws = independent_draws(blocks, None if tau is None else r)
@@ -471,6 +481,30 @@ def independent_draws(blocks, r=None):
     return total
 
 
+def wander_contrasts(blocks):
+    """
+    Return the blocks' contrasts within their chains, ``sum (m - 1)``, counted by the weights.
+
+    A chain of ``m`` neighbouring blocks (one run) holds ``m - 1``
+    deviations of its blocks' means from its own mean: what the wander's
+    variance is estimated from (step 6 of the module docstring).
+    """
+    return float(sum(blocks[ch[0]].weight * (len(ch) - 1) for ch in chains_of(blocks)))
+
+
+def variance_predictive(dof):
+    """
+    Return the factor on an SD estimated from ``dof`` degrees of freedom, for a new draw.
+
+    The SD of a Student-t with ``dof`` degrees of freedom (rounded, at least
+    3) over its scale, ``sqrt(dof / (dof - 2))``: a new draw of a normal
+    whose variance is estimated, with the estimate as the law's scale; 1
+    beyond :data:`~gps_error_ros.model.population.MAX_BIAS_DOF`.
+    """
+    dof = max(3, int(round(dof)))
+    return 1.0 if dof > MAX_BIAS_DOF else math.sqrt(dof / (dof - 2.0))
+
+
 def predictive(draws):
     """
     Return (degrees of freedom or None, the factor on the bias SD) for a new occasion.
@@ -484,7 +518,7 @@ def predictive(draws):
     dof = max(3, int(round(k - 1.0)))
     if dof > MAX_BIAS_DOF:
         return None, location
-    return dof, location * math.sqrt(dof / (dof - 2.0))
+    return dof, location * variance_predictive(dof)
 
 
 def block_pieces(segments, times, block_s=BLOCK_S):
@@ -570,4 +604,6 @@ def _two_part_words(pop, ev):
     return (f'a part held for the run, SD {held[0]:.2f} m north, {held[1]:.2f} m east '
             f'{_predicted(ev, ev["held_sd_estimate_m"])}, and a part that wanders with a time '
             f'constant of {pop.bias_time_constant_s:.0f} s, SD {pop.bias_sd_m[0]:.2f} / '
-            f'{pop.bias_sd_m[1]:.2f} m; {shape}')
+            f'{pop.bias_sd_m[1]:.2f} m (predicted from {ev["wander_contrasts"]:.1f} contrasts '
+            f'of blocks within runs: the fitted SD is {ev["wander_sd_estimate_m"][0]:.2f} / '
+            f'{ev["wander_sd_estimate_m"][1]:.2f} m); {shape}')

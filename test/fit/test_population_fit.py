@@ -7,7 +7,8 @@ import yaml
 
 from gps_error_ros.fit.population_fit import (Block, blocks_of, fit_population,
                                               independent_draws, MIN_BLOCKS, population_line,
-                                              predictive)
+                                              predictive, variance_predictive,
+                                              wander_contrasts)
 from gps_error_ros.model import streams
 from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
 
@@ -188,6 +189,26 @@ def test_a_population_of_few_runs_is_written_wide_and_heavy_tailed():
     factor = np.sqrt(1 + 1 / 6) * np.sqrt(5 / 3)
     np.testing.assert_allclose(pop.bias_sd_m, np.array(ev['bias_sd_estimate_m']) * factor,
                                rtol=1e-3)
+
+
+def test_the_wander_of_few_runs_is_predicted_from_its_contrasts():
+    """Four runs of three blocks: 8 contrasts within runs, the wander's SD times sqrt(8 / 6)."""
+    model = _model({'bias_sd_m': [1.5, 1.5], 'scale_sd_log': 0.0,
+                    'bias_time_constant_s': 400.0, 'run_bias_sd_m': [3.0, 0.5]})
+    fit = fit_population(*_runs(model, 4, 900, seed=1))
+    pop, ev = fit.population, fit.evidence
+    assert pop.run_bias_sd_m is not None, ev
+    assert ev['wander_contrasts'] == 8.0
+    np.testing.assert_allclose(pop.bias_sd_m, np.array(ev['wander_sd_estimate_m']) *
+                               np.sqrt(8 / 6), rtol=1e-3)
+    assert 'predicted from 8.0 contrasts of blocks within runs' in population_line(fit)
+    # a chain of m blocks holds m - 1 contrasts, counted by its weight
+    shared = _chain(0.0, 4, 1 / 3) + _chain(2000.0, 4, 1 / 3) + _chain(4000.0, 1)
+    assert abs(wander_contrasts(shared) - 2.0) < 1e-12
+    # Student-t's SD over its scale, at least 3 degrees of freedom, 1 beyond 30
+    assert variance_predictive(1.2) == np.sqrt(3.0)
+    assert abs(variance_predictive(6.4) - np.sqrt(6 / 4)) < 1e-12
+    assert variance_predictive(31.0) == 1.0
 
 
 def test_no_block_holds_samples_of_two_recordings():
