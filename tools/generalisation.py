@@ -35,6 +35,7 @@ from gps_error_ros.diagnose.consumers import FILTER_PARTS
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
+from gps_error_ros.diagnose.velocity_check import precedent as velocity_precedent
 from gps_error_ros.diagnose.window_persistence import spread_above
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
@@ -266,6 +267,21 @@ def _ratio_range(folds, key):
     return min(r), max(r)
 
 
+def _velocity_precedent(folds):
+    """Return a sentence on the speed and course measures outside their ranges, or ''."""
+    groups = [f['velocity'] for f in folds if f.get('velocity')]
+    found = [velocity_precedent(g) for g in groups]
+    miss = sum(len(m) for m, _, _ in found)
+    if not miss:
+        return ''
+    new = sum(len(n) for _, n, _ in found)
+    unmeasured = sum(len(u) for _, _, u in found)
+    return (f'Of the {miss} speed and course measures outside their ranges, {new} lie outside '
+            f'every stretch of the training rows as long as the held-out rows'
+            + (f' ({unmeasured} in a band no such stretch had rows enough in)'
+               if unmeasured else '') + ' (the speed and course table). ')
+
+
 def _causes(parts):
     """Return bullets (a)-(e) with the figures of this run."""
     out = []
@@ -291,6 +307,7 @@ def _causes(parts):
         precedent = (f'Of the population class\'s {miss} error measures outside their '
                      f'ranges, {new} lie outside every training window like the held-out '
                      f'part as well (no precedent: table below). ' if miss else '')
+        precedent += _velocity_precedent(folds)
         out.append(
             f'- **{name}** ({how}). (a) '
             + (f'Block means of 300 s spread {min(wander):.1f}-{max(wander):.1f} times what '
@@ -520,9 +537,12 @@ def _velocity_rows(folds):
     rows = ['Speed and course (the velocity section fitted on the training rows, the same '
             'for every class; measured on the held-out rows, against the simulated 95 % '
             'range; the section\'s SD at 3, 10 and 27 m/s from its `sigma_by_speed`, its '
-            'lags of the speed and the course):\n',
+            'lags of the speed and the course; and the range of the measure over the '
+            'training rows\' stretches as long as the held-out rows, stepped by half of '
+            'that: a held-out value outside it, **new**, has no precedent in training, '
+            '"-" where no stretch had rows enough in the band):\n',
             '| fold | section: SD at 3 / 10 / 27 m/s, phi, lags (s) | measure | held out '
-            '| simulated 95 % |', '|---|---|---|---|---|']
+            '| simulated 95 % | training stretches |', '|---|---|---|---|---|---|']
     for f in folds:
         g = f.get('velocity')
         if not g:
@@ -531,11 +551,14 @@ def _velocity_rows(folds):
         vel = velocity_from_dict(sec)
         sds = ' / '.join(f'{v:.2f}' for v in vel.sd_at(SPEEDS))
         lags = ' / '.join(f'{v:.1f}' for v in vel.lags)
+        rng = (g.get('train_windows') or {}).get('range', {})
         for name, r in g['measures'].items():
             out = '' if inside(r) else ' **out**'
+            seen = '-' if name not in rng else f'{rng[name][0]:.3f} to {rng[name][1]:.3f}' + (
+                '' if rng[name][0] <= r['measured'] <= rng[name][1] else ' **new**')
             rows.append(f'| {f["fold"]} | {sds}, {sec["phi"]:.2f}, '
                         f'{lags} | {name} | {r["measured"]:.3f}{out} | '
-                        f'{r["sim_lo"]:.3f} to {r["sim_hi"]:.3f} |')
+                        f'{r["sim_lo"]:.3f} to {r["sim_hi"]:.3f} | {seen} |')
     return rows + ['']
 
 

@@ -42,7 +42,7 @@ from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_mas
                                              score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
-from gps_error_ros.diagnose.split import cut_trace, Split
+from gps_error_ros.diagnose.split import cut_trace, like_windows, Split
 from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
 from gps_error_ros.diagnose.window_persistence import persistence_spread
 from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outage_envelopes,
@@ -382,19 +382,12 @@ def training_windows(train, test, gap_s=60.0, least=0.8):
     seg = np.concatenate([np.full(len(x), i) for i, x in enumerate(train.err)])
     jump_m = _jump_threshold(train)
     test_t = np.concatenate(test.t)
-    run = np.r_[0, np.cumsum(np.diff(t) > gap_s)]
-    bounds = [(t[run == r][0], t[run == r][-1]) for r in range(run[-1] + 1)]
     span = float(test_t[-1] - test_t[0])
     values = []
-    for a, b in bounds:
-        whole = b - a < span
-        for s0 in ([a] if whole else np.arange(a, b - span + 1e-9, max(span / 2.0, 1.0))):
-            m = (t >= s0) & (t <= b) if whole else (t >= s0) & (t < s0 + span)
-            if m.sum() < 3 or (not whole and m.sum() < least * (span + 1.0)):
-                continue
-            pieces = [e[m & (seg == i)] for i in np.unique(seg[m])]
-            if any(len(p) > 1 for p in pieces):             # a step to measure
-                values.append(_basic([p for p in pieces if len(p)], jump_m))
+    for m in like_windows(t, span, gap_s, least):
+        pieces = [e[m & (seg == i)] for i in np.unique(seg[m])]
+        if any(len(p) > 1 for p in pieces):             # a step to measure
+            values.append(_basic([p for p in pieces if len(p)], jump_m))
     if not values:
         return {'span_s': span, 'windows': 0, 'range': {}}
     return {'span_s': span, 'windows': len(values),

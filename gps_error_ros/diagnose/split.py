@@ -100,3 +100,29 @@ def split_trace(trace, train_fraction=TRAIN_FRACTION):
     return Split(train, test, truth,
                  f'first {100 * train_fraction:.0f} % of the time span trains, '
                  f'the rest is held out', cut_s)
+
+
+def like_windows(t, span, gap_s=60.0, least=0.8):
+    """
+    Return boolean masks over ``t``: its stretches like a held-out part ``span`` s long.
+
+    ``t`` (s, increasing) is cut into runs (no gap over ``gap_s``: its
+    recordings); every window of ``span`` within a run, stepped by half of
+    it and holding at least ``least`` of the samples such a window can hold
+    at 1 Hz, and every run shorter than ``span`` whole, with 3 samples or
+    more.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size == 0:
+        return []
+    run = np.r_[0, np.cumsum(np.diff(t) > gap_s)]
+    masks = []
+    for r in range(run[-1] + 1):
+        a, b = t[run == r][0], t[run == r][-1]
+        whole = b - a < span
+        for s0 in ([a] if whole else np.arange(a, b - span + 1e-9, max(span / 2.0, 1.0))):
+            m = (t >= s0) & (t <= b) if whole else (t >= s0) & (t < s0 + span)
+            if m.sum() < 3 or (not whole and m.sum() < least * (span + 1.0)):
+                continue
+            masks.append(m)
+    return masks

@@ -16,6 +16,7 @@ section, and this group, is the same for every class that carries it.
 
 import numpy as np
 
+from gps_error_ros.diagnose.split import like_windows
 from gps_error_ros.fit.envelope import envelope, inside
 from gps_error_ros.fit.velocity_fit import estimate_velocity, NEEDED, SLOW_TRUTH, vectors
 from gps_error_ros.model import streams
@@ -80,8 +81,10 @@ def velocity_group(train, test, sims=100, seed=0):
 
     ``train``, ``test``: the fold's training and held-out rows as traces.
     Returns ``{'section', 'measures': {name: envelope row (measured,
-    sim_lo, sim_hi, ...)}, 'inside_95'}`` (None: no speed and course columns, no section fitted on
-    the training rows, or no band with enough held-out rows).
+    sim_lo, sim_hi, ...)}, 'inside_95', 'train_windows'}`` (the measures
+    over the training rows' stretches like the held-out rows:
+    :func:`training_windows`; None: no speed and course columns, no section
+    fitted on the training rows, or no band with enough held-out rows).
     """
     if not (has_velocity(train) and has_velocity(test)):
         return None
@@ -109,22 +112,65 @@ def velocity_group(train, test, sims=100, seed=0):
         values = np.array([s.get(name, np.nan) for s in simulated])
         rows[name] = envelope(value, values[np.isfinite(values)])
     return {'section': section, 'measures': rows,
-            'inside_95': float(np.mean([inside(r) for r in rows.values()]))}
+            'inside_95': float(np.mean([inside(r) for r in rows.values()])),
+            'train_windows': training_windows(train, float(t[-1] - t[0]), list(real))}
+
+
+def training_windows(train, span, names):
+    """
+    Return the range of each measure in ``names`` over the training rows' stretches of ``span`` s.
+
+    Did the training rows ever look like the held-out ones? Each window of
+    :func:`~gps_error_ros.diagnose.split.like_windows` is measured as the
+    held-out rows are (:func:`band_measures`); a held-out value outside its
+    measure's range has no precedent in training. Returns ``{'span_s',
+    'windows', 'range': {name: [low, high]}}``, a measure no window had left
+    out of ``range``.
+    """
+    ex = train.extra
+    values = [band_measures(*(np.asarray(ex[k])[m] for k in
+                              ('speed', 'bearing', 'truth_speed', 'truth_bearing')))
+              for m in like_windows(train.t, span, RUN_GAP_S)]
+    rng = {}
+    for name in names:
+        got = [v[name] for v in values if name in v]
+        if got:
+            rng[name] = [float(min(got)), float(max(got))]
+    return {'span_s': float(span), 'windows': len(values), 'range': rng}
+
+
+def precedent(group):
+    """
+    Return the group's measures outside their range: (all, without precedent, unmeasured).
+
+    Without precedent: outside the range over the training rows' windows
+    (``train_windows``) as well; unmeasured: no window had enough rows in
+    the measure's band to say.
+    """
+    rng = (group.get('train_windows') or {}).get('range', {})
+    miss = [k for k, r in group['measures'].items() if not inside(r)]
+    new = [k for k in miss if k in rng and not rng[k][0] <= group['measures'][k]['measured']
+           <= rng[k][1]]
+    return miss, new, [k for k in miss if k not in rng]
 
 
 def velocity_line(folds):
     """
     Return a line on the group over ``folds`` (each with its ``velocity``), or None.
 
-    The share inside, averaged over the folds that have the group, and the
-    measures outside their range on any of them.
+    The share inside, averaged over the folds that have the group, the
+    measures outside their range on any of them, and those of them that
+    lie outside every training window like the held-out rows on some fold
+    (:func:`precedent`).
     """
     groups = [f['velocity'] for f in folds if f.get('velocity')]
     if not groups:
         return None
     share = float(np.mean([g['inside_95'] for g in groups]))
-    outside = sorted({name for g in groups for name, row in g['measures'].items()
-                      if not inside(row)})
+    outside = sorted({name for g in groups for name in precedent(g)[0]})
+    new = sorted({name for g in groups for name in precedent(g)[1]})
     return (f'  speed and course (the velocity section, the same for every class): '
             f'{share:.2f} inside over {len(groups)} fold(s)'
-            + (f'; outside on some fold: {", ".join(outside)}' if outside else ''))
+            + (f'; outside on some fold: {", ".join(outside)}' if outside else '')
+            + (f'; of them without precedent in the training rows (outside every window '
+               f'of theirs like the held-out rows): {", ".join(new)}' if new else ''))

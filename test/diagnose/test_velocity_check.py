@@ -3,7 +3,9 @@
 import numpy as np
 
 from gps_error_ros.diagnose.generalise import rolling_splits
-from gps_error_ros.diagnose.velocity_check import band_measures, velocity_group, velocity_line
+from gps_error_ros.diagnose.split import like_windows
+from gps_error_ros.diagnose.velocity_check import (band_measures, precedent, velocity_group,
+                                                   velocity_line)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.model.profiles import load_profile
 from gps_error_ros.model.velocity import velocity_from_dict
@@ -46,8 +48,28 @@ def test_a_section_holds_on_its_own_phone_and_not_on_a_noisier_one(tmp_path):
         sd_inside = [g['measures'][k]['sim_lo'] <= g['measures'][k]['measured']
                      <= g['measures'][k]['sim_hi'] for k in names if k.startswith('speed_sd')]
         assert all(sd_inside) if holds else not any(sd_inside), g['measures']
+        # the training rows' stretches as long as the held-out rows: 1599 s of training
+        # rows against 800 s held out, windows stepped by 400 s
+        w = g['train_windows']
+        assert w['windows'] == 3 and set(w['range']) <= names
+        miss, new, unmeasured = precedent(g)
         if holds:
             assert g['inside_95'] >= 0.6
+            assert not set(new) & {'speed_sd 1-5 m/s', 'speed_sd 5-15 m/s'}
+        else:                   # four times the training noise: nothing that trained was like it
+            assert {'speed_sd 1-5 m/s', 'speed_sd 5-15 m/s'} <= set(new), (w, g['measures'])
+        assert set(new) <= set(miss) and not set(new) & set(unmeasured)
+
+
+def test_windows_like_a_held_out_part_stay_within_a_run():
+    t = np.r_[np.arange(0.0, 1000.0), np.arange(1100.0, 1250.0), np.arange(1400.0, 1402.0)]
+    masks = like_windows(t, 400.0)
+    starts = [t[m][0] for m in masks]
+    # windows of 400 s stepped by 200 s that end within the first run (999 s), the 150-s run
+    # whole, the 2-s one not
+    assert starts == [0.0, 200.0, 400.0, 1100.0]
+    assert [int(m.sum()) for m in masks] == [400, 400, 400, 150]
+    assert like_windows(np.array([]), 10.0) == []
 
 
 def test_folds_of_a_trace_with_speed_columns_carry_the_group(tmp_path):
@@ -73,3 +95,17 @@ def test_compare_folds_prints_and_writes_the_group(tmp_path, capsys):
     assert 'speed and course (the velocity section' in capsys.readouterr().out
     folds = json.loads(out.read_text())['folds']
     assert len(folds) == 3 and all(f['velocity']['measures'] for f in folds)
+
+
+def test_the_line_names_the_misses_that_no_training_stretch_was_like():
+    def row(m):
+        return {'measured': m, 'sim_lo': 0.1, 'sim_hi': 0.2, 'sim_median': 0.15,
+                'percentile': 50.0}
+
+    group = {'inside_95': 0.0, 'measures': {'speed_sd 5-15 m/s': row(0.9),
+                                            'course_p50 15+ m/s': row(0.05)},
+             'train_windows': {'windows': 2, 'range': {'speed_sd 5-15 m/s': [0.1, 0.3],
+                                                       'course_p50 15+ m/s': [0.04, 0.2]}}}
+    line = velocity_line([{'fold': 'f', 'velocity': group}])
+    assert 'outside on some fold: course_p50 15+ m/s, speed_sd 5-15 m/s;' in line
+    assert line.endswith('like the held-out rows): speed_sd 5-15 m/s')

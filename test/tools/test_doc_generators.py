@@ -13,6 +13,22 @@ from trace_helpers import synthetic_trace, write_csv
 TOOLS = Path(__file__).resolve().parents[2] / 'tools'
 
 
+def _tools(*names):
+    """Return the named objects of tools/generalisation.py."""
+    sys.path.insert(0, str(TOOLS))
+    try:
+        import generalisation
+    finally:
+        sys.path.remove(str(TOOLS))
+    return [getattr(generalisation, n) for n in names]
+
+
+def _row(m, lo, hi):
+    """Return an envelope row: ``m`` measured, ``lo`` to ``hi`` simulated."""
+    return {'measured': m, 'sim_lo': lo, 'sim_hi': hi, 'sim_median': (lo + hi) / 2,
+            'percentile': 50.0}
+
+
 def test_calibration_doc_regenerates_from_a_data_directory(tmp_path):
     data = tmp_path / 'data'
     data.mkdir()
@@ -171,19 +187,11 @@ def test_the_generalisation_page_shows_the_training_blocks_persistence():
     """tools/generalisation.py: the blocks' lag-1 ACF spread, out where above its range."""
     from gps_error_ros.diagnose.window_persistence import spread_above
 
-    sys.path.insert(0, str(TOOLS))
-    try:
-        from generalisation import _spread_rows
-    finally:
-        sys.path.remove(str(TOOLS))
+    _spread_rows, = _tools('_spread_rows')
 
-    def row(m, lo, hi):
-        return {'measured': m, 'sim_lo': lo, 'sim_hi': hi, 'sim_median': (lo + hi) / 2,
-                'percentile': 50.0}
-
-    spread = {'windows': 4, 'acf1_sd_north': row(0.31, 0.02, 0.12),
-              'acf1_sd_east': row(0.05, 0.02, 0.12), 'lowest_acf1_north': row(0.2, 0.5, 0.9),
-              'lowest_acf1_east': row(0.6, 0.5, 0.9)}
+    spread = {'windows': 4, 'acf1_sd_north': _row(0.31, 0.02, 0.12),
+              'acf1_sd_east': _row(0.05, 0.02, 0.12), 'lowest_acf1_north': _row(0.2, 0.5, 0.9),
+              'lowest_acf1_east': _row(0.6, 0.5, 0.9)}
     folds = [{'fold': 'f1', 'classes': {'population': {'persistence_spread': spread}}},
              {'fold': 'f2', 'classes': {'population': {'persistence_spread': None}}}]
     lines = _spread_rows(folds)
@@ -193,3 +201,30 @@ def test_the_generalisation_page_shows_the_training_blocks_persistence():
     above, judged = spread_above(folds)
     assert (len(above), judged) == (1, 2) and above[0][:2] == ('f1', 'north')
     assert _spread_rows(folds[1:]) == [] and spread_above(folds[1:]) == ([], 0)
+
+
+def test_the_generalisation_page_tells_speed_and_course_misses_without_precedent():
+    """tools/generalisation.py: the training stretches' range beside each velocity measure."""
+    _velocity_precedent, _velocity_rows = _tools('_velocity_precedent', '_velocity_rows')
+
+    section = {'sigma': 0.3, 'phi': 0.2, 'lag_s': 0.5, 'standstill': 0.0}
+    group = {'section': section, 'inside_95': 1 / 3,
+             'measures': {'speed_sd 5-15 m/s': _row(0.9, 0.4, 0.5),       # out, new
+                          'course_p50 15+ m/s': _row(0.05, 0.1, 0.2),     # out, seen
+                          'speed_mean 5-15 m/s': _row(0.0, -0.1, 0.1),    # inside
+                          'speed_sd 15+ m/s': _row(0.3, 0.1, 0.2)},       # out, unmeasured
+             'train_windows': {'span_s': 200.0, 'windows': 3,
+                               'range': {'speed_sd 5-15 m/s': [0.35, 0.55],
+                                         'course_p50 15+ m/s': [0.04, 0.2],
+                                         'speed_mean 5-15 m/s': [-0.2, 0.1]}}}
+    folds = [{'fold': 'f1', 'velocity': group}, {'fold': 'f2', 'velocity': None}]
+    text = '\n'.join(_velocity_rows(folds))
+    assert '| speed_sd 5-15 m/s | 0.900 **out** | 0.400 to 0.500 | 0.350 to 0.550 **new** |' \
+        in text
+    assert '| course_p50 15+ m/s | 0.050 **out** | 0.100 to 0.200 | 0.040 to 0.200 |' in text
+    assert '| speed_sd 15+ m/s | 0.300 **out** | 0.100 to 0.200 | - |' in text
+    assert _velocity_precedent(folds) == (
+        'Of the 3 speed and course measures outside their ranges, 1 lie outside every stretch '
+        'of the training rows as long as the held-out rows (1 in a band no such stretch had '
+        'rows enough in) (the speed and course table). ')
+    assert _velocity_precedent(folds[1:]) == '' and _velocity_rows(folds[1:]) == []
