@@ -27,12 +27,11 @@ from calm_stretches import calm_section
 from data_sources import WALKS
 from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_HEAD, LABELS,
                                  PAGE_HEAD, PRECEDENT_HEAD, SPREAD_HEAD)
-import numpy as np
 from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.diagnose.beaten import gain_text, ORDER_GAIN
 from gps_error_ros.diagnose.consumers import FILTER_PARTS
-from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds,
+from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds, precedent,
                                                recording_splits, rolling_splits,
                                                split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import precedent as velocity_precedent
@@ -220,41 +219,17 @@ def _spread_rows(folds, cls='population'):
             'lowest ACF(1) E |\n|---|---|---|---|---|---|'] + rows
 
 
-#: Groups whose measures a training window can be measured on (the rest are the consumers').
-ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
-
-
-def _precedent(fold, cls='population'):
-    """
-    Return (the error measures outside the class's range, those of them without precedent).
-
-    A measure without precedent lies outside its range over the training
-    part's own windows like the held-out part (``train_windows``): nothing
-    that trained looked like it.
-    """
-    rng = fold.get('train_windows', {}).get('range', {})
-    miss, new = [], []
-    for k, r in fold['classes'][cls]['measures'].items():
-        if k.split(':')[0] not in ERROR_GROUPS or inside(r):
-            continue
-        miss.append(k.split(':')[1])
-        lo, hi = rng.get(k, (np.inf, -np.inf))
-        if not lo <= r['measured'] <= hi:
-            new.append(k.split(':')[1])
-    return miss, new
-
-
 def _precedent_counts(folds):
     """Return (error measures outside the population's range, those without precedent)."""
-    found = [_precedent(f) for f in folds]
+    found = [precedent(f) for f in folds]
     return sum(len(m) for m, _ in found), sum(len(n) for _, n in found)
 
 
 def _precedent_rows(folds):
-    """Return table rows: each fold's misses of the population (:func:`_precedent`)."""
+    """Return table rows: each fold's misses of the population (``generalise.precedent``)."""
     rows = []
     for f in folds:
-        miss, new = _precedent(f)
+        miss, new = precedent(f)
         rows.append(f'| {f["fold"]} | {f.get("train_windows", {}).get("windows", 0)} | '
                     f'{", ".join(miss) or "none"} | {", ".join(new) or "none"} |')
     return rows

@@ -5,8 +5,8 @@ from pathlib import Path
 
 from gps_error_ros.diagnose.beaten import gain_text
 from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUP_BAR, GROUPS, judge_folds,
-                                               recording_splits, rolling_splits,
-                                               split_between, summarise)
+                                               precedent_line, recording_splits,
+                                               rolling_splits, split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import velocity_line
 from gps_error_ros.diagnose.window_persistence import spread_line
 from gps_error_ros.fit.population_fit import segment_weights
@@ -129,7 +129,7 @@ def compare_folds(args, recordings):
                   f'{o["percentile"]:5.1f} %  bar {o["own_meet_bar"]:5.1f} %')
     for line in beaten_lines(folds):
         print(line)
-    for line in (spread_line(folds), velocity_line(folds)):
+    for line in (precedent_line(folds), spread_line(folds), velocity_line(folds)):
         if line:
             print(line)
     if args.json_out:

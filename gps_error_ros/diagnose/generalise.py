@@ -395,6 +395,49 @@ def training_windows(train, test, gap_s=60.0, least=0.8):
                       for k in values[0]}}
 
 
+#: Groups whose measures a training window can be measured on (the rest are the consumers').
+ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
+
+
+def precedent(fold, cls=POPULATION):
+    """
+    Return (the error measures outside the class's range, those of them without precedent).
+
+    A measure without precedent lies outside its range over the training
+    part's own windows like the held-out part (``train_windows``, no window:
+    none is a precedent): nothing that trained looked like it. Measures are
+    named without their group.
+    """
+    rng = fold.get('train_windows', {}).get('range', {})
+    miss, new = [], []
+    for k, r in fold['classes'][cls]['measures'].items():
+        if k.split(':')[0] not in ERROR_GROUPS or inside(r):
+            continue
+        miss.append(k.split(':')[1])
+        lo, hi = rng.get(k, (np.inf, -np.inf))
+        if not lo <= r['measured'] <= hi:
+            new.append(k.split(':')[1])
+    return miss, new
+
+
+def precedent_line(folds, cls=POPULATION):
+    """
+    Return a line on the class's error measures outside their ranges, or None without any.
+
+    How many, and per fold those that lie outside every training window
+    like the held-out part as well (:func:`precedent`): a stationary profile
+    fitted on the training part has nothing to carry over for them.
+    """
+    found = [(f['fold'], *precedent(f, cls)) for f in folds]
+    miss = sum(len(m) for _, m, _ in found)
+    if not miss:
+        return None
+    listed = '; '.join(f'{fold} {", ".join(new)}' for fold, _, new in found if new)
+    return (f'  error measures outside their ranges ({cls}): {miss}, of which '
+            f'{sum(len(n) for _, _, n in found)} outside every training window like the '
+            f'held-out part as well (no precedent)' + (f': {listed}' if listed else ''))
+
+
 def summarise(folds):
     """
     Return per class: the held-out NLL per fold and its mean, the folds it scored best.

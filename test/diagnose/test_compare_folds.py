@@ -6,7 +6,7 @@ import math
 import pytest
 
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.generalise import GROUPS
+from gps_error_ros.diagnose.generalise import GROUPS, precedent
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, write_trace_csv
@@ -69,6 +69,9 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
     assert windows['windows'] == 2 and abs(windows['span_s'] - 899.0) < 1.0
     lo, hi = windows['range']['scale:sd_north']
     assert 0.0 < lo <= hi
+    # the population's error measures outside their ranges are counted in a line, or none
+    missed = any(precedent(f)[0] for f in doc['folds'])
+    assert ('error measures outside their ranges (population)' in printed) == missed
 
 
 def test_leaving_recordings_out_needs_two(tmp_path):

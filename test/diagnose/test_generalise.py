@@ -8,8 +8,9 @@ from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warning
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
 from gps_error_ros.diagnose.beaten import block_orders, FAR_SD, part_pacf, where_beaten
 from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
-                                               recording_splits, rolling_splits,
-                                               split_between, training_windows)
+                                               precedent_line, recording_splits,
+                                               rolling_splits, split_between,
+                                               training_windows)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                      scale_nodes)
 from gps_error_ros.diagnose.split import Part
@@ -148,6 +149,17 @@ def test_training_windows_tell_a_held_out_stretch_without_precedent():
     assert w['windows'] == 2 and w['span_s'] == 299.0
     lo, hi = w['range']['bias:mean_north']
     assert hi < 1.0 < 5.0                                   # a new bias: no precedent
+    # the line compare --folds prints: the misses, and those that nothing in training was like
+    row = {'measured': 5.0, 'sim_lo': -1.0, 'sim_hi': 1.0}
+    scale = {'measured': 1.5, 'sim_lo': 0.8, 'sim_hi': 1.2}
+    fold = {'fold': 'f1', 'train_windows': w, 'classes': {'population': {'measures': {
+        'bias:mean_north': row, 'scale:sd_north': scale, 'filter:filter_rms': row}}}}
+    w['range']['scale:sd_north'] = [0.9, 1.6]               # a window had that scale
+    line = precedent_line([fold])
+    assert line.endswith('(population): 2, of which 1 outside every training window like the '
+                         'held-out part as well (no precedent): f1 mean_north'), line
+    fold['classes']['population']['measures'] = {'filter:filter_rms': row}   # consumers'
+    assert precedent_line([fold]) is None
     lo, hi = w['range']['scale:sd_east']
     assert lo < 1.0 < hi
 
