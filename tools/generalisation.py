@@ -515,7 +515,10 @@ def _velocity_rows(folds):
             'lags of the speed and the course; and the range of the measure over the '
             'training rows\' stretches as long as the held-out rows, stepped by half of '
             'that: a held-out value outside it, **new**, has no precedent in training, '
-            '"-" where no stretch had rows enough in the band):\n',
+            '"-" where no stretch had rows enough in the band). A miss with a precedent '
+            'says that the training rows\' own stretches spread that far while the section, '
+            'one stationary process, simulates a narrower spread; a miss without one, that '
+            'nothing the section was fitted on was like the held-out rows:\n',
             '| fold | section: SD at 3 / 10 / 27 m/s, phi, lags (s) | measure | held out '
             '| simulated 95 % | training stretches |', '|---|---|---|---|---|---|']
     for f in folds:
