@@ -34,10 +34,19 @@ moves at 1 m/s or more and the phone reports a course:
 * ``standstill``: the reference speed (up to 2 m/s) at or below which the
   phone reported exactly 0 with the fewest exceptions either way (at least
   10 zero reports; else 0); the phone reports 0 at or below it.
+
+The evidence also says how the error's scale moves between stretches
+(:func:`block_scale`): the SD over 300-s blocks of the log RMS of the error
+in units of its SD at its speed, against what sampling alone gives a block
+of that many rows. The section does not carry it: one scale serves every
+agent and stretch.
 """
+
+import math
 
 import numpy as np
 
+from gps_error_ros.fit.population_fit import block_ids, BLOCK_S, MIN_BLOCK_SAMPLES, MIN_BLOCKS
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
 from gps_error_ros.model.velocity import sd_from_table, speed_along, with_speed_bias
 
@@ -117,6 +126,39 @@ def _standstill(truth_speed, zero):
     return float(candidates[int(np.argmin(wrong))])
 
 
+def block_scale(u, t, phi, block_s=BLOCK_S):
+    """
+    Return how the error's scale spreads between blocks, or None with too few blocks.
+
+    ``u``: the error's east/north rows in units of its SD at their speed
+    (NaN where not judged); ``t``: their times, s; ``phi``: its lag-1
+    autocorrelation. Blocks are the population fit's (``block_s`` from each
+    run's start); a block counts with :data:`MIN_BLOCK_SAMPLES` judged rows
+    or more, and :data:`MIN_BLOCKS` must. Each block's log RMS over both
+    components: their SD over the blocks, the SD that sampling alone gives
+    one (``sqrt((1 + phi^2) / (1 - phi^2) / (4 n))`` for ``n`` rows, averaged
+    over the blocks in variance), and what lies beyond, ``sqrt(max(0, SD^2 -
+    sampling^2))``: the log SD of a scale drawn per stretch.
+    """
+    ok = np.isfinite(u).all(axis=1)
+    if ok.sum() < MIN_BLOCK_SAMPLES * MIN_BLOCKS:
+        return None
+    ids = block_ids([np.asarray(t, dtype=float)[ok]], block_s)[0]
+    logs, sizes = [], []
+    for b in np.unique(ids):
+        x = u[ok][ids == b]
+        if len(x) >= MIN_BLOCK_SAMPLES:
+            logs.append(0.5 * np.log(np.mean(x ** 2)))
+            sizes.append(len(x))
+    if len(logs) < MIN_BLOCKS:
+        return None
+    spread = float(np.var(logs, ddof=1))
+    sampling = float(np.mean((1.0 + phi ** 2) / (1.0 - phi ** 2) / (4.0 * np.array(sizes))))
+    return {'blocks': len(logs), 'block_log_rms_sd': round(math.sqrt(spread), 4),
+            'sampling_sd': round(math.sqrt(sampling), 4),
+            'beyond_sampling_sd': round(math.sqrt(max(0.0, spread - sampling)), 4)}
+
+
 def estimate_velocity(trace):
     """Return (velocity section or None, evidence) for ``trace`` (see module doc)."""
     missing = [k for k in NEEDED if k not in trace.extra]
@@ -175,5 +217,6 @@ def estimate_velocity(trace):
                 'rms_by_course_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
                 'mean_error_east_north': [round(float(np.mean(w[rows, a])), 4)
                                           for a in range(2)],
-                'zero_speed_rows': int(zero.sum()), 'implausible_rows': int(odd.sum())}
+                'zero_speed_rows': int(zero.sum()), 'implausible_rows': int(odd.sum()),
+                'scale_between_blocks': block_scale(u, t, phi)}
     return section, evidence

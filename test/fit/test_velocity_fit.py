@@ -263,3 +263,32 @@ def test_a_velocitys_lag_never_reaches_back_into_the_recording_before():
     pooled = np.sqrt(np.mean([s['sigma'] ** 2 + (b - np.mean(bias)) ** 2 / 2
                               for s, b in zip(alone, bias)]))
     assert joined['sigma'] == pytest.approx(pooled, abs=2e-6)
+
+
+def test_the_scale_between_blocks_is_told_from_sampling():
+    """40 blocks of 300 s whose scale has log SD 0.3 against one scale for all (AR(1), 0.5)."""
+    from scipy.signal import lfilter
+
+    from gps_error_ros.fit.velocity_fit import block_scale
+    rng = np.random.default_rng(3)
+    t = np.arange(12000.0)
+    z = lfilter([np.sqrt(1 - 0.25)], [1.0, -0.5], rng.standard_normal((12000, 2)), axis=0)
+    steady = block_scale(z, t, 0.5)
+    assert steady['blocks'] == 40 and steady['beyond_sampling_sd'] < 0.05, steady
+    # sampling alone: sqrt((1 + phi^2) / (1 - phi^2) / (4 * 300)) for blocks of 300 rows
+    assert abs(steady['sampling_sd'] - np.sqrt(1.25 / 0.75 / 1200)) < 1e-4
+    scale = np.exp(0.3 * np.repeat(rng.standard_normal(40), 300))
+    varied = block_scale(z * scale[:, None], t, 0.5)
+    assert 0.22 < varied['beyond_sampling_sd'] < 0.38, varied
+    # rows not judged (NaN) are left out; fewer than three blocks of 60 rows: none
+    z[:, 0][t >= 600] = np.nan
+    assert block_scale(z, t, 0.5) is None
+
+
+def test_calibrate_records_how_the_scale_moves_between_blocks(tmp_path):
+    import yaml
+    _fitted(tmp_path, velocity_from_dict(TRUE), steps=1800)
+    fit = yaml.safe_load((tmp_path / 'p.yaml').read_text())['fit']['velocity']
+    scale = fit['scale_between_blocks']
+    # one scale for the whole drive: the blocks' spread is about what sampling gives
+    assert scale['blocks'] == 6 and scale['beyond_sampling_sd'] < 0.15, scale
