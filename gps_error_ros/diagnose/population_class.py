@@ -20,7 +20,7 @@ import numpy as np
 
 from gps_error_ros.diagnose.mean import motion_offsets
 from gps_error_ros.diagnose.split import Part
-from gps_error_ros.fit.population_fit import BLOCK_S, fit_population
+from gps_error_ros.fit.population_fit import block_ids, BLOCK_S, fit_population
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.effects import build_model
 from gps_error_ros.model.population import WithPopulation
@@ -236,9 +236,13 @@ def _within_split(split):
 
 
 def within_part(part, block_s=BLOCK_S):
-    """Return ``part`` with each sample's block mean taken off, segments cut at block edges."""
-    t_first = min(float(t[0]) for t in part.t)
-    ids = [np.floor((t - t_first) / block_s).astype(np.int64) for t in part.t]
+    """
+    Return ``part`` with each sample's block mean taken off, segments cut at block edges.
+
+    The blocks are the population fit's (:func:`~gps_error_ros.fit.population_fit.block_ids`:
+    each run cut from its own first sample), so that no block mixes two runs' biases.
+    """
+    ids = block_ids(part.t, block_s)
     allid, allerr = np.concatenate(ids), np.concatenate(part.err)
     means = {int(i): allerr[allid == i].mean(axis=0) for i in np.unique(allid)}
     out = Part([], [], [])

@@ -12,7 +12,7 @@ from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_ve
                                                rolling_splits, split_between,
                                                training_windows)
 from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
-                                                     scale_nodes)
+                                                     scale_nodes, within_part)
 from gps_error_ros.diagnose.split import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.population import Population
@@ -438,3 +438,15 @@ def test_a_lag_never_reaches_back_into_the_recording_before():
     heading = travel_headings(split.truth, np.array([first, first + 5.0]), 0.5)
     assert heading[1] == pytest.approx(0.0, abs=1e-2)              # north
     assert abs(heading[0]) < 1e-2                # not the jump's west-east direction
+
+
+def test_the_errors_within_blocks_never_mix_two_runs():
+    """Two walks 100 s apart, biases +5 and -5 m: each block's mean is its own walk's."""
+    t = [np.arange(450.0), 550.0 + np.arange(450.0)]
+    err = [np.full((450, 2), 5.0), np.full((450, 2), -5.0)]
+    part = Part(err, [np.zeros((450, 2))] * 2, t)
+    out = within_part(part)
+    # each walk cut from its own start: blocks of 300 and 150 samples, each about its own mean
+    assert [len(e) for e in out.err] == [300, 150, 300, 150]
+    assert max(np.abs(e).max() for e in out.err) == 0.0
+    np.testing.assert_array_equal(np.concatenate(out.t), np.concatenate(t))
