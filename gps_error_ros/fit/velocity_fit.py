@@ -143,10 +143,11 @@ def block_scale(u, t, phi, block_s=BLOCK_S):
     ok = np.isfinite(u).all(axis=1)
     if ok.sum() < MIN_BLOCK_SAMPLES * MIN_BLOCKS:
         return None
+    judged = u[ok]
     ids = block_ids([np.asarray(t, dtype=float)[ok]], block_s)[0]
     logs, sizes = [], []
     for b in np.unique(ids):
-        x = u[ok][ids == b]
+        x = judged[ids == b]
         if len(x) >= MIN_BLOCK_SAMPLES:
             logs.append(0.5 * np.log(np.mean(x ** 2)))
             sizes.append(len(x))
