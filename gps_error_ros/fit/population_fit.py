@@ -20,14 +20,14 @@ what differs between blocks:
    :data:`ADJACENT_GAP_S` apart) share their bias to a degree: the
    correlation ``r`` of neighbours' mean deviations (their covariance less
    what the within process gives, over the bias variance) gives
-   ``bias_time_constant_s = -BLOCK_S / ln r``. At ``r >=`` :data:`CONSTANT_R`,
-   or with fewer than :data:`MIN_PAIRS` neighbour pairs, the bias is
+   ``bias_time_constant_s = -BLOCK_S / ln r``. At ``r >=`` ``CONSTANT_R``,
+   or with fewer than ``MIN_PAIRS`` neighbour pairs, the bias is
    constant for a run (no time constant).
 4. **Scale**: the variance of each block's log SD (averaged over the axes)
    less its sampling variance under the within process (``(1 + 2 sum
    rho_k^2) / (4 n)``), floored at 0: ``scale_sd_log``.
 5. **A new occasion's bias**: the blocks are ``k`` independent draws of the
-   bias at most (:func:`independent_draws`: a chain of neighbouring blocks
+   bias at most (``independent_draws``: a chain of neighbouring blocks
    counts as one draw when the bias is constant for a run, and as fewer
    than its blocks when it wanders). The bias of a run the fit did not see
    is predicted as a normal sample's next draw is when its mean and SD are
@@ -42,17 +42,17 @@ what differs between blocks:
 6. **Two time scales**: where the bias wanders (step 3) and the blocks
    lie in two chains or more (runs of neighbouring blocks, counted by
    their weights), the bias may have a part held for the run beside the
-   wander (:func:`two_scale_bias`): the spread of the block means within a
+   wander (``two_scale_bias``): the spread of the block means within a
    chain is the wander's (less what the process gives), the spread of the
    chains' means beyond what the wander and the process give a chain's mean
    is the held part's, and the neighbours' covariance, less the held part's
    variance, over the wander's gives the wander's correlation; the three
-   are solved together by :data:`TWO_SCALE_PASSES` passes from step 3's
+   are solved together by ``TWO_SCALE_PASSES`` passes from step 3's
    correlation. A run's held part is one draw per chain: step 5 predicts
    it from the chains (``run_bias_sd_m``, Student-t). The wander's
    variance is estimated from the blocks' deviations within their chains,
    ``nu = sum (m - 1)`` contrasts (a chain of ``m`` blocks, counted by its
-   weight; :func:`wander_contrasts`), and is predicted as step 5 predicts
+   weight; ``wander_contrasts``), and is predicted as step 5 predicts
    the held part's, for the variance alone (its mean is nil within a run):
    ``bias_sd_m`` is the estimate times ``sqrt(nu / (nu - 2))``, ``nu``
    rounded and at least 3, the estimate itself beyond
@@ -72,6 +72,10 @@ are each an occasion of their own); each block then weighs ``1 / k``, ``k`` the
 recordings of its occasion, in every moment above (the grand mean too), so
 that an occasion counts once however many receivers recorded it.
 
+Steps 3, 5 and 6 are computed in :mod:`~gps_error_ros.fit.population_bias`,
+where ``CONSTANT_R``, ``MIN_PAIRS``, ``TWO_SCALE_PASSES``,
+``independent_draws``, ``two_scale_bias`` and ``wander_contrasts`` live.
+
 Fewer than :data:`MIN_BLOCKS` blocks of at least :data:`MIN_BLOCK_SAMPLES`
 samples (counted by their weights): no population is fitted, and the
 reason says so.
@@ -83,10 +87,13 @@ import math
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
+from gps_error_ros.fit.population_bias import (ADJACENT_GAP_S, bias_section,
+                                               neighbour_cov_beyond, neighbour_pairs,
+                                               time_constant, two_scale_bias)
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yule_walker
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.model.population import MAX_BIAS_DOF, Population
+from gps_error_ros.model.population import Population
 from gps_error_ros.traces.trace_io import recording_offsets
 
 #: Block length, s: the stretch whose bias and scale one run is taken to have.
@@ -95,14 +102,6 @@ BLOCK_S = 300.0
 MIN_BLOCK_SAMPLES = 60
 #: Blocks a population needs.
 MIN_BLOCKS = 3
-#: Neighbour pairs a time constant needs.
-MIN_PAIRS = 3
-#: Neighbours' correlation at and above which the bias is taken as constant for a run.
-CONSTANT_R = 0.95
-#: Passes of the two-scale fit's fixed point (wander and held SDs, neighbours' correlation).
-TWO_SCALE_PASSES = 20
-#: Largest gap between neighbouring blocks, s.
-ADJACENT_GAP_S = 60.0
 #: Lags of the within process's ACF used for a block mean's variance.
 ACF_LAGS = 600
 #: Passes of the within fit's correction for the block means taken out.
@@ -342,8 +341,8 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     bias_sd = np.sqrt(between)
     c = np.array([[neighbour_covariance(rho[:, a], k, gamma0[a]) for a in range(2)] for k in n])
     pairs = neighbour_pairs(blocks)
-    near = _neighbour_cov(blocks, dev, c, pairs)
-    tau, r = _time_constant(len(pairs), near, between, block_s)
+    near = neighbour_cov_beyond(blocks, dev, c, pairs)
+    tau, r = time_constant(len(pairs), near, between, block_s)
     log_sd = np.array([np.mean(np.log(np.maximum(b.err.std(axis=0), 1e-6))) for b in blocks])
     rho2 = [1.0 + 2.0 * np.sum(rho[1:, a] ** 2) for a in range(2)]
     sampling = np.average([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n], weights=wb)
@@ -356,169 +355,8 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                     neighbour_correlation=None if r is None else round(float(r), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
     two = None if not two_scales or tau is None else two_scale_bias(blocks, dev, v, near, r)
-    pop = _bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence)
+    pop = bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
-
-
-def _bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence):
-    """
-    Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
-
-    ``r``: the neighbours' correlation that gave the time constant ``tau``;
-    ``two``: :func:`two_scale_bias`'s (wander SD, held SD, ``a``, evidence) or None.
-    """
-    if two is not None:
-        wander_sd, held_sd, a, spreads = two
-        draws = independent_draws(blocks)
-        dof, inflate = predictive(draws)
-        contrasts = wander_contrasts(blocks)
-        evidence.update(spreads, wander_sd_estimate_m=[round(float(x), 4) for x in wander_sd],
-                        wander_contrasts=round(contrasts, 3),
-                        held_sd_estimate_m=[round(float(x), 4) for x in held_sd],
-                        independent_draws=round(draws, 3))
-        spread = variance_predictive(contrasts)
-        return Population(tuple(float(x) * spread for x in wander_sd), scale_sd,
-                          float(-block_s / math.log(a)), dof,
-                          tuple(float(x) * inflate for x in held_sd))
-    draws = independent_draws(blocks, None if tau is None else r)
-    dof, inflate = predictive(draws)
-    evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
-                    independent_draws=round(draws, 3))
-    return Population(tuple(float(x) * inflate for x in bias_sd), scale_sd, tau, dof)
-
-
-def chains_of(blocks):
-    """Return the blocks' indices cut into chains: runs of blocks less than a gap apart."""
-    chains = [[0]] if blocks else []
-    for j in range(1, len(blocks)):
-        if blocks[j].t0 - blocks[j - 1].t1 <= ADJACENT_GAP_S:
-            chains[-1].append(j)
-        else:
-            chains.append([j])
-    return chains
-
-
-def neighbour_pairs(blocks):
-    """Return the indices ``j`` of the blocks whose successor ``j + 1`` lies in their chain."""
-    return [j for chain in chains_of(blocks) for j in chain[:-1]]
-
-
-def _neighbour_cov(blocks, dev, process_cov, pairs):
-    """
-    Return the neighbours' covariance of mean deviations per axis (2,), or None without pairs.
-
-    ``process_cov``: per block, the covariance with its successor's mean
-    that the within process alone gives (:func:`neighbour_covariance`),
-    taken off; the pairs weigh as their first blocks.
-    """
-    if not pairs:
-        return None
-    return np.average([dev[j] * dev[j + 1] - process_cov[j] for j in pairs], axis=0,
-                      weights=[blocks[j].weight for j in pairs])
-
-
-def two_scale_bias(blocks, dev, v, near, a):
-    """
-    Return (wander SD (2,), held SD (2,), ``a``, evidence) of a bias on two time scales, or None.
-
-    ``dev``: the blocks' mean deviations from the grand mean (k, 2); ``v``:
-    what the process within gives each block's mean as variance (k, 2);
-    ``near``: the neighbours' covariance beyond the process's
-    (:func:`_neighbour_cov`); ``a``: the neighbours' correlation of the
-    one-part fit, a start. See
-    step 6 of the module docstring. The evidence: the SD of the chains'
-    means and the pooled SD of the block means within a chain, per axis. None
-    where the chains cannot tell the
-    two parts apart: fewer than two chains (counted by their weights), none
-    of two blocks or more, or either part nil on both axes.
-    """
-    chains = chains_of(blocks)
-    w = np.array([blocks[ch[0]].weight for ch in chains])
-    m = np.array([len(ch) for ch in chains], dtype=float)
-    if w.sum() < 2.0 or m.max() < 2:
-        return None
-    means = np.array([dev[ch].mean(axis=0) for ch in chains])
-    ssw = sum(wi * ((dev[ch] - mu) ** 2).sum(axis=0) for wi, ch, mu in zip(w, chains, means))
-    vbar = np.array([v[ch].mean(axis=0) for ch in chains])
-    centre = np.average(means, axis=0, weights=w)
-    spread = (w[:, None] * (means - centre) ** 2).sum(axis=0) / (w.sum() - 1.0)
-    d = [np.arange(1, k) for k in m.astype(int)]
-    for _ in range(TWO_SCALE_PASSES):
-        s = np.array([k + 2.0 * float(np.sum((k - dd) * a ** dd)) for k, dd in zip(m, d)])
-        wander = np.maximum(0.0, (ssw - (w * (m - 1.0)) @ vbar) / float(np.sum(w * (m - s / m))))
-        held = np.maximum(0.0, spread - np.average(wander[None] * (s / m ** 2)[:, None] +
-                                                   vbar / m[:, None], axis=0, weights=w))
-        if not np.any(wander > 0):
-            return None
-        a = float(np.clip((np.sum(near) - np.sum(held)) / np.sum(wander), math.exp(-1.0),
-                          CONSTANT_R))
-    if not np.any(held > 0):
-        return None
-    within = ssw / float(np.sum(w * (m - 1.0)))
-    return np.sqrt(wander), np.sqrt(held), a, {
-        'run_means_sd_m': [round(float(x), 4) for x in np.sqrt(spread)],
-        'block_means_within_run_sd_m': [round(float(x), 4) for x in np.sqrt(within)]}
-
-
-def independent_draws(blocks, r=None):
-    """
-    Return how many independent draws of the bias ``blocks`` hold, counted by their weights.
-
-    Blocks less than :data:`ADJACENT_GAP_S` apart form a chain (one run).
-    With ``r`` None (a bias constant for a run) a chain is one draw; with a
-    bias whose neighbouring blocks correlate by ``r``, a chain of ``m`` is
-    ``m^2 / (m + 2 sum_j (m - j) r^j)`` draws (as many as its mean is worth).
-    """
-    total = 0.0
-    for chain in chains_of(blocks):
-        m = len(chain)
-        if r is None:
-            n = 1.0
-        else:
-            j = np.arange(1, m)
-            n = m * m / (m + 2.0 * float(np.sum((m - j) * r ** j)))
-        total += blocks[chain[0]].weight * n
-    return total
-
-
-def wander_contrasts(blocks):
-    """
-    Return the blocks' contrasts within their chains, ``sum (m - 1)``, counted by the weights.
-
-    A chain of ``m`` neighbouring blocks (one run) holds ``m - 1``
-    deviations of its blocks' means from its own mean: what the wander's
-    variance is estimated from (step 6 of the module docstring).
-    """
-    return float(sum(blocks[ch[0]].weight * (len(ch) - 1) for ch in chains_of(blocks)))
-
-
-def variance_predictive(dof):
-    """
-    Return the factor on an SD estimated from ``dof`` degrees of freedom, for a new draw.
-
-    The SD of a Student-t with ``dof`` degrees of freedom (rounded, at least
-    3) over its scale, ``sqrt(dof / (dof - 2))``: a new draw of a normal
-    whose variance is estimated, with the estimate as the law's scale; 1
-    beyond :data:`~gps_error_ros.model.population.MAX_BIAS_DOF`.
-    """
-    dof = max(3, int(round(dof)))
-    return 1.0 if dof > MAX_BIAS_DOF else math.sqrt(dof / (dof - 2.0))
-
-
-def predictive(draws):
-    """
-    Return (degrees of freedom or None, the factor on the bias SD) for a new occasion.
-
-    See step 5 of the module docstring: ``dof = max(3, round(k - 1))`` and
-    ``sqrt(1 + 1 / k) sqrt(dof / (dof - 2))``; None and ``sqrt(1 + 1 / k)``
-    above :data:`~gps_error_ros.model.population.MAX_BIAS_DOF`.
-    """
-    k = max(draws, 1.0)
-    location = math.sqrt(1.0 + 1.0 / k)
-    dof = max(3, int(round(k - 1.0)))
-    if dof > MAX_BIAS_DOF:
-        return None, location
-    return dof, location * variance_predictive(dof)
 
 
 def block_pieces(segments, times, block_s=BLOCK_S):
@@ -545,24 +383,6 @@ def _within_segments(segments, times, block_s):
     means = {i: np.concatenate(v).mean(axis=0) for i, v in by_block.items()}
     sizes = [sum(len(x) for x in v) for v in by_block.values()]
     return [s - means[i] for s, i in pieces if len(s) > 1], sizes
-
-
-def _time_constant(pairs, near, between, block_s):
-    """
-    Return (time constant s or None, the neighbours' correlation or None).
-
-    ``pairs``: how many neighbour pairs; ``near``: their covariance beyond
-    the process's, per axis (:func:`_neighbour_cov`); the correlation is
-    taken over the axes whose bias variance ``between`` is not nil.
-    """
-    if pairs < MIN_PAIRS or not np.any(between > 0):
-        return None, None
-    w = between > 0
-    r = float(np.sum(near[w]) / np.sum(between[w]))
-    if r >= CONSTANT_R:
-        return None, r
-    r = max(r, math.exp(-1.0))          # at most one block's decay per block: the AR covers less
-    return float(-block_s / math.log(r)), r
 
 
 def population_line(fit):

@@ -5,10 +5,10 @@ from dataclasses import replace
 import numpy as np
 import yaml
 
-from gps_error_ros.fit.population_fit import (Block, blocks_of, fit_population,
-                                              independent_draws, MIN_BLOCKS, population_line,
-                                              predictive, variance_predictive,
-                                              wander_contrasts)
+from gps_error_ros.fit.population_bias import (independent_draws, predictive,
+                                               variance_predictive, wander_contrasts)
+from gps_error_ros.fit.population_fit import (Block, blocks_of, fit_population, MIN_BLOCKS,
+                                              population_line)
 from gps_error_ros.model import streams
 from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
 
