@@ -167,8 +167,9 @@ def velocity_line(folds):
     if not groups:
         return None
     share = float(np.mean([g['inside_95'] for g in groups]))
-    outside = sorted({name for g in groups for name in precedent(g)[0]})
-    new = sorted({name for g in groups for name in precedent(g)[1]})
+    found = [precedent(g) for g in groups]
+    outside = sorted({name for miss, _, _ in found for name in miss})
+    new = sorted({name for _, unseen, _ in found for name in unseen})
     return (f'  speed and course (the velocity section, the same for every class): '
             f'{share:.2f} inside over {len(groups)} fold(s)'
             + (f'; outside on some fold: {", ".join(outside)}' if outside else '')
