@@ -35,11 +35,12 @@ moves at 1 m/s or more and the phone reports a course:
   phone reported exactly 0 with the fewest exceptions either way (at least
   10 zero reports; else 0); the phone reports 0 at or below it.
 
-The evidence also says how the error's scale moves between stretches
-(:func:`block_scale`): the SD over 300-s blocks of the log RMS of the error
-in units of its SD at its speed, against what sampling alone gives a block
-of that many rows. The section does not carry it: one scale serves every
-agent and stretch.
+* ``scale_sd_log``: how the error's scale moves between stretches
+  (:func:`block_scale`): the SD over 300-s blocks of the log RMS of the
+  error in units of its SD at its speed, less what sampling alone gives a
+  block of that many rows (in variance); written where enough blocks had
+  enough rows and something lies beyond sampling. The section draws each
+  agent's scale from it (:class:`~gps_error_ros.model.velocity.Velocity`).
 """
 
 import math
@@ -213,11 +214,14 @@ def estimate_velocity(trace):
                'speed_bias': [list(node) for node in bias]}
     if table is not None:
         section['sigma_by_speed'] = [list(node) for node in table]
+    between = block_scale(u, t, phi)
+    if between is not None and between['beyond_sampling_sd'] > 0.0:
+        section['scale_sd_log'] = between['beyond_sampling_sd']
     evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),
                 'speed_sd_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in speed_sd.items()},
                 'rms_by_course_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
                 'mean_error_east_north': [round(float(np.mean(w[rows, a])), 4)
                                           for a in range(2)],
                 'zero_speed_rows': int(zero.sum()), 'implausible_rows': int(odd.sum()),
-                'scale_between_blocks': block_scale(u, t, phi)}
+                'scale_between_blocks': between}
     return section, evidence

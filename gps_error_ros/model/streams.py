@@ -100,6 +100,9 @@ DOMAIN_FAILURE_RATE = 22
 #: Population: the part of the run's bias held for the run, one normal pair per start step.
 DOMAIN_RUN_BIAS = 23
 
+#: Velocity: the agent's scale of its velocity error, one normal pair (first used) at position 0.
+DOMAIN_VELOCITY_SCALE = 24
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -116,6 +119,7 @@ DOMAINS = {
     'population_scale': DOMAIN_POPULATION_SCALE, 'init_bias': DOMAIN_INIT_BIAS,
     'bias': DOMAIN_BIAS, 'bias_mix': DOMAIN_BIAS_MIX,
     'failure_rate': DOMAIN_FAILURE_RATE, 'run_bias': DOMAIN_RUN_BIAS,
+    'velocity_scale': DOMAIN_VELOCITY_SCALE,
 }
 
 

@@ -15,6 +15,7 @@ A profile's optional ``velocity`` section::
       sigma_by_speed:   # optional: [true speed m/s, sigma m/s] pairs, speeds increasing
         - [3.0, 0.45]
         - [27.0, 0.05]
+      scale_sd_log: 0.2 # optional: SD of the log of an agent's scale of the error
 
 The phone's velocity is the truth's ``lag_s`` earlier plus a two-dimensional
 error ``w`` (east, north), a stationary AR(1) per component:
@@ -52,6 +53,20 @@ the GSDC reference, both phones' speeds were 0.01-0.03 m/s low on the open
 road in every part of the drive (decision 0021). Without the key the speed
 has no bias, bit for bit as before.
 
+With ``scale_sd_log`` (``s``) each agent's error is its own multiple
+``f = exp(s z - s^2)`` of the section's (``z`` standard normal from the
+agent's stream, domain ``velocity_scale`` at position 0, so an agent keeps
+its scale whenever it starts, alone, in a crowd or in a shard): the
+initial error and every innovation are multiplied by ``f``. The mean of
+``f^2`` is 1, so the agents' average variance is the section's, and the SD
+the node publishes (:meth:`Velocity.sd_at`) is the population's, which a
+consumer that does not know the agent's scale needs. The measured phones'
+Doppler error changed its scale from one 300-s stretch of a drive to the
+next by a log SD of 0.19-0.26 where sampling alone gives 0.03-0.04
+(decision 0026); one scale for every agent and stretch made their speed
+and course spread narrower than the phones' from stretch to stretch.
+Without the key every agent has the section's scale, bit for bit as before.
+
 The velocity error is independent of the position error (the
 two come from different observables: Doppler against pseudoranges).
 """
@@ -63,9 +78,11 @@ import numpy as np
 from gps_error_ros.model import streams
 
 _KEYS = ('lag_s', 'phi', 'sigma', 'standstill')
-_OPTIONAL = ('sigma_by_speed', 'course_lag_s', 'speed_bias')
+_OPTIONAL = ('sigma_by_speed', 'course_lag_s', 'speed_bias', 'scale_sd_log')
 #: Most speed nodes a ``sigma_by_speed`` table may have.
 MAX_NODES = 32
+#: The largest ``scale_sd_log`` (a factor of e^2 between agents at 1 SD).
+MAX_SCALE_SD_LOG = 2.0
 
 
 class VelocityError(ValueError):
@@ -83,6 +100,7 @@ class Velocity:
     sigma_by_speed: tuple = None    # ((speed m/s, sigma m/s), ...), speeds increasing
     course_lag_s: float = None      # s: the course's own lag (None: ``lag_s``)
     speed_bias: tuple = None        # ((speed m/s, mean speed error m/s), ...)
+    scale_sd_log: float = None      # SD of the log of an agent's scale (None: one scale)
 
     def to_dict(self):
         """Return the profile section as plain data."""
@@ -93,6 +111,8 @@ class Velocity:
             out['course_lag_s'] = float(self.course_lag_s)
         if self.speed_bias is not None:
             out['speed_bias'] = [[float(v), float(b)] for v, b in self.speed_bias]
+        if self.scale_sd_log is not None:
+            out['scale_sd_log'] = float(self.scale_sd_log)
         return out
 
     @property
@@ -128,14 +148,23 @@ class Velocity:
             speed = np.hypot(v_true[..., 0], v_true[..., 1])
         return w * (self.sd_at(speed) / self.sigma)[..., None]
 
+    def agent_sds(self, keys):
+        """Return each agent's ``sigma`` times its scale ``f`` (n, 1), or ``sigma`` without one."""
+        if self.scale_sd_log is None:
+            return self.sigma
+        z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY_SCALE, 0)[:, :1]
+        s = self.scale_sd_log
+        return self.sigma * np.exp(s * z - s * s)
+
     def initial(self, keys, index):
         """Return the error (n, 2) east/north at a run's first step ``index``."""
-        return self.sigma * streams.normal_pairs(keys, streams.DOMAIN_INIT_VELOCITY, index)
+        return self.agent_sds(keys) * streams.normal_pairs(
+            keys, streams.DOMAIN_INIT_VELOCITY, index)
 
     def step(self, w, keys, index):
         """Return the error at step ``index`` after ``w`` at the step before."""
         z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY, index)
-        return self.phi * w + np.sqrt(1.0 - self.phi ** 2) * self.sigma * z
+        return self.phi * w + np.sqrt(1.0 - self.phi ** 2) * self.agent_sds(keys) * z
 
     def errors(self, keys, n_steps, start=0):
         """Return the velocity errors at steps ``start ..``, (n_steps, n, 2) east/north m/s."""
@@ -294,4 +323,11 @@ def velocity_from_dict(raw, source='<profile>'):
     for key in ('sigma_by_speed', 'speed_bias'):
         if key in raw:
             vals[key] = _speed_table(raw[key], source, key)
+    if 'scale_sd_log' in raw:
+        v = raw['scale_sd_log']
+        if not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                and 0.0 <= v <= MAX_SCALE_SD_LOG):
+            raise VelocityError(f'{source}: key velocity.scale_sd_log: expected a number in '
+                                f'[0, {MAX_SCALE_SD_LOG:g}], got {v!r}')
+        vals['scale_sd_log'] = float(v)
     return Velocity(**vals)

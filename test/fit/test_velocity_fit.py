@@ -64,6 +64,57 @@ def test_a_speed_table_scales_the_same_stream():
     assert velocity_from_dict(table.to_dict()) == table
 
 
+def test_an_agents_scale_multiplies_its_whole_error_stream():
+    """``scale_sd_log``: each agent its own multiple of the error; without it, bit for bit."""
+    plain = velocity_from_dict(TRUE)
+    scaled = velocity_from_dict(dict(TRUE, scale_sd_log=0.3))
+    keys = streams.agent_keys(2, [f'a{i}' for i in range(4000)])
+    w0, w = plain.errors(keys, 20, start=5), scaled.errors(keys, 20, start=5)
+    # the initial error and every innovation: one factor per agent, at every step
+    z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY_SCALE, 0)[:, 0]
+    f = np.exp(0.3 * z - 0.09)
+    np.testing.assert_allclose(w, f[None, :, None] * w0, rtol=0, atol=1e-14)
+    assert abs(np.std(np.log(f)) - 0.3) < 0.02
+    assert abs(np.mean(f ** 2) - 1.0) < 0.03            # the agents' average variance kept
+    assert scaled.sd_at(7.0) == plain.sd_at(7.0)        # the published SD: the population's
+    # an agent's scale is its own: alone, in a crowd, from any start step
+    np.testing.assert_array_equal(scaled.errors(keys[9:10], 20, start=5)[:, 0], w[:, 9])
+    np.testing.assert_allclose(scaled.errors(keys[:50], 3, start=400),
+                               f[None, :50, None] * plain.errors(keys[:50], 3, start=400),
+                               rtol=0, atol=1e-14)
+    # no key (or the node's step by step): the stream as it always was
+    assert velocity_from_dict(dict(TRUE, scale_sd_log=0.0)).errors(keys, 3)[2] == \
+        pytest.approx(plain.errors(keys, 3)[2], rel=1e-15)
+    w_step = plain.initial(keys, 5)
+    for k in range(6, 25):
+        w_step = plain.step(w_step, keys, k)
+    assert np.array_equal(w_step, w0[-1])
+    assert scaled.to_dict()['scale_sd_log'] == 0.3 and 'scale_sd_log' not in plain.to_dict()
+    assert velocity_from_dict(scaled.to_dict()) == scaled
+
+
+def test_calibrate_recovers_the_agents_scale_from_the_stretches():
+    """40 stretches of 300 s, each another agent of a section with ``scale_sd_log`` 0.3."""
+    from gps_error_ros.fit.velocity_fit import estimate_velocity
+    from gps_error_ros.traces.trace_io import Trace
+    truth = velocity_from_dict(dict(TRUE, lag_s=0.0, scale_sd_log=0.3))
+    keys = streams.agent_keys(4, [f'stretch{i}' for i in range(40)])
+    w = truth.errors(keys, 300).transpose(1, 0, 2).reshape(-1, 2)     # one stretch after another
+    t = np.arange(w.shape[0], dtype=float)
+    phone = np.array([0.0, 10.0]) + w                       # 10 m/s north, and its error
+    zeros = np.zeros(t.size)
+    trace = Trace('stretches', t, zeros, zeros, zeros, zeros, extra={
+        'truth_speed': np.full(t.size, 10.0), 'truth_bearing': zeros,
+        'speed': np.hypot(phone[:, 0], phone[:, 1]),
+        'bearing': np.degrees(np.arctan2(phone[:, 0], phone[:, 1])) % 360.0})
+    section, evidence = estimate_velocity(trace)
+    between = evidence['scale_between_blocks']
+    assert between['blocks'] == 40
+    assert section['scale_sd_log'] == between['beyond_sampling_sd']
+    assert 0.22 < section['scale_sd_log'] < 0.38, between
+    assert section['phi'] == pytest.approx(0.7, abs=0.05)
+
+
 def test_a_course_lag_turns_the_speed_lags_truth_and_nothing_else():
     plain = velocity_from_dict(TRUE)
     both = velocity_from_dict(dict(TRUE, course_lag_s=1.0))
@@ -206,6 +257,10 @@ def test_the_measured_phones_speed_and_course_lag_apart_and_err_decimetres(
     (dict(TRUE, sigma_by_speed=[]), 'sigma_by_speed'),
     (dict(TRUE, sigma_by_speed='fast'), 'sigma_by_speed'),
     (dict(TRUE, extra=1), 'exactly'),
+    (dict(TRUE, scale_sd_log=-0.1), r'velocity.scale_sd_log: expected a number in \[0, 2\]'),
+    (dict(TRUE, scale_sd_log=2.5), 'velocity.scale_sd_log'),
+    (dict(TRUE, scale_sd_log=True), 'velocity.scale_sd_log'),
+    (dict(TRUE, scale_sd_log='wide'), 'velocity.scale_sd_log'),
 ])
 def test_a_bad_section_is_refused_naming_the_key(section, expected):
     from gps_error_ros.model.profiles import profile_from_dict
@@ -292,3 +347,5 @@ def test_calibrate_records_how_the_scale_moves_between_blocks(tmp_path):
     scale = fit['scale_between_blocks']
     # one scale for the whole drive: the blocks' spread is about what sampling gives
     assert scale['blocks'] == 6 and scale['beyond_sampling_sd'] < 0.15, scale
+    section = yaml.safe_load((tmp_path / 'p.yaml').read_text())['velocity']
+    assert section.get('scale_sd_log', 0.0) == scale['beyond_sampling_sd']

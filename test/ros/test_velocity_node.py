@@ -8,6 +8,7 @@ from sensor_msgs.msg import NavSatFix
 
 from gps_error_ros.model.profiles import builtin_dir, load_profile_file
 from gps_error_ros.model.streams import agent_key
+from gps_error_ros.model.velocity import velocity_from_dict
 from ros_harness import DATUM_ARG, drive, NS, stamp_ns, start, T0, unique_ns
 
 pytestmark = pytest.mark.integration
@@ -16,7 +17,8 @@ STEPS = 40
 SPEED = 1.4          # m/s east
 
 
-# without a table, and with one: the error's SD at 1.4 m/s is 0.3 + 0.4 (0.1 - 0.3) = 0.22;
+# without a table, and with one: the error's SD at 1.4 m/s is 0.3 + 0.4 (0.1 - 0.3) = 0.22,
+# with the agent's own scale of it (the published SD stays the population's);
 # and a course that lags more than the speed, on a walk that turns, its speed 0.1 m/s low
 @pytest.mark.parametrize('table, sd, course_lag', [(None, 0.15, None),
                                                    ([[1.0, 0.3], [2.0, 0.1]], 0.22, None),
@@ -26,6 +28,7 @@ def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer, table,
     raw['velocity'] = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.4, 'standstill': 0.0}
     if table is not None:
         raw['velocity']['sigma_by_speed'] = table
+        raw['velocity']['scale_sd_log'] = 0.5
     if course_lag is not None:
         raw['velocity']['course_lag_s'] = course_lag
         raw['velocity']['speed_bias'] = [[1.0, -0.1]]
@@ -47,6 +50,11 @@ def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer, table,
     velocity = load_profile_file(path).velocity
     assert velocity.course_lag_s == course_lag
     w = velocity.errors(np.array([agent_key(SEED, '')], dtype=np.uint64), STEPS, T0)[:, 0]
+    if table is not None:           # this agent's scale: not the section's
+        one = velocity_from_dict({k: v for k, v in raw['velocity'].items()
+                                  if k != 'scale_sd_log'})
+        w_one = one.errors(np.array([agent_key(SEED, '')], dtype=np.uint64), STEPS, T0)[:, 0]
+        assert abs(np.log(np.std(w) / np.std(w_one))) > 0.05
     stamps = [stamp_ns(v.header.stamp) // NS for v in vels]
     # the chord centred at t - 0.4 s ends at t (never later): from the second step
     # on the truth covers it, and every fix then has a vel (with a course 1 s late,
@@ -71,7 +79,6 @@ def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer, table,
     assert not cov[:2, :2][~np.eye(2, dtype=bool)].any()
     # gps_error simulate reports the same speed and course for the same walk
     from gps_error_ros.model.geodesy import LocalTangentFrame
-    from gps_error_ros.model.velocity import velocity_from_dict
     from gps_error_ros.sim.velocity_sim import speed_and_course
     from ros_harness import DATUM
     t = np.arange(T0, T0 + STEPS, dtype=float)
