@@ -7,6 +7,14 @@ the same number of draws (the floor: no model could draw its noise faster
 with numpy), and a naive per-agent Python loop (one Generator per agent,
 stepping the recursion in Python), all measured in this run. Each figure is
 the best of a few repeats into a preallocated, already-touched buffer.
+
+Then the reported velocity's side stream (a profile's ``velocity`` section,
+the measured Pixel 4's shape: a speed table and a speed bias) for 1e2 and
+1e4 agents: the error stepped per model step (``Velocity.errors``) with one
+scale for every agent and with each agent's own (``scale_sd_log``), and the
+node's per-step report (``Velocity.report_parts``: speed, SD and bias at
+the true speed), as velocity samples (east/north pairs) per second, the
+per-agent scale's ratio to one scale in the same run.
 """
 
 import argparse
@@ -16,6 +24,7 @@ import time
 import numpy as np
 
 from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.model.velocity import velocity_from_dict
 
 CASES = ((1, 1_000_000), (100, 20_000), (10_000, 200), (1_000_000, 100))
 
@@ -79,15 +88,53 @@ def run(repeats=3, naive_budget=200_000, cases=CASES):
     return rows
 
 
+#: A velocity section of the measured Pixel 4's shape (docs/calibration), with its scale.
+VELOCITY = {'sigma': 0.13, 'phi': 0.16, 'lag_s': 0.3, 'course_lag_s': 0.6, 'standstill': 0.1,
+            'speed_bias': [[7.0, 0.09], [13.6, -0.03], [27.2, -0.01]],
+            'sigma_by_speed': [[7.0, 0.45], [13.6, 0.27], [22.1, 0.05], [27.2, 0.04]],
+            'scale_sd_log': 0.19}
+VELOCITY_CASES = ((100, 2_000), (10_000, 100))
+SMOKE_VELOCITY_CASES = ((100, 20),)
+
+
+def velocity_run(repeats=3, cases=VELOCITY_CASES):
+    """Return the velocity side stream's figures (see the module doc)."""
+    scaled = velocity_from_dict(VELOCITY)
+    one = velocity_from_dict({k: v for k, v in VELOCITY.items() if k != 'scale_sd_log'})
+    rows = []
+    for n, steps in cases:
+        keys = np.arange(n, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(7)
+        v_true = np.random.default_rng(2).uniform(-15.0, 15.0, (n, 2))
+        w = one.errors(keys, 1)[0]
+        pairs = n * steps
+        t_one = best_of(lambda: one.errors(keys, steps), repeats)
+        t_scaled = best_of(lambda: scaled.errors(keys, steps), repeats)
+        t_report = best_of(lambda: [scaled.report_parts(v_true, w) for _ in range(steps)],
+                           repeats)
+        row = {'agents': n, 'steps': steps, 'one_scale_Mpps': pairs / t_one / 1e6,
+               'own_scale_Mpps': pairs / t_scaled / 1e6,
+               'report_Mpps': pairs / t_report / 1e6, 'own_to_one': t_one / t_scaled}
+        rows.append(row)
+        print(f'velocity {n:>6} agents x {steps:>5} steps: one scale '
+              f'{row["one_scale_Mpps"]:6.2f} M/s | own scale {row["own_scale_Mpps"]:6.2f} M/s'
+              f' (ratio {row["own_to_one"]:.2f}) | report {row["report_Mpps"]:6.2f} M/s',
+              flush=True)
+    return rows
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     p.add_argument('--json', help='write the figures here')
     p.add_argument('--smoke', action='store_true', help='tiny cases only (seconds)')
     args = p.parse_args()
-    rows = run(repeats=1, naive_budget=2_000, cases=SMOKE_CASES) if args.smoke else run()
+    if args.smoke:
+        rows = run(repeats=1, naive_budget=2_000, cases=SMOKE_CASES)
+        velocity = velocity_run(repeats=1, cases=SMOKE_VELOCITY_CASES)
+    else:
+        rows, velocity = run(), velocity_run()
     if args.json:
         with open(args.json, 'w') as f:
-            json.dump(rows, f, indent=1)
+            json.dump(rows + [dict(row, kind='velocity') for row in velocity], f, indent=1)
 
 
 if __name__ == '__main__':

@@ -205,14 +205,26 @@ class Velocity:
         The speed and the biased truth are taken once for the three; the
         mean only with a ``speed_bias`` (None without one, where it is 0).
         """
+        v, still, mean, _ = self.report_parts(v_true, w)
+        return v, still, mean
+
+    def report_parts(self, v_true, w):
+        """
+        Return (:meth:`vector_and_mean`'s three, and the error's SD (...) at the true speed).
+
+        The node's step: the speed taken once, and the SD at it once, for
+        the error's scaling and the published covariance alike.
+        """
         v_true = np.asarray(v_true, dtype=float)
         speed = np.hypot(v_true[..., 0], v_true[..., 1])
         still = speed <= self.standstill                # NaN: not still
         biased = self.biased(v_true, speed)
-        v = np.where(still[..., None], 0.0, biased + self.scaled(v_true, w, speed))
+        sd = self.sd_at(speed)
+        err = w if self.sigma_by_speed is None else w * (sd / self.sigma)[..., None]
+        v = np.where(still[..., None], 0.0, biased + err)
         if self.speed_bias is None:
-            return v, still, None
-        return v, still, np.where(still[..., None], 0.0, biased - v_true)
+            return v, still, None, sd
+        return v, still, np.where(still[..., None], 0.0, biased - v_true), sd
 
     def biased(self, v_true, speed=None):
         """Return ``v_true`` (..., 2) with its speed moved by ``speed_bias`` (never below 0)."""

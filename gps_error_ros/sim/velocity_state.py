@@ -78,6 +78,6 @@ class VelocityState(SideStream):
             north, east = difference(c1[:, 0], c1[:, 1], c0[:, 0], c0[:, 1])
             chords.append(np.stack([east, north], axis=1))
         v_true = self.velocity.truth_reported(*chords)
-        out, _, mean = self.velocity.vector_and_mean(v_true, w)
+        out, _, mean, sd = self.velocity.report_parts(v_true, w)
         out[~ok] = np.nan
-        return out, self.velocity.sd_at(np.hypot(v_true[:, 0], v_true[:, 1])), mean
+        return out, sd, mean

@@ -20,9 +20,14 @@ def _run(tmp_path, script, *args, timeout=240):
 
 def test_library_bench(tmp_path):
     printed, rows = _run(tmp_path, 'bench_library.py', '--smoke')
-    assert [r['agents'] for r in rows] == [1, 100]
-    assert all(r['simulate_Msps'] > 0 and r['ratio_to_floor'] > 0 for r in rows)
+    errors = [r for r in rows if r.get('kind') != 'velocity']
+    assert [r['agents'] for r in errors] == [1, 100]
+    assert all(r['simulate_Msps'] > 0 and r['ratio_to_floor'] > 0 for r in errors)
     assert 'numpy floor' in printed
+    velocity = [r for r in rows if r.get('kind') == 'velocity']
+    assert [r['agents'] for r in velocity] == [100]
+    assert all(r['own_scale_Mpps'] > 0 and r['own_to_one'] > 0 for r in velocity)
+    assert 'own scale' in printed
 
 
 def test_zones_bench(tmp_path):

@@ -167,6 +167,12 @@ def test_the_one_pass_gives_the_reported_velocity_and_its_mean_as_the_two_calls_
     np.testing.assert_array_equal(mean, section.mean_error(v_true))
     assert np.isnan(v[4]).all() and not still[4]                  # unknown truth: unknown
     np.testing.assert_allclose(mean[1], np.array([3.0, 4.0]) * -0.2 / 5.0)
+    # the node's pass: the same, composed of the parts, with the SD at the true speed
+    *parts, sd = section.report_parts(v_true, w)
+    speed = np.hypot(v_true[:, 0], v_true[:, 1])
+    assert np.array_equal(sd, section.sd_at(speed), equal_nan=True)
+    composed = section.biased(v_true, speed) + section.scaled(v_true, w, speed)
+    np.testing.assert_array_equal(parts[0][:3], composed[:3])   # (row 3 stands still: 0)
     plain = velocity_from_dict(TRUE)                            # no speed bias: no mean to take
     v, still, mean = plain.vector_and_mean(v_true, w)
     assert mean is None
