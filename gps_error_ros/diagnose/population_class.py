@@ -20,7 +20,7 @@ import numpy as np
 
 from gps_error_ros.diagnose.mean import motion_offsets
 from gps_error_ros.diagnose.split import Part
-from gps_error_ros.fit.population_fit import block_ids, BLOCK_S, fit_population
+from gps_error_ros.fit.population_fit import block_means, block_pieces, BLOCK_S, fit_population
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.effects import build_model
 from gps_error_ros.model.population import WithPopulation
@@ -242,16 +242,13 @@ def within_part(part, block_s=BLOCK_S):
     The blocks are the population fit's (:func:`~gps_error_ros.fit.population_fit.block_ids`:
     each run cut from its own first sample), so that no block mixes two runs' biases.
     """
-    ids = block_ids(part.t, block_s)
-    allid, allerr = np.concatenate(ids), np.concatenate(part.err)
-    means = {int(i): allerr[allid == i].mean(axis=0) for i in np.unique(allid)}
+    pieces = block_pieces(part.err, part.t, block_s, alongside=(part.truth, part.t))
+    means = block_means(pieces)
     out = Part([], [], [])
-    for e, tr, t, i in zip(part.err, part.truth, part.t, ids):
-        cuts = np.flatnonzero(np.diff(i) != 0) + 1
-        for ee, rr, tt, ii in zip(*(np.split(x, cuts) for x in (e, tr, t, i))):
-            out.err.append(ee - means[int(ii[0])])
-            out.truth.append(rr)
-            out.t.append(tt)
+    for e, i, truth, t in pieces:
+        out.err.append(e - means[i])
+        out.truth.append(truth)
+        out.t.append(t)
     return out
 
 

@@ -359,29 +359,36 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
 
 
-def block_pieces(segments, times, block_s=BLOCK_S):
+def block_pieces(segments, times, block_s=BLOCK_S, alongside=()):
     """
-    Return ``[(piece (k, 2), block number)]``: each segment cut at its blocks' edges, in order.
+    Return ``[(piece (k, 2), block number, *alongside)]``: each segment cut at its blocks' edges.
 
     Blocks are those of :func:`block_ids`; a piece is gap-free, so that
-    neighbouring samples of one piece are neighbouring steps.
+    neighbouring samples of one piece are neighbouring steps. Each array
+    list in ``alongside`` (one array per segment, as the truth or the times)
+    is cut the same way, its pieces following the error's.
     """
     pieces = []
-    for seg, ids in zip(segments, block_ids(times, block_s)):
-        seg = np.asarray(seg, dtype=float)
+    for seg, ids, *more in zip(segments, block_ids(times, block_s), *alongside):
         cuts = np.flatnonzero(np.diff(ids) != 0) + 1
-        pieces += [(s, int(i[0])) for s, i in zip(np.split(seg, cuts), np.split(ids, cuts))]
+        cut = [np.split(np.asarray(x), cuts) for x in (np.asarray(seg, dtype=float), *more)]
+        pieces += [(p[0], int(i[0]), *p[1:]) for i, *p in zip(np.split(ids, cuts), *cut)]
     return pieces
+
+
+def block_means(pieces):
+    """Return ``{block number: mean error (2,)}`` over :func:`block_pieces`' pieces."""
+    by_block = {}
+    for s, i, *_ in pieces:
+        by_block.setdefault(i, []).append(s)
+    return {i: np.concatenate(v).mean(axis=0) for i, v in by_block.items()}
 
 
 def _within_segments(segments, times, block_s):
     """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
     pieces = block_pieces(segments, times, block_s)
-    by_block = {}
-    for s, i in pieces:
-        by_block.setdefault(i, []).append(s)
-    means = {i: np.concatenate(v).mean(axis=0) for i, v in by_block.items()}
-    sizes = [sum(len(x) for x in v) for v in by_block.values()]
+    means = block_means(pieces)
+    sizes = [sum(len(s) for s, j in pieces if j == i) for i in means]
     return [s - means[i] for s, i in pieces if len(s) > 1], sizes
 
 

@@ -161,6 +161,19 @@ def block_scale(u, t, phi, block_s=BLOCK_S):
             'beyond_sampling_sd': round(math.sqrt(max(0.0, spread - sampling)), 4)}
 
 
+def _section(sigma, phi, lag, course_lag, standstill, bias, table, between):
+    """Return the fitted ``velocity`` section as plain data (see the module doc)."""
+    section = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
+               'lag_s': float(lag), 'standstill': round(standstill, 4),
+               'course_lag_s': float(course_lag),
+               'speed_bias': [list(node) for node in bias]}
+    if table is not None:
+        section['sigma_by_speed'] = [list(node) for node in table]
+    if between is not None and between['beyond_sampling_sd'] > 0.0:
+        section['scale_sd_log'] = between['beyond_sampling_sd']
+    return section
+
+
 def estimate_velocity(trace):
     """Return (velocity section or None, evidence) for ``trace`` (see module doc)."""
     missing = [k for k in NEEDED if k not in trace.extra]
@@ -208,15 +221,8 @@ def estimate_velocity(trace):
     zero = ex['speed'] == 0
     standstill = _standstill(np.where(odd, np.nan, ex['truth_speed']), zero) \
         if zero.sum() >= 10 else 0.0
-    section = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
-               'lag_s': float(lag), 'standstill': round(standstill, 4),
-               'course_lag_s': float(course_lag),
-               'speed_bias': [list(node) for node in bias]}
-    if table is not None:
-        section['sigma_by_speed'] = [list(node) for node in table]
     between = block_scale(u, t, phi)
-    if between is not None and between['beyond_sampling_sd'] > 0.0:
-        section['scale_sd_log'] = between['beyond_sampling_sd']
+    section = _section(sigma, phi, lag, course_lag, standstill, bias, table, between)
     evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),
                 'speed_sd_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in speed_sd.items()},
                 'rms_by_course_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},
