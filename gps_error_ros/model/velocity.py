@@ -149,12 +149,25 @@ class Velocity:
         return w * (self.sd_at(speed) / self.sigma)[..., None]
 
     def agent_sds(self, keys):
-        """Return each agent's ``sigma`` times its scale ``f`` (n, 1), or ``sigma`` without one."""
+        """
+        Return each agent's ``sigma`` times its scale ``f`` (n, 1), or ``sigma`` without one.
+
+        The scales of the last ``keys`` asked for are kept: a run steps the
+        same agents step after step, and the draw would otherwise cost as
+        much as the step's own.
+        """
         if self.scale_sd_log is None:
             return self.sigma
+        tag = np.asarray(keys, dtype=np.uint64).tobytes()
+        kept = self.__dict__.get('_kept_sds')
+        if kept is not None and kept[0] == tag:
+            return kept[1]
         z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY_SCALE, 0)[:, :1]
         s = self.scale_sd_log
-        return self.sigma * np.exp(s * z - s * s)
+        sds = self.sigma * np.exp(s * z - s * s)
+        sds.setflags(write=False)
+        object.__setattr__(self, '_kept_sds', (tag, sds))   # (frozen: not a field)
+        return sds
 
     def initial(self, keys, index):
         """Return the error (n, 2) east/north at a run's first step ``index``."""

@@ -89,6 +89,12 @@ def test_an_agents_scale_multiplies_its_whole_error_stream():
     for k in range(6, 25):
         w_step = plain.step(w_step, keys, k)
     assert np.array_equal(w_step, w0[-1])
+    # stepped by turns with two sets of agents (the scales it keeps are each set's own)
+    one, other = keys[:7], keys[7:20]
+    w_one, w_other = scaled.initial(one, 5), scaled.initial(other, 5)
+    for k in range(6, 25):
+        w_one, w_other = scaled.step(w_one, one, k), scaled.step(w_other, other, k)
+    assert np.array_equal(np.r_[w_one, w_other], w[-1, :20])
     assert scaled.to_dict()['scale_sd_log'] == 0.3 and 'scale_sd_log' not in plain.to_dict()
     assert velocity_from_dict(scaled.to_dict()) == scaled
 
