@@ -13,7 +13,9 @@ that ``simulate`` and the node, which take the true velocity from 1-s
 chords of the truth's positions, cannot go below). Then, over the whole
 trace, the lag at which the reference's course and speed best match the
 phone's, per speed band, and the error's RMS across the track and along it
-at those lags (:func:`best_lags`). Last, on the rolling folds of ``compare
+at those lags (:func:`best_lags`). Then the shape of the error along and
+across the track by band, at the section's lags and bias fitted on the
+whole trace (:func:`tails`). Last, on the rolling folds of ``compare
 --folds``, what the section's speed lag alone adds to the open road's speed
 error (:func:`lag_alone`).
 
@@ -31,8 +33,8 @@ from gps_error_ros.diagnose.generalise import rolling_splits
 from gps_error_ros.diagnose.velocity_check import BANDS as FOLD_BANDS
 from gps_error_ros.fit.validation import slice_trace
 from gps_error_ros.fit.velocity_fit import estimate_velocity, SLOW_TRUTH, vectors
-from gps_error_ros.model.motion_lag import truth_at
-from gps_error_ros.model.velocity import velocity_from_dict
+from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
+from gps_error_ros.model.velocity import speed_along, velocity_from_dict, with_speed_bias
 from gps_error_ros.sim.velocity_sim import speed_and_course
 from gps_error_ros.traces.trace_io import read_trace_csv
 
@@ -96,6 +98,46 @@ def best_lags(trace):
                    f'{c:.1f} s later (median error {by_course[c]:.3f} deg; across the '
                    f'track RMS {across[c]:.3f} m/s), the speed {v:.1f} s later (error SD '
                    f'{by_speed[v]:.3f} m/s)')
+    return out
+
+
+def tails(trace):
+    """
+    Return lines: per speed band, how heavy-tailed the error is along and across the track.
+
+    The section fitted on the whole trace gives the lags and the speed bias;
+    the error left (the phone's velocity less the truth's at its lags, with
+    the bias) is split along the truth's direction and across it. Per band
+    of the true speed: its RMS, the median absolute deviation over the RMS
+    (0.67 for a normal error) and the kurtosis (3 for a normal error). A
+    small ratio and a large kurtosis: most rows err far less than the RMS
+    says, a few far more.
+    """
+    section, _ = estimate_velocity(trace)
+    ex, t = trace.extra, trace.t
+    phone = vectors(ex['speed'], ex['bearing'])
+    truth = vectors(ex['truth_speed'], ex['truth_bearing'], zero_below=SLOW_TRUTH)
+    known = np.isfinite(truth).all(axis=1)
+    out = []
+    for lo, hi in ((1.0, 15.0), (15.0, 100.0)):
+        rows = known & np.isfinite(phone).all(axis=1) & (ex['truth_speed'] >= lo) \
+            & (ex['truth_speed'] < hi)
+        v_true = speed_along(*(truth_at(t[known], truth[known], t[rows] - section[k], RUN_GAP_S)
+                               for k in ('lag_s', 'course_lag_s')))
+        w = phone[rows] - with_speed_bias(v_true, section['speed_bias'])
+        unit = v_true / np.hypot(v_true[:, 0], v_true[:, 1])[:, None]
+        parts = {'along': np.sum(w * unit, axis=1),
+                 'across': w[:, 0] * unit[:, 1] - w[:, 1] * unit[:, 0]}
+        words = []
+        for name, x in parts.items():
+            x = x[np.isfinite(x)]
+            rms = float(np.sqrt(np.mean(x ** 2)))
+            mad = float(np.median(np.abs(x - np.median(x))))
+            kurt = float(np.mean((x - x.mean()) ** 4) / np.var(x) ** 2)
+            words.append(f'{name} RMS {rms:.3f} m/s, median deviation / RMS {mad / rms:.2f}, '
+                         f'kurtosis {kurt:.1f}')
+        out.append(f'  {lo:g}-{hi:g} m/s, {int(rows.sum())} rows, the error\'s shape: '
+                   + '; '.join(words))
     return out
 
 
@@ -169,7 +211,7 @@ def compare(path, sims):
     lines.append('  the truth\'s 1-s chord alone, no error added: ' + ', '.join(
         f'{name.split(" (")[0]} {value:.3f}' for name, value in floor.items()
         if 'standstill' not in name))
-    return lines + best_lags(trace) + lag_alone(trace)
+    return lines + best_lags(trace) + tails(trace) + lag_alone(trace)
 
 
 def main(argv=None):
