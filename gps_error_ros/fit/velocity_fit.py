@@ -40,16 +40,24 @@ moves at 1 m/s or more and the phone reports a course:
   error in units of its SD at its speed, less what sampling alone gives a
   block of that many rows (in variance); written where enough blocks had
   enough rows and something lies beyond sampling. The section draws each
-  agent's scale from it (:class:`~gps_error_ros.model.velocity.Velocity`).
+  agent's scale from it (:class:`~gps_error_ros.model.velocity.Velocity`);
+  the sampling of a block's log RMS is that of an error with the kurtosis
+  measured within the blocks (each block's rows in units of its own RMS);
+* ``burst_share`` and ``burst_ratio`` (:func:`fit_bursts`): where the error
+  in units of its SD is heavy-tailed (kurtosis above :data:`NORMAL_KURTOSIS`),
+  the two-scale normal mixture with the error's variance, median absolute
+  value and kurtosis.
 """
 
 import math
 
 import numpy as np
+from scipy import optimize
 
 from gps_error_ros.fit.population_fit import block_ids, BLOCK_S, MIN_BLOCK_SAMPLES, MIN_BLOCKS
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
-from gps_error_ros.model.velocity import sd_from_table, speed_along, with_speed_bias
+from gps_error_ros.model.velocity import (MAX_BURST_RATIO, MAX_BURST_SHARE, sd_from_table,
+                                          speed_along, with_speed_bias)
 
 NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
 MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
@@ -61,6 +69,8 @@ SPEED_EDGES = (1.0, 2.5, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, np.inf)
 MAX_SPEED = 100.0
 #: Moving rows a speed band needs; fewer join the next band.
 BAND_ROWS = 30
+#: Kurtosis at or below which the error is taken as normal (no bursts).
+NORMAL_KURTOSIS = 3.5
 
 
 def vectors(speed, course_deg, zero_below=0.0):
@@ -127,6 +137,46 @@ def _standstill(truth_speed, zero):
     return float(candidates[int(np.argmin(wrong))])
 
 
+def fit_bursts(u):
+    """
+    Return ``(burst_share, burst_ratio)`` of the error ``u`` (rows, both components), or None.
+
+    The normal mixture ``N(0, s1^2)`` on a share ``1 - p`` and ``N(0,
+    s2^2)`` on ``p``, of the variance of ``u``, whose median absolute value
+    over the RMS and kurtosis are those of ``u``; ``burst_ratio`` is ``s2 /
+    s1``. None where ``u`` is near normal (kurtosis at or below
+    :data:`NORMAL_KURTOSIS`), has fewer than 60 values, or no mixture in
+    the model's bounds matches.
+    """
+    x = np.asarray(u, dtype=float).ravel()
+    x = x[np.isfinite(x)]
+    if x.size < 60:
+        return None
+    x = x / math.sqrt(float(np.mean(x ** 2)))
+    median, kurt = float(np.median(np.abs(x))), float(np.mean(x ** 4))
+    if kurt <= NORMAL_KURTOSIS:
+        return None
+
+    def misfit(v):
+        p, s1 = 1.0 / (1.0 + math.exp(-v[0])), math.exp(v[1])
+        s2sq = (1.0 - (1.0 - p) * s1 * s1) / p
+        if s2sq <= s1 * s1:
+            return [10.0, 10.0]
+        s2 = math.sqrt(s2sq)
+        half = optimize.brentq(lambda a: (1 - p) * math.erf(a / s1 / math.sqrt(2))
+                               + p * math.erf(a / s2 / math.sqrt(2)) - 0.5, 1e-9, 100.0)
+        return [half - median, math.log(3.0 * ((1 - p) * s1 ** 4 + p * s2 ** 4) / kurt)]
+
+    best = min((optimize.least_squares(misfit, [math.log(p0 / (1 - p0)), math.log(s0)])
+                for p0 in (0.02, 0.05, 0.1, 0.2) for s0 in (0.4, 0.6, 0.8)),
+               key=lambda sol: sol.cost)
+    p, s1 = 1.0 / (1.0 + math.exp(-best.x[0])), math.exp(best.x[1])
+    ratio = math.sqrt((1.0 - (1.0 - p) * s1 * s1) / p) / s1
+    if best.cost > 1e-6 or not (0.0 < p <= MAX_BURST_SHARE and 1.0 < ratio <= MAX_BURST_RATIO):
+        return None
+    return round(p, 5), round(ratio, 4)
+
+
 def block_scale(u, t, phi, block_s=BLOCK_S):
     """
     Return how the error's scale spreads between blocks, or None with too few blocks.
@@ -137,27 +187,33 @@ def block_scale(u, t, phi, block_s=BLOCK_S):
     run's start); a block counts with :data:`MIN_BLOCK_SAMPLES` judged rows
     or more, and :data:`MIN_BLOCKS` must. Each block's log RMS over both
     components: their SD over the blocks, the SD that sampling alone gives
-    one (``sqrt((1 + phi^2) / (1 - phi^2) / (4 n))`` for ``n`` rows, averaged
-    over the blocks in variance), and what lies beyond, ``sqrt(max(0, SD^2 -
-    sampling^2))``: the log SD of a scale drawn per stretch.
+    one (``sqrt((1 + phi^2) / (1 - phi^2) / (4 n))`` for ``n`` rows of a
+    normal error, averaged over the blocks in variance, and times ``sqrt((k
+    - 1) / 2)`` for the kurtosis ``k`` within the blocks, each block in
+    units of its own RMS: a heavy-tailed error's RMS varies more), and what
+    lies beyond, ``sqrt(max(0, SD^2 - sampling^2))``: the log SD of a scale
+    drawn per stretch.
     """
     ok = np.isfinite(u).all(axis=1)
     if ok.sum() < MIN_BLOCK_SAMPLES * MIN_BLOCKS:
         return None
     judged = u[ok]
     ids = block_ids([np.asarray(t, dtype=float)[ok]], block_s)[0]
-    logs, sizes = [], []
+    logs, sizes, within = [], [], []
     for b in np.unique(ids):
         x = judged[ids == b]
         if len(x) >= MIN_BLOCK_SAMPLES:
             logs.append(0.5 * np.log(np.mean(x ** 2)))
             sizes.append(len(x))
+            within.append(x / math.sqrt(float(np.mean(x ** 2))))
     if len(logs) < MIN_BLOCKS:
         return None
     spread = float(np.var(logs, ddof=1))
+    kurt = float(np.mean(np.concatenate(within) ** 4))      # 3 for a normal error
     sampling = float(np.mean((1.0 + phi ** 2) / (1.0 - phi ** 2) / (4.0 * np.array(sizes))))
+    sampling *= max(kurt - 1.0, 2.0) / 2.0
     return {'blocks': len(logs), 'block_log_rms_sd': round(math.sqrt(spread), 4),
-            'sampling_sd': round(math.sqrt(sampling), 4),
+            'kurtosis_within': round(kurt, 2), 'sampling_sd': round(math.sqrt(sampling), 4),
             'beyond_sampling_sd': round(math.sqrt(max(0.0, spread - sampling)), 4)}
 
 
@@ -223,6 +279,9 @@ def estimate_velocity(trace):
         if zero.sum() >= 10 else 0.0
     between = block_scale(u, t, phi)
     section = _section(sigma, phi, lag, course_lag, standstill, bias, table, between)
+    bursts = fit_bursts(u[rows])
+    if bursts is not None:
+        section['burst_share'], section['burst_ratio'] = bursts
     evidence = {'fitted': True, 'moving_rows': int(rows.sum()), 'pairs': int(pair.size),
                 'speed_sd_by_lag_s': {f'{k:.1f}': round(v, 4) for k, v in speed_sd.items()},
                 'rms_by_course_lag_s': {f'{k:.1f}': round(v, 4) for k, v in rms.items()},

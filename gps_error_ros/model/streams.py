@@ -103,6 +103,11 @@ DOMAIN_RUN_BIAS = 23
 #: Velocity: the agent's scale of its velocity error, one normal pair (first used) at position 0.
 DOMAIN_VELOCITY_SCALE = 24
 
+#: Velocity: whether the step's innovation bursts, one uniform pair (first used) per model step.
+DOMAIN_VELOCITY_BURST = 25
+#: Velocity: whether the initial error bursts, one uniform pair (first used) per start step.
+DOMAIN_INIT_VELOCITY_BURST = 26
+
 #: Normal pairs reserved per initial state: the largest AR order that fits.
 INIT_SLOTS = 16
 
@@ -119,7 +124,8 @@ DOMAINS = {
     'population_scale': DOMAIN_POPULATION_SCALE, 'init_bias': DOMAIN_INIT_BIAS,
     'bias': DOMAIN_BIAS, 'bias_mix': DOMAIN_BIAS_MIX,
     'failure_rate': DOMAIN_FAILURE_RATE, 'run_bias': DOMAIN_RUN_BIAS,
-    'velocity_scale': DOMAIN_VELOCITY_SCALE,
+    'velocity_scale': DOMAIN_VELOCITY_SCALE, 'velocity_burst': DOMAIN_VELOCITY_BURST,
+    'init_velocity_burst': DOMAIN_INIT_VELOCITY_BURST,
 }
 
 

@@ -99,6 +99,51 @@ def test_an_agents_scale_multiplies_its_whole_error_stream():
     assert velocity_from_dict(scaled.to_dict()) == scaled
 
 
+def test_bursts_make_the_error_heavy_tailed_and_keep_its_sd():
+    """``burst_share`` / ``burst_ratio``: a share of the innovations larger; the SD the same."""
+    plain = velocity_from_dict(TRUE)
+    burst = velocity_from_dict(dict(TRUE, phi=0.2, burst_share=0.05, burst_ratio=6.0))
+    keys = streams.agent_keys(3, [f'a{i}' for i in range(2000)])
+    w = burst.errors(keys, 200)                        # (steps, agents, 2)
+    assert abs(w.std() - 0.15) < 0.003                 # the section's SD, as without bursts
+    x = w[1:] - 0.2 * w[:-1]                           # the innovations
+    x = x / x.std()
+    kurt = float(np.mean(x ** 4))
+    c0 = 1 / np.sqrt(1 - 0.05 + 0.05 * 36)             # mixture: 3 (0.95 c0^4 + 0.05 (6 c0)^4)
+    assert abs(kurt - 3 * c0 ** 4 * (0.95 + 0.05 * 6 ** 4)) < 1.5, kurt
+    # beyond 4 SDs only in a burst (SD 3.6 there, 0.6 else): 5 % x 47 % of the steps; and
+    # both components at once (one uniform per agent and step): 27 % of those, not 1 %
+    big = np.abs(x) > 4
+    assert 0.017 < np.mean(big[..., 0] | big[..., 1]) < 0.03
+    assert np.mean(big[..., 0] & big[..., 1]) > 0.2 * np.mean(big[..., 0])
+    np.testing.assert_array_equal(burst.errors(keys[4:5], 200)[:, 0], w[:, 4])
+    assert velocity_from_dict(burst.to_dict()) == burst
+    assert 'burst_share' not in plain.to_dict()
+    assert np.array_equal(velocity_from_dict(dict(TRUE)).errors(keys, 5), plain.errors(keys, 5))
+
+
+def test_the_bursts_are_fitted_from_the_errors_shape():
+    from gps_error_ros.fit.velocity_fit import fit_bursts
+    rng = np.random.default_rng(5)
+    n = 40000
+    c0 = 1 / np.sqrt(1 - 0.06 + 0.06 * 25)
+    x = rng.standard_normal(n) * np.where(rng.random(n) < 0.06, 5 * c0, c0)
+    share, ratio = fit_bursts(x)
+    assert share == pytest.approx(0.06, abs=0.015) and ratio == pytest.approx(5.0, rel=0.15)
+    assert fit_bursts(rng.standard_normal(n)) is None           # normal: no bursts
+    assert fit_bursts(x[:50]) is None                             # too few values
+
+
+def test_a_heavy_tailed_error_of_one_scale_has_no_scale_beyond_sampling():
+    """The sampling of a block's RMS follows the kurtosis within the blocks."""
+    from gps_error_ros.fit.velocity_fit import block_scale
+    burst = velocity_from_dict(dict(TRUE, phi=0.3, burst_share=0.05, burst_ratio=7.0))
+    u = burst.errors(streams.agent_keys(6, ['one']), 12000)[:, 0] / 0.15
+    got = block_scale(u, np.arange(12000.0), 0.3)
+    assert got['kurtosis_within'] > 10 and got['beyond_sampling_sd'] < 0.08, got
+    assert got['sampling_sd'] > 0.06                  # a normal error's would be 0.03
+
+
 def test_calibrate_recovers_the_agents_scale_from_the_stretches():
     """40 stretches of 300 s, each another agent of a section with ``scale_sd_log`` 0.3."""
     from gps_error_ros.fit.velocity_fit import estimate_velocity
@@ -273,6 +318,10 @@ def test_the_measured_phones_speed_and_course_lag_apart_and_err_decimetres(
     (dict(TRUE, scale_sd_log=2.5), 'velocity.scale_sd_log'),
     (dict(TRUE, scale_sd_log=True), 'velocity.scale_sd_log'),
     (dict(TRUE, scale_sd_log='wide'), 'velocity.scale_sd_log'),
+    (dict(TRUE, burst_share=0.05), 'expected both'),
+    (dict(TRUE, burst_share=0.6, burst_ratio=4.0), r'a share in \(0, 0.5\]'),
+    (dict(TRUE, burst_share=0.05, burst_ratio=1.0), r'a ratio in \(1, 100\]'),
+    (dict(TRUE, burst_share='few', burst_ratio=4.0), 'burst_share'),
 ])
 def test_a_bad_section_is_refused_naming_the_key(section, expected):
     from gps_error_ros.model.profiles import profile_from_dict

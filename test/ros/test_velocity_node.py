@@ -18,7 +18,7 @@ SPEED = 1.4          # m/s east
 
 
 # without a table, and with one: the error's SD at 1.4 m/s is 0.3 + 0.4 (0.1 - 0.3) = 0.22,
-# with the agent's own scale of it (the published SD stays the population's);
+# with the agent's own scale of it and bursts (the published SD stays the population's);
 # and a course that lags more than the speed, on a walk that turns, its speed 0.1 m/s low
 @pytest.mark.parametrize('table, sd, course_lag', [(None, 0.15, None),
                                                    ([[1.0, 0.3], [2.0, 0.1]], 0.22, None),
@@ -28,7 +28,7 @@ def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer, table,
     raw['velocity'] = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.4, 'standstill': 0.0}
     if table is not None:
         raw['velocity']['sigma_by_speed'] = table
-        raw['velocity']['scale_sd_log'] = 0.5
+        raw['velocity'].update(scale_sd_log=0.5, burst_share=0.2, burst_ratio=4.0)
     if course_lag is not None:
         raw['velocity']['course_lag_s'] = course_lag
         raw['velocity']['speed_bias'] = [[1.0, -0.1]]
@@ -52,7 +52,7 @@ def test_vel_is_the_lagged_truth_velocity_plus_the_stream(tmp_path, peer, table,
     w = velocity.errors(np.array([agent_key(SEED, '')], dtype=np.uint64), STEPS, T0)[:, 0]
     if table is not None:           # this agent's scale: not the section's
         one = velocity_from_dict({k: v for k, v in raw['velocity'].items()
-                                  if k != 'scale_sd_log'})
+                                  if k not in ('scale_sd_log', 'burst_share', 'burst_ratio')})
         w_one = one.errors(np.array([agent_key(SEED, '')], dtype=np.uint64), STEPS, T0)[:, 0]
         assert abs(np.log(np.std(w) / np.std(w_one))) > 0.05
     stamps = [stamp_ns(v.header.stamp) // NS for v in vels]

@@ -372,7 +372,7 @@ def test_fcd_positions_report_the_phones_speed_and_course(tmp_path, course_lag):
     section = {'sigma': 0.2, 'phi': 0.7, 'lag_s': 0.3, 'standstill': 0.0}
     if course_lag is not None:
         section.update(course_lag_s=course_lag, speed_bias=[[1.0, -0.2], [3.0, 0.1]],
-                       scale_sd_log=0.5)
+                       scale_sd_log=0.5, burst_share=0.2, burst_ratio=4.0)
     vel = velocity_from_dict(section)
     src = tmp_path / 'fcd.xml'
     pos = lambda i, t: (LON0 + 2e-5 * t * (1 + i % 3), LAT0 + 1e-4 * i + 1e-6 * t * t)  # noqa
