@@ -26,7 +26,8 @@ def test_library_bench(tmp_path):
     assert 'numpy floor' in printed
     velocity = [r for r in rows if r.get('kind') == 'velocity']
     assert [r['agents'] for r in velocity] == [100]
-    assert all(r['own_scale_Mpps'] > 0 and r['own_to_one'] > 0 for r in velocity)
+    assert all(r['own_scale_Mpps'] > 0 and r['own_to_one'] > 0 and r['bursts_to_one'] > 0
+               for r in velocity)
     assert 'own scale' in printed
 
 
