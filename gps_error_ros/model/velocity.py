@@ -64,8 +64,8 @@ initial error and every innovation are multiplied by ``f``. The mean of
 the node publishes (:meth:`Velocity.sd_at`) is the population's, which a
 consumer that does not know the agent's scale needs. The measured phones'
 Doppler error changed its scale from one 300-s stretch of a drive to the
-next by a log SD of 0.19-0.26 where sampling alone gives 0.03-0.04
-(decision 0026); one scale for every agent and stretch made their speed
+next by a log SD of 0.19-0.26 where sampling alone gives 0.08-0.12
+(decisions 0026, 0027); one scale for every agent and stretch made their speed
 and course spread narrower than the phones' from stretch to stretch.
 Without the key every agent has the section's scale, bit for bit as before.
 
@@ -77,7 +77,7 @@ the agent's stream below ``p``: domain ``velocity_burst`` at the step,
 sqrt(1 - p + p r^2)``, so that the error's variance, its SD and its
 persistence stay the section's. The measured phones' Doppler error is so on
 the open road: most seconds err far less than its RMS and a few far more
-(median deviation 0.23-0.58 of the RMS, kurtosis 7-52; decision 0027).
+(median deviation 0.23-0.58 of the RMS, kurtosis 5.5-52; decision 0027).
 Without the keys the error is normal, bit for bit as before.
 
 The velocity error is independent of the position error (the
