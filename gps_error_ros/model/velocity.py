@@ -159,13 +159,17 @@ class Velocity:
             return np.full(np.shape(speed), self.sigma)
         return sd_from_table(self.sigma_by_speed, speed)
 
-    def scaled(self, v_true, w, speed=None):
-        """Return the error ``w`` (..., 2) scaled to the SD at the speed of ``v_true``."""
+    def scaled(self, v_true, w, speed=None, sd=None):
+        """
+        Return the error ``w`` (..., 2) scaled to the SD at the speed of ``v_true``.
+
+        ``speed`` and ``sd`` (:meth:`sd_at` of it), where the caller has them.
+        """
         if self.sigma_by_speed is None:
             return w
-        if speed is None:
-            speed = np.hypot(v_true[..., 0], v_true[..., 1])
-        return w * (self.sd_at(speed) / self.sigma)[..., None]
+        if sd is None:
+            sd = self.sd_at(np.hypot(v_true[..., 0], v_true[..., 1]) if speed is None else speed)
+        return w * (sd / self.sigma)[..., None]
 
     def agent_sds(self, keys):
         """
@@ -265,8 +269,7 @@ class Velocity:
         still = speed <= self.standstill                # NaN: not still
         biased = self.biased(v_true, speed)
         sd = self.sd_at(speed)
-        err = w if self.sigma_by_speed is None else w * (sd / self.sigma)[..., None]
-        v = np.where(still[..., None], 0.0, biased + err)
+        v = np.where(still[..., None], 0.0, biased + self.scaled(v_true, w, speed, sd))
         if self.speed_bias is None:
             return v, still, None, sd
         return v, still, np.where(still[..., None], 0.0, biased - v_true), sd
