@@ -387,9 +387,10 @@ def block_means(pieces):
 def _within_segments(segments, times, block_s):
     """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
     pieces = block_pieces(segments, times, block_s)
-    means = block_means(pieces)
-    sizes = [sum(len(s) for s, j in pieces if j == i) for i in means]
-    return [s - means[i] for s, i in pieces if len(s) > 1], sizes
+    means, sizes = block_means(pieces), {}
+    for s, i in pieces:
+        sizes[i] = sizes.get(i, 0) + len(s)
+    return [s - means[i] for s, i in pieces if len(s) > 1], [sizes[i] for i in means]
 
 
 def population_line(fit):

@@ -203,9 +203,10 @@ def block_scale(u, t, phi, block_s=BLOCK_S):
     for b in np.unique(ids):
         x = judged[ids == b]
         if len(x) >= MIN_BLOCK_SAMPLES:
-            logs.append(0.5 * np.log(np.mean(x ** 2)))
+            square = float(np.mean(x ** 2))
+            logs.append(0.5 * np.log(square))
             sizes.append(len(x))
-            within.append(x / math.sqrt(float(np.mean(x ** 2))))
+            within.append(x / math.sqrt(square))
     if len(logs) < MIN_BLOCKS:
         return None
     spread = float(np.var(logs, ddof=1))
