@@ -32,9 +32,9 @@ import numpy as np
 from gps_error_ros.diagnose.generalise import rolling_splits
 from gps_error_ros.diagnose.velocity_check import BANDS as FOLD_BANDS
 from gps_error_ros.fit.validation import slice_trace
-from gps_error_ros.fit.velocity_fit import estimate_velocity, SLOW_TRUTH, vectors
-from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
-from gps_error_ros.model.velocity import speed_along, velocity_from_dict, with_speed_bias
+from gps_error_ros.fit.velocity_fit import estimate_velocity, residuals, SLOW_TRUTH, vectors
+from gps_error_ros.model.motion_lag import truth_at
+from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.sim.velocity_sim import speed_and_course
 from gps_error_ros.traces.trace_io import read_trace_csv
 
@@ -114,17 +114,12 @@ def tails(trace):
     says, a few far more.
     """
     section, _ = estimate_velocity(trace)
-    ex, t = trace.extra, trace.t
-    phone = vectors(ex['speed'], ex['bearing'])
-    truth = vectors(ex['truth_speed'], ex['truth_bearing'], zero_below=SLOW_TRUTH)
-    known = np.isfinite(truth).all(axis=1)
+    moving, v_all, w_all = residuals(trace, section)
+    speed = trace.extra['truth_speed'][moving]
     out = []
     for lo, hi in ((1.0, 15.0), (15.0, 100.0)):
-        rows = known & np.isfinite(phone).all(axis=1) & (ex['truth_speed'] >= lo) \
-            & (ex['truth_speed'] < hi)
-        v_true = speed_along(*(truth_at(t[known], truth[known], t[rows] - section[k], RUN_GAP_S)
-                               for k in ('lag_s', 'course_lag_s')))
-        w = phone[rows] - with_speed_bias(v_true, section['speed_bias'])
+        band = (speed >= lo) & (speed < hi)
+        v_true, w = v_all[band], w_all[band]
         unit = v_true / np.hypot(v_true[:, 0], v_true[:, 1])[:, None]
         parts = {'along': np.sum(w * unit, axis=1),
                  'across': w[:, 0] * unit[:, 1] - w[:, 1] * unit[:, 0]}
@@ -136,7 +131,7 @@ def tails(trace):
             kurt = float(np.mean((x - x.mean()) ** 4) / np.var(x) ** 2)
             words.append(f'{name} RMS {rms:.3f} m/s, median deviation / RMS {mad / rms:.2f}, '
                          f'kurtosis {kurt:.1f}')
-        out.append(f'  {lo:g}-{hi:g} m/s, {int(rows.sum())} rows, the error\'s shape: '
+        out.append(f'  {lo:g}-{hi:g} m/s, {int(band.sum())} rows, the error\'s shape: '
                    + '; '.join(words))
     return out
 

@@ -231,11 +231,13 @@ def _section(sigma, phi, lag, course_lag, standstill, bias, table, between):
     return section
 
 
-def estimate_velocity(trace):
-    """Return (velocity section or None, evidence) for ``trace`` (see module doc)."""
-    missing = [k for k in NEEDED if k not in trace.extra]
-    if missing:
-        return None, {'fitted': False, 'reason': f'no column(s) {missing}'}
+def _velocities(trace):
+    """
+    Return (the phone's vectors, the truth's, rows with the truth, moving rows, implausible rows).
+
+    The vectors are (n, 2) east/north m/s, NaN on the implausible rows; the
+    moving rows have both vectors and the truth at :data:`MOVING` or more.
+    """
     ex = trace.extra
     odd = ~(_plausible(ex['speed'], ex['bearing'])
             & _plausible(ex['truth_speed'], ex['truth_bearing']))
@@ -244,6 +246,32 @@ def estimate_velocity(trace):
     phone[odd] = truth[odd] = np.nan
     known = np.isfinite(truth).all(axis=1)
     rows = known & np.isfinite(phone).all(axis=1) & (ex['truth_speed'] >= MOVING)
+    return phone, truth, known, rows, odd
+
+
+def residuals(trace, section):
+    """
+    Return (the moving rows (n,), the truth there (m, 2), the error left (m, 2)) under ``section``.
+
+    The truth is taken at the section's lags (its speed ``lag_s`` earlier,
+    its direction ``course_lag_s`` earlier); the error left is the phone's
+    velocity less that truth with the section's speed bias, east/north
+    m/s: what the fit measures its SD, persistence and tails on.
+    """
+    phone, truth, known, rows, _ = _velocities(trace)
+    t = trace.t
+    v_true = speed_along(*(truth_at(t[known], truth[known], t[rows] - section[k], RUN_GAP_S)
+                           for k in ('lag_s', 'course_lag_s')))
+    return rows, v_true, phone[rows] - with_speed_bias(v_true, section['speed_bias'])
+
+
+def estimate_velocity(trace):
+    """Return (velocity section or None, evidence) for ``trace`` (see module doc)."""
+    missing = [k for k in NEEDED if k not in trace.extra]
+    if missing:
+        return None, {'fitted': False, 'reason': f'no column(s) {missing}'}
+    ex = trace.extra
+    phone, truth, known, rows, odd = _velocities(trace)
     if rows.sum() < 30 or known.sum() < 2:
         return None, {'fitted': False, 'reason': f'{int(rows.sum())} moving rows with both '
                                                  f'velocities (30 needed)',

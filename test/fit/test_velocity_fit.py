@@ -146,7 +146,7 @@ def test_a_heavy_tailed_error_of_one_scale_has_no_scale_beyond_sampling():
 
 def test_calibrate_recovers_the_agents_scale_from_the_stretches():
     """40 stretches of 300 s, each another agent of a section with ``scale_sd_log`` 0.3."""
-    from gps_error_ros.fit.velocity_fit import estimate_velocity
+    from gps_error_ros.fit.velocity_fit import estimate_velocity, residuals
     from gps_error_ros.traces.trace_io import Trace
     truth = velocity_from_dict(dict(TRUE, lag_s=0.0, scale_sd_log=0.3))
     keys = streams.agent_keys(4, [f'stretch{i}' for i in range(40)])
@@ -164,6 +164,11 @@ def test_calibrate_recovers_the_agents_scale_from_the_stretches():
     assert section['scale_sd_log'] == between['beyond_sampling_sd']
     assert 0.22 < section['scale_sd_log'] < 0.38, between
     assert section['phi'] == pytest.approx(0.7, abs=0.05)
+    moving, v_true, left = residuals(trace, section)      # the error the fit measured
+    assert moving.all() and left.shape == w.shape
+    np.testing.assert_allclose(v_true, np.tile([0.0, 10.0], (t.size, 1)), atol=1e-9)
+    assert np.sqrt(np.mean(left ** 2)) == pytest.approx(section['sigma'], abs=1e-6)
+    np.testing.assert_allclose(left[:, 0], w[:, 0], atol=1e-9)     # across: nothing taken off
 
 
 def test_a_course_lag_turns_the_speed_lags_truth_and_nothing_else():
