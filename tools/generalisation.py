@@ -4,7 +4,9 @@ The generalisation table: every class judged on data its fit did not see.
 Runs ``gps_error compare``'s fold comparison (:mod:`gps_error_ros.diagnose.generalise`)
 on every visible recording set in ``--data``:
 
-* each GSDC phone and the UrbanNav receiver alone: rolling origin;
+* every recording in ``--data`` but the walks, alone: rolling origin (one
+  whose folds would hold out fewer than :data:`MIN_HELD_OUT` samples, or
+  that cannot be read, is named under "Not judged" with the reason);
 * the SnapperGPS walks: leave one walk out, and the walks recorded with it
   (another receiver on the same walk) out of its training;
 * the two GSDC phones of one drive: each trains, the other is held out
@@ -23,6 +25,8 @@ from pathlib import Path
 import platform
 import time
 
+import numpy as np
+
 from calm_stretches import calm_section
 from data_sources import WALKS
 from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_HEAD, LABELS,
@@ -31,13 +35,14 @@ from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.diagnose.beaten import gain_text, ORDER_GAIN
 from gps_error_ros.diagnose.consumers import FILTER_PARTS
-from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, judge_folds, precedent,
-                                               recording_splits, rolling_splits,
-                                               split_between, summarise)
+from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, HORIZON, judge_folds,
+                                               ORIGINS, precedent, recording_splits,
+                                               rolling_splits, split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import precedent as velocity_precedent
 from gps_error_ros.diagnose.window_persistence import spread_above
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
+from gps_error_ros.fit.population_fit import MIN_BLOCK_SAMPLES
 from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.traces.trace_io import join_recordings, read_trace_csv
 
@@ -49,9 +54,9 @@ SPEEDS = (3.0, 10.0, 27.0)
 PHONES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv')
 #: The rows of the phones' profiles validated on each other (phone_transfer.py).
 TRANSFER_JSON = 'phone-transfer.json'
-ALONE = PHONES + ('urbannav-hk-tst-ublox-spp.csv',)
-TOO_SHORT = {'gmt-static-phone-2016-08-22.csv': '207 samples: a rolling fold would hold out '
-                                                '26'}
+WALK_SET, PHONE_SET = 'SnapperGPS walks', 'GSDC phones of one drive'
+#: Held-out samples a rolling fold needs: one population block's worth.
+MIN_HELD_OUT = MIN_BLOCK_SAMPLES
 
 
 def _clean(path):
@@ -68,17 +73,51 @@ def _cross(a, b):
                           f'train on {a.name}, hold out {b.name}'))
 
 
+def alone(data):
+    """
+    Return ([(name, trace)] judged alone by rolling origin, {name: why another is not}).
+
+    Every trace in ``data`` but the walks, in name order, gross failures
+    taken out.
+    """
+    walks = set(data.glob(WALKS))
+    judged, not_judged = [], {}
+    for path in sorted(data.glob('*.csv')):
+        if path in walks:
+            continue
+        try:
+            trace = _clean(path)
+        except (ValueError, OSError) as exc:
+            not_judged[path.name] = f'not read: {exc}'
+            continue
+        t = trace.t
+        span = float(t[-1] - t[0])
+        held = min(int(np.sum((t >= t[0] + o * span) & (t < t[0] + (o + HORIZON) * span)))
+                   for o in ORIGINS)
+        if held < MIN_HELD_OUT:
+            not_judged[path.name] = f'{t.size} samples: a rolling fold would hold out {held}'
+            continue
+        judged.append((path.name, trace))
+    return judged, not_judged
+
+
+def set_order(data):
+    """Return the sets' names in the page's order."""
+    return [name for name, _ in alone(data)[0]] + [WALK_SET, PHONE_SET]
+
+
 def sets(data):
     """Return [(set name, how, [(label, Split)])] of the visible recordings."""
-    out = [(name, 'rolling origin (3 folds)', rolling_splits(_clean(data / name)))
-           for name in ALONE]
+    out = [(name, 'rolling origin (3 folds)', rolling_splits(trace))
+           for name, trace in alone(data)[0]]
     walks = [_clean(p) for p in sorted(data.glob(WALKS))]
-    out.append(('SnapperGPS walks', f'leave one walk out, nor train on the walks recorded '
-                f'with it ({len(walks)} folds)',
-                recording_splits(walks)))
-    phones = [_clean(data / p) for p in PHONES]
-    out.append(('GSDC phones of one drive', 'each phone trains, the other is held out',
-                [_cross(phones[0], phones[1]), _cross(phones[1], phones[0])]))
+    if len(walks) > 1:
+        out.append((WALK_SET, f'leave one walk out, nor train on the walks recorded '
+                    f'with it ({len(walks)} folds)', recording_splits(walks)))
+    if all((data / p).exists() for p in PHONES):
+        phones = [_clean(data / p) for p in PHONES]
+        out.append((PHONE_SET, 'each phone trains, the other is held out',
+                    [_cross(phones[0], phones[1]), _cross(phones[1], phones[0])]))
     return out
 
 
@@ -478,7 +517,7 @@ def main(argv=None):
     rows_json = json_dir / TRANSFER_JSON
     if args.from_json:
         docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json') if p != rows_json]
-        order = list(ALONE) + ['SnapperGPS walks', 'GSDC phones of one drive']
+        order = set_order(args.data)
         docs.sort(key=lambda d: order.index(d['set']))
         rows = json.loads(rows_json.read_text()) if rows_json.exists() else []
         _write_page(args, [(d['set'], d['how'], d['folds'], d['summary']) for d in docs],
@@ -553,7 +592,7 @@ def _write_page(args, parts, seconds, date=None, rows=()):
         text.append(_table(summary) + '\n')
         text.append('Population fits:\n\n' + '\n'.join(_evidence(folds)) + '\n')
         text += _velocity_rows(folds)
-    for name, why in TOO_SHORT.items():
+    for name, why in alone(args.data)[1].items():
         text.append(f'Not judged: {name} ({why}).\n')
     text += transfer_lines(rows)
     text += _explanation(parts, args.data)

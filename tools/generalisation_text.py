@@ -64,7 +64,10 @@ extended model fitted within blocks (`diagnose --profile-out --population`):
 each simulated agent draws its own bias (and its wander) and scale from the
 spread of the training blocks.
 
-Regenerate with `make generalisation` (data in `../shared/data`).
+Regenerate with `make generalisation` (data in `../shared/data`): every
+recording there but the walks is judged alone by rolling origin, the walks
+leave one out, and a recording too short for a fold to hold out 60 samples
+is named under "Not judged".
 Measured on {date}, {machine}; {minutes:.0f} minutes.
 """
 

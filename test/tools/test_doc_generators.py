@@ -233,3 +233,18 @@ def test_the_generalisation_page_tells_speed_and_course_misses_without_precedent
         'of the training rows as long as the held-out rows (1 in a band no such stretch had '
         'rows enough in) (the speed and course table). ')
     assert _velocity_precedent(folds[1:]) == '' and _velocity_rows(folds[1:]) == []
+
+
+def test_the_generalisation_page_judges_every_recording_it_is_given(tmp_path):
+    """tools/generalisation.py: each trace but the walks alone; one too short or unread, named."""
+    alone, set_order = _tools('alone', 'set_order')
+    for name, n in (('long.csv', 900), ('short.csv', 300)):
+        write_csv(tmp_path / name, synthetic_trace(n, seed=3)[0])
+    write_csv(tmp_path / 'snapper-walk-w99.csv', synthetic_trace(900, seed=4)[0])
+    (tmp_path / 'broken.csv').write_text('t,lat\n1,2\n')
+    judged, not_judged = alone(tmp_path)
+    assert [name for name, _ in judged] == ['long.csv']              # the walk is its own set
+    assert not_judged['short.csv'] == '300 samples: a rolling fold would hold out 37'
+    assert not_judged['broken.csv'].startswith('not read: ')
+    assert set(not_judged) == {'short.csv', 'broken.csv'}
+    assert set_order(tmp_path)[0] == 'long.csv'
