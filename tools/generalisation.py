@@ -101,6 +101,11 @@ def alone(data):
     return judged, not_judged
 
 
+def _phones_here(data):
+    """Return whether both GSDC phones of one drive are in ``data`` (their own sections)."""
+    return all((data / p).exists() for p in PHONES)
+
+
 def set_order(data):
     """Return the sets' names in the page's order."""
     return [name for name, _ in alone(data)[0]] + [WALK_SET, PHONE_SET]
@@ -114,7 +119,7 @@ def sets(data):
     if len(walks) > 1:
         out.append((WALK_SET, f'leave one walk out, nor train on the walks recorded '
                     f'with it ({len(walks)} folds)', recording_splits(walks)))
-    if all((data / p).exists() for p in PHONES):
+    if _phones_here(data):
         phones = [_clean(data / p) for p in PHONES]
         out.append((PHONE_SET, 'each phone trains, the other is held out',
                     [_cross(phones[0], phones[1]), _cross(phones[1], phones[0])]))
@@ -479,7 +484,8 @@ def _own_sentence(summary, cls='population'):
 def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
     out = [CAUSES_HEAD] + _causes(parts) + [''] + _beaten_lines(parts)
-    out += calm_section([(name, _clean(data / name)) for name in PHONES])
+    if _phones_here(data):
+        out += calm_section([(name, _clean(data / name)) for name in PHONES])
     out += ['', EXPLAIN_HEAD + FILTER_HEAD + SPREAD_HEAD]
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
@@ -531,7 +537,8 @@ def main(argv=None):
         stem = name.replace('.csv', '').replace(' ', '-').lower()
         parts.append((name, how, folds, summary, stem))
         print(f'{name}: {len(folds)} folds done ({time.time() - started:.0f} s)', flush=True)
-    rows = transfer(args.data, PHONES, json_dir, args.out / 'docs' / 'close-the-loop')
+    rows = transfer(args.data, PHONES, json_dir, args.out / 'docs' / 'close-the-loop') \
+        if _phones_here(args.data) else []
     rows_json.write_text(json.dumps(rows, indent=1))
     seconds, date = time.time() - started, dt.date.today().isoformat()
     for name, how, folds, summary, stem in parts:

@@ -248,3 +248,21 @@ def test_the_generalisation_page_judges_every_recording_it_is_given(tmp_path):
     assert not_judged['broken.csv'].startswith('not read: ')
     assert set(not_judged) == {'short.csv', 'broken.csv'}
     assert set_order(tmp_path)[0] == 'long.csv'
+
+
+def test_the_generalisation_page_regenerates_from_a_data_directory(tmp_path):
+    """tools/generalisation.py end to end on recordings of its own: no walks, no GSDC phones."""
+    data = tmp_path / 'data'
+    data.mkdir()
+    write_csv(data / 'long.csv', synthetic_trace(1200, seed=3)[0])
+    write_csv(data / 'short.csv', synthetic_trace(300, seed=3)[0])
+    r = subprocess.run([sys.executable, str(TOOLS / 'generalisation.py'), '--data', str(data),
+                        '--out', str(tmp_path), '--sims', '10', '--smoother', '0'],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    page = (tmp_path / 'docs' / 'generalisation.md').read_text()
+    assert '## long.csv: rolling origin (3 folds)' in page
+    assert 'Not judged: short.csv (300 samples: a rolling fold would hold out 37).' in page
+    assert 'SnapperGPS walks' not in page and 'GSDC phones' not in page
+    assert json.loads((tmp_path / 'docs' / 'generalisation' / 'long.json').read_text())['set'] \
+        == 'long.csv'
