@@ -106,15 +106,19 @@ def _phones_here(data):
     return all((data / p).exists() for p in PHONES)
 
 
-def set_order(data):
-    """Return the sets' names in the page's order."""
-    return [name for name, _ in alone(data)[0]] + [WALK_SET, PHONE_SET]
+def set_order(judged):
+    """Return the sets' names in the page's order, given :func:`alone`'s recordings judged."""
+    return [name for name, _ in judged] + [WALK_SET, PHONE_SET]
 
 
 def sets(data):
-    """Return [(set name, how, [(label, Split)])] of the visible recordings."""
-    out = [(name, 'rolling origin (3 folds)', rolling_splits(trace))
-           for name, trace in alone(data)[0]]
+    """
+    Return ([(set name, how, [(label, Split)])] of the visible recordings, those not judged).
+
+    The second is :func:`alone`'s {name: why}.
+    """
+    judged, not_judged = alone(data)
+    out = [(name, 'rolling origin (3 folds)', rolling_splits(trace)) for name, trace in judged]
     walks = [_clean(p) for p in sorted(data.glob(WALKS))]
     if len(walks) > 1:
         out.append((WALK_SET, f'leave one walk out, nor train on the walks recorded '
@@ -123,7 +127,7 @@ def sets(data):
         phones = [_clean(data / p) for p in PHONES]
         out.append((PHONE_SET, 'each phone trains, the other is held out',
                     [_cross(phones[0], phones[1]), _cross(phones[1], phones[0])]))
-    return out
+    return out, not_judged
 
 
 def _table(summary):
@@ -523,14 +527,16 @@ def main(argv=None):
     rows_json = json_dir / TRANSFER_JSON
     if args.from_json:
         docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json') if p != rows_json]
-        order = set_order(args.data)
+        judged, not_judged = alone(args.data)
+        order = set_order(judged)
         docs.sort(key=lambda d: order.index(d['set']))
         rows = json.loads(rows_json.read_text()) if rows_json.exists() else []
         _write_page(args, [(d['set'], d['how'], d['folds'], d['summary']) for d in docs],
-                    docs[0].get('seconds', 0.0), docs[0].get('date'), rows)
+                    docs[0].get('seconds', 0.0), docs[0].get('date'), rows, not_judged)
         return
     parts = []
-    for name, how, splits in sets(args.data):
+    found, not_judged = sets(args.data)
+    for name, how, splits in found:
         folds = judge_folds(splits, args.sims, seed=0, smoother_sims=args.smoother,
                             smoother_classes=SMOOTHER_CLASSES)
         summary = summarise(folds)
@@ -548,7 +554,7 @@ def main(argv=None):
         (json_dir / f'{stem}.json').write_text(json.dumps(
             {'set': name, 'how': how, 'folds': folds, 'summary': summary,
              'seconds': seconds, 'date': date}, indent=1, default=float))
-    _write_page(args, [p[:4] for p in parts], seconds, date, rows)
+    _write_page(args, [p[:4] for p in parts], seconds, date, rows, not_judged)
 
 
 def _velocity_rows(folds):
@@ -586,7 +592,7 @@ def _velocity_rows(folds):
     return rows + ['']
 
 
-def _write_page(args, parts, seconds, date=None, rows=()):
+def _write_page(args, parts, seconds, date=None, rows=(), not_judged=None):
     machine = f'{platform.machine()}, {platform.python_implementation()} ' \
               f'{platform.python_version()}'
     text = [PAGE_HEAD.format(date=date or dt.date.today().isoformat(), machine=machine,
@@ -599,7 +605,7 @@ def _write_page(args, parts, seconds, date=None, rows=()):
         text.append(_table(summary) + '\n')
         text.append('Population fits:\n\n' + '\n'.join(_evidence(folds)) + '\n')
         text += _velocity_rows(folds)
-    for name, why in alone(args.data)[1].items():
+    for name, why in (not_judged or {}).items():
         text.append(f'Not judged: {name} ({why}).\n')
     text += transfer_lines(rows)
     text += _explanation(parts, args.data)
