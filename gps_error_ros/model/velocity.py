@@ -192,27 +192,25 @@ class Velocity:
         object.__setattr__(self, '_kept_sds', (tag, sds))   # (frozen: not a field)
         return sds
 
-    def bursts(self, keys, domain, index):
-        """Return each agent's innovation factor ``c`` (n, 1) at ``index``, or 1 without bursts."""
+    def bursts(self, z, keys, domain, index):
+        """Return the draws ``z`` (n, 2) times each agent's burst factor (no bursts: ``z``)."""
         if self.burst_share is None:
-            return 1.0
+            return z
         p, r = self.burst_share, self.burst_ratio
         c0 = 1.0 / np.sqrt(1.0 - p + p * r * r)
         u = streams.uniform_pairs(keys, domain, index)[:, :1]
-        return np.where(u < p, r * c0, c0)
+        return z * np.where(u < p, r * c0, c0)
 
     def initial(self, keys, index):
         """Return the error (n, 2) east/north at a run's first step ``index``."""
-        z = streams.normal_pairs(keys, streams.DOMAIN_INIT_VELOCITY, index)
-        if self.burst_share is not None:
-            z = z * self.bursts(keys, streams.DOMAIN_INIT_VELOCITY_BURST, index)
+        z = self.bursts(streams.normal_pairs(keys, streams.DOMAIN_INIT_VELOCITY, index), keys,
+                        streams.DOMAIN_INIT_VELOCITY_BURST, index)
         return self.agent_sds(keys) * z
 
     def step(self, w, keys, index):
         """Return the error at step ``index`` after ``w`` at the step before."""
-        z = streams.normal_pairs(keys, streams.DOMAIN_VELOCITY, index)
-        if self.burst_share is not None:
-            z = z * self.bursts(keys, streams.DOMAIN_VELOCITY_BURST, index)
+        z = self.bursts(streams.normal_pairs(keys, streams.DOMAIN_VELOCITY, index), keys,
+                        streams.DOMAIN_VELOCITY_BURST, index)
         return self.phi * w + np.sqrt(1.0 - self.phi ** 2) * self.agent_sds(keys) * z
 
     def errors(self, keys, n_steps, start=0):
