@@ -56,6 +56,10 @@ class AboutTruth:
         """Return the root mean square error per axis."""
         return np.sqrt(np.diag(self.stationary_cov))
 
+    def mean_step_cov(self):
+        """Return the mean one-step mean square error matrix, the stationary mean's included."""
+        return mean_square(self.core.mean_step_cov(), self.core.mean)
+
     def predictive_cov(self, state, first=False):
         """Return each agent's mean square error matrix of the next error given ``state``."""
         return mean_square(self.core.predictive_cov(state, first),

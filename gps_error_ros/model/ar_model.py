@@ -257,9 +257,23 @@ class ARErrorModel:
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
         For the AR process this is the innovation covariance, the same for
-        every agent and step (``first``: at a run's first step, likewise).
+        every agent and step. ``first``: the covariance of a run's first
+        error, which is drawn from the stationary law, so the stationary
+        covariance (nothing before it is known).
         """
+        if first:
+            return np.repeat(self.stationary_cov[None], state.shape[0], axis=0)
         return np.repeat(self.innovation_cov[None], state.shape[0], axis=0)
+
+    def mean_step_cov(self):
+        """
+        Return the one-step covariance (2, 2) averaged over the stationary law.
+
+        The reference scale of a stated radius that follows the predictive
+        covariance (:func:`~.reported.reference_cov`); for the AR process the
+        innovation covariance.
+        """
+        return self.innovation_cov.copy()
 
     def predictive_mean(self, state, first=False):
         """

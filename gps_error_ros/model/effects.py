@@ -261,34 +261,52 @@ class ExtendedModel:
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
         The innovation covariance times the expected squared regime scale of
-        the next step given the current regime (``first``: given the regimes'
-        stationary law) and the next phase's squared scale (``first``: the
-        cycle's average); heavy tails keep the unit variance. With
-        street_frame the covariance is turned to the last direction of travel.
-        With outliers the next offset's covariance given the jump state is
-        added (:func:`~.outliers.offset_cov`).
+        the next step given the current regime and the next phase's squared
+        scale; heavy tails keep the unit variance. With street_frame the
+        covariance is turned to the last direction of travel. With outliers
+        the next offset's covariance given the jump state is added
+        (:func:`~.outliers.offset_cov`). ``first``: a run's first error is
+        drawn from the stationary law, so its covariance is
+        :attr:`stationary_cov` (phases, regimes and jumps averaged).
         """
         n = state.shape[0]
+        if first:
+            return np.repeat(self.stationary_cov[None], n, axis=0)
         factor = np.ones(n)
         if self.scales.size > 1:
             s2 = self.scales ** 2
-            if first:
-                factor[:] = float(self.pi @ s2)
-            else:
-                factor = np.asarray(self.effects.transition)[self.regimes(state)] @ s2
+            factor = np.asarray(self.effects.transition)[self.regimes(state)] @ s2
         if self.periodic is not None:
-            if first:
-                factor = factor * self.periodic.variance_factor
-            else:
-                nxt = (state[:, 0, self.order + 1].astype(np.int64) + 1) % self.periodic.period
-                factor = factor * self.cycle_scales[nxt] ** 2
+            nxt = (state[:, 0, self.order + 1].astype(np.int64) + 1) % self.periodic.period
+            factor = factor * self.cycle_scales[nxt] ** 2
         base = self.street_cov(state) if self.street is not None else \
             self.unit.innovation_cov[None]
         cov = base * factor[:, None, None]
         if self.outliers is not None:
             c = self._jump
-            cov = cov + jumps.offset_cov(self.outliers, state[:, 0, c + 1], state[:, :, c],
-                                         first)
+            cov = cov + jumps.offset_cov(self.outliers, state[:, 0, c + 1], state[:, :, c])
+        return cov
+
+    def mean_step_cov(self):
+        """
+        Return the one-step covariance (2, 2) averaged over the stationary law.
+
+        The innovation covariance times the regimes' stationary mean square
+        scale and the cycle's average, plus a jump's stationary share (the
+        reference of a stated radius that follows the predictive scale).
+        With street_frame the innovation covariance facing north.
+        """
+        factor = 1.0
+        if self.scales.size > 1:
+            factor = float(self.pi @ self.scales ** 2)
+        if self.periodic is not None:
+            factor *= self.periodic.variance_factor
+        base = self.street_cov(self.empty_state(1))[0] if self.street is not None else \
+            self.unit.innovation_cov
+        cov = base * factor
+        if self.outliers is not None:
+            cov = cov + jumps.offset_cov(self.outliers, np.zeros(1), np.zeros((1, 2)),
+                                         first=True)[0]
         return cov
 
     def predictive_mean(self, state, first=False):

@@ -52,8 +52,9 @@ alone, in a crowd or in a shard has the same errors.
 
 Covariances (``stationary_cov`` and ``predictive_cov``): a consumer that
 knows nothing of the agent (the stationary covariance, and the first step's
-conditional one) covers the population's spread, ``C + diag(bias_sd_m^2 +
-run_bias_sd_m^2)``;
+conditional one: a run's first error is drawn from the stationary law) covers
+the population's spread, ``C + diag(bias_sd_m^2 + run_bias_sd_m^2)`` with
+``C`` the process's stationary covariance;
 given the state a step before (the ``conditional`` mode) the agent's scale
 and bias are known, so it is ``f^2`` times the process's one-step
 covariance plus the bias's own one-step variance ``(1 - a^2) g^2
@@ -397,10 +398,15 @@ class WithPopulation:
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
         ``first`` (nothing known of the agent): the process's first-step
-        covariance plus the population's bias spread.
+        covariance (its stationary one) plus the population's bias spread,
+        the covariance of the law a run's first error is drawn from.
         """
         return self.draws.agent_cov(self.inner.predictive_cov(self._inner(state), first),
                                     state[:, 0, -1], state[:, 1, -1], first)
+
+    def mean_step_cov(self):
+        """Return the process's mean one-step covariance plus the population's bias spread."""
+        return np.asarray(self.inner.mean_step_cov()) + self.draws.spread
 
     def predictive_mean(self, state, first=False):
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""

@@ -23,9 +23,11 @@ stated accuracy needs that, not an honest number. The model::
 
 ``s_k`` is the model's own one-step predictive SD of the horizontal error
 at step ``k`` (the square root of the covariance's trace: it moves with
-variance regimes and zones), ``s_ref`` its value under the model's
-stationary law (:func:`reference_cov`; for a plain AR model the two are
-equal), so ``follow = 1`` makes the radius scale with the error's scale and
+variance regimes and zones; at a run's first step, where nothing came
+before, the stationary SD, so a cold start states a wider radius),
+``s_ref`` the one-step SD averaged over the model's stationary law
+(:func:`reference_cov`; for a plain AR model after its first step the two
+are equal), so ``follow = 1`` makes the radius scale with the error's scale and
 ``follow = 0`` ignores it. ``x`` is a stationary AR(1) on the agent's own stream (domain
 ``reported``; the start from ``init_reported``), so a phone's stated value
 drifts and persists as a phone's does. The radius is then rounded to
@@ -163,8 +165,8 @@ def reported_from_dict(raw, source='<profile>'):
 
 
 def reference_cov(model):
-    """Return the predictive covariance a model has under its stationary law (``s_ref``)."""
-    return model.predictive_cov(model.empty_state(1), first=True)[0]
+    """Return the one-step predictive covariance averaged over the stationary law (``s_ref``)."""
+    return model.mean_step_cov()
 
 
 def needs_predictive(covariance_mode, reported):

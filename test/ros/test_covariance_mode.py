@@ -9,7 +9,8 @@ from sensor_msgs.msg import NavSatFix
 from gps_error_ros.model.profiles import builtin_dir, load_profile_file
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.model.reported import reference_cov
-from ros_harness import (DATUM_ARG, drive, NodeProcess, NS, pose_msg, stamp_ns, start, T0,
+from ros_harness import (covariances_ne, DATUM_ARG, drive, NodeProcess, NS, pose_msg,
+                         standing_fixes, stamp_ns, start, T0,
                          unique_ns)
 
 pytestmark = pytest.mark.integration
@@ -124,3 +125,13 @@ def test_reported_mode_needs_a_reported_accuracy_section():
             '-p', 'covariance_mode:=reported']
     rc, out = NodeProcess(args).wait_exit()
     assert rc == 2 and 'has no reported_accuracy section' in out, out
+
+
+def test_the_first_fix_states_the_stationary_law(peer):
+    """A run's first error is drawn from the stationary law: so is its stated covariance."""
+    fixes = standing_fixes(peer, 'DS5', 3, f'seed:={SEED}', 'covariance_mode:=conditional')
+    model = load_profile_file(builtin_dir() / 'DS5.yaml').model()
+    m = model.mean
+    want = model.stationary_cov + np.outer(m, m)            # about the truth, the default
+    got = covariances_ne(fixes)
+    np.testing.assert_allclose(got[0], want, rtol=1e-9)
