@@ -269,7 +269,9 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     counter.send_signal(signal.SIGINT)
     counter.wait(timeout=60)
     counts = json.loads(count_file.read_text())
-    m = re.search(r'(\d+) fixes published, (\d+) skipped without truth, (\d+) truth '
+    m = re.search(r'(\d+) NavSatFix published \(\d+ with a position, \d+ NO_FIX\), '
+                  r'\d+ steps in an outage, \d+ non-finite fixes refused, '
+                  r'(\d+) skipped without truth, (\d+) truth '
                   r'messages out of order, (\d+) stamped in the future.*wall time per '
                   r'tick ([\d.]+) ms mean, ([\d.]+) ms max', out)
     if not m:

@@ -447,8 +447,11 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         ticks, total, worst = self.tick_time
         mean_ms = 1e3 * total / ticks if ticks else 0.0
         t = self._total
+        out = self.fix_output
         return (f'{ticks} timer ticks, {t("steps")} model steps, '
-                f'{t("fixes")} fixes published, '
+                f'{out.fixes + out.no_fix} NavSatFix published ({out.fixes} with a '
+                f'position, {out.no_fix} NO_FIX), {t("no_fix")} steps in an outage, '
+                f'{out.refused} non-finite fixes refused, '
                 f'{t("skipped_no_truth")} skipped without truth, '
                 f'{t("dropped_out_of_order")} truth messages out of '
                 f'order, {t("dropped_future")} stamped in the future, '
@@ -462,7 +465,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         """Return the /diagnostics status: what was published and skipped."""
         t = self._total
         total = {
-            'fixes published': t('fixes') - self.fix_output.refused,
+            'fixes published': self.fix_output.fixes,
             'no-fix messages published (outages)': self.fix_output.no_fix,
             'steps in an outage': t('no_fix'),
             'steps skipped without truth': t('skipped_no_truth'),

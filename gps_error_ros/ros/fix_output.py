@@ -51,6 +51,7 @@ class FixOutput:
         self.per_fix = covariance_mode != 'stationary' or per_fix   # zones: the zone's
         self.burst = FIX_BURST if best_effort else None
         self.refused = 0            # non-finite positions not published
+        self.fixes = 0              # NavSatFix messages published with a position
         self.no_fix = 0             # NO_FIX messages published
         self.fix_templates, self.no_fix_template = [], None
 
@@ -95,6 +96,7 @@ class FixOutput:
         members = node.groups[g].members
         for fix in fixes:
             good, none = self._split(fix)
+            self.fixes += int(good.sum())
             if fix.velocity is not None:
                 self._velocities(g, fix, good)
             if node.polled:

@@ -45,6 +45,9 @@ def test_no_fix_messages_where_the_stream_has_an_outage(tmp_path, peer):
     status = np.array([f.status.status for f in fixes])
     np.testing.assert_array_equal(status == NavSatStatus.STATUS_NO_FIX, ~mask)
     np.testing.assert_array_equal(status[mask], NavSatStatus.STATUS_FIX)
+    # the shutdown line counts every message sent, and the NO_FIX among them apart
+    n_fix, n_none = int(mask.sum()), int((~mask).sum())
+    assert f'{STEPS} NavSatFix published ({n_fix} with a position, {n_none} NO_FIX)' in out, out
     for f in np.array(fixes, dtype=object)[~mask]:
         assert np.isnan([f.latitude, f.longitude, f.altitude]).all()
         assert f.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN
