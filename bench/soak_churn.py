@@ -140,13 +140,23 @@ class Driver:
             self.dup += step in box
             box[step] = (lat, lon)
 
+    def _matched(self, agent):
+        if not agent.ready:
+            agent.ready = agent.pub.get_subscription_count() > 0 and \
+                agent.sub.get_publisher_count() > 0
+        return agent.ready
+
+    def wait_matched(self, timeout_s):
+        """Wait up to ``timeout_s`` until the node has matched every agent alive."""
+        end = time.monotonic() + timeout_s
+        while not all(self._matched(a) for a in self.alive.values()) and \
+                time.monotonic() < end:
+            time.sleep(0.01)
+
     def send(self, k, pose_msg):
         """Publish step ``k``'s pose of every agent the node has subscribed to."""
         for agent in self.alive.values():
-            if not agent.ready:
-                agent.ready = agent.pub.get_subscription_count() > 0 and \
-                    agent.sub.get_publisher_count() > 0
-            if agent.ready:
+            if self._matched(agent):
                 agent.pub.publish(pose_msg)
                 agent.sent.append(k)
                 self.sent.setdefault(agent.name, []).append(k)
@@ -174,8 +184,17 @@ class Driver:
 
 
 def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmup_s=900,
-        rss_growth_mb=20.0, check_agents=300, seed=11, profile='DS1', max_speed=15.0):
-    """Run the churn soak; return the result dictionary (see the module docstring)."""
+        rss_growth_mb=20.0, check_agents=300, seed=11, profile='DS1', max_speed=15.0,
+        wait_matched_s=0.0):
+    """
+    Run the churn soak; return the result dictionary (see the module docstring).
+
+    ``wait_matched_s`` > 0: before each clock step, wait up to that many
+    seconds of wall time until the node has matched every agent alive, so
+    that no life ends unseen however slowly the machine schedules the node
+    (the test's way; the soak leaves discovery to race, and counts the lives
+    it lost as ``lives_never_served``).
+    """
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import PoseStamped
@@ -241,6 +260,8 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
             for k in range(T0 + 1, T0 + sim_s + 1):
                 crowd.depart(k)
                 msg.header.stamp = to_stamp(k * NS)
+                if wait_matched_s > 0:
+                    crowd.wait_matched(wait_matched_s)
                 crowd.send(k, msg)
                 clock.publish(Clock(clock=to_stamp(k * NS)))
                 crowd.wait_for(k - 1)

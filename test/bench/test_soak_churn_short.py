@@ -12,11 +12,16 @@ pytestmark = pytest.mark.integration
 
 
 def test_short_churn_soak():
-    # about 20 s of wall time at 15x: some 50 departures and 10 returns. At 25x a
-    # 20-s life lasted 0.8 s of wall time, less than the node's scan period, and a
-    # loaded machine (the suite's three workers) left 12 of 51 lives unmatched
+    """
+    What the node guarantees of agents that come and go, whatever the machine's speed.
+
+    The driver waits (up to 60 s of wall time a step) for the node to match
+    each new agent before the clock moves on, so no life can end unseen; how
+    many lives a node racing discovery on a busy machine misses, and its
+    memory over hours, are ``make soak``'s to report.
+    """
     r = soak_churn.run(concurrent=10, sim_s=300, life_s=(20, 80), sample_s=30,
-                       warmup_s=60, max_speed=15.0)
+                       warmup_s=60, max_speed=15.0, wait_matched_s=60.0)
     summary = {k: v for k, v in r.items() if k != 'node_log'}
     # what went wrong first: which agents have fixes off their streams (all of
     # them, named: pytest cuts a long dict short), then where
@@ -27,16 +32,16 @@ def test_short_churn_soak():
                'off_stream_by_agent': off, **summary}
     # a string, not the dict: pytest cuts a dict's repr after four keys
     summary = ', '.join(f'{k}: {v}' for k, v in summary.items())
+    # the driver's schedule (seeded): some 50 departures and 10 returns
     assert r['departures'] >= 30 and r['returns'] >= 5, summary
     assert r['missing'] == 0 and r['unexpected'] == 0 and r['duplicates'] == 0, summary
     assert r['max_error_diff_m'] <= soak_churn.STREAM_TOLERANCE_M, summary
     assert r['agents_checked'] == r['agents_ever'], summary
-    assert r['served_max'] < 20, summary
+    # every life was matched before it ended, so every life got fixes
+    assert r['lives_never_served'] == 0, summary
+    # the node serves the agents present, not all that ever came, and at the end
+    # (past every departure's timeout) exactly those alive, every departure released
+    # but the names that came back before their release
+    assert r['served_max'] < 2 * 10, summary
     assert r['served_at_end'] == r['alive_at_end'], summary
-    # the node releases what it served: a life that ended between two of its
-    # scans (a second or two of wall time at 15x, on a loaded machine) was
-    # never served; they stay few
-    assert r['lives_never_served'] <= r['departures'] // 5, summary
-    assert r['released'] >= r['departures'] - r['returns'] - r['lives_never_served'], summary
-    assert r['rss_growth_mb'] <= 20.0, summary
-    assert r['passed']
+    assert r['released'] >= r['departures'] - r['returns'], summary
