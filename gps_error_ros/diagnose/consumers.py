@@ -47,12 +47,15 @@ FILTER_PARTS = ('mean_size_m', 'sd_m', 'filter_rms_per_sd')
 
 
 def _grid(part):
-    """Return (times, truth (n, 2), segment start flags) of a part's samples."""
+    """Return (times, truth (n, 2), segment start flags, recording start flags) of a part."""
     t = np.concatenate(part.t)
     truth = np.concatenate(part.truth)
     first = np.zeros(t.size, dtype=bool)
-    first[np.cumsum([0] + [len(x) for x in part.t[:-1]])] = True
-    return t, truth, first
+    starts = np.cumsum([0] + [len(x) for x in part.t[:-1]])
+    first[starts] = True
+    new_run = np.zeros(t.size, dtype=bool)
+    new_run[starts[np.asarray(part.recording_starts(), dtype=bool)]] = True
+    return t, truth, first, new_run
 
 
 def _truth_velocity(t, truth, first):
@@ -74,24 +77,27 @@ def run_filter(part, errors, fix_var, seed=0):
     ``errors``: (traces, n, 2) north/east errors at the part's samples (the
     measured one among them); ``fix_var``: (2,) the stated fix variance per
     axis. Returns an array (traces, 4) in the order of :data:`FILTER_MEASURES`.
+
+    The filter starts at the first fix of each recording in the part (as a
+    consumer switched on anew), and coasts across gaps within one.
     """
-    t, truth, first = _grid(part)
+    t, truth, first, new_run = _grid(part)
     vel = _truth_velocity(t, truth, first)
     aid = vel + VELOCITY_SD * np.random.default_rng(seed).standard_normal(vel.shape)
     k = errors.shape[0]
     fixes = truth[None] + errors
-    x = np.zeros((k, 4))
-    x[:, :2] = fixes[:, 0]
-    x[:, 2:] = aid[0]
-    p = np.diag([fix_var[0], fix_var[1], VELOCITY_SD ** 2, VELOCITY_SD ** 2])
-    p = np.repeat(p[None], k, axis=0)
+    p0 = np.diag([fix_var[0], fix_var[1], VELOCITY_SD ** 2, VELOCITY_SD ** 2])
     r_fix = np.diag(fix_var)
     r_vel = np.eye(2) * VELOCITY_SD ** 2
     est = np.empty((t.size, k, 2))
     nees = np.empty((t.size, k))
     rejected = np.zeros(k)
-    est[0], nees[0] = x[:, :2], _nees(x[:, :2] - truth[0], p[:, :2, :2])
-    for i in range(1, t.size):
+    for i in range(t.size):
+        if new_run[i]:
+            x = np.concatenate([fixes[:, i], np.repeat(aid[i][None], k, axis=0)], axis=1)
+            p = np.repeat(p0[None], k, axis=0)
+            est[i], nees[i] = x[:, :2], _nees(x[:, :2] - truth[i], p[:, :2, :2])
+            continue
         dt = max(float(t[i] - t[i - 1]), 1e-3)
         f = np.eye(4)
         f[0, 2] = f[1, 3] = dt
@@ -108,8 +114,9 @@ def run_filter(part, errors, fix_var, seed=0):
         est[i] = x[:, :2]
         nees[i] = _nees(x[:, :2] - truth[i], p[:, :2, :2])
     h = np.hypot(*(est - truth[:, None]).transpose(2, 0, 1))
+    updates = max(t.size - int(new_run.sum()), 1)
     return np.stack([np.sqrt(np.mean(h ** 2, axis=0)), np.quantile(h, 0.95, axis=0),
-                     nees.mean(axis=0), rejected / max(t.size - 1, 1)], axis=1)
+                     nees.mean(axis=0), rejected / updates], axis=1)
 
 
 def _nees(err, cov):

@@ -14,7 +14,7 @@ from scipy import stats
 
 from gps_error_ros.diagnose.common import FIDELITY_MAX_LAG
 from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
-from gps_error_ros.fit.autocorrelation import segment_acf
+from gps_error_ros.fit.autocorrelation import about_recording_means, segment_acf
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes
 from gps_error_ros.model import streams
 from gps_error_ros.traces.trace_io import RECORDING_GAP_S
@@ -22,18 +22,23 @@ from gps_error_ros.traces.trace_io import RECORDING_GAP_S
 QUANTILES = (0.5, 0.95, 0.99)
 
 
-def acf_by_axis(err_segments, max_lag=FIDELITY_MAX_LAG):
-    """Return the pooled ACF at lags 1..max_lag per axis, (max_lag, 2)."""
-    x = np.concatenate(err_segments)
+def acf_by_axis(err_segments, max_lag=FIDELITY_MAX_LAG, recording=None):
+    """
+    Return the pooled ACF at lags 1..max_lag per axis, (max_lag, 2).
+
+    ``recording``: each segment's recording; several recordings are each
+    taken about their own mean (:func:`~.autocorrelation.about_recording_means`).
+    """
+    x = np.concatenate(about_recording_means(err_segments, recording))
     seg = np.concatenate([np.full(len(e), i) for i, e in enumerate(err_segments)])
     return np.stack([segment_acf(x[:, a], seg, max_lag) for a in range(2)], axis=1)
 
 
-def measures(err_segments, max_lag=FIDELITY_MAX_LAG):
-    """Return the fidelity measures of one error trace (list of segments)."""
+def measures(err_segments, max_lag=FIDELITY_MAX_LAG, recording=None):
+    """Return the fidelity measures of one error trace (list of segments; their recordings)."""
     x = np.concatenate(err_segments)
     h = np.hypot(x[:, 0], x[:, 1])
-    return {'acf': acf_by_axis(err_segments, max_lag),
+    return {'acf': acf_by_axis(err_segments, max_lag, recording),
             'corr': float(np.corrcoef(x.T)[0, 1]),
             'q': np.quantile(h, QUANTILES)}
 
@@ -55,26 +60,40 @@ def simulate_part(model, part, truth, sims, seed):
     """
     Return ``sims`` simulated error traces along ``part``'s truth and grid.
 
-    One continuous run per trace over the part's span, sampled at its steps
-    (:func:`part_steps`); a motion lag adds the offsets of the truth itself,
-    and a street frame turns with the truth's direction of travel.
+    One continuous run per trace and recording over the recording's span in
+    the part, sampled at its steps (:func:`part_steps`): each recording is a
+    run of its own, started from the model's stationary law as a new day's
+    is (the streams' draws at its first step). A motion lag adds the
+    offsets of the truth itself, and a street frame turns with the truth's
+    direction of travel.
     """
     sim = model.simulator()
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
     steps = part_steps(part)
-    span = int(steps[-1][-1]) + 1
-    if sim.needs_heading:           # street_frame: the innovations turn with the walk
-        heading = travel_headings(truth, part.t[0][0] + np.arange(span), model.mean.lag_s)
-        x = np.empty((span, sims, 2))
-        state = sim.initial_state(keys, 0)
-        state[:, 1, sim.order] = heading[0]
-        x[0] = sim.errors(state)
-        for k in range(1, span):
-            x[k] = sim.advance(state, keys, k, np.full(sims, heading[k]))
-    else:
-        x = sim.simulate(keys, span)                          # (span, sims, 2)
+    labels = part.recordings()
+    x = {}
+    for rec in dict.fromkeys(labels):
+        own = [s for s, lab in zip(steps, labels) if lab == rec]
+        x[rec] = (int(own[0][0]), _run(sim, keys, int(own[0][0]), int(own[-1][-1]) + 1,
+                                       truth, part.t[0][0], model.mean.lag_s))
     offs = motion_offsets(part, truth, model.mean.lag_s)
-    return [[x[s, i] + o for s, o in zip(steps, offs)] for i in range(sims)]
+    return [[x[lab][1][s - x[lab][0], i] + o for s, o, lab in zip(steps, offs, labels)]
+            for i in range(sims)]
+
+
+def _run(sim, keys, start, end, truth, t0, lag_s):
+    """Return one run's errors at model steps ``start .. end - 1``, (end - start, agents, 2)."""
+    if not sim.needs_heading:
+        return sim.simulate(keys, end - start, start=start)
+    # street_frame: the innovations turn with the walk
+    heading = travel_headings(truth, t0 + np.arange(start, end), lag_s)
+    x = np.empty((end - start, keys.size, 2))
+    state = sim.initial_state(keys, start)
+    state[:, 1, sim.order] = heading[0]
+    x[0] = sim.errors(state)
+    for k in range(start + 1, end):
+        x[k - start] = sim.advance(state, keys, k, np.full(keys.size, heading[k - start]))
+    return x
 
 
 def fidelity(model, part, truth, sims=100, seed=0, max_lag=FIDELITY_MAX_LAG):
@@ -90,8 +109,8 @@ def _spread(v):
 def fidelity_of(part, simulated, max_lag=FIDELITY_MAX_LAG):
     """Return the fidelity measures of ``part`` against simulated traces."""
     sims = len(simulated)
-    meas = measures(part.err, max_lag)
-    sim_m = [measures(s, max_lag) for s in simulated]
+    meas = measures(part.err, max_lag, part.recording)
+    sim_m = [measures(s, max_lag, part.recording) for s in simulated]
     acfs = np.stack([m['acf'] for m in sim_m])
     centre = acfs.mean(axis=0)
 

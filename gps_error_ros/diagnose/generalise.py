@@ -128,10 +128,15 @@ def recording_splits(traces):
 
 # --- the measures ----------------------------------------------------------
 
-def _basic(segments, jump_m):
-    """Return the error-statistic measures of one trace (list of segments), by name."""
+def _basic(segments, jump_m, recording=None):
+    """
+    Return the error-statistic measures of one trace (list of segments), by name.
+
+    ``recording``: each segment's recording; the autocorrelations and the
+    integral time scale are taken within recordings and pooled.
+    """
     x = np.concatenate(segments)
-    acf = acf_by_axis(segments, ACF_LAGS)
+    acf = acf_by_axis(segments, ACF_LAGS, recording)
     out = {}
     for i, ax in enumerate(('north', 'east')):
         out[f'persistence:acf1_{ax}'] = float(acf[0, i])
@@ -172,9 +177,10 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
     trace has measures of (not the smoother's).
     """
     jump_m = _jump_threshold(train)
-    measured = _basic(part.err, jump_m)
+    measured = _basic(part.err, jump_m, part.recording)
     names = list(measured)
-    sims = np.array([[m[n] for n in names] for m in (_basic(s, jump_m) for s in simulated)])
+    sims = np.array([[m[n] for n in names]
+                     for m in (_basic(s, jump_m, part.recording) for s in simulated)])
     cn, cm, cs = consumer_measures(part, part.err, simulated, train.err, seed)
     rows = {n: envelope(measured[n], sims[:, j]) for j, n in enumerate(names)}
     per_trace = {n: sims[:, j] for j, n in enumerate(names)}
@@ -351,7 +357,8 @@ def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_c
         within = fit_split(label, _within_split(split), seed=seed).extended
         folds.append({'fold': label, 'rule': split.rule, 'train_samples': split.train.n,
                       'test_samples': split.test.n,
-                      'train_measures': _basic(split.train.err, float('inf')),
+                      'train_measures': _basic(split.train.err, float('inf'),
+                                               split.train.recording),
                       'train_windows': training_windows(split.train, split.test),
                       'classes': judge_split(fitted, sims, seed, within, smoother_sims,
                                              smoother_classes),

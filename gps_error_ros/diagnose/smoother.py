@@ -52,14 +52,20 @@ def _gtsam():
 
 
 def head(part, n):
-    """Return the first ``n`` samples of a :class:`~.split.Part`, its segments kept."""
-    out, left = type(part)([], [], []), n
-    for e, r, t in zip(part.err, part.truth, part.t):
-        if left <= 0:
+    """
+    Return the first ``n`` samples of a :class:`~.split.Part`, its segments kept.
+
+    Within the part's first recording: the smoother never bridges two recordings.
+    """
+    out, left = type(part)([], [], [], []), n
+    labels = part.recordings()
+    for e, r, t, rec in zip(part.err, part.truth, part.t, labels):
+        if left <= 0 or rec != labels[0]:
             break
         out.err.append(e[:left])
         out.truth.append(r[:left])
         out.t.append(t[:left])
+        out.recording.append(rec)
         left -= len(e)
     return out
 
@@ -74,7 +80,7 @@ def run_smoother(part, errors, fix_var, seed=0):
     velocity aid over its duration, as the filter bridges it.
     """
     gtsam = _gtsam()
-    t, truth, first = _grid(part)
+    t, truth, first, _ = _grid(part)
     vel = _truth_velocity(t, truth, first)
     aid = vel + VELOCITY_SD * np.random.default_rng(seed).standard_normal(vel.shape)
     sd = np.sqrt(np.maximum(np.asarray(fix_var, dtype=float), 1e-6))

@@ -14,6 +14,7 @@ import numpy as np
 from gps_error_ros.diagnose.common import TRAIN_FRACTION
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.traces.trace_io import recording_labels
 
 
 @dataclass
@@ -23,11 +24,23 @@ class Part:
     err: list            # per segment (n_s, 2) north/east error, m
     truth: list          # per segment (n_s, 2) truth north/east, local m
     t: list              # per segment (n_s,) fix times, s
+    #: per segment, the recording it belongs to (None: all one recording); what
+    #: judges a part restarts at a recording's start and never pools across one
+    recording: list = None
 
     @property
     def n(self):
         """Return the number of samples."""
         return int(sum(len(e) for e in self.err))
+
+    def recordings(self):
+        """Return each segment's recording label (all 0 for one recording)."""
+        return [0] * len(self.err) if self.recording is None else list(self.recording)
+
+    def recording_starts(self):
+        """Return, per segment, whether it is the first of its recording in the part."""
+        labels = self.recordings()
+        return [i == 0 or labels[i] != labels[i - 1] for i in range(len(labels))]
 
 
 @dataclass(frozen=True)
@@ -73,6 +86,7 @@ def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):
     """
     grid = errors_on_grid(trace)
     rows = grid.rows
+    labels = recording_labels(trace)
     lat0, lon0 = float(trace.truth_lat[0]), float(trace.truth_lon[0])
     tn, te = difference(trace.truth_lat, trace.truth_lon, lat0, lon0)
     truth_all = np.stack([np.asarray(tn), np.asarray(te)], axis=1)
@@ -84,12 +98,13 @@ def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):
     parts = []
     for sel in (t < cut_t, (t >= cut_t) & (t < end_t)):
         idx = np.flatnonzero(sel)
-        part = Part([], [], [])
+        part = Part([], [], [], [])
         brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
         for chunk in (np.split(idx, brk) if idx.size else []):
             part.err.append(err[chunk])
             part.truth.append(truth_all[rows[chunk]])
             part.t.append(t[chunk])
+            part.recording.append(int(labels[rows[chunk[0]]]))
         parts.append(part)
     return parts[0], parts[1], TruthTrack(trace.t, truth_all), float(cut_t - t[0])
 

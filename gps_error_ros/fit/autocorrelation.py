@@ -36,6 +36,27 @@ def pooled_autocovariance(segments, max_lag, mean=None):
     return acv / n, n, mean
 
 
+def about_recording_means(segments, recording=None):
+    """
+    Return ``segments`` each less the mean of its recording (``recording``: a label each).
+
+    Recordings differ in their bias; about one mean pooled over several, that
+    difference reads as persistence at every lag. So the autocorrelation of
+    several recordings is taken with each about its own mean, then pooled.
+    With one recording (or ``recording`` None) the segments are returned as
+    they are.
+    """
+    if recording is None or len(set(recording)) < 2:
+        return segments
+    out = [np.asarray(s, dtype=float) for s in segments]
+    for r in set(recording):
+        own = [i for i, lab in enumerate(recording) if lab == r]
+        mean = np.concatenate([out[i] for i in own]).mean(axis=0)
+        for i in own:
+            out[i] = out[i] - mean
+    return out
+
+
 def pooled_acf(segments, max_lag):
     """Return the pooled autocorrelation at lags 0..max_lag (see above)."""
     acv, _, _ = pooled_autocovariance(segments, max_lag)

@@ -1,5 +1,5 @@
 """
-Read measured traces: the canonical trace CSV of ``shared/data/README.md``.
+Read measured traces: the canonical trace CSV (the format of the repository's ``data/README.md``).
 
 One header line, comma-separated, one row per fix sorted by ``t`` (seconds):
 ``t, lat, lon, truth_lat, truth_lon`` are required; ``alt``, ``truth_alt``,
@@ -211,6 +211,8 @@ def read_trace_csv_counted(path, agent=None):
 #: window a fit looks through (the reported-accuracy fit's 31 s), so no fit
 #: pairs a sample of one recording with one of another.
 RECORDING_GAP_S = 100.0
+#: The extra column of a joined trace that says which recording a row came from.
+RECORDING = 'recording'
 
 
 def recordings_of(traces):
@@ -240,12 +242,21 @@ def join_recordings(traces, gap_s=RECORDING_GAP_S):
     Each recording's times keep their spacing and start ``gap_s`` seconds
     after the previous one ends, so that a fit on the model grid sees the
     recordings as separate segments. One recording is returned as it is.
-    The extra columns are those every recording has.
+    The extra columns are those every recording has, and
+    :data:`RECORDING`: each row's recording, counted from 0 (a recording
+    that was itself joined keeps its own recordings apart), so that what
+    judges the joined trace can restart at each recording's start.
     """
     traces = recordings_of(traces)
     if len(traces) == 1:
         return traces[0]
-    shared = [k for k in traces[0].extra if all(k in t.extra for t in traces)]
+    labels, first = [], 0
+    for tr in traces:
+        own = np.asarray(tr.extra.get(RECORDING, np.zeros(len(tr))), dtype=float)
+        labels.append(own + first)
+        first += int(own.max()) + 1 if own.size else 1
+    shared = [k for k in traces[0].extra if all(k in t.extra for t in traces)
+              and k != RECORDING]
     times = [tr.t - tr.t[0] + start
              for tr, start in zip(traces, recording_offsets(traces, gap_s))]
     name = f'{len(traces)} recordings (' + ', '.join(t.name for t in traces) + ')'
@@ -254,7 +265,13 @@ def join_recordings(traces, gap_s=RECORDING_GAP_S):
                  lon=np.concatenate([t.lon for t in traces]),
                  truth_lat=np.concatenate([t.truth_lat for t in traces]),
                  truth_lon=np.concatenate([t.truth_lon for t in traces]),
-                 extra={k: np.concatenate([t.extra[k] for t in traces]) for k in shared})
+                 extra={**{k: np.concatenate([t.extra[k] for t in traces]) for k in shared},
+                        RECORDING: np.concatenate(labels)})
+
+
+def recording_labels(trace):
+    """Return each row's recording (:func:`join_recordings`; zeros for one recording)."""
+    return np.asarray(trace.extra.get(RECORDING, np.zeros(len(trace))), dtype=np.int64)
 
 
 def write_trace_csv(trace, path, agent=None, fix=None):
