@@ -13,7 +13,7 @@ exits 2 with one line that names the recording (a refusal). Anything
 else, a warning or a traceback among them, fails the sweep. The copies are
 written to a temporary folder and removed.
 
-``make input-sweep`` runs it on ``../shared/data`` (about 25 minutes on two
+``make input-sweep`` runs it on ``data/`` (about 25 minutes on two
 cores); ``--only`` restricts it to recordings whose name holds a text.
 """
 
@@ -134,10 +134,14 @@ def run_one(csv_path, work):
     return rows
 
 
+#: The repository's measured recordings (data/README.md).
+DATA = Path(__file__).resolve().parents[1] / 'data'
+
+
 def main(argv=None):
     """Write the copies, run the commands, print a line per run; exit 1 on a failure."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    ap.add_argument('--data', default='../shared/data', help='folder of trace CSVs')
+    ap.add_argument('--data', default=str(DATA), help='folder of trace CSVs')
     ap.add_argument('--only', default='', help='only recordings whose name holds this')
     ap.add_argument('--jobs', type=int, default=2, help='copies run at once')
     args = ap.parse_args(argv)

@@ -3,7 +3,7 @@ The stated accuracy of the reported-accuracy model against measured phones (docs
 
 For each trace whose phone stated an accuracy (``accuracy``) or an HDOP:
 the two static GnssLogger logs (the 2016-08-22 one as the CSV in
-``../shared/data``, the 2016-06-30 one imported from ``raw/`` against the
+``data/``, the 2016-06-30 one imported from ``raw/`` against the
 test site's surveyed point, as ``gps_error import`` does) and the two GSDC
 phones (HDOP). ``calibrate`` fits the profile (AR and ``reported_accuracy``)
 on the first 70 %; ``validate``'s check (:mod:`reported_check`) simulates
@@ -12,7 +12,7 @@ coverage, stated-radius median and 95th percentile, and change rate beside
 the simulated median and central 95 % range, with the measured value's
 percentile.
 
-    python tools/accuracy_evidence.py [--data ../shared/data] [--sims 200]
+    python tools/accuracy_evidence.py [--data data] [--sims 200]
 """
 
 import argparse
@@ -65,7 +65,7 @@ def main(argv=None):
     """Print the comparison for every phone that stated its accuracy."""
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--data', type=Path,
-                    default=Path(__file__).resolve().parents[2] / 'shared' / 'data')
+                    default=Path(__file__).resolve().parents[1] / 'data')
     ap.add_argument('--sims', type=int, default=200)
     args = ap.parse_args(argv)
     for label, trace in traces(args.data):

@@ -2,7 +2,7 @@
 Regenerate ``docs/close-the-loop.md``: the diagnosis on every measured trace.
 
 Run ``make close-the-loop-doc`` (or ``python tools/close_loop_doc.py
---data ../shared/data --out docs``). For each trace CSV: ``diagnose`` (JSON,
+--data data --out docs``). For each trace CSV: ``diagnose`` (JSON,
 figure and extended profile under ``docs/close-the-loop/``) and the model
 classes of :mod:`baselines` on the same held-out samples. One seed of every
 synthetic scenario is diagnosed as well, and the long blind run's summary
@@ -413,7 +413,7 @@ def render(records, synth, long_run=None):
     md += ['## Measured traces', '', WALKS_NOTE, '']
     for rec in records:
         name = rec['trace']
-        what, credit = CREDITS.get(name, ('', 'see ../shared/data/README.md'))
+        what, credit = CREDITS.get(name, ('', 'see data/README.md'))
         md += [f'### {name}', '', f'{what}. Source and licence: {credit}.', '',
                f'**Can it support a conclusion?** {CAVEATS.get(name, "")}', '']
         if 'refused' in rec:
@@ -562,7 +562,7 @@ EVIDENCE_READINGS = {
 def main(argv=None):
     """Entry point: regenerate the document and its figures."""
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    p.add_argument('--data', default='../shared/data')
+    p.add_argument('--data', default=str(Path(__file__).resolve().parents[1] / 'data'))
     p.add_argument('--out', default='docs')
     p.add_argument('--long-run', default='bench_output/diagnose_long.json')
     p.add_argument('--sims', type=int, default=SIMS)

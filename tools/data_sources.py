@@ -1,9 +1,9 @@
-"""What each measured trace in shared/data is, and its licence (for the docs)."""
+"""What each measured trace is, and its licence (for the docs; data/README.md: those shipped)."""
 
 #: The SnapperGPS pedestrian walks among the traces (their own page: walks.md).
 WALKS = 'snapper-walk-*.csv'
 
-# Facts from shared/data/README.md: what each trace is, and its licence.
+# Facts from data/README.md: what each trace is, and its licence.
 CREDITS = {
     'gsdc2020-mtv1-pixel4.csv': (
         'Google Pixel 4, own location output; car, Mountain View CA',

@@ -64,7 +64,9 @@ extended model fitted within blocks (`diagnose --profile-out --population`):
 each simulated agent draws its own bias (and its wander) and scale from the
 spread of the training blocks.
 
-Regenerate with `make generalisation` (data in `../shared/data`): every
+Regenerate with `make generalisation` (`DATA=folder`: the recordings to
+judge; the repository's `data/` by default; this page was made with the
+UrbanNav recording beside them, which is not shipped): every
 recording there but the walks is judged alone by rolling origin, the walks
 leave one out, and a recording too short for a fold to hold out 60 samples
 is named under "Not judged".

@@ -8,7 +8,7 @@ the error change across each gap beside the 2-step changes inside the trace
 identical positions (stale fixes), with the truth's and the phone's speed
 at the repeated rows (a hold at a standstill, or stale fixes in motion?).
 
-    python tools/outage_evidence.py [--data ../shared/data]
+    python tools/outage_evidence.py [--data data]
 """
 
 import argparse
@@ -61,10 +61,14 @@ def describe(path):
     return lines
 
 
+#: The repository's measured recordings (data/README.md).
+DATA = Path(__file__).resolve().parents[1] / 'data'
+
+
 def main(argv=None):
     """Print the evidence for every measured trace found; exit 0."""
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    p.add_argument('--data', default='../shared/data', help='folder of the trace CSVs')
+    p.add_argument('--data', default=str(DATA), help='folder of the trace CSVs')
     args = p.parse_args(argv)
     for name in TRACES:
         path = Path(args.data) / name

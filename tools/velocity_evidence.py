@@ -19,7 +19,7 @@ whole trace (:func:`tails`). Last, on the rolling folds of ``compare
 --folds``, what the section's speed lag alone adds to the open road's speed
 error (:func:`lag_alone`).
 
-    python tools/velocity_evidence.py [--data ../shared/data] [--sims 200]
+    python tools/velocity_evidence.py [--data data] [--sims 200]
 """
 
 import argparse
@@ -209,10 +209,14 @@ def compare(path, sims):
     return lines + best_lags(trace) + tails(trace) + lag_alone(trace)
 
 
+#: The repository's measured recordings (data/README.md).
+DATA = Path(__file__).resolve().parents[1] / 'data'
+
+
 def main(argv=None):
     """Print the comparison for every trace found; exit 0."""
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    p.add_argument('--data', default='../shared/data', help='folder of the trace CSVs')
+    p.add_argument('--data', default=str(DATA), help='folder of the trace CSVs')
     p.add_argument('--sims', type=int, default=200, help='simulations per trace (200)')
     args = p.parse_args(argv)
     for name in TRACES:

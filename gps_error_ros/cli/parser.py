@@ -75,7 +75,7 @@ def _add_calibrate(sub):
         description='Fit an AR profile (schema 1, with a fit section) to the '
                     'errors of a measured trace against its ground truth. '
                     'INPUT is a trace CSV (columns t, lat, lon, truth_lat, '
-                    'truth_lon; see shared/data/README.md) or a rosbag2 '
+                    'truth_lon; see data/README.md in the repository) or a rosbag2 '
                     '(MCAP or SQLite3) with fixes and truth.')
     c.add_argument('input', nargs='+',
                    help='trace CSV or rosbag2 directory; several, or a folder of them, '

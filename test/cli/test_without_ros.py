@@ -8,7 +8,6 @@ and every ROS message package, as in an environment with only
 `pip install` of this package.
 """
 
-from pathlib import Path
 import subprocess
 import sys
 import textwrap
@@ -74,7 +73,7 @@ def test_commands_without_ros(tmp_path):
     r = run('simulate', '--profile', str(tmp_path / 'x.yaml'), '--seed', '1',
             '--agents', '2', '--duration', '10', '--out', str(tmp_path / 'x.npz'))
     assert r.returncode == 0, r.stderr
-    raw = Path(__file__).resolve().parents[3] / 'shared' / 'data' / 'raw'
+    from measured import RAW as raw
     r = run('import', 'nmea', str(raw / 'gsdc2020-mtv1' / 'Pixel4_chipset.nmea'),
             '--truth', '37.42,-122.09', '-o', str(tmp_path / 'imported.csv'))
     assert r.returncode == 0, r.stderr

@@ -1,6 +1,5 @@
 """The shortest visible walk (five minutes) through diagnose and compare, as a user runs them."""
 
-from pathlib import Path
 import subprocess
 import sys
 
@@ -10,12 +9,9 @@ import pytest
 from gps_error_ros.diagnose.mean import MAX_RADIUS, stationary_phi
 from gps_error_ros.model.ar_model import inverse_root_modulus
 from gps_error_ros.traces.trace_io import read_trace_csv
-
-DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
-WALKS = sorted(DATA.glob('snapper-walk-*.csv'))
+from measured import WALKS
 
 
-@pytest.mark.skipif(not WALKS, reason='needs ../shared/data/snapper-walk-*.csv')
 @pytest.mark.parametrize('command', ['diagnose', 'compare'])
 def test_the_shortest_walk_is_diagnosed_and_compared(command, tmp_path):
     walk = min(WALKS, key=lambda p: len(read_trace_csv(p)))

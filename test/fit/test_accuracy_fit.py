@@ -1,7 +1,7 @@
 """Reported accuracy: the stated radius's process, and calibrate's fit of it."""
 
+from dataclasses import replace
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +15,8 @@ from gps_error_ros.model.profiles import builtin_dir, load_profile_file, profile
 from gps_error_ros.model.reported import R68_PER_SD, reported_from_dict
 from gps_error_ros.sim.simulate import simulate_csv
 from gps_error_ros.traces.trace_io import read_trace_csv
+from measured import DATA
 
-DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
 STEPS = 3000
 TRUE = {'source': 'accuracy', 'median_m': 3.0, 'follow': 0.0, 'phi': 0.9, 'sigma_log': 0.2,
         'resolution_m': 1.0, 'scale_m': 0.0}
@@ -146,7 +146,11 @@ def test_the_measured_phones():
         assert got['source'] == 'hdop' and got['scale_m'] > 0
         assert got['resolution_m'] == pytest.approx(0.01 * got['scale_m'], rel=1e-5)
         assert abs(evidence['coverage_measured'] - 0.68) < 0.01       # scale_m's definition
-    none, evidence = estimate_reported(read_trace_csv(DATA / 'urbannav-hk-tst-ublox-spp.csv'))
+    # a receiver that states nothing: a walk without its accuracy column
+    walk = read_trace_csv(DATA / 'snapper-walk-w00.csv')
+    silent = replace(walk, extra={k: v for k, v in walk.extra.items()
+                                  if k not in ('accuracy', 'hdop')})
+    none, evidence = estimate_reported(silent)
     assert none is None and 'no column accuracy or hdop' in evidence['reason']
 
 

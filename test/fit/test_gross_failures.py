@@ -1,6 +1,5 @@
-"""Gross failures: the rule, its false positives, and the walks of ../shared/data."""
+"""Gross failures: the rule, its false positives, and the walks of data/."""
 
-from pathlib import Path
 import subprocess
 import sys
 
@@ -14,9 +13,7 @@ from gps_error_ros.fit.gross_failures import (failure_mask, find_gross_failures,
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.geodesy import difference, offset
 from gps_error_ros.traces.trace_io import read_trace_csv, Trace
-
-DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
-WALKS = sorted(DATA.glob('snapper-walk-*.csv'))
+from measured import WALKS
 
 
 def _white_trace(n, seed, sd=10.0):
@@ -97,7 +94,6 @@ def test_without_rows_keeps_the_rest():
     assert without_rows(trace, np.zeros(10, bool)) is trace
 
 
-@pytest.mark.skipif(not WALKS, reason='needs ../shared/data/snapper-walk-*.csv')
 @pytest.mark.parametrize('path', WALKS, ids=[p.stem for p in WALKS])
 def test_walk_fit_is_not_set_by_its_failures(path):
     """The issue's check: fitted per-axis SD within 30 % of the robust SD (beyond 200 m out)."""
@@ -116,7 +112,6 @@ def test_walk_fit_is_not_set_by_its_failures(path):
     assert fit['gross_failures']['count'] == result.failures[0].count
 
 
-@pytest.mark.skipif(len(WALKS) < 2, reason='needs ../shared/data/snapper-walk-*.csv')
 def test_calibrate_command_on_walks_prints_no_warning(tmp_path):
     """Every visible walk and all of them together: exit 0, no warning on the terminal."""
     folder = tmp_path / 'walks'
@@ -135,7 +130,6 @@ def test_calibrate_command_on_walks_prints_no_warning(tmp_path):
     assert f'{len(WALKS)} recordings' in proc.stdout
 
 
-@pytest.mark.skipif(len(WALKS) < 3, reason='needs ../shared/data/snapper-walk-*.csv')
 def test_a_profile_of_the_walks_gives_each_receiver_its_own_failure_rate(tmp_path):
     """
     With --population, calibrate fits how receivers differ in failing; validate uses it.

@@ -1,7 +1,5 @@
 """Reported speed and course: the velocity error process, and calibrate's fit of it."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -11,9 +9,9 @@ from gps_error_ros.model.profiles import load_profile, load_profile_file, Profil
 from gps_error_ros.model.velocity import velocity_from_dict
 from gps_error_ros.sim.simulate import simulate_csv
 from trace_helpers import write_drive
+from measured import DATA
 
 TRUE = {'sigma': 0.15, 'phi': 0.7, 'lag_s': 0.7, 'standstill': 0.0}
-DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
 
 
 def _fitted(tmp_path, velocity, steps=1500):

@@ -47,8 +47,8 @@ def test_calibration_doc_regenerates_from_a_data_directory(tmp_path):
 
 
 def test_outage_evidence_on_the_measured_traces():
-    """The availability evidence of docs/availability.md, from ../shared/data."""
-    data = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+    """The availability evidence of docs/availability.md, from data/."""
+    from measured import DATA as data
     r = subprocess.run([sys.executable, str(TOOLS / 'outage_evidence.py'), '--data', str(data)],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
@@ -58,8 +58,8 @@ def test_outage_evidence_on_the_measured_traces():
 
 
 def test_velocity_evidence_on_the_measured_phones():
-    """The comparison of docs/velocity.md runs on ../shared/data (few simulations)."""
-    data = Path(__file__).resolve().parents[3] / 'shared' / 'data'
+    """The comparison of docs/velocity.md runs on data/ (few simulations)."""
+    from measured import DATA as data
     r = subprocess.run([sys.executable, str(TOOLS / 'velocity_evidence.py'), '--data', str(data),
                         '--sims', '5'], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr

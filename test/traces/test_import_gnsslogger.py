@@ -1,20 +1,18 @@
 """``gps_error import gnsslogger``: Android GnssLogger logs, both layouts."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from gps_error_ros.cli import main as cli
 from gps_error_ros.traces.gnsslogger import GnssLoggerError, read_gnsslogger
 from gps_error_ros.traces.trace_io import read_trace_csv
+from measured import DATA, RAW
 
-DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
-LOG = DATA / 'raw' / 'gnsslogger' / 'pseudoranges_log_2016_08_22_14_45_50.txt'
+LOG = RAW / 'gnsslogger' / 'pseudoranges_log_2016_08_22_14_45_50.txt'
 TRUTH = '37.422578,-122.081678,-28'          # the test site, as the data's README gives
 
 
-def test_the_demo_log_against_its_point_reproduces_the_shared_trace(tmp_path, capsys):
+def test_the_demo_log_against_its_point_reproduces_the_shipped_trace(tmp_path, capsys):
     out = tmp_path / 'static.csv'
     assert cli(['import', 'gnsslogger', str(LOG), '--truth', TRUTH, '-o', str(out)]) == 0
     said = capsys.readouterr().out

@@ -1,6 +1,4 @@
-"""``gps_error import nmea`` on the real raw files of ../shared/data, and broken ones."""
-
-from pathlib import Path
+"""``gps_error import nmea`` on the real raw files of data/, and broken ones."""
 
 import numpy as np
 import pytest
@@ -9,15 +7,15 @@ from gps_error_ros.cli import main as cli
 from gps_error_ros.traces.importing import import_nmea
 from gps_error_ros.traces.nmea import NmeaError, read_nmea
 from gps_error_ros.traces.trace_io import read_trace_csv
+from measured import DATA, RAW
 
-DATA = Path(__file__).resolve().parents[3] / 'shared' / 'data'
-RAW = DATA / 'raw' / 'gsdc2020-mtv1'
+GSDC = RAW / 'gsdc2020-mtv1'
 
 
-def test_phone_against_span_reproduces_the_shared_trace(tmp_path, capsys):
+def test_phone_against_span_reproduces_the_shipped_trace(tmp_path, capsys):
     out = tmp_path / 'pixel4.csv'
-    assert cli(['import', 'nmea', str(RAW / 'Pixel4_chipset.nmea'), '--truth',
-                str(RAW / 'SPAN_Pixel4_10Hz.nmea'), '-o', str(out)]) == 0
+    assert cli(['import', 'nmea', str(GSDC / 'Pixel4_chipset.nmea'), '--truth',
+                str(GSDC / 'SPAN_Pixel4_10Hz.nmea'), '-o', str(out)]) == 0
     log = capsys.readouterr().out
     assert '1737 of 1737 fixes paired' in log
     assert '23771 bad checksum skipped' in log        # the SPAN's RMC, all wrong
@@ -40,15 +38,15 @@ def test_phone_against_span_reproduces_the_shared_trace(tmp_path, capsys):
 
 
 def test_the_imported_trace_calibrates(tmp_path):
-    trace, _ = import_nmea(RAW / 'Pixel4XLModded_chipset.nmea',
-                           RAW / 'SPAN_Pixel4XLModded_10Hz.nmea')
+    trace, _ = import_nmea(GSDC / 'Pixel4XLModded_chipset.nmea',
+                           GSDC / 'SPAN_Pixel4XLModded_10Hz.nmea')
     ref = read_trace_csv(DATA / 'gsdc2020-mtv1-pixel4xlmodded.csv')
     assert len(trace) == len(ref)
     np.testing.assert_allclose(trace.lat, ref.lat, atol=1e-6, rtol=0)
 
 
 def test_a_fixed_point_is_a_truth(tmp_path):
-    trace, notes = import_nmea(RAW / 'Pixel4_chipset.nmea', '37.42,-122.09,-30')
+    trace, notes = import_nmea(GSDC / 'Pixel4_chipset.nmea', '37.42,-122.09,-30')
     assert len(trace) == 1737 and np.all(trace.truth_lat == 37.42)
     assert 'fixed point' in notes[1]
 
@@ -63,7 +61,7 @@ RMC = '$GPRMC,221046.00,A,3725.415069,N,12205.647326,W,000.0,000.0,140520,,,A*47
 
 
 def test_broken_sentences_are_counted_never_used(tmp_path):
-    lines = RAW.joinpath('Pixel4_chipset.nmea').read_text().splitlines()[:40]
+    lines = GSDC.joinpath('Pixel4_chipset.nmea').read_text().splitlines()[:40]
     lines[4] = lines[4][:30]                              # truncated
     lines[6] = lines[6][:-2] + ('00' if lines[6][-2:] != '00' else '11')   # bad checksum
     fixes = read_nmea(write(tmp_path / 'x.nmea', lines))
@@ -98,7 +96,7 @@ def test_bad_recordings_are_clear_errors(tmp_path, capsys):
     with pytest.raises(NmeaError, match='date'):
         read_nmea(write(tmp_path / 'gga.nmea', [GGA]))
     out = tmp_path / 'o.csv'
-    assert cli(['import', 'nmea', str(RAW / 'Pixel4_chipset.nmea'), '--truth',
+    assert cli(['import', 'nmea', str(GSDC / 'Pixel4_chipset.nmea'), '--truth',
                 str(write(tmp_path / 'late.nmea', [GGA.replace('221046', '231046')
                                                    .replace('*73', '*72')])),
                 '-o', str(out)]) == 2
@@ -109,8 +107,8 @@ def test_bad_recordings_are_clear_errors(tmp_path, capsys):
 
 def test_a_truth_without_dates_takes_the_given_one(tmp_path, capsys):
     """The SPAN file's RMC all fail their checksums: the date comes from elsewhere."""
-    span = RAW / 'SPAN_Pixel4_10Hz.nmea'
-    phone = RAW / 'Pixel4_chipset.nmea'
+    span = GSDC / 'SPAN_Pixel4_10Hz.nmea'
+    phone = GSDC / 'Pixel4_chipset.nmea'
     out = tmp_path / 'o.csv'
     assert cli(['import', 'nmea', str(phone), '--truth', str(span), '--truth-date',
                 '2020-05-14', '-o', str(out)]) == 0
