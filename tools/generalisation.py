@@ -181,9 +181,17 @@ def _evidence(folds):
             f'where the process within gives {ev["within_mean_sd_m"][0]:.2f} / '
             f'{ev["within_mean_sd_m"][1]:.2f} m; bias SD {sec["bias_sd_m"][0]:.2f} / '
             f'{sec["bias_sd_m"][1]:.2f} m, '
-            + ('constant for a run' if tau is None else f'time constant {tau:.0f} s')
+            + ('constant for a run' if tau is None else _tau_words(tau, ev))
             + f', scale log SD {sec["scale_sd_log"]:.2f}' + _held_words(f))
     return lines
+
+
+def _tau_words(tau, ev):
+    """Return the time constant as the fit knows it: a value, or the bound it is."""
+    tc = ev.get('bias_time_constant') or {}
+    if tc.get('kind') == 'upper bound':
+        return f'time constant at most {tau:.0f} s (a bound: the blocks do not resolve it)'
+    return f'time constant {tau:.0f} s'
 
 
 def _held_words(fold):

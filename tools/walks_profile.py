@@ -21,6 +21,7 @@ from data_sources import WALKS
 from gps_error_ros.fit.calibration import calibrate
 from gps_error_ros.fit.gross_failures import (find_gross_failures, robust_centre_scale,
                                               without_rows)
+from gps_error_ros.fit.population_bias import time_constant_words
 from gps_error_ros.fit.population_fit import occasions, population_line
 from gps_error_ros.fit.validation import family_verdict, validate
 from gps_error_ros.model.ar_model import ARErrorModel
@@ -209,8 +210,8 @@ def _two_scales_words(fit):
     return (f'The fit splits it in two ([decision](decisions/0024-a-bias-on-two-time-scales'
             f'.md)): a part held for the walk, SD {held[0]:.1f} m north and {held[1]:.1f} m '
             f'east (how the walks\' means differ), and a part that wanders within a walk, '
-            f'{wander[0]:.1f} / {wander[1]:.1f} m with a time constant of '
-            f'{pop.bias_time_constant_s:.0f} s (how a walk\'s 300-s blocks differ: '
+            f'{wander[0]:.1f} / {wander[1]:.1f} m with {time_constant_words(ev)} (how a '
+            f'walk\'s 300-s blocks differ: '
             f'{fitted[0]:.1f} / {fitted[1]:.1f} m as fitted, predicted for a new walk from '
             f'{ev["wander_contrasts"]:.1f} contrasts of blocks within walks, '
             f'[decision](decisions/0025-the-wander-predicted-too.md)).')
@@ -225,7 +226,7 @@ def _errors(tr, failed):
 def main():
     """Write the profile and the report."""
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    p.add_argument('--data', default='../shared/data')
+    p.add_argument('--data', default=str(Path(__file__).resolve().parents[1] / 'data'))
     p.add_argument('--out', default='.', help='the repository root')
     args = p.parse_args()
     paths = sorted(Path(args.data).glob(WALKS))
@@ -249,10 +250,10 @@ def main():
         '',
         f'Measured on {platform.node() or "this machine"} ({platform.machine()}, '
         f'Python {platform.python_version()}), {dt.date.today().isoformat()}, with '
-        '`make walks-profile` (`python tools/walks_profile.py --data ../shared/data`).',
+        '`make walks-profile` (`python tools/walks_profile.py --data data`).',
         '',
         f'The built-in profile `{NAME}` is fitted from the {len(paths)} SnapperGPS walks '
-        'of `../shared/data/` together (`gps_error calibrate --population` with several '
+        'of `data/` together (`gps_error calibrate --population` with several '
         'recordings): '
         'a low-cost L1 snapshot receiver, each fix an independent single-epoch solution, '
         'carried on foot in Oxford with RTK truth.',

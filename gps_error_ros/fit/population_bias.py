@@ -23,13 +23,17 @@ CONSTANT_R = 0.95
 TWO_SCALE_PASSES = 20
 #: Largest gap between neighbouring blocks, s.
 ADJACENT_GAP_S = 60.0
+#: The smallest neighbours' correlation a time constant takes: one block's decay. Below
+#: it the bias changes within a block, and blocks of that length cannot say how fast.
+FLOOR_R = math.exp(-1.0)
 
 
-def bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence):
+def bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence, r_estimate=None):
     """
     Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
 
-    ``r``: the neighbours' correlation that gave the time constant ``tau``;
+    ``r``: the neighbours' correlation that gave the time constant ``tau``
+    (``r_estimate``: as estimated, before its bounds);
     ``two``: :func:`two_scale_bias`'s (wander SD, held SD, ``a``, evidence) or None.
     """
     if two is not None:
@@ -42,13 +46,18 @@ def bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence):
                         held_sd_estimate_m=[round(float(x), 4) for x in held_sd],
                         independent_draws=round(draws, 3))
         spread = variance_predictive(contrasts)
+        evidence['bias_time_constant'] = time_constant_evidence(
+            spreads['wander_correlation_estimate'], a, evidence['neighbour_pairs'], block_s)
         return Population(tuple(float(x) * spread for x in wander_sd), scale_sd,
-                          float(-block_s / math.log(a)), dof,
+                          _tau(a, block_s), dof,
                           tuple(float(x) * inflate for x in held_sd))
     draws = independent_draws(blocks, None if tau is None else r)
     dof, inflate = predictive(draws)
     evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
                     independent_draws=round(draws, 3))
+    if tau is not None:
+        evidence['bias_time_constant'] = time_constant_evidence(
+            r if r_estimate is None else r_estimate, r, evidence['neighbour_pairs'], block_s)
     return Population(tuple(float(x) * inflate for x in bias_sd), scale_sd, tau, dof)
 
 
@@ -116,14 +125,15 @@ def two_scale_bias(blocks, dev, v, near, a):
                                                    vbar / m[:, None], axis=0, weights=w))
         if not np.any(wander > 0):
             return None
-        a = float(np.clip((np.sum(near) - np.sum(held)) / np.sum(wander), math.exp(-1.0),
-                          CONSTANT_R))
+        estimate = float((np.sum(near) - np.sum(held)) / np.sum(wander))
+        a = float(np.clip(estimate, FLOOR_R, CONSTANT_R))
     if not np.any(held > 0):
         return None
     within = ssw / float(np.sum(w * (m - 1.0)))
     return np.sqrt(wander), np.sqrt(held), a, {
         'run_means_sd_m': [round(float(x), 4) for x in np.sqrt(spread)],
-        'block_means_within_run_sd_m': [round(float(x), 4) for x in np.sqrt(within)]}
+        'block_means_within_run_sd_m': [round(float(x), 4) for x in np.sqrt(within)],
+        'wander_correlation_estimate': round(estimate, 4)}
 
 
 def independent_draws(blocks, r=None):
@@ -187,19 +197,114 @@ def predictive(draws):
     return dof, location * variance_predictive(dof)
 
 
-def time_constant(pairs, near, between, block_s):
+def neighbour_correlation(pairs, near, between):
     """
-    Return (time constant s or None, the neighbours' correlation or None).
+    Return the neighbours' correlation as estimated, or None.
 
     ``pairs``: how many neighbour pairs; ``near``: their covariance beyond
     the process's, per axis (:func:`neighbour_cov_beyond`); the correlation is
-    taken over the axes whose bias variance ``between`` is not nil.
+    taken over the axes whose bias variance ``between`` is not nil. None
+    with fewer than :data:`MIN_PAIRS` pairs or no bias.
     """
     if pairs < MIN_PAIRS or not np.any(between > 0):
-        return None, None
+        return None
     w = between > 0
-    r = float(np.sum(near[w]) / np.sum(between[w]))
+    return float(np.sum(near[w]) / np.sum(between[w]))
+
+
+def time_constant(pairs, near, between, block_s):
+    """
+    Return (time constant s or None, the neighbours' correlation used or None).
+
+    The time constant whose block means correlate as the neighbours' do
+    (:func:`block_mean_correlation`), of the correlation of
+    :func:`neighbour_correlation`; at or above
+    :data:`CONSTANT_R` the bias is constant for a run (no time constant).
+    Below :data:`FLOOR_R` (one block's decay) the bias changes within a
+    block, faster than blocks of ``block_s`` can measure: the time constant
+    taken is that of ``FLOOR_R``, an upper bound of the estimate
+    (:func:`time_constant_evidence` says so), and the AR within the blocks
+    carries what is faster.
+    """
+    r = neighbour_correlation(pairs, near, between)
+    if r is None:
+        return None, None
     if r >= CONSTANT_R:
         return None, r
-    r = max(r, math.exp(-1.0))          # at most one block's decay per block: the AR covers less
-    return float(-block_s / math.log(r)), r
+    r = max(r, FLOOR_R)
+    return float(_tau(r, block_s)), r
+
+
+def block_mean_correlation(x):
+    """
+    Return the correlation of neighbouring block means of a bias with ``x`` = block / tau.
+
+    A first-order Gauss-Markov bias (the model's wander, tau its time
+    constant) averaged over neighbouring blocks of length ``B``: their means
+    correlate by ``(1 - e^-x)^2 / (2 (x - 1 + e^-x))``, ``x = B / tau``,
+    more than the bias's own ``e^-x`` at one block's distance (an average
+    smooths). 1 at ``x`` -> 0, about ``1 / (2 x)`` for large ``x``.
+    """
+    if x < 1e-4:                 # the series: 1 - x / 3 + ...
+        return 1.0 - x / 3.0
+    return math.expm1(-x) ** 2 / (2.0 * (x + math.expm1(-x)))
+
+
+def _tau(r, block_s):
+    """
+    Return the time constant (s) whose neighbouring block means correlate by ``r``.
+
+    The inverse of :func:`block_mean_correlation` (it falls as ``x`` grows),
+    by bisection on ``log x``; 0 at ``r <= 0``, inf at ``r >= 1``.
+    """
+    if r <= 0.0:
+        return 0.0
+    if r >= 1.0:
+        return math.inf
+    lo, hi = -12.0, 12.0             # log x: the correlation from 1 - 2e-6 to 1e-5
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if block_mean_correlation(math.exp(mid)) > r:
+            lo = mid
+        else:
+            hi = mid
+    return block_s / math.exp(0.5 * (lo + hi))
+
+
+def time_constant_evidence(estimate, used, pairs, block_s):
+    """
+    Return what the fit knows of the bias's time constant, for the profile's ``fit`` section.
+
+    ``estimate``: the neighbours' correlation as estimated; ``used``: as
+    taken (bounded to [:data:`FLOOR_R`, :data:`CONSTANT_R`]); ``pairs``: the
+    neighbour pairs it came from. ``kind`` is ``estimate`` where the value
+    is the estimate's, ``upper bound`` where the estimate was below one
+    block's decay (the value is the block length; the estimate's own is
+    ``estimate_s``). ``interval_95_s`` is an approximate 95 % interval of the
+    estimate: Fisher's z on the pairs, as if independent (they overlap, so
+    it is too narrow if anything); 0 and ``inf`` where it reaches a
+    correlation of 0 or 1.
+    """
+    z, se = math.atanh(max(-0.999, min(0.999, estimate))), 1.0 / math.sqrt(max(pairs - 3, 1))
+    lo, hi = math.tanh(z - 1.96 * se), math.tanh(z + 1.96 * se)
+    kind = 'upper bound' if estimate < FLOOR_R else 'estimate'
+    return {'value_s': round(_tau(used, block_s), 1), 'kind': kind,
+            'correlation_estimate': round(float(estimate), 4),
+            'estimate_s': round(_tau(estimate, block_s), 1),
+            'interval_95_s': [round(_tau(lo, block_s), 1),
+                              round(_tau(hi, block_s), 1) if hi < 1.0 else 'inf'],
+            'resolution_s': float(block_s)}
+
+
+def time_constant_words(evidence):
+    """Return how a line or page states the bias's time constant from its evidence."""
+    tc = evidence['bias_time_constant']
+    lo, hi = tc['interval_95_s']
+    hi = 'no upper end' if hi == 'inf' else f'{hi:.0f} s'
+    if tc['kind'] == 'upper bound':
+        return (f'a time constant of at most {tc["value_s"]:.0f} s (a bound, not a fit: the '
+                f'means of neighbouring blocks of {tc["resolution_s"]:.0f} s correlate by '
+                f'{tc["correlation_estimate"]:.2f}, less than {FLOOR_R:.2f}, so the bias '
+                f'changes faster than the blocks resolve; 95 % interval {lo:.0f} s to {hi})')
+    return (f'a time constant of {tc["value_s"]:.0f} s (95 % interval {lo:.0f} s to {hi}, '
+            f'from {tc["correlation_estimate"]:.2f} between neighbouring blocks)')

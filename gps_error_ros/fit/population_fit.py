@@ -22,7 +22,11 @@ what differs between blocks:
    what the within process gives, over the bias variance) gives
    ``bias_time_constant_s = -BLOCK_S / ln r``. At ``r >=`` ``CONSTANT_R``,
    or with fewer than ``MIN_PAIRS`` neighbour pairs, the bias is
-   constant for a run (no time constant).
+   constant for a run (no time constant). Below ``FLOOR_R = e^-1`` (one
+   block's decay) the bias changes within a block, faster than the blocks
+   resolve: the time constant is set to the block length and the fit's
+   evidence (``bias_time_constant``) calls it an upper bound, not a fit,
+   with the estimate and an approximate 95 % interval beside it.
 4. **Scale**: the variance of each block's log SD (averaged over the axes)
    less its sampling variance under the within process (``(1 + 2 sum
    rho_k^2) / (4 n)``), floored at 0: ``scale_sd_log``.
@@ -88,8 +92,9 @@ import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
 from gps_error_ros.fit.population_bias import (ADJACENT_GAP_S, bias_section,
-                                               neighbour_cov_beyond, neighbour_pairs,
-                                               time_constant, two_scale_bias)
+                                               neighbour_correlation, neighbour_cov_beyond,
+                                               neighbour_pairs, time_constant,
+                                               time_constant_words, two_scale_bias)
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yule_walker
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
 from gps_error_ros.model.geodesy import difference
@@ -343,6 +348,7 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
     pairs = neighbour_pairs(blocks)
     near = neighbour_cov_beyond(blocks, dev, c, pairs)
     tau, r = time_constant(len(pairs), near, between, block_s)
+    r_estimate = neighbour_correlation(len(pairs), near, between)
     log_sd = np.array([np.mean(np.log(np.maximum(b.err.std(axis=0), 1e-6))) for b in blocks])
     rho2 = [1.0 + 2.0 * np.sum(rho[1:, a] ** 2) for a in range(2)]
     sampling = np.average([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n], weights=wb)
@@ -353,9 +359,12 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                     within_mean_sd_m=[round(float(x), 4) for x in np.sqrt(v.mean(axis=0))],
                     neighbour_pairs=len(pairs),
                     neighbour_correlation=None if r is None else round(float(r), 4),
+                    neighbour_correlation_estimate=None if r_estimate is None else
+                    round(float(r_estimate), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
     two = None if not two_scales or tau is None else two_scale_bias(blocks, dev, v, near, r)
-    pop = bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence)
+    pop = bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence,
+                       r_estimate)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
 
 
@@ -416,7 +425,7 @@ def _predicted(ev, estimate):
 def _one_part_words(pop, ev):
     """Return the words on a bias of one part (see :func:`population_line`)."""
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
-        f'wandering with a time constant of {pop.bias_time_constant_s:.0f} s'
+        f'wandering with {time_constant_words(ev)}'
     shape = '' if pop.bias_dof is None else f', Student-t with {pop.bias_dof} degrees of freedom'
     seen = '' if ev.get('independent_draws') is None else \
         ' ' + _predicted(ev, ev['bias_sd_estimate_m'])
@@ -430,8 +439,8 @@ def _two_part_words(pop, ev):
     shape = 'normal' if pop.bias_dof is None else \
         f'Student-t with {pop.bias_dof} degrees of freedom'
     return (f'a part held for the run, SD {held[0]:.2f} m north, {held[1]:.2f} m east '
-            f'{_predicted(ev, ev["held_sd_estimate_m"])}, and a part that wanders with a time '
-            f'constant of {pop.bias_time_constant_s:.0f} s, SD {pop.bias_sd_m[0]:.2f} / '
+            f'{_predicted(ev, ev["held_sd_estimate_m"])}, and a part that wanders with '
+            f'{time_constant_words(ev)}, SD {pop.bias_sd_m[0]:.2f} / '
             f'{pop.bias_sd_m[1]:.2f} m (predicted from {ev["wander_contrasts"]:.1f} contrasts '
             f'of blocks within runs: the fitted SD is {ev["wander_sd_estimate_m"][0]:.2f} / '
             f'{ev["wander_sd_estimate_m"][1]:.2f} m); {shape}')
