@@ -18,9 +18,11 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
-	walks-profile generalisation docs input-sweep
+	walks-profile generalisation docs input-sweep site-screenshots
 
-DATA ?= ../shared/data
+# The measured recordings the evidence targets read: the repository's data/
+# (see data/README.md); DATA=folder for another set (held-out recordings, UrbanNav).
+DATA ?= data
 
 setup: $(STAMP)
 
@@ -54,7 +56,7 @@ calibration-doc: setup
 	$(PY) tools/calibration_doc.py --data $(DATA) --out docs
 
 # The built-in profile snapshot-receiver-on-foot and docs/walks.md, from the
-# SnapperGPS walks of ../shared/data (about two minutes).
+# SnapperGPS walks of data/ (about two minutes).
 walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
 
@@ -63,8 +65,15 @@ docs: setup
 	$(PY) tools/docs_index.py
 	NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
 
+# The built site as a reader opens it from disk: headless Chromium (Debian's
+# package, installed here if missing) screenshots the main pages at 1280 px
+# into site_screenshots/.
+site-screenshots: docs
+	command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
+	$(PY) tools/site_screenshots.py --site site --out site_screenshots
+
 # docs/generalisation.md: every class judged on folds across stretches, recordings
-# and receivers of ../shared/data, GTSAM's smoother among the consumers (about 20 minutes).
+# and receivers of data/, GTSAM's smoother among the consumers (about 20 minutes).
 generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
 
@@ -100,7 +109,7 @@ diagnose-long: setup
 	$(PY) bench/diagnose_long.py --json bench_output/diagnose_long.json
 
 # calibrate, validate, diagnose and compare on altered copies of every recording
-# of ../shared/data (cut, thinned, gappy, failing): each exits 0 quietly or
+# of data/ (cut, thinned, gappy, failing): each exits 0 quietly or
 # refuses in one line. About 25 minutes on a 2-core machine.
 input-sweep: setup
 	$(PY) bench/input_sweep.py --data $(DATA)

@@ -118,7 +118,9 @@ ERROR_NODE_PARAMS = (
               'The fix covariance: stationary, the profile\'s unconditional error '
               'covariance (the same for every fix); conditional, the model\'s '
               'covariance of this fix\'s error given its state a step before (the '
-              'innovation covariance, scaled by the regimes expected next), per fix, '
+              'innovation covariance, scaled by the regimes expected next; at a run\'s '
+              'first step the stationary covariance, the law its error is drawn from), '
+              'per fix, '
               'COVARIANCE_TYPE_KNOWN; reported, what the phone would state: the 68 % '
               'radius of the profile\'s reported_accuracy section as a circular '
               'covariance (per-axis SD radius / 1.51), per fix, '
@@ -442,14 +444,17 @@ def markdown_table(specs):
 
     The README's tables are this function's output (``tools/readme_parameters.py``
     rewrites them; a test checks that they agree), so that the documentation
-    cannot drift from the descriptors the nodes declare.
+    cannot drift from the descriptors the nodes declare. Three columns, so
+    that it fits a page of 1280 px: the name, the default, and the meaning
+    led by the type, the range or choices and whether the value is fixed at
+    start (read-only).
     """
-    lines = ['| parameter | type | default | range / choices | read-only | meaning |',
-             '|---|---|---|---|---|---|']
+    lines = ['| parameter | default | meaning |', '|---|---|---|']
     for s in specs:
-        lines.append(f'| `{s.name}` | {_TYPE_NAMES[s.type].split(" ", 1)[1]} | '
-                     f'{_default_text(s)} | {_bounds_text(s)} | '
-                     f'{"yes" if s.read_only else "no"} | {s.description} |')
+        kind = ', '.join(t for t in (_TYPE_NAMES[s.type].split(' ', 1)[1], _bounds_text(s),
+                                     'read-only' if s.read_only else 'settable at run time')
+                         if t)
+        lines.append(f'| `{s.name}` | {_default_text(s)} | *{kind}.* {s.description} |')
     return '\n'.join(lines) + '\n'
 
 

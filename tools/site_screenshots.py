@@ -1,0 +1,50 @@
+"""
+Screenshots of the built site as a reader sees it from disk (headless Chromium).
+
+``make site-screenshots`` builds the site and runs this: each page named
+below is opened as a ``file://`` URL at 1280 x 1000 px and written to
+``site_screenshots/<page>.png``, to look at (a directory listing, raw
+markup or a table cut off show at once).
+
+    python tools/site_screenshots.py [--site site] [--out site_screenshots]
+"""
+
+import argparse
+from pathlib import Path
+import shutil
+import subprocess
+import sys
+
+PAGES = ('index', 'node', 'calibrating', 'sumo', 'profiles', 'reference/api',
+         'reference/commands', 'walks', 'decisions/index')
+
+
+def main(argv=None):
+    """Write one PNG per page; exit 2 without Chromium."""
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--site', type=Path, default=Path('site'))
+    ap.add_argument('--out', type=Path, default=Path('site_screenshots'))
+    ap.add_argument('--width', type=int, default=1280)
+    args = ap.parse_args(argv)
+    browser = shutil.which('chromium') or shutil.which('chromium-browser')
+    if browser is None:
+        print('site_screenshots: no chromium on PATH (Debian: apt-get install chromium)',
+              file=sys.stderr)
+        return 2
+    args.out.mkdir(parents=True, exist_ok=True)
+    for page in PAGES:
+        html = (args.site / f'{page}.html').resolve()
+        if not html.is_file():
+            print(f'site_screenshots: {html} not built', file=sys.stderr)
+            return 2
+        png = (args.out / f'{page.replace("/", "_")}.png').resolve()
+        subprocess.run([browser, '--headless', '--no-sandbox', '--disable-gpu',
+                        '--hide-scrollbars', f'--window-size={args.width},1000',
+                        f'--screenshot={png}', html.as_uri()],
+                       check=True, capture_output=True, timeout=120)
+        print(f'wrote {png}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
