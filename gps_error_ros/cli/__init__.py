@@ -20,7 +20,7 @@ from gps_error_ros.fit.calibration import (calibrate, CalibrationError, check_sa
                                            little_data_note)
 from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures,
                                               without_gross_failures)
-from gps_error_ros.fit.population_fit import population_line
+from gps_error_ros.fit.population_fit import one_occasion_note, population_line
 from gps_error_ros.model.ar_model import ARErrorModel
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
     write_profile
@@ -217,6 +217,8 @@ def cmd_calibrate(args):
                   f'may choose more')
     if result.population is not None:
         print(f'  {population_line(result.population)}')
+        if one_occasion_note(result.population):
+            print(f'  note: {one_occasion_note(result.population)}')
     note = little_data_note(result)
     if note:        # diagnose's sizes; its package is imported only for this line
         from gps_error_ros.diagnose.common import MIN_TEST, MIN_TRAIN

@@ -30,7 +30,7 @@ import numpy as np
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
 from gps_error_ros.fit.gross_failures import fit_rate_spread, without_gross_failures
-from gps_error_ros.fit.population_fit import fit_population, segment_weights
+from gps_error_ros.fit.population_fit import fit_population, occasions, segment_weights
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -290,6 +290,7 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
                  for s, seg in zip(grid.starts, grid.segments)]
         pop = fit_population(list(grid.segments), times, order, max_order,
                              weights=segment_weights(kept, times))
+        pop.evidence['occasions'] = len(set(occasions(kept)))
     return CalibrationResult(fits[0], fits[1], grid, clean.name, estimate_velocity(clean),
                              estimate_reported(clean), tuple(failures), masks, pop)
 

@@ -416,6 +416,21 @@ def population_line(fit):
             f'above is the process within a block')
 
 
+#: What calibrate says of a population fitted from one occasion (the issue of another day).
+ONE_OCCASION_NOTE = (
+    'the population comes from one occasion (one recording, or recordings made together): '
+    'its bias spread is how the 300-s blocks of that day differ, not how days differ, and '
+    'another day\'s bias may fall outside it (on another day of one phone the mean error '
+    'had the other sign). Recordings of several days give a spread between days')
+
+
+def one_occasion_note(fit):
+    """Return :data:`ONE_OCCASION_NOTE` for a population fitted from one occasion, else None."""
+    if fit is None or fit.population is None or fit.evidence.get('occasions') != 1:
+        return None
+    return ONE_OCCASION_NOTE
+
+
 def _predicted(ev, estimate):
     """Return what a new occasion's SD was predicted from, and the SD fitted."""
     return (f'(a new occasion\'s, predicted from {ev["independent_draws"]:.1f} independent '
