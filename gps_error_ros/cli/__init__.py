@@ -193,7 +193,7 @@ def cmd_calibrate(args):
     _check_output_dir(args.output, '-o')
     traces = _load_inputs(args)
     result = calibrate(traces, order=args.order, max_order=args.max_order,
-                       population=args.population)
+                       population=args.population, day_allowance=args.day_allowance)
     out = Path(args.output)
     profile = result.profile_dict(args.name or out.stem)
     write_profile(out, profile)

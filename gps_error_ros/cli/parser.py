@@ -2,6 +2,7 @@
 
 import argparse
 
+from gps_error_ros.fit.population_fit import DAY_RATIO
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER
 from gps_error_ros.model.ar_model import MAX_ORDER
 
@@ -105,6 +106,13 @@ def _add_calibrate(sub):
                         '3 blocks of 300 s, e.g. 15 min of data or several recordings; '
                         'not with --zones (a zone map takes the population of its '
                         'default_profile)')
+    c.add_argument('--day-allowance', type=number(float, 0.0, 10.0), default=DAY_RATIO,
+                   metavar='RATIO',
+                   help='with --population from one occasion (one recording, or several '
+                        'made together): add a part of the bias held for the run, its SD '
+                        'RATIO times the blocks\' bias SD, for days the recording did not '
+                        f'see (default {DAY_RATIO:g}, from recordings of several days; 0: '
+                        'none)')
 
 
 def _add_validate(sub):

@@ -30,7 +30,8 @@ import numpy as np
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
 from gps_error_ros.fit.gross_failures import fit_rate_spread, without_gross_failures
-from gps_error_ros.fit.population_fit import fit_population, occasions, segment_weights
+from gps_error_ros.fit.population_fit import (DAY_RATIO, fit_population, occasions,
+                                              segment_weights, with_day_allowance)
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -244,7 +245,8 @@ class CalibrationResult:
                                    if self.failures else [], spread=spread)
 
 
-def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, population=False):
+def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, population=False,
+              day_allowance=DAY_RATIO):
     """
     Fit both axes; return a :class:`CalibrationResult`.
 
@@ -263,6 +265,11 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
         becomes the process within blocks, the section how blocks and
         recordings differ (without enough blocks, no section, and the
         evidence says why).
+    day_allowance : float
+        For a population from one occasion: the SD of a part of the bias
+        held for the run, as a ratio to the blocks' bias SD, an allowance
+        for days the recording did not see
+        (:func:`~.population_fit.with_day_allowance`); 0: none.
 
     Returns
     -------
@@ -291,6 +298,7 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
         pop = fit_population(list(grid.segments), times, order, max_order,
                              weights=segment_weights(kept, times))
         pop.evidence['occasions'] = len(set(occasions(kept)))
+        pop = with_day_allowance(pop, day_allowance)
     return CalibrationResult(fits[0], fits[1], grid, clean.name, estimate_velocity(clean),
                              estimate_reported(clean), tuple(failures), masks, pop)
 
