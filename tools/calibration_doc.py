@@ -16,7 +16,7 @@ from pathlib import Path
 from data_sources import CREDITS
 
 from gps_error_ros.diagnose.split import split_trace
-from gps_error_ros.diagnose.zoned_compare import compare_zones
+from gps_error_ros.judge.zoned_compare import compare_zones
 from gps_error_ros.fit.calibration import calibrate, CalibrationError
 from gps_error_ros.fit.zone_calibration import calibrate_zones, MIN_ZONE_SAMPLES
 from gps_error_ros.fit.validation import slice_trace, validate

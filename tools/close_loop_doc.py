@@ -18,7 +18,7 @@ from close_loop_evidence import render_trace, run_evidence
 from data_sources import CREDITS, WALKS
 
 from gps_error_ros.diagnose import diagnose, DiagnosisError, extended_profile
-from gps_error_ros.diagnose.baselines import CLASSES, compare, compare_json
+from gps_error_ros.judge.baselines import CLASSES, compare, compare_json
 from gps_error_ros.diagnose.fidelity import binomial_interval
 from gps_error_ros.model.profiles import write_profile
 from gps_error_ros.reports.compare_figure import compare_figure
@@ -446,7 +446,7 @@ def render(records, synth, long_run=None):
             md += [f'Reading the figure: {READINGS[name]}', '']
     md += ['## Model classes on the same held-out data', '',
            'Each class fitted on the same training part and scored on the same '
-           'held-out samples (see `gps_error_ros/diagnose/baselines.py`). Cells: the '
+           'held-out samples (see `gps_error_ros/judge/baselines.py`). Cells: the '
            'measured value, with the models\' simulated median (and 95 % range '
            'for the quantiles) in brackets; for the ACF distance the bracket '
            'is the median distance of a simulated trace from the simulated '

@@ -8,7 +8,7 @@ simulate it worse (``inside_95``)? The experiments of
 """
 
 from gps_error_ros.diagnose import evidence
-from gps_error_ros.diagnose.baselines import CLASSES, compare
+from gps_error_ros.judge.baselines import CLASSES, compare
 from gps_error_ros.diagnose.pipeline import fit_split
 
 #: Held-out measures shown per failing list.

@@ -1,7 +1,7 @@
 """
 The generalisation table: every class judged on data its fit did not see.
 
-Runs ``gps_error compare``'s fold comparison (:mod:`gps_error_ros.diagnose.generalise`)
+Runs ``gps_error compare``'s fold comparison (:mod:`gps_error_ros.judge.generalise`)
 on every visible recording set in ``--data``:
 
 * every recording in ``--data`` but the walks, alone: rolling origin (one
@@ -33,13 +33,13 @@ from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_
                                  PAGE_HEAD, PRECEDENT_HEAD, SPREAD_HEAD)
 from phone_transfer import transfer, transfer_lines
 
-from gps_error_ros.diagnose.beaten import gain_text, ORDER_GAIN
-from gps_error_ros.diagnose.consumers import FILTER_PARTS
-from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUPS, HORIZON, judge_folds,
-                                               ORIGINS, precedent, recording_splits,
-                                               rolling_splits, split_between, summarise)
+from gps_error_ros.judge.beaten import gain_text, ORDER_GAIN
+from gps_error_ros.judge.consumers import FILTER_PARTS
+from gps_error_ros.judge.generalise import (EXTRA_GROUPS, GROUPS, HORIZON, judge_folds,
+                                            ORIGINS, precedent, recording_splits,
+                                            rolling_splits, split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import precedent as velocity_precedent
-from gps_error_ros.diagnose.window_persistence import spread_above
+from gps_error_ros.judge.window_persistence import spread_above
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows
 from gps_error_ros.fit.population_fit import MIN_BLOCK_SAMPLES

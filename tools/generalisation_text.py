@@ -5,7 +5,7 @@ The fixed prose of ``docs/generalisation.md``, and the classes' names on it.
 from them there, the paragraphs that never change here.
 """
 
-#: What the page calls each class of :mod:`gps_error_ros.diagnose.generalise`.
+#: What the page calls each class of :mod:`gps_error_ros.judge.generalise`.
 LABELS = {'white_bias': 'white noise + bias', 'ar1': 'AR(1)', 'arma11': 'ARMA(1,1)',
           'ar3_paper': 'AR(3), paper', 'ar_p': 'AR(p), PACF', 'extended': 'extended',
           'population_ar': 'population (Gaussian AR within)',
@@ -17,7 +17,7 @@ PAGE_HEAD = """# Generalisation: each class on data its fit did not see
 What a simulator fitted on one stretch does on another stretch, another
 recording and another receiver. Every class is fitted on the training part
 of each fold and judged on its held-out part (`gps_error compare --folds`,
-method in `gps_error_ros/diagnose/generalise.py`):
+method in `gps_error_ros/judge/generalise.py`):
 
 - **held-out NLL**: the one-step predictive negative log density per
   sample (a proper score; lower is better), mean over folds; **best**: the

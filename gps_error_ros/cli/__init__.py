@@ -299,7 +299,7 @@ def _write_diagnosed_profile(args, diag):
     out, source = Path(args.profile_out), diag.summary['input']
     prof = extended_profile(diag, out.stem, source)
     if args.population:
-        from gps_error_ros.diagnose.generalise import population_profile
+        from gps_error_ros.judge.generalise import population_profile
         pop = population_profile(diag.split, out.stem, source, args.seed)
         blocks = pop['fit']['population']['blocks']
         if 'population' in pop:
@@ -347,7 +347,7 @@ def cmd_compare(args):
     if args.smoother:
         raise SystemExit('gps_error compare: --smoother goes with --folds or --test '
                          '(the groups of measures); the single 70/30 split has none')
-    from gps_error_ros.diagnose.baselines import compare, compare_json
+    from gps_error_ros.judge.baselines import compare, compare_json
     from gps_error_ros.diagnose.pipeline import fit_models, STAGES
     from gps_error_ros.reports.compare_figure import compare_figure
 
@@ -384,7 +384,7 @@ def cmd_compare(args):
 
 def _compare_zones(args, trace, split, doc):
     """Add one profile against a profile per zone to ``doc``; print it."""
-    from gps_error_ros.diagnose.zoned_compare import compare_zones
+    from gps_error_ros.judge.zoned_compare import compare_zones
     from gps_error_ros.model.zones import load_zone_map
 
     origin = (float(trace.truth_lat[0]), float(trace.truth_lon[0]))

@@ -3,12 +3,12 @@
 from dataclasses import replace
 from pathlib import Path
 
-from gps_error_ros.diagnose.beaten import gain_text
-from gps_error_ros.diagnose.generalise import (EXTRA_GROUPS, GROUP_BAR, GROUPS, judge_folds,
-                                               precedent_line, recording_splits,
-                                               rolling_splits, split_between, summarise)
+from gps_error_ros.judge.beaten import gain_text
+from gps_error_ros.judge.generalise import (EXTRA_GROUPS, GROUP_BAR, GROUPS, judge_folds,
+                                            precedent_line, recording_splits,
+                                            rolling_splits, split_between, summarise)
 from gps_error_ros.diagnose.velocity_check import velocity_line
-from gps_error_ros.diagnose.window_persistence import spread_line
+from gps_error_ros.judge.window_persistence import spread_line
 from gps_error_ros.fit.population_fit import segment_weights
 from gps_error_ros.traces.trace_io import join_recordings
 
@@ -66,7 +66,7 @@ def beaten_lines(folds):
 
 
 def _orders_text(o):
-    """Return a part's :func:`~gps_error_ros.diagnose.beaten.block_orders` in words."""
+    """Return a part's :func:`~gps_error_ros.judge.beaten.block_orders` in words."""
     if o is None:
         return 'fewer than 3 blocks'
     return f'north {o["north"]["order"]}, east {o["east"]["order"]} ({o["blocks"]} blocks)'
@@ -87,7 +87,7 @@ def compare_folds(args, recordings):
                          '--zones and --report go with the single 70/30 split')
     smoother = getattr(args, 'smoother', 0)
     if smoother:
-        from gps_error_ros.diagnose.smoother import available, INSTALL
+        from gps_error_ros.judge.smoother import available, INSTALL
         if not available():
             raise SystemExit(f'gps_error compare: --smoother needs GTSAM, which is not '
                              f'installed: {INSTALL}')

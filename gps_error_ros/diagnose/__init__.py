@@ -4,8 +4,10 @@ The diagnosis: what the AR model misses in a trace, and the extended model.
 The steps, one module each: :mod:`.split` (train/held-out), :mod:`.mean`
 (AR and motion terms), :mod:`.laws` (innovation laws, EM, forward filter),
 :mod:`.models` (a fitted model), :mod:`.family` (the test family, Holm),
-:mod:`.fidelity` (simulated against held-out), :mod:`.baselines` (the model
-classes simulators use), and :mod:`.pipeline`, which runs them in order.
+:mod:`.fidelity` (simulated against held-out), and :mod:`.pipeline`, which
+runs them in order. Judging fitted models as simulators on held-out data
+(the classes, the folds, the consumers) is the room above,
+:mod:`gps_error_ros.judge`.
 """
 
 from gps_error_ros.diagnose.common import ALPHA, DiagnosisError

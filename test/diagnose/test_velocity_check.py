@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from gps_error_ros.diagnose.generalise import rolling_splits
+from gps_error_ros.judge.generalise import rolling_splits
 from gps_error_ros.diagnose.split import like_windows
 from gps_error_ros.diagnose.velocity_check import (band_measures, precedent, velocity_group,
                                                    velocity_line)

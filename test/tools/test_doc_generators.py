@@ -128,7 +128,7 @@ def test_each_phones_profiles_are_validated_on_the_other(tmp_path):
 
 def test_the_generalisation_page_shows_where_the_population_is_beaten():
     """tools/generalisation.py: the section on a fold where a class scores better."""
-    from gps_error_ros.diagnose.beaten import pacf_against
+    from gps_error_ros.judge.beaten import pacf_against
 
     sys.path.insert(0, str(TOOLS))
     try:
@@ -190,7 +190,7 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
 
 def test_the_generalisation_page_shows_the_training_blocks_persistence():
     """tools/generalisation.py: the blocks' lag-1 ACF spread, out where above its range."""
-    from gps_error_ros.diagnose.window_persistence import spread_above
+    from gps_error_ros.judge.window_persistence import spread_above
 
     _spread_rows, = _tools('_spread_rows')
 

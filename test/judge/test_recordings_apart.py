@@ -12,7 +12,7 @@ from dataclasses import replace
 import numpy as np
 
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.consumers import run_filter
+from gps_error_ros.judge.consumers import run_filter
 from gps_error_ros.diagnose.fidelity import acf_by_axis
 from gps_error_ros.diagnose.split import cut_trace
 from gps_error_ros.model.geodesy import offset

@@ -5,7 +5,7 @@ import warnings
 from hypothesis import given, settings, strategies as st
 import numpy as np
 
-from gps_error_ros.diagnose.beaten import block_orders
+from gps_error_ros.judge.beaten import block_orders
 from gps_error_ros.diagnose.split import Part
 
 

@@ -6,7 +6,7 @@ import math
 import pytest
 
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.generalise import GROUPS, precedent
+from gps_error_ros.judge.generalise import GROUPS, precedent
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, write_trace_csv
@@ -108,7 +108,7 @@ def test_without_blocks_to_pool_a_population_class_is_the_class_it_wraps(tmp_pat
 
 def test_a_fold_where_a_class_beats_the_population_says_where():
     from gps_error_ros.cli.folds import beaten_lines
-    from gps_error_ros.diagnose.beaten import pacf_against
+    from gps_error_ros.judge.beaten import pacf_against
 
     pacf = pacf_against({'north': [0.9, 0.3, 0.01], 'east': [0.8, 0.02, 0.2], 'bound': 0.05},
                         {'north': [0.9, 0.01, 0.01], 'east': [0.8, 0.02, 0.01], 'bound': 0.05})

@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gps_error_ros.diagnose.consumers import CONFLICT_M, run_filter, v2p_warnings
+from gps_error_ros.judge.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
-from gps_error_ros.diagnose.beaten import block_orders, FAR_SD, part_pacf, where_beaten
-from gps_error_ros.diagnose.generalise import (_outage_masks, own_shares, own_verdict,
-                                               precedent_line, recording_splits,
-                                               rolling_splits, split_between,
-                                               training_windows)
-from gps_error_ros.diagnose.population_class import (_kalman_ll, bias_grid, mixture_forward,
-                                                     scale_nodes, within_part)
+from gps_error_ros.judge.beaten import block_orders, FAR_SD, part_pacf, where_beaten
+from gps_error_ros.judge.generalise import (_outage_masks, own_shares, own_verdict,
+                                            precedent_line, recording_splits,
+                                            rolling_splits, split_between,
+                                            training_windows)
+from gps_error_ros.judge.population_class import (_kalman_ll, bias_grid, mixture_forward,
+                                                  scale_nodes, within_part)
 from gps_error_ros.diagnose.split import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.population import Population
@@ -205,7 +205,7 @@ def test_the_filter_is_consistent_on_errors_it_was_told():
 
 def test_what_a_filters_error_is_made_of():
     """The mean's size and the SD apart, and the filter's response to the rest per SD."""
-    from gps_error_ros.diagnose.consumers import filter_parts
+    from gps_error_ros.judge.consumers import filter_parts
     n = 1500
     part = _walk(n)
     rng = np.random.default_rng(4)
@@ -242,7 +242,7 @@ def _ar1(rho, n, rng):
 
 def test_a_persistence_that_moves_from_block_to_block_is_found():
     """Blocks of ACF 0.95 and 0.2 in turn lie beyond one AR's spread; that AR's own do not."""
-    from gps_error_ros.diagnose.window_persistence import (
+    from gps_error_ros.judge.window_persistence import (
         persistence_spread, spread_line, window_acf1)
     rng = np.random.default_rng(7)
     block, blocks = 300, 8

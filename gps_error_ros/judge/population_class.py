@@ -30,7 +30,7 @@ class PopulationClass:
     """
     The population profile fitted on a training part, as a class to judge.
 
-    ``within``: a :class:`~.models.FittedModel` fitted on the training
+    ``within``: a :class:`~gps_error_ros.diagnose.models.FittedModel` fitted on the training
     errors about their blocks' means (:func:`within_part`), whose effects
     the class keeps; without it the process within is the Gaussian AR of
     :func:`~gps_error_ros.fit.population_fit.fit_population`.

@@ -35,16 +35,16 @@ from dataclasses import replace
 
 import numpy as np
 
-from gps_error_ros.diagnose.baselines import _classes, KEYS, training_outages
-from gps_error_ros.diagnose.consumers import consumer_measures, filter_parts
-from gps_error_ros.diagnose.beaten import block_orders, pacf_against, part_pacf, where_beaten
+from gps_error_ros.judge.baselines import _classes, KEYS, training_outages
+from gps_error_ros.judge.consumers import consumer_measures, filter_parts
+from gps_error_ros.judge.beaten import block_orders, pacf_against, part_pacf, where_beaten
 from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
                                              score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
-from gps_error_ros.diagnose.population_class import _within_split, PopulationClass
+from gps_error_ros.judge.population_class import _within_split, PopulationClass
 from gps_error_ros.diagnose.split import cut_trace, like_windows, Split
 from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
-from gps_error_ros.diagnose.window_persistence import persistence_spread
+from gps_error_ros.judge.window_persistence import persistence_spread
 from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outage_envelopes,
                                         outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
@@ -74,7 +74,9 @@ EXTRA_GROUPS = ('outages', 'smoother')
 
 def split_between(trace, cut_t, end_t, rule):
     """
-    Return the :class:`~.split.Split` of ``trace``: train before ``cut_t``, test in [cut_t, end_t).
+    Return the ``Split`` of ``trace``: train before ``cut_t``, test in [cut_t, end_t).
+
+    (:class:`~gps_error_ros.diagnose.split.Split`.)
 
     Times are the trace's own (seconds); samples after ``end_t`` are in neither part.
     """
@@ -188,7 +190,7 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
         rows[f'{n.split("_")[0]}:{n}'] = envelope(cm[j], cs[:, j])
         per_trace[f'{n.split("_")[0]}:{n}'] = cs[:, j]
     if smoother_sims:
-        from gps_error_ros.diagnose.smoother import head, run_smoother, SMOOTHER_MEASURES
+        from gps_error_ros.judge.smoother import head, run_smoother, SMOOTHER_MEASURES
         short = head(part, SMOOTHER_SAMPLES)
         n = short.n
         fix_var = np.mean(np.concatenate(train.err) ** 2, axis=0)
@@ -259,7 +261,7 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     ``nll_minus_population``: the class's held-out NLL per sample minus the
     population class's (``population`` given ``within``, else
     ``population_ar``), paired on the same samples, with a 95 % interval
-    (:func:`~.fidelity.score_differences`); the population class's
+    (:func:`~gps_error_ros.diagnose.fidelity.score_differences`); the population class's
     ``where_beaten`` says in which held-out blocks the classes that score
     better than it beyond noise do so (:func:`~.beaten.where_beaten`; None
     for none).
@@ -275,7 +277,7 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     ``smoother_sims``: traces of each class (of ``smoother_classes``, by
     default all) that the GTSAM smoother is fed as well (group ``smoother``).
 
-    ``fitted``: the :class:`~.pipeline.FittedModels` of the split (its
+    ``fitted``: the :class:`~gps_error_ros.diagnose.pipeline.FittedModels` of the split (its
     classes come from :func:`~.baselines._classes`); the population classes
     are fitted here on the same training part and scored on the same
     samples: ``population_ar`` (the Gaussian AR within blocks, as
@@ -348,7 +350,9 @@ def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_c
     (:func:`judge_split`, with the smoother's arguments; the training part's
     own measures and :func:`training_windows` beside them; the speed and
     course group of the profile's velocity section, which every class
-    shares, or None: :func:`~.velocity_check.velocity_group`). ``done()`` after each fold.
+    shares, or None:
+    :func:`~gps_error_ros.diagnose.velocity_check.velocity_group`). ``done()`` after each
+    fold.
     """
     from gps_error_ros.diagnose.pipeline import fit_split
     folds = []

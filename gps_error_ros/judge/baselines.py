@@ -141,8 +141,8 @@ def _classes(diag, sims, seed, m0=None):
     Return {class: (held-out log densities, simulated traces)}, same samples.
 
     ``diag`` is anything with the ``split``, ``base`` and ``extended`` of a
-    diagnosis: a :class:`~.pipeline.Diagnosis` or the cheaper
-    :class:`~.pipeline.FittedModels`. ``m0``: samples per segment
+    diagnosis: a :class:`~gps_error_ros.diagnose.pipeline.Diagnosis` or the cheaper
+    :class:`~gps_error_ros.diagnose.pipeline.FittedModels`. ``m0``: samples per segment
     conditioned on (default: what the base and extended models need).
     """
     train, test, truth = diag.split.train, diag.split.test, diag.split.truth
@@ -170,10 +170,10 @@ def training_outages(split, model, sims, seed=0):
     Return a class's simulated fix masks over the held-out span, (sims, span).
 
     Availability is fitted on the training part's gaps as ``calibrate``
-    fits it, each recording's own (:func:`~.fidelity.run_masks`: the time
+    fits it, each recording's own (:func:`~gps_error_ros.diagnose.fidelity.run_masks`: the time
     between joined recordings is no outage); None when the training part has
     no outage (the class then simulates none). The masks come from the
-    agents' ``outage`` streams of the keys :func:`~.fidelity.simulate_part`
+    agents' ``outage`` streams of the keys :func:`~gps_error_ros.diagnose.fidelity.simulate_part`
     uses.
     """
     section, _ = availability_from_mask(run_masks(split.train))
@@ -190,9 +190,10 @@ def compare(diag, sims=100, seed=0):
 
     Returns a dict: class -> ``heldout_nll_per_sample``,
     ``nll_minus_best`` (its NLL minus the lowest class's, paired on the
-    same samples, with a 95 % interval: :func:`~.fidelity.score_differences`),
+    same samples, with a 95 % interval:
+    :func:`~gps_error_ros.diagnose.fidelity.score_differences`),
     the summary fidelity measures of ``diagnose`` and ``calibrated`` (the
-    measures of :func:`~.fidelity.calibrated_fidelity`, with the outage
+    measures of :func:`~gps_error_ros.diagnose.fidelity.calibrated_fidelity`, with the outage
     measures where the held-out part or the extended class has outages),
     all on the same samples.
     """

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.smoother import head, run_smoother, SMOOTHER_MEASURES
+from gps_error_ros.judge.smoother import head, run_smoother, SMOOTHER_MEASURES
 from gps_error_ros.diagnose.split import Part
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import write_trace_csv

@@ -8,7 +8,7 @@ part's mean square error per axis as its variance and a Huber loss
 (:data:`HUBER_K`, as a graph that must survive bad fixes is usually built),
 and a ``BetweenFactorPose3`` to the pose before it from the velocity aid
 (the truth's velocity plus noise of
-:data:`~gps_error_ros.diagnose.consumers.VELOCITY_SD` m/s, the same draws
+:data:`~gps_error_ros.judge.consumers.VELOCITY_SD` m/s, the same draws
 as the filter's). iSAM2 adds one pose per sample. Measures:
 
 * ``smoother_online_rms_m`` and ``smoother_online_p95_m``: the horizontal
@@ -24,7 +24,7 @@ with what to install.
 
 import numpy as np
 
-from gps_error_ros.diagnose.consumers import _grid, _truth_velocity, VELOCITY_SD
+from gps_error_ros.judge.consumers import _grid, _truth_velocity, VELOCITY_SD
 
 #: The Huber loss's threshold, in standard deviations of a fix.
 HUBER_K = 1.345
@@ -53,7 +53,7 @@ def _gtsam():
 
 def head(part, n):
     """
-    Return the first ``n`` samples of a :class:`~.split.Part`, its segments kept.
+    Return the first ``n`` samples of a ``Part``, its segments kept.
 
     Within the part's first recording: the smoother never bridges two recordings.
     """

@@ -51,7 +51,7 @@ def persistence_spread(part, simulated):
     """
     Return the spread of ``part``'s block lag-1 ACFs against the simulated traces', or None.
 
-    ``part``: a :class:`~.split.Part`; ``simulated``: traces, each a list of
+    ``part``: a :class:`~gps_error_ros.diagnose.split.Part`; ``simulated``: traces, each a list of
     segments on ``part``'s samples. Per axis, :func:`~gps_error_ros.fit.envelope.envelope`
     rows of the blocks' ACF SD (``acf1_sd_<axis>``) and of their lowest ACF
     (``lowest_acf1_<axis>``), and ``windows``, the number of blocks; None
