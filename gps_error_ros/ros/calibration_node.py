@@ -28,6 +28,7 @@ from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.diagnostics import DiagnosticsPublisher, OK, Report, WARN
 from gps_error_ros.ros.parameters import (
     CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, help_text, WARN_PERIOD_S)
+from gps_error_ros.ros.rclpy_adapter import take_message
 from gps_error_ros.ros.topics import CALIBRATION_INPUT_QOS, help_rows
 
 
@@ -117,15 +118,14 @@ class GpsCalibrationNode(Node):
         for sub in self.inputs:
             while True:
                 try:
-                    with sub.handle:
-                        got = sub.handle.take_message(sub.msg_type, sub.raw)
+                    got = take_message(sub)
                 except RuntimeError as exc:     # rclpy could not convert one
                     self.get_logger().warning(f'stopped taking the queue of '
                                               f'{sub.topic_name}: {exc}')
                     break
                 if got is None:
                     break
-                sub.callback(got[0])
+                sub.callback(got)
                 taken += 1
         return taken
 

@@ -19,7 +19,6 @@ import secrets
 import time
 
 import numpy as np
-from rclpy.callback_groups import CallbackGroup
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
@@ -41,6 +40,8 @@ from gps_error_ros.ros.fix_output import FixOutput, start_summary
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
 from gps_error_ros.traces.validity import usable_fix, usable_pose
+from gps_error_ros.ros.rclpy_adapter import (DrainedByTheNode, handles, take_raw,
+                                             WaitsOnUndrained)
 from gps_error_ros.ros.parameters import (
     ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
     WARN_PERIOD_S)
@@ -53,57 +54,6 @@ NOT_TROUBLE = ('fixes published', 'no-fix messages published (outages)',
 WATCH_PERIOD_S = 1.0
 #: Slots an agent_pattern node starts with (doubled whenever they run out).
 FIRST_SLOTS = 16
-
-
-class DrainedByTheNode(CallbackGroup):
-    """
-    A callback group whose members no executor runs.
-
-    A crowd's truth subscriptions: the node takes their messages itself,
-    all of them once per step (``_drain``), and does not list them in
-    :attr:`GpsErrorNode.subscriptions`, so executors do not even pass over
-    them (at 1,000 agents that pass cost 0.4 ms per wake, 3.9 ms at 5,000).
-    """
-
-    def can_execute(self, entity):
-        """Return False: an executor never runs the entity."""
-        return False
-
-    def beginning_execution(self, entity):
-        """Return False: an executor never begins to run the entity."""
-        return False
-
-    def ending_execution(self, entity):
-        """Do nothing: an executor never ran the entity."""
-
-
-class WaitsOnUndrained:
-    """
-    A node mixin: executors wait on its subscriptions except those in ``self.drained``.
-
-    The drained ones (a :class:`DrainedByTheNode` group) stay in rclpy's own
-    list, so that ``destroy_node`` destroys them, but :attr:`subscriptions`
-    leaves them out.
-    """
-
-    def create_subscription(self, *args, **kwargs):
-        """Create a subscription (rclpy's); executors wait on it unless it is drained."""
-        sub = super().create_subscription(*args, **kwargs)
-        if sub.callback_group is not getattr(self, 'drained', None):
-            self.__dict__.setdefault('waited_on', []).append(sub)
-        return sub
-
-    def destroy_subscription(self, subscription):
-        """Destroy a subscription created by the node (rclpy's); True if it was."""
-        waited = self.__dict__.get('waited_on', [])
-        if subscription in waited:
-            waited.remove(subscription)
-        return super().destroy_subscription(subscription)
-
-    @property
-    def subscriptions(self):
-        """Yield the subscriptions executors wait on: not the drained ones."""
-        yield from list(self.__dict__.get('waited_on', ()))
 
 
 @dataclass
@@ -270,7 +220,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         pub = self.create_publisher(NavSatFix, fix_topic, FIX_QOS[self.fix_reliability],
                                     event_callbacks=self.pub_events)
         self.subs[i], self.pubs[i] = sub, pub
-        self.sub_handles[i] = (sub.handle, sub.msg_type)
+        self.sub_handles[i] = handles(sub)
         self.pub_handles[i] = pub.handle
         if self.groups[self.slot_group[i]].engine.vel is not None:
             self.vel_pubs[i] = self.create_publisher(
@@ -350,18 +300,16 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         converted and stored for all agents at once.
         """
         agents, raws = [], []
-        # The handles are used directly: this node owns the subscriptions and
-        # never destroys them while draining (rclpy's context-manager guard
-        # and Publisher.publish's type checks cost ~1-3 us per message).
-        for i, handles in enumerate(self.sub_handles):
-            if handles is None:
+        # The handles are taken from directly (the rclpy adapter): this node
+        # owns the subscriptions and never destroys them while draining.
+        for i, held in enumerate(self.sub_handles):
+            if held is None:
                 continue
-            handle, msg_type = handles
-            taken = handle.take_message(msg_type, True)
-            while taken is not None:
-                raws.append(taken[0])
+            raw = take_raw(*held)
+            while raw is not None:
+                raws.append(raw)
                 agents.append(i)
-                taken = handle.take_message(msg_type, True)
+                raw = take_raw(*held)
         if not raws:
             return
         stamps, values, parsed = cdr.parse_batch(self.input_type, raws)

@@ -20,6 +20,7 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 from gps_error_ros.ros import cdr
 from gps_error_ros.ros import conversions
 from gps_error_ros.ros.parameters import WARN_PERIOD_S
+from gps_error_ros.ros.rclpy_adapter import publish_raw
 
 # A crowd's best-effort fixes go out in bursts this size, this far apart: Fast
 # DDS's shared-memory queue of a subscribing process holds 512 messages, and
@@ -36,7 +37,7 @@ def send_paced(handles, raws, burst=None):
         if start:
             time.sleep(FIX_BURST_PAUSE_S)
         for handle, raw in zip(handles[start:start + burst], raws[start:start + burst]):
-            handle.publish_raw(raw)
+            publish_raw(handle, raw)
 
 
 class FixOutput:
