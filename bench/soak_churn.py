@@ -147,11 +147,22 @@ class Driver:
         return agent.ready
 
     def wait_matched(self, timeout_s):
-        """Wait up to ``timeout_s`` until the node has matched every agent alive."""
+        """
+        Wait up to ``timeout_s`` until the node is matched with every agent alive, now.
+
+        Checked afresh each step, not once per life: an agent that comes back
+        under its old name is matched at once with the node's subscription of
+        its last life, which the node may release a moment later; the driver
+        then waits for the node to subscribe again before the clock moves on.
+        """
         end = time.monotonic() + timeout_s
-        while not all(self._matched(a) for a in self.alive.values()) and \
-                time.monotonic() < end:
+
+        def matched(a):
+            return a.pub.get_subscription_count() > 0 and a.sub.get_publisher_count() > 0
+        while not all(matched(a) for a in self.alive.values()) and time.monotonic() < end:
             time.sleep(0.01)
+        for a in self.alive.values():
+            a.ready = a.ready or matched(a)
 
     def send(self, k, pose_msg):
         """Publish step ``k``'s pose of every agent the node has subscribed to."""
