@@ -53,6 +53,15 @@ REPORTED = ('reported_accuracy: {source: accuracy, median_m: 3.0, follow: 0.01, 
             'sigma_log: 0.05, resolution_m: 1.0, scale_m: 0.0}\n')
 
 
+#: The shutdown summary of the node and of the floor (``bench/floor_node.py``): published,
+#: skipped without truth, out of order, stamped in the future, mean and max ms per tick.
+SUMMARY = re.compile(r'(\d+) NavSatFix published \(\d+ with a position, \d+ NO_FIX\), '
+                     r'\d+ steps in an outage, \d+ non-finite fixes refused, '
+                     r'(\d+) skipped without truth, (\d+) truth '
+                     r'messages out of order, (\d+) stamped in the future.*wall time per '
+                     r'tick ([\d.]+) ms mean, ([\d.]+) ms max')
+
+
 def _stat_cpu_s(path):
     """Return (name, user + system CPU seconds) from a /proc .../stat file."""
     with open(path) as f:
@@ -269,11 +278,7 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     counter.send_signal(signal.SIGINT)
     counter.wait(timeout=60)
     counts = json.loads(count_file.read_text())
-    m = re.search(r'(\d+) NavSatFix published \(\d+ with a position, \d+ NO_FIX\), '
-                  r'\d+ steps in an outage, \d+ non-finite fixes refused, '
-                  r'(\d+) skipped without truth, (\d+) truth '
-                  r'messages out of order, (\d+) stamped in the future.*wall time per '
-                  r'tick ([\d.]+) ms mean, ([\d.]+) ms max', out)
+    m = SUMMARY.search(out)
     if not m:
         raise RuntimeError(f'no summary from the node:\n{out[-2000:]}')
     published = int(m.group(1))

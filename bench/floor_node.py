@@ -98,9 +98,10 @@ class FloorNode(WaitsOnUndrained, Node):
     def summary(self):
         """Return the run in the error node's summary format."""
         mean = 1e3 * self.spent / self.ticks if self.ticks else 0.0
-        return (f'at shutdown: {self.ticks} timer ticks, {self.fixes} fixes published, '
-                f'0 skipped without truth, 0 truth messages out of order, 0 stamped in '
-                f'the future; wall time per tick {mean:.3f} ms mean, '
+        return (f'at shutdown: {self.ticks} timer ticks, {self.fixes} NavSatFix published '
+                f'({self.fixes} with a position, 0 NO_FIX), 0 steps in an outage, 0 '
+                f'non-finite fixes refused, 0 skipped without truth, 0 truth messages out '
+                f'of order, 0 stamped in the future; wall time per tick {mean:.3f} ms mean, '
                 f'{1e3 * self.worst:.3f} ms max')
 
 
