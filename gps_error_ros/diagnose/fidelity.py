@@ -89,7 +89,7 @@ def _run(sim, keys, start, end, truth, t0, lag_s):
     heading = travel_headings(truth, t0 + np.arange(start, end), lag_s)
     x = np.empty((end - start, keys.size, 2))
     state = sim.initial_state(keys, start)
-    state[:, 1, sim.order] = heading[0]
+    sim.face(state, np.full(keys.size, heading[0]))
     x[0] = sim.errors(state)
     for k in range(start + 1, end):
         x[k - start] = sim.advance(state, keys, k, np.full(keys.size, heading[k - start]))

@@ -26,6 +26,9 @@ model's own, bit for bit.
 
 import numpy as np
 
+from gps_error_ros.model.state import AgentState
+from gps_error_ros.model.wrapped import Wrapper
+
 #: What a stated covariance covers: the error about the truth, or about its mean.
 COVARIANCE_ABOUT = ('truth', 'mean')
 
@@ -36,25 +39,42 @@ def mean_square(cov, mean):
     return np.asarray(cov, dtype=float) + mean[..., :, None] * mean[..., None, :]
 
 
-class AboutTruth:
-    """A model whose stated covariances are about the truth (see the module docstring)."""
+class AboutTruth(Wrapper[AgentState]):
+    """
+    A model whose stated covariances are about the truth (see the module docstring).
+
+    Its state is the wrapped model's own (``core``): errors, states and draws
+    are the model's, bit for bit; only the stated covariances change.
+    """
 
     def __init__(self, core):
+        super().__init__(core)
         self.core = core
 
-    def __getattr__(self, name):
-        # errors, states, draws, moments other than the covariances: the model's own
-        return getattr(self.core, name)
+    def part(self, state):
+        """Return ``state``: the wrapped model's, unchanged."""
+        return state
+
+    def empty_state(self, n):
+        """Return the wrapped model's state of ``n`` agents, all zeros."""
+        return self.core.empty_state(n)
+
+    def initial_state(self, keys, index):
+        """Draw the wrapped model's state at model step ``index``."""
+        return self.core.initial_state(keys, index)
+
+    def state_after(self, keys, start, step, heading=None):
+        """Return the wrapped model's state at ``step`` of a run started at ``start``."""
+        return self.core.state_after(keys, start, step, heading)
+
+    def advance(self, state, keys, index, heading=None):
+        """Advance the wrapped model's state in place; return its errors."""
+        return self.core.advance(state, keys, index, heading)
 
     @property
     def stationary_cov(self):
         """Return the stationary mean square error matrix (2, 2)."""
         return mean_square(self.core.stationary_cov, self.core.mean)
-
-    @property
-    def stationary_sd(self):
-        """Return the root mean square error per axis."""
-        return np.sqrt(np.diag(self.stationary_cov))
 
     def mean_step_cov(self):
         """Return the mean one-step mean square error matrix, the stationary mean's included."""

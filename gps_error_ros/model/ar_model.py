@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.state import ARState
 
 AXES = ('north', 'east')
 #: Largest AR order: the initial state's pairs must fit the stream slots.
@@ -234,8 +235,7 @@ class ARErrorModel:
         """
         Draw the state at model step ``index`` from the stationary law.
 
-        Returns deviations from the mean, shape (n, 2, p): ``[:, a, 0]`` is
-        the current deviation of axis ``a``, ``[:, a, i]`` the one i steps ago.
+        Returns an :class:`~.state.ARState`: the deviations from the mean.
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         p = self.order
@@ -250,7 +250,7 @@ class ARErrorModel:
             for j in range(2 * p):
                 if self._state_chol[i, j] != 0.0:
                     x[:, i] += self._state_chol[i, j] * z[:, j]
-        return x.reshape(keys.size, 2, p)
+        return ARState(x.reshape(keys.size, 2, p))
 
     def predictive_cov(self, state, first=False):
         """
@@ -262,8 +262,8 @@ class ARErrorModel:
         covariance (nothing before it is known).
         """
         if first:
-            return np.repeat(self.stationary_cov[None], state.shape[0], axis=0)
-        return np.repeat(self.innovation_cov[None], state.shape[0], axis=0)
+            return np.repeat(self.stationary_cov[None], len(state), axis=0)
+        return np.repeat(self.innovation_cov[None], len(state), axis=0)
 
     def mean_step_cov(self):
         """
@@ -283,25 +283,33 @@ class ARErrorModel:
         (``first``: the stationary mean).
         """
         if first:
-            return np.repeat(self.mean[None], state.shape[0], axis=0)
-        out = np.repeat(self.mean[None], state.shape[0], axis=0)
+            return np.repeat(self.mean[None], len(state), axis=0)
+        out = np.repeat(self.mean[None], len(state), axis=0)
+        dev = state.deviations
         for i in range(self.order):
-            out += self.phi[:, i] * state[:, :, i]
+            out += self.phi[:, i] * dev[:, :, i]
         return out
 
     def empty_state(self, n):
-        """Return a state array for ``n`` agents (zeros)."""
-        return np.zeros((n, 2, self.order))
+        """Return the state of ``n`` agents, all zeros."""
+        return ARState(np.zeros((n, 2, self.order)))
 
-    def state_after(self, keys, start, step):
-        """Return the state at model step ``step`` of a run started at ``start``."""
+    def face(self, state, heading):
+        """Do nothing: the AR process does not turn with the direction of travel."""
+
+    def state_after(self, keys, start, step, heading=None):
+        """
+        Return the state at model step ``step`` of a run started at ``start``.
+
+        ``heading`` is accepted for the protocol's sake and not used.
+        """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         span = step - start + 1
         p = self.order
         if span >= p:
             series = self.simulate(keys, span, start=start)
-            return np.stack([series[-1 - i] - self.mean for i in range(p)],
-                            axis=-1)
+            return ARState(np.stack([series[-1 - i] - self.mean for i in range(p)],
+                                    axis=-1))
         state = self.initial_state(keys, start)
         for s in range(start + 1, step + 1):
             self.advance(state, keys, s)
@@ -317,28 +325,30 @@ class ARErrorModel:
             w[..., 1] += c[1, 0] * z[..., 0]
         return w
 
-    def advance(self, state, keys, index):
+    def advance(self, state, keys, index, heading=None):
         """
         Advance ``state`` in place to model step ``index``; return errors.
 
         The innovation of step ``index`` is drawn from each key's stream at
         that index. Returns the errors (mean included), shape (n, 2).
+        ``heading`` is accepted for the protocol's sake and not used.
         """
         z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
         return self.advance_with(state, z)
 
     def advance_with(self, state, z):
         """Advance ``state`` in place with standard-normal draws ``z`` (n, 2)."""
+        dev = state.deviations
         new = self._innovations(z)
         for i in range(self.order):
-            new += self.phi[:, i] * state[:, :, i]
-        state[:, :, 1:] = state[:, :, :-1]
-        state[:, :, 0] = new
+            new += self.phi[:, i] * dev[:, :, i]
+        dev[:, :, 1:] = dev[:, :, :-1]
+        dev[:, :, 0] = new
         return new + self.mean
 
     def errors(self, state):
         """Return the current errors of ``state`` (mean included), (n, 2)."""
-        return state[:, :, 0] + self.mean
+        return state.deviations[:, :, 0] + self.mean
 
     def simulate(self, keys, n_steps, start=0, out=None):
         """
@@ -403,7 +413,7 @@ class ARErrorModel:
         block = max(1, (1 << 19) // (2 * m))
         hist = np.empty((2, p + block, m))
         for i in range(p):
-            hist[:, p - 1 - i] = state[:, :, i].T
+            hist[:, p - 1 - i] = state.deviations[:, :, i].T
         out[0] = self.errors(state)
         tmp = np.empty((2, m))
         phi = [self.phi[:, i:i + 1].copy() for i in range(p)]
@@ -432,7 +442,7 @@ class ARErrorModel:
         for ax in range(2):
             for i in range(p):
                 for j in range(i + 1, p + 1):
-                    zi[ax, :, i] += self.phi[ax, j - 1] * state[:, ax, j - i - 1]
+                    zi[ax, :, i] += self.phi[ax, j - 1] * state.deviations[:, ax, j - i - 1]
         t_block = max(1, (1 << 21) // m)
         for t0 in range(1, n_steps, t_block):
             t1 = min(n_steps, t0 + t_block)

@@ -28,12 +28,15 @@ any error model without touching its errors: a profile without this section
 gives the same errors, bit for bit, as before it existed.
 """
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.wrapped import OneMoreColumn
+from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.wrapped import Wrapper
 
 
 class AvailabilityError(ValueError):
@@ -134,48 +137,60 @@ def availability_from_dict(raw, source='<profile>'):
                         tuple(float(pairs[i][1]) for i in order))
 
 
-class WithAvailability(OneMoreColumn):
+@dataclasses.dataclass(eq=False)
+class AvailabilityState(AgentState):
+    """
+    The state of :class:`WithAvailability`: the inner model's, and the outage's.
+
+    ``inner`` the wrapped model's state; ``outage_left`` (n,) float the
+    steps of outage left (0: a fix).
+    """
+
+    inner: Any
+    outage_left: FloatArray
+
+
+class WithAvailability(Wrapper[AvailabilityState]):
     """
     An error model with fix availability: the inner model's errors, unchanged.
 
-    The state is the inner model's with one more column: ``[:, 0, -1]`` the
-    steps of outage left (0: a fix). Everything else is the inner model's
-    (:class:`~.wrapped.OneMoreColumn`).
+    Its state is an :class:`AvailabilityState`; everything but the outage is
+    the inner model's (:class:`~.wrapped.Wrapper`).
     """
 
     def __init__(self, inner, availability):
         super().__init__(inner)
         self.availability = availability
 
+    def empty_state(self, n):
+        """Return the state of ``n`` agents, all zeros."""
+        return AvailabilityState(self.inner.empty_state(n), np.zeros(n))
+
     def initial_state(self, keys, index):
         """Draw the inner state and the outage state at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        state = self._wider(self.inner.initial_state(keys, index))
-        state[:, 0, -1] = self.availability.initial(keys, index)
-        return state
+        return AvailabilityState(self.inner.initial_state(keys, index),
+                                 np.asarray(self.availability.initial(keys, index), dtype=float))
 
-    def advance(self, state, keys, index):
+    def advance(self, state, keys, index, heading=None):
         """Advance both in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(state[:, :, :-1], keys, index)
-        left = state[:, 0, -1].copy()
-        self.availability.advance(left, keys, index)
-        state[:, 0, -1] = left
+        err = self.inner.advance(state.inner, keys, index, heading)
+        self.availability.advance(state.outage_left, keys, index)
         return err
 
     def available(self, state):
         """Return which agents have a fix at the current step."""
-        return state[:, 0, -1] == 0
+        return state.outage_left == 0
 
-    def state_after(self, keys, start, step):
+    def state_after(self, keys, start, step, heading=None):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        state = self._wider(self.inner.state_after(keys, start, step))
-        left = self.availability.initial(keys, start)
+        inner = self.inner.state_after(keys, start, step, heading)
+        left = np.asarray(self.availability.initial(keys, start), dtype=float)
         for k in range(start + 1, step + 1):
             self.availability.advance(left, keys, k)
-        state[:, 0, -1] = left
-        return state
+        return AvailabilityState(inner, left)
 
     def simulate_availability(self, keys, n_steps, start=0):
         """Return the fix mask at steps ``start .. start + n_steps - 1``, (n, n_steps)."""
@@ -200,4 +215,4 @@ def available(model, state):
     """Return the fix mask of ``state`` (all True for a model without availability)."""
     if isinstance(model, WithAvailability):
         return model.available(state)
-    return np.ones(state.shape[0], dtype=bool)
+    return np.ones(len(state), dtype=bool)

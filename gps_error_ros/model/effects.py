@@ -69,20 +69,16 @@ from gps_error_ros.model.effect_schema import (  # noqa: F401 (the schema, re-ex
     EFFECT_NAMES, Effects, effects_from_dict, EffectsError, MAX_DOF, MAX_LAG_S, MOVING_M,
     stationary_distribution)
 from gps_error_ros.model.periodic import agent_phases, mean_autocovariance, periodic_mean
+from gps_error_ros.model.state import zeros_effects_state
 
 
 class ExtendedModel:
     """
     The AR(p) process with effects; same interface as :class:`ARErrorModel`.
 
-    The state of ``n`` agents is an array (n, 2, p + 1), (n, 2, p + 2) with
-    ``periodic``: ``[:, :, :p]`` the AR deviations as in :class:`ARErrorModel`
-    (the cycle's mean included), ``[:, 0, p]`` the current regime's index,
-    ``[:, 1, p]`` the direction of travel (radians from north, clockwise;
-    street_frame), ``[:, 0, p + 1]`` the current phase and ``[:, 1, p + 1]``
-    the agent's offset in the cycle (periodic); with ``outliers`` two more
-    columns, ``[:, :, c]`` the jump's (north, east) offset and ``[:, 0, c + 1]``
-    1.0 while a jump lasts (``c`` the first free column). Draws come from the agents'
+    The state of ``n`` agents is an :class:`~.state.EffectsState`: the AR
+    deviations (the cycle's mean included), the regime, the direction of
+    travel, the phase in the cycle and the jump under way. Draws come from the agents'
     counter-based streams, one position per model step, so an agent's errors
     do not depend on how many agents are simulated together or when its
     state was created.
@@ -116,8 +112,6 @@ class ExtendedModel:
             self.cycle_offsets = np.asarray(self.periodic.offsets, dtype=float)
             self.cycle_mean = periodic_mean(self.phi, self.cycle_offsets)
         self.outliers = effects.outliers
-        self._jump = self.order + 1 + (self.periodic is not None)
-        self._width = self._jump + 2 * (self.outliers is not None)
 
     @property
     def stationary_cov(self):
@@ -150,8 +144,14 @@ class ExtendedModel:
         return self.street is not None
 
     def empty_state(self, n):
-        """Return a state array for ``n`` agents (zeros)."""
-        return np.zeros((n, 2, self._width))
+        """Return the state of ``n`` agents, all zeros."""
+        return zeros_effects_state(n, self.order)
+
+    def face(self, state, heading):
+        """Set the direction of travel of every agent (radians; NaN: the last one holds)."""
+        heading = np.broadcast_to(np.asarray(heading, dtype=float), (len(state),))
+        moving = np.isfinite(heading)
+        state.heading[moving] = heading[moving]
 
     def initial_state(self, keys, index):
         """
@@ -164,23 +164,21 @@ class ExtendedModel:
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         state = self.empty_state(keys.size)
-        state[:, :, :self.order] = self.unit.initial_state(keys, index) * \
+        state.deviations[:] = self.unit.initial_state(keys, index).deviations * \
             self._init_scale
         if self.scales.size > 1:
             u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_REGIME,
                                       index)[:, 0]
-            state[:, 0, self.order] = np.searchsorted(self.cum_pi, u, side='right')
+            state.regime[:] = np.searchsorted(self.cum_pi, u, side='right')
         if self.periodic is not None:
             p, period = self.order, self.periodic.period
             offset = agent_phases(keys, period)
             phase = (offset + index) % period
-            state[:, 1, p + 1], state[:, 0, p + 1] = offset, phase
+            state.cycle_offset[:], state.phase[:] = offset, phase
             for i in range(p):          # the lags sit at their phases' cycle mean
-                state[:, :, i] += self.cycle_mean[(phase - i) % period]
+                state.deviations[:, :, i] += self.cycle_mean[(phase - i) % period]
         if self.outliers is not None:
-            c = self._jump
-            state[:, 0, c + 1], state[:, :, c] = jumps.initial_offsets(self.outliers, keys,
-                                                                       index)
+            state.in_jump[:], state.jump[:] = jumps.initial_offsets(self.outliers, keys, index)
         return state
 
     def advance(self, state, keys, index, heading=None):
@@ -199,10 +197,9 @@ class ExtendedModel:
             w = self.unit._innovations(z)
         if self.scales.size > 1:
             u = streams.uniform_pairs(keys, streams.DOMAIN_REGIME, index)[:, 0]
-            regime = state[:, 0, p].astype(np.int64)
-            nxt = (u[:, None] >= self.cum_transition[regime]).sum(axis=1)
+            nxt = (u[:, None] >= self.cum_transition[state.regime]).sum(axis=1)
             nxt = np.minimum(nxt, self.scales.size - 1)
-            state[:, 0, p] = nxt
+            state.regime[:] = nxt
             w *= self.scales[nxt][:, None]
         if math.isfinite(self.dof):
             u = streams.uniform_pairs(keys, streams.DOMAIN_TAIL, index)[:, 0]
@@ -211,37 +208,31 @@ class ExtendedModel:
             mix = special.gammaincinv(half, u) / half        # chi2(dof) / dof
             w *= np.sqrt((self.dof - 2.0) / self.dof / mix)[:, None]
         if self.periodic is not None:
-            phase = (state[:, 1, p + 1].astype(np.int64) + index) % self.periodic.period
-            state[:, 0, p + 1] = phase
+            phase = (state.cycle_offset + index) % self.periodic.period
+            state.phase[:] = phase
             w = w * self.cycle_scales[phase][:, None] + self.cycle_offsets[phase]
+        dev = state.deviations
         for i in range(p):
-            w += self.phi[:, i] * state[:, :, i]
-        state[:, :, 1:p] = state[:, :, 0:p - 1]
-        state[:, :, 0] = w
+            w += self.phi[:, i] * dev[:, :, i]
+        dev[:, :, 1:p] = dev[:, :, 0:p - 1]
+        dev[:, :, 0] = w
         if self.outliers is not None:
-            c = self._jump
-            off = state[:, :, c].copy()
-            inside = state[:, 0, c + 1].copy()
-            jumps.advance_offsets(self.outliers, inside, off, keys, index)
-            state[:, :, c], state[:, 0, c + 1] = off, inside
-            return w + self.mean + off
+            jumps.advance_offsets(self.outliers, state.in_jump, state.jump, keys, index)
+            return w + self.mean + state.jump
         return w + self.mean
 
     def _street_innovations(self, state, z, heading):
         """Return the innovations along/across the direction of travel, as north/east."""
-        p = self.order
         if heading is not None:
-            heading = np.asarray(heading, dtype=float)
-            moving = np.isfinite(heading)
-            state[moving, 1, p] = heading[moving]
-        theta = state[:, 1, p]
+            self.face(state, heading)
+        theta = state.heading
         c, s = np.cos(theta), np.sin(theta)
         along, across = self.street[0] * z[:, 0], self.street[1] * z[:, 1]
         return np.stack([along * c - across * s, along * s + across * c], axis=1)
 
     def street_cov(self, state):
         """Return each agent's innovation covariance (n, 2, 2) in its direction of travel."""
-        theta = state[:, 1, self.order]
+        theta = state.heading
         c, s = np.cos(theta), np.sin(theta)
         a2, x2 = self.street[0] ** 2, self.street[1] ** 2
         out = np.empty((theta.size, 2, 2))
@@ -253,8 +244,8 @@ class ExtendedModel:
     def errors(self, state):
         """Return the current errors, mean (and any jump) included, shape (n, 2)."""
         if self.outliers is not None:
-            return state[:, :, 0] + self.mean + state[:, :, self._jump]
-        return state[:, :, 0] + self.mean
+            return state.deviations[:, :, 0] + self.mean + state.jump
+        return state.deviations[:, :, 0] + self.mean
 
     def predictive_cov(self, state, first=False):
         """
@@ -269,22 +260,21 @@ class ExtendedModel:
         drawn from the stationary law, so its covariance is
         :attr:`stationary_cov` (phases, regimes and jumps averaged).
         """
-        n = state.shape[0]
+        n = len(state)
         if first:
             return np.repeat(self.stationary_cov[None], n, axis=0)
         factor = np.ones(n)
         if self.scales.size > 1:
             s2 = self.scales ** 2
-            factor = np.asarray(self.effects.transition)[self.regimes(state)] @ s2
+            factor = np.asarray(self.effects.transition)[state.regime] @ s2
         if self.periodic is not None:
-            nxt = (state[:, 0, self.order + 1].astype(np.int64) + 1) % self.periodic.period
+            nxt = (state.phase + 1) % self.periodic.period
             factor = factor * self.cycle_scales[nxt] ** 2
         base = self.street_cov(state) if self.street is not None else \
             self.unit.innovation_cov[None]
         cov = base * factor[:, None, None]
         if self.outliers is not None:
-            c = self._jump
-            cov = cov + jumps.offset_cov(self.outliers, state[:, 0, c + 1], state[:, :, c])
+            cov = cov + jumps.offset_cov(self.outliers, state.in_jump, state.jump)
         return cov
 
     def mean_step_cov(self):
@@ -318,24 +308,22 @@ class ExtendedModel:
         probability ``1 - q``; a new jump's offset has mean zero). ``first``:
         the stationary mean. The motion lag is not in it (it needs the truth).
         """
-        n = state.shape[0]
-        out = np.repeat(self.mean[None], n, axis=0)
+        out = np.repeat(self.mean[None], len(state), axis=0)
         if first:
             return out
         for i in range(self.order):
-            out += self.phi[:, i] * state[:, :, i]
+            out += self.phi[:, i] * state.deviations[:, :, i]
         if self.periodic is not None:
-            nxt = (state[:, 0, self.order + 1].astype(np.int64) + 1) % self.periodic.period
+            nxt = (state.phase + 1) % self.periodic.period
             out += self.cycle_offsets[nxt]
         if self.outliers is not None:
-            c = self._jump
             out += (1.0 - self.outliers.end_probability) * \
-                (state[:, 0, c + 1] > 0.5)[:, None] * state[:, :, c]
+                (state.in_jump > 0.5)[:, None] * state.jump
         return out
 
     def regimes(self, state):
         """Return the current regime index of each agent."""
-        return state[:, 0, self.order].astype(np.int64)
+        return state.regime.copy()
 
     def state_after(self, keys, start, step, heading=None):
         """
@@ -345,7 +333,7 @@ class ExtendedModel:
         """
         state = self.initial_state(keys, start)
         if heading is not None:
-            state[:, 1, self.order] = np.where(np.isfinite(heading), heading, 0.0)
+            state.heading[:] = np.where(np.isfinite(heading), heading, 0.0)
         for k in range(start + 1, step + 1):
             self.advance(state, keys, k)
         return state

@@ -35,13 +35,16 @@ that its solution failed); the section leaves a profile's covariance as it
 was.
 """
 
+import dataclasses
 from dataclasses import dataclass
 import math
+from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.wrapped import OneMoreColumn
+from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.wrapped import Wrapper
 
 #: The largest failure distance a profile may carry, m (a fix on the wrong continent).
 MAX_SIZE_M = 2.0e7
@@ -214,47 +217,61 @@ def failures_from_sizes(count, fixes, sizes_m, quantiles=11, spread=None):
     return GrossFailureProcess(count / fixes, sizes)
 
 
-class WithFailures(OneMoreColumn):
+@dataclasses.dataclass(eq=False)
+class FailureState(AgentState):
+    """
+    The state of :class:`WithFailures`: the inner model's, and this step's failure.
+
+    ``inner`` the wrapped model's state; ``offset`` (n, 2) this step's
+    failure offset, metres (north, east; zero: no failure).
+    """
+
+    inner: Any
+    offset: FloatArray
+
+
+class WithFailures(Wrapper[FailureState]):
     """
     An error model with gross failures: the inner model's errors, replaced where a fix failed.
 
-    The state is the inner model's with one more column: ``[:, :, -1]`` this
-    step's failure offset (north, east; zero: no failure). Everything else,
-    the covariances too (they do not cover failures), is the inner model's
-    (:class:`~.wrapped.OneMoreColumn`).
+    Its state is a :class:`FailureState`. Everything else, the covariances
+    too (they do not cover failures), is the inner model's
+    (:class:`~.wrapped.Wrapper`).
     """
 
     def __init__(self, inner, failures):
         super().__init__(inner)
         self.failures = failures
 
+    def empty_state(self, n):
+        """Return the state of ``n`` agents, all zeros."""
+        return FailureState(self.inner.empty_state(n), np.zeros((n, 2)))
+
     def initial_state(self, keys, index):
         """Draw the inner state and this step's failure at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        state = self._wider(self.inner.initial_state(keys, index))
-        state[:, :, -1] = self.failures.offsets(keys, index)[0]
-        return state
+        return FailureState(self.inner.initial_state(keys, index),
+                            self.failures.offsets(keys, index)[0])
 
-    def advance(self, state, keys, index, *args, **kwargs):
+    def advance(self, state, keys, index, heading=None):
         """Advance in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(state[:, :, :-1], keys, index, *args, **kwargs)
+        err = self.inner.advance(state.inner, keys, index, heading)
         off, fails = self.failures.offsets(keys, index)
-        state[:, :, -1] = off
+        state.offset[:] = off
         return np.where(fails[:, None], off, err)
 
     def errors(self, state):
         """Return the current north/east errors, a failed fix's where one failed."""
-        err = self.inner.errors(state[:, :, :-1])
-        off = state[:, :, -1]
+        err = self.inner.errors(state.inner)
+        off = state.offset
         return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)
 
-    def state_after(self, keys, start, step, *args, **kwargs):
+    def state_after(self, keys, start, step, heading=None):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        state = self._wider(self.inner.state_after(keys, start, step, *args, **kwargs))
-        state[:, :, -1] = self.failures.offsets(keys, step)[0]
-        return state
+        return FailureState(self.inner.state_after(keys, start, step, heading),
+                            self.failures.offsets(keys, step)[0])
 
     def simulate(self, keys, n_steps, start=0, out=None):
         """Return the inner model's simulation with the failures in, (n_steps, n, 2)."""

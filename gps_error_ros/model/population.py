@@ -61,12 +61,16 @@ covariance plus the bias's own one-step variance ``(1 - a^2) g^2
 bias_sd_m^2`` (``g`` 1 for a normal bias).
 """
 
+import dataclasses
 from dataclasses import dataclass
 import math
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.wrapped import Wrapper
 
 SECTION_KEYS = ('bias_sd_m', 'scale_sd_log')
 OPTIONAL_KEYS = ('bias_time_constant_s', 'bias_dof', 'run_bias_sd_m')
@@ -270,27 +274,45 @@ class AgentDraws:
         return out if held is None else out + held
 
 
-class WithPopulation:
+@dataclasses.dataclass(eq=False)
+class PopulationState(AgentState):
+    """
+    The state of :class:`WithPopulation`: the inner model's, and the agent's draws.
+
+    Attributes
+    ----------
+    inner : state
+        The wrapped model's state.
+    bias : (n, 2) float
+        The run's wandering bias (north, east), metres.
+    scale : (n,) float
+        The agent's scale ``f``.
+    bias_factor : (n,) float
+        The run's Student-t factor ``g`` (1 for a normal bias).
+    held : (n, 2) float or None
+        The part of the bias held for the run (``run_bias_sd_m``; else None).
+
+    """
+
+    inner: Any
+    bias: FloatArray
+    scale: FloatArray
+    bias_factor: FloatArray
+    held: Optional[FloatArray]
+
+
+class WithPopulation(Wrapper[PopulationState]):
     """
     An error model of one agent drawn from a population (see the module docstring).
 
-    The state is the inner model's with two more columns: ``[:, :, -2]`` the
-    run's (wandering) bias (north, east), ``[:, 0, -1]`` the agent's scale
-    ``f`` and ``[:, 1, -1]`` the run's Student-t factor ``g`` (1 for a
-    normal bias); with ``run_bias_sd_m``, a third, ``[:, :, -3]``, the part
-    of the bias held for the run. Errors, moments and covariances are the
-    inner model's, turned into the agent's by its scale and bias.
+    Its state is a :class:`PopulationState`. Errors, moments and covariances
+    are the inner model's, turned into the agent's by its scale and bias.
     """
 
     def __init__(self, inner, population, rate_hz=1.0):
-        self.inner = inner
+        super().__init__(inner)
         self.population = population
         self.draws = AgentDraws(population, rate_hz)
-        self.extra = 3 if self.draws.held else 2
-
-    def __getattr__(self, name):
-        # mean, lag_s, order, needs_heading, ... are the inner model's
-        return getattr(self.inner, name)
 
     # --- moments ---------------------------------------------------------
 
@@ -299,11 +321,6 @@ class WithPopulation:
         """Return the population's covariance about the mean: the process's plus the bias's."""
         return np.asarray(self.inner.stationary_cov) + self.draws.spread
 
-    @property
-    def stationary_sd(self):
-        """Return the population's SD per axis about the mean."""
-        return np.sqrt(np.diag(self.stationary_cov))
-
     def autocovariance(self, max_lag):
         """Return the population's autocovariance at lags 0..max_lag, (max_lag + 1, 2, 2)."""
         decay = self.draws.a ** np.arange(max_lag + 1)
@@ -311,67 +328,47 @@ class WithPopulation:
             decay[:, None, None] * np.diag(self.draws.bias_sd ** 2)[None] + \
             np.diag(self.draws.run_sd ** 2)[None]
 
-    def autocorrelation(self, max_lag):
-        """Return the population's autocorrelation per axis (max_lag + 1, 2)."""
-        acv = self.autocovariance(max_lag)
-        diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
-        return diag / diag[0]
-
     # --- state -----------------------------------------------------------
 
-    def _inner(self, state):
-        """Return the inner model's part of ``state``."""
-        return state[:, :, :-self.extra]
-
-    def _held(self, state):
-        """Return the parts of the agents' biases held for the run (n, 2), or None."""
-        return state[:, :, -3] if self.extra == 3 else None
-
-    def _wider(self, inner_state, keys, start, bias, g):
-        """Return ``inner_state`` with the run's biases, ``g`` and the agents' scales."""
-        state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + self.extra,))
-        state[:, :, :-self.extra] = inner_state
-        state[:, :, -2] = bias
-        state[:, 0, -1] = self.draws.scales(keys)
-        state[:, 1, -1] = g
-        if self.extra == 3:
-            state[:, :, -3] = self.draws.held_part(keys, start, g)
-        return state
+    def _state(self, inner_state, keys, start, bias, g):
+        """Return the state of ``inner_state`` with the run's biases, ``g`` and the scales."""
+        held = self.draws.held_part(keys, start, g) if self.draws.held else None
+        return PopulationState(inner_state, np.array(bias, dtype=float),
+                               self.draws.scales(keys), np.array(g, dtype=float), held)
 
     def empty_state(self, n):
-        """Return a state array for ``n`` agents (zeros)."""
-        inner = self.inner.empty_state(n)
-        return np.zeros(inner.shape[:2] + (inner.shape[2] + self.extra,))
+        """Return the state of ``n`` agents, all zeros."""
+        return PopulationState(self.inner.empty_state(n), np.zeros((n, 2)), np.zeros(n),
+                               np.zeros(n), np.zeros((n, 2)) if self.draws.held else None)
 
     def _agent(self, inner_err, state):
         """Return the agent's errors from the inner model's: ``m + f d + b``."""
         m = np.asarray(self.inner.mean, dtype=float)
-        out = m + state[:, 0, -1][:, None] * (inner_err - m) + state[:, :, -2]
-        held = self._held(state)
-        return out if held is None else out + held
+        out = m + state.scale[:, None] * (inner_err - m) + state.bias
+        return out if state.held is None else out + state.held
 
     def initial_state(self, keys, index):
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return self._wider(self.inner.initial_state(keys, index), keys, index,
+        return self._state(self.inner.initial_state(keys, index), keys, index,
                            *self.draws.run_bias(keys, index))
 
-    def advance(self, state, keys, index, *args, **kwargs):
+    def advance(self, state, keys, index, heading=None):
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(self._inner(state), keys, index, *args, **kwargs)
-        self.draws.wander(state[:, :, -2], state[:, 1, -1], keys, index)
+        err = self.inner.advance(state.inner, keys, index, heading)
+        self.draws.wander(state.bias, state.bias_factor, keys, index)
         return self._agent(err, state)
 
     def errors(self, state):
         """Return each agent's current north/east errors, (n, 2)."""
-        return self._agent(self.inner.errors(self._inner(state)), state)
+        return self._agent(self.inner.errors(state.inner), state)
 
-    def state_after(self, keys, start, step, *args, **kwargs):
+    def state_after(self, keys, start, step, heading=None):
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        inner = self.inner.state_after(keys, start, step, *args, **kwargs)
-        return self._wider(inner, keys, start, *self.draws.bias_at(keys, start, step))
+        inner = self.inner.state_after(keys, start, step, heading)
+        return self._state(inner, keys, start, *self.draws.bias_at(keys, start, step))
 
     def simulate(self, keys, n_steps, start=0, out=None):
         """Return the agents' errors at steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
@@ -401,8 +398,8 @@ class WithPopulation:
         covariance (its stationary one) plus the population's bias spread,
         the covariance of the law a run's first error is drawn from.
         """
-        return self.draws.agent_cov(self.inner.predictive_cov(self._inner(state), first),
-                                    state[:, 0, -1], state[:, 1, -1], first)
+        return self.draws.agent_cov(self.inner.predictive_cov(state.inner, first),
+                                    state.scale, state.bias_factor, first)
 
     def mean_step_cov(self):
         """Return the process's mean one-step covariance plus the population's bias spread."""
@@ -411,6 +408,5 @@ class WithPopulation:
     def predictive_mean(self, state, first=False):
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""
         return self.draws.agent_mean(np.asarray(self.inner.mean, dtype=float),
-                                     self.inner.predictive_mean(self._inner(state), first),
-                                     state[:, 0, -1], state[:, :, -2], first,
-                                     self._held(state))
+                                     self.inner.predictive_mean(state.inner, first),
+                                     state.scale, state.bias, first, state.held)

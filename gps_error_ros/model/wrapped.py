@@ -1,46 +1,124 @@
 """
-A model wrapped with one state column of its own: the base of the wrappers.
+A model wrapped around another: the base of the wrappers.
 
+:class:`~.population.WithPopulation` (an agent's bias and scale),
+:class:`~.failures.WithFailures` (this step's failure),
 :class:`~.availability.WithAvailability` (the outage state) and
-:class:`~.failures.WithFailures` (this step's failure) each add what they
-carry as the state's last column, ``[:, :, -1]``; the inner model keeps
-``[:, :, :-1]``, its errors, moments and covariances. This class holds that
-layout once: the widening of a state, and the methods that only pass the
-inner model its part.
+:class:`~.about_truth.AboutTruth` (covariances about the truth) each wrap
+an :class:`~.protocol.ErrorModel` and are one. :class:`Wrapper` holds once
+what they share: every member of the protocol, passed to the inner model
+with its part of the state (:meth:`Wrapper.part`), so that a wrapper
+writes only what it changes. A wrapper with state of its own keeps the
+inner model's state whole as the ``inner`` field of its own state class
+(:mod:`.state`).
 """
+
+from __future__ import annotations
+
+from typing import Any, Generic, Optional, TypeVar
 
 import numpy as np
 
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import AgentState, FloatArray
 
-class OneMoreColumn:
-    """An error model whose state has one more column, ``[:, :, -1]``, than ``inner``'s."""
+#: The wrapper's own state class.
+W = TypeVar('W', bound=AgentState)
 
-    def __init__(self, inner):
+
+class Wrapper(Generic[W]):
+    """An :class:`~.protocol.ErrorModel` made from ``inner``: every member passed on."""
+
+    def __init__(self, inner: ErrorModel[Any]) -> None:
         self.inner = inner
 
-    def __getattr__(self, name):
-        # moments, lag_s, order, axes ... are the inner model's
-        return getattr(self.inner, name)
+    # --- what a wrapper with state of its own overrides -------------------
 
-    @staticmethod
-    def _wider(inner_state):
-        """Return ``inner_state`` with a zero column appended."""
-        state = np.zeros(inner_state.shape[:2] + (inner_state.shape[2] + 1,))
-        state[:, :, :-1] = inner_state
-        return state
+    def part(self, state: W) -> Any:
+        """Return the inner model's part of ``state`` (its ``inner`` field)."""
+        return state.inner  # type: ignore[attr-defined]
 
-    def empty_state(self, n):
-        """Return a state array for ``n`` agents (zeros)."""
-        return self._wider(self.inner.empty_state(n))
+    def empty_state(self, n: int) -> W:
+        """Return the state of ``n`` agents, all zeros."""
+        raise NotImplementedError
 
-    def errors(self, state):
-        """Return the current north/east errors of the inner model, (n, 2)."""
-        return self.inner.errors(state[:, :, :-1])
+    def initial_state(self, keys: Any, index: int) -> W:
+        """Draw the state at model step ``index``."""
+        raise NotImplementedError
 
-    def predictive_cov(self, state, first=False):
-        """Return the inner model's covariance of the next error (n, 2, 2)."""
-        return self.inner.predictive_cov(state[:, :, :-1], first)
+    def state_after(self, keys: Any, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> W:
+        """Return the state at model step ``step`` of a run started at ``start``."""
+        raise NotImplementedError
 
-    def predictive_mean(self, state, first=False):
-        """Return the inner model's expected next error (n, 2)."""
-        return self.inner.predictive_mean(state[:, :, :-1], first)
+    def advance(self, state: W, keys: Any, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
+        """Advance ``state`` in place to model step ``index``; return the errors (n, 2)."""
+        raise NotImplementedError
+
+    # --- passed on ----------------------------------------------------------
+
+    @property
+    def order(self) -> int:
+        """Return the AR order of the process beneath."""
+        return self.inner.order
+
+    @property
+    def mean(self) -> FloatArray:
+        """Return the stationary mean of the process beneath, north and east."""
+        return self.inner.mean
+
+    @property
+    def lag_s(self) -> float:
+        """Return the motion lag, seconds."""
+        return self.inner.lag_s
+
+    @property
+    def needs_heading(self) -> bool:
+        """Return True when the innovations turn with the direction of travel."""
+        return self.inner.needs_heading
+
+    @property
+    def stationary_cov(self) -> FloatArray:
+        """Return the stationary covariance (2, 2)."""
+        return self.inner.stationary_cov
+
+    @property
+    def stationary_sd(self) -> FloatArray:
+        """Return the stationary standard deviation per axis."""
+        return np.sqrt(np.diag(self.stationary_cov))
+
+    def autocovariance(self, max_lag: int) -> FloatArray:
+        """Return the autocovariance at lags 0..max_lag, (max_lag + 1, 2, 2)."""
+        return self.inner.autocovariance(max_lag)
+
+    def autocorrelation(self, max_lag: int) -> FloatArray:
+        """Return the autocorrelation per axis, (max_lag + 1, 2)."""
+        acv = self.autocovariance(max_lag)
+        diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
+        return diag / diag[0]
+
+    def mean_step_cov(self) -> FloatArray:
+        """Return the one-step covariance averaged over the stationary law (2, 2)."""
+        return self.inner.mean_step_cov()
+
+    def errors(self, state: W) -> FloatArray:
+        """Return the current north/east errors, (n, 2)."""
+        return self.inner.errors(self.part(state))
+
+    def face(self, state: W, heading: Any) -> None:
+        """Set the direction of travel (radians; NaN: the last one holds)."""
+        self.inner.face(self.part(state), heading)
+
+    def predictive_cov(self, state: W, first: bool = False) -> FloatArray:
+        """Return each agent's covariance of the next error given ``state`` (n, 2, 2)."""
+        return self.inner.predictive_cov(self.part(state), first)
+
+    def predictive_mean(self, state: W, first: bool = False) -> FloatArray:
+        """Return each agent's expected next error given ``state`` (n, 2)."""
+        return self.inner.predictive_mean(self.part(state), first)
+
+    def simulate(self, keys: Any, n_steps: int, start: int = 0,
+                 out: Optional[FloatArray] = None) -> FloatArray:
+        """Return errors at model steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
+        return self.inner.simulate(keys, n_steps, start=start, out=out)

@@ -237,8 +237,8 @@ class ZonedErrors:
                 state = model.state_after(k, self.start, step)
             p = model.order
             self.err[r] = model.mean[None, :, None]       # lags beyond p: the mean
-            self.err[r, :, :p] = state[:, :, :p] + model.mean[None, :, None]
-            self.regime[r] = state[:, 0, p] if _has_regimes(model) else 0
+            self.err[r, :, :p] = state.deviations + model.mean[None, :, None]
+            self.regime[r] = state.regime if _has_regimes(model) else 0
             self.zone[r] = z
             self.step[r] = step
             self.started[r] = True
@@ -287,7 +287,7 @@ class ZonedErrors:
         """Return the state at ``step`` of a street-frame run from the start, heading now."""
         if step == self.start:
             state = model.initial_state(keys, step)
-            state[:, 1, model.order] = self.heading[rows]
+            model.face(state, self.heading[rows])
             if self.conditional_cov:
                 self.cov[rows] = self._stated(model, rows, state, first=True)
             return state
@@ -303,9 +303,9 @@ class ZonedErrors:
             model, r, k = self.models[z], rows[sel], keys[sel]
             p = model.order
             tmp = model.empty_state(r.size)
-            tmp[:, :, :p] = self.err[r, :, :p] - model.mean[None, :, None]
+            tmp.deviations[:] = self.err[r, :, :p] - model.mean[None, :, None]
             if model.needs_heading:
-                tmp[:, 1, p] = self.heading[r]
+                model.face(tmp, self.heading[r])
             if _has_regimes(model):
                 regime = self.regime[r].copy()
                 entering = self.zone[r] != z
@@ -313,13 +313,13 @@ class ZonedErrors:
                     u = streams.uniform_pairs(k[entering], streams.DOMAIN_INIT_REGIME,
                                               step)[:, 0]
                     regime[entering] = np.searchsorted(model.cum_pi, u, side='right')
-                tmp[:, 0, p] = regime
+                tmp.regime[:] = regime
             if self.conditional_cov:
                 self.cov[r] = self._stated(model, r, tmp)
             e = model.advance(tmp, k, step)
             self.err[r, :, 1:] = self.err[r, :, :-1]
             self.err[r, :, 0] = e
-            self.regime[r] = tmp[:, 0, p] if _has_regimes(model) else 0
+            self.regime[r] = tmp.regime if _has_regimes(model) else 0
             self.zone[r] = z
             self.step[r] = step
         if self.population is not None:

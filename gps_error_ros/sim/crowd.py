@@ -77,7 +77,7 @@ class CrowdErrors:
         """Return the named agents' current north/east errors, in metres."""
         rows = self._rows(names)
         self.last_seen[rows] = self.step
-        out = self.model.errors(self.state[rows])
+        out = self.model.errors(self.state.take(rows))
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out
@@ -107,7 +107,7 @@ class CrowdErrors:
 
     def available(self, names):
         """Return which named agents have a fix now (profile availability; else all)."""
-        return available(self.model, self.state[self._rows(names)])
+        return available(self.model, self.state.take(self._rows(names)))
 
     def _rows(self, names):
         """Return the state rows of ``names``, adding the agents not yet known."""
@@ -129,7 +129,7 @@ class CrowdErrors:
             self.index[n] = base + i
         self.names.extend(names)
         self.keys = np.concatenate([self.keys, keys])
-        self.state = np.concatenate([self.state, state])
+        self.state = self.state.joined(state)
         self.last_seen = np.concatenate(
             [self.last_seen, np.full(len(names), self.step, dtype=np.int64)])
         if self.zoned is not None:
@@ -141,7 +141,7 @@ class CrowdErrors:
             return
         self.names = [n for n, k in zip(self.names, keep) if k]
         self.index = {n: i for i, n in enumerate(self.names)}
-        self.keys, self.state = self.keys[keep], self.state[keep]
+        self.keys, self.state = self.keys[keep], self.state.take(keep)
         if self.conditional_cov:
             self.cov_now = self.cov_now[keep]
         self.last_seen = self.last_seen[keep]

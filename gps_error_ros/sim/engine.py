@@ -209,7 +209,7 @@ class FixEngine:
         self.last_skipped = np.concatenate([self.last_skipped, np.full(n, -1, np.int64)])
         self.truth.grow(n)
         if self.state is not None:
-            self.state = np.concatenate([self.state, self.model.empty_state(n)])
+            self.state = self.state.joined(self.model.empty_state(n))
         for side in self.side.values():
             side.grow(n)
         for step in self.pending:
@@ -262,7 +262,7 @@ class FixEngine:
             m += 1
             cov = self.model.predictive_cov(state) if cov is not None else None
             self.model.advance(state, keys, m)
-        self.state[slots] = state
+        self.state.put(slots, state)
         if cov is not None:
             self.cov_now[slots] = cov
         for name, side in self.side.items():

@@ -59,10 +59,10 @@ def test_state_is_pure_in_the_agents_stream():
     state = m.initial_state(k, 5)
     for step in range(6, 200):
         m.advance(state, k, step)
-    np.testing.assert_array_equal(m.state_after(k, 5, 199), state)
+    assert m.state_after(k, 5, 199).same_as(state)
     alone = m.state_after(k[9:10], 5, 199)
-    np.testing.assert_array_equal(alone[0], state[9])
-    assert np.isfinite(state).all()
+    assert alone.same_as(state.take([9]))
+    assert all(np.isfinite(v).all() for v in state.arrays().values())
 
 
 def test_predictive_covariance_adds_the_next_offsets():
@@ -72,12 +72,11 @@ def test_predictive_covariance_adds_the_next_offsets():
     state = m.initial_state(k, 0)
     for step in range(1, 40):
         m.advance(state, k, step)
-    c = m._jump
     # one agent in a jump, one clean, then the next step drawn 200,000 ways each
-    state[0, :, c], state[0, 0, c + 1] = (5.0, -3.0), 1.0
-    state[1, :, c], state[1, 0, c + 1] = 0.0, 0.0
+    state.jump[0], state.in_jump[0] = (5.0, -3.0), 1.0
+    state.jump[1], state.in_jump[1] = 0.0, 0.0
     cov = m.predictive_cov(state)
-    many = np.repeat(state, 200000, axis=0)
+    many = state.take(np.repeat(np.arange(2), 200000))
     draws = keys(400000, seed=9)
     nxt = m.advance(many, draws, 41)
     for agent in range(2):

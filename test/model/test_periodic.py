@@ -40,15 +40,15 @@ def test_phases_are_per_agent_and_pure():
     m = model()
     keys = streams.agent_keys(3, [f'a{i}' for i in range(64)])
     state = m.initial_state(keys, 5)
-    offsets = state[:, 1, m.order + 1]
+    offsets = state.cycle_offset
     assert len(set(offsets.astype(int))) >= 6            # phones are not in step
     for k in range(6, 30):
         m.advance(state, keys, k)
     again = m.state_after(keys, 5, 29)
-    np.testing.assert_array_equal(again, state)
-    assert np.all(state[:, 0, m.order + 1] == (offsets + 29) % PERIOD)
+    assert again.same_as(state)
+    assert np.all(state.phase == (offsets + 29) % PERIOD)
     alone = m.state_after(keys[7:8], 5, 29)                # not how many agents run together
-    np.testing.assert_array_equal(alone[0], state[7])
+    assert alone.same_as(state.take([7]))
 
 
 def test_steady_state_mean_solves_the_recursion():
@@ -66,7 +66,7 @@ def test_predictive_covariance_follows_the_phase():
     state = m.initial_state(keys, 0)
     for k in range(1, 20):
         cov = m.predictive_cov(state)
-        nxt = (state[:, 0, m.order + 1].astype(int) + 1) % PERIOD
+        nxt = (state.phase + 1) % PERIOD
         want = m.unit.innovation_cov[None] * (np.array(SCALES)[nxt] ** 2)[:, None, None]
         np.testing.assert_allclose(cov, want, rtol=1e-12)
         m.advance(state, keys, k)

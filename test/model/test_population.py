@@ -134,13 +134,13 @@ def test_the_conditional_covariance_knows_the_agent():
     inner = load_profile('DS5').model()
     keys = streams.agent_keys(5, ['a', 'b'])
     state = model.state_after(keys, 0, 20)
-    f = state[:, 0, -1]
+    f = state.scale
     a2 = np.exp(-2.0 / 200.0)
-    want = inner.predictive_cov(state[:, :, :-2]) * (f ** 2)[:, None, None] + \
+    want = inner.predictive_cov(state.inner) * (f ** 2)[:, None, None] + \
         np.diag([4.0, 9.0]) * (1 - a2)
     np.testing.assert_allclose(model.predictive_cov(state), want, rtol=1e-12)
     first = model.predictive_cov(model.initial_state(keys, 0), first=True)
-    np.testing.assert_allclose(first[0], inner.predictive_cov(state[:, :, :-2], first=True)[0]
+    np.testing.assert_allclose(first[0], inner.predictive_cov(state.inner, first=True)[0]
                                + np.diag([4.0, 9.0]), rtol=1e-12)
     # the expected next error: what the next step's error is, up to its innovation
     nxt = state.copy()
@@ -201,10 +201,10 @@ def test_the_conditional_covariance_knows_a_student_t_runs_factor():
     inner = load_profile('DS5').model()
     keys = streams.agent_keys(5, ['a', 'b', 'c'])
     state = model.state_after(keys, 0, 20)
-    f, g = state[:, 0, -1], state[:, 1, -1]
+    f, g = state.scale, state.bias_factor
     assert np.all(g > 0) and not np.allclose(g, 1.0)
     a2 = np.exp(-2.0 / 200.0)
-    want = inner.predictive_cov(state[:, :, :-2]) * (f ** 2)[:, None, None] + \
+    want = inner.predictive_cov(state.inner) * (f ** 2)[:, None, None] + \
         np.diag([4.0, 9.0]) * (1 - a2) * (g ** 2)[:, None, None]
     np.testing.assert_allclose(model.predictive_cov(state), want, rtol=1e-12)
     np.testing.assert_allclose(model.stationary_cov,
