@@ -75,13 +75,15 @@ def travel_direction(lat0, lon0, lat1, lon1, ok=None):
     return np.where(moving, np.arctan2(east, north), np.nan)
 
 
-def _has_regimes(model):
-    return isinstance(model, ExtendedModel) and model.scales.size > 1
-
-
 def _core(model):
     """Return (the model beneath an :class:`AboutTruth`, whether it was wrapped)."""
     return (model.core, True) if isinstance(model, AboutTruth) else (model, False)
+
+
+def _has_regimes(model):
+    """Return True when the process (beneath any :class:`AboutTruth`) has variance regimes."""
+    core = _core(model)[0]
+    return isinstance(core, ExtendedModel) and core.scales.size > 1
 
 
 #: Per-slot arrays of :class:`ZonedErrors` (grown, kept and forgotten together).
@@ -312,7 +314,7 @@ class ZonedErrors:
                 if entering.any():
                     u = streams.uniform_pairs(k[entering], streams.DOMAIN_INIT_REGIME,
                                               step)[:, 0]
-                    regime[entering] = np.searchsorted(model.cum_pi, u, side='right')
+                    regime[entering] = np.searchsorted(_core(model)[0].cum_pi, u, side='right')
                 tmp.regime[:] = regime
             if self.conditional_cov:
                 self.cov[r] = self._stated(model, r, tmp)

@@ -9,11 +9,12 @@ import json
 
 import numpy as np
 import pytest
+import yaml
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import state_and_cov
-from gps_error_ros.model.profiles import builtin_dir, load_profile
-from gps_error_ros.model.zoned import zoned_errors, ZonedErrors
+from gps_error_ros.model.profiles import builtin_dir, load_profile, profile_from_dict
+from gps_error_ros.model.zoned import one_zone, simulate_along, zoned_errors, ZonedErrors
 from gps_error_ros.model.zones import load_zone_map, OUTSIDE, zone_models, ZoneMapError
 
 LAT0, LON0 = 40.75, -73.99
@@ -212,6 +213,32 @@ def test_one_zone_is_the_plain_model():
     got = np.array([zoned.errors(np.arange(3), keys, k, np.zeros(3, int))[0]
                     for k in range(10, 60)])
     np.testing.assert_allclose(got, model.simulate(keys, 50, start=10), atol=1e-9)
+
+
+REGIMES = {'variance_regimes': {'scales': [1.0, 3.0], 'transition': [[0.9, 0.1], [0.3, 0.7]]}}
+
+
+@pytest.mark.parametrize('street', [False, True], ids=['regimes', 'regimes in a street frame'])
+def test_what_a_covariance_is_about_does_not_change_the_errors_in_zones(street):
+    """
+    The regime chain runs on beneath covariances stated about the truth.
+
+    (The zone path once read a model stating its covariances about the truth
+    as one without regimes, and restarted the chain from regime 0 each step.)
+    """
+    raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
+    raw['effects'] = dict(REGIMES, **({'street_frame': {'sigma_along': 0.6,
+                                                        'sigma_across': 1.4}}
+                                      if street else {}))
+    profile = profile_from_dict(raw, 'regimes')
+    keys = streams.agent_keys(3, [f'r{i}' for i in range(20)])
+    got = []
+    for about in (False, True):
+        zoned = one_zone(profile.model(about_truth=about), conditional_cov=True)
+        got.append(simulate_along(zoned, keys, np.arange(300), np.full(300, OUTSIDE)))
+    np.testing.assert_array_equal(got[0], got[1])
+    if not street:          # and they are the model's own, with or without a zone map
+        np.testing.assert_allclose(got[0], profile.model().simulate(keys, 300), atol=1e-9)
 
 
 def _acf(x, mean, lags):
