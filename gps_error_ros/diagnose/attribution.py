@@ -10,6 +10,7 @@ into an effect.
 
 from dataclasses import dataclass, field
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -29,7 +30,7 @@ class Attribution:
     alternatives_rejected: list
     unexplained: list
     regimes: int = 2
-    lag_s: float = None
+    lag_s: Optional[float] = None
     period: int = 0             # periodic: the cycle's length, steps
     orders: tuple = ()          # the base model's AR orders
     jump_orders: tuple = ()     # with outliers: those of the series without its jumps

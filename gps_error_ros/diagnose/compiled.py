@@ -10,7 +10,7 @@ which to run (decision record 0008).
 #: Whether the compiled loops run when numba is installed (tests turn it off to
 #: compare the two forms).
 COMPILED = True
-_LOADED = {}
+_LOADED: dict[str, object] = {}
 
 
 def kernel(name):

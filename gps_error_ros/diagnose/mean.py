@@ -18,6 +18,7 @@ step from the trace's first fix modulo the period.
 
 from dataclasses import dataclass
 import math
+from typing import Optional
 
 import numpy as np
 from scipy import optimize
@@ -90,8 +91,8 @@ class Design:
     y: np.ndarray          # (n, 2) u at the scored samples
     lags: list             # per axis (n, p_a) lagged u
     seg: np.ndarray        # (n,) segment index of each scored sample
-    heading: np.ndarray = None   # (n,) direction of travel, rad (street_frame)
-    steps: np.ndarray = None     # (n,) step from the trace's first fix (periodic)
+    heading: Optional[np.ndarray] = None   # (n,) direction of travel, rad (street_frame)
+    steps: Optional[np.ndarray] = None     # (n,) step from the trace's first fix (periodic)
 
     def phase(self, period):
         """Return each scored sample's phase in a cycle of ``period`` steps."""
@@ -128,7 +129,7 @@ class MeanFit:
     lag_s: float = 0.0
     gain: float = 1.0
     period: int = 0                 # periodic: the cycle's length, steps (0: none)
-    offsets: np.ndarray = None      # periodic: (period, 2) innovation mean by phase
+    offsets: Optional[np.ndarray] = None      # periodic: (period, 2) innovation mean by phase
 
     def residuals(self, d):
         """Return the innovations of design ``d``, (n, 2)."""

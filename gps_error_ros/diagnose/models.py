@@ -16,6 +16,7 @@ likelihood is the filter's mixture (:mod:`.jumps`).
 
 from dataclasses import dataclass, replace
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -42,8 +43,8 @@ class FittedModel:
     law: Law
     train_loglik: float
     n_train: int
-    cycle_scales: np.ndarray = None     # periodic: (period,) innovation SD by phase
-    jumps: Outliers = None      # outliers: rate, mean length, size
+    cycle_scales: Optional[np.ndarray] = None     # periodic: (period,) innovation SD by phase
+    jumps: Optional[Outliers] = None      # outliers: rate, mean length, size
 
     @property
     def n_params(self):

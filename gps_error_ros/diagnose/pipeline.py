@@ -48,9 +48,11 @@ by least squares, innovation law by maximum likelihood; :mod:`.models`).
 
 from dataclasses import dataclass, field, replace
 import math
+from typing import Optional
 
 import numpy as np
 
+from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_EFFECTS,
                                                 RETEST_LABEL, travel_axes_win)
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, FIRST_SHARE,
@@ -60,7 +62,6 @@ from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_re
                                            motion_test, periodicity_test, retest,
                                            travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
-from gps_error_ros.diagnose import jumps
 from gps_error_ros.diagnose.mean import (condition_count, design, fit_lag, from_travel_frame,
                                          gain_loss, least_squares, log_det,
                                          motion_correlation, to_travel_frame)
@@ -138,7 +139,7 @@ class FamilyResult:
     tests: dict            # name -> statistic, p_value, holm_adjusted_p, rejected
     reject: dict
     adjusted: dict
-    lag_s: float = None    # the lag removed before the law's tests, if any
+    lag_s: Optional[float] = None    # the lag removed before the law's tests, if any
     jump_orders: tuple = ()     # with jumps: the AR orders without them (see run_family)
     base_residuals: tuple = ()      # (r, seg) of the base model on the training part
 

@@ -8,6 +8,7 @@ segment that straddles the cut becomes two.
 """
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -26,7 +27,7 @@ class Part:
     t: list              # per segment (n_s,) fix times, s
     #: per segment, the recording it belongs to (None: all one recording); what
     #: judges a part restarts at a recording's start and never pools across one
-    recording: list = None
+    recording: Optional[list] = None
 
     @property
     def n(self):
@@ -67,10 +68,10 @@ class Split:
     cut_time_s: float
     #: each training segment's weight in a population fit (None: 1 each;
     #: see :func:`~gps_error_ros.fit.population_fit.segment_weights`)
-    train_weights: tuple = None
+    train_weights: Optional[tuple] = None
     #: (training rows, held-out rows) as traces, where the trace has speed and
     #: course columns (:mod:`~gps_error_ros.diagnose.velocity_check`); else None
-    velocity: tuple = None
+    velocity: Optional[tuple] = None
 
 
 def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):

@@ -24,6 +24,7 @@ samples. Outages are counted within each recording.
 """
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -53,7 +54,7 @@ class GriddedErrors:
     segments: tuple
     starts: tuple
     rate_hz: float
-    rows: np.ndarray = None   # trace row of each sample, segments concatenated
+    rows: Optional[np.ndarray] = None   # trace row of each sample, segments concatenated
 
     @property
     def n(self):
@@ -171,7 +172,7 @@ class CalibrationResult:
     velocity: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
     reported: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
     failures: tuple = ()        # GrossFailures per recording
-    fix_masks: tuple = None     # per recording, every grid step: a fix (failures too)
+    fix_masks: Optional[tuple] = None     # per recording, every grid step: a fix (failures too)
     population: object = None   # PopulationFit, when asked for
 
     @property

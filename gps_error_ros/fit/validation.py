@@ -22,19 +22,21 @@ the simulated values):
 """
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_acf
 from gps_error_ros.fit.calibration import errors_on_grid
-from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.envelope import outage_envelopes
+from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.zoned import simulate_along
 from gps_error_ros.traces.trace_io import Trace
+
 QQ_PROBS = np.linspace(0.01, 0.99, 99)
 #: The extra column that marks a trace's gross failures (1.0) for :func:`validate`.
 FAILURE_COLUMN = 'gross_failure'
@@ -68,11 +70,11 @@ class ValidationResult:
     measured: np.ndarray   # (n, 2) errors
     simulated: np.ndarray  # (n, 2) one simulated error trace
     truth: tuple           # (lat, lon) at the measured steps
-    availability: dict = None   # outage statistics, measured against simulated
-    per_zone: dict = None       # zone name -> the same checks on its samples (--zones)
-    reported: dict = None       # stated accuracy, measured against simulated
-    share_pct: dict = None      # axis -> {'acf', 'quantiles'}: see share_percentile
-    joint_pct: float = None     # the four shares together: see joint_share_percentile
+    availability: Optional[dict] = None   # outage statistics, measured against simulated
+    per_zone: Optional[dict] = None       # zone name -> the same checks on its samples (--zones)
+    reported: Optional[dict] = None       # stated accuracy, measured against simulated
+    share_pct: Optional[dict] = None      # axis -> {'acf', 'quantiles'}: see share_percentile
+    joint_pct: Optional[float] = None     # the four shares together: see joint_share_percentile
 
     def summary(self):
         """Return the numbers behind the figures as plain data."""

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import json
 from pathlib import Path
 import re
+from typing import Optional
 
 import numpy as np
 
@@ -49,7 +50,7 @@ class ZoneFit:
     name: str
     samples: int
     segments: int
-    fits: tuple = None          # (north AxisFit, east AxisFit), or None
+    fits: Optional[tuple] = None          # (north AxisFit, east AxisFit), or None
     reason: str = ''
 
 

@@ -24,16 +24,19 @@ the mean square error matrix about the truth, ``E[e e^T] = C + m m^T``:
 model's own, bit for bit.
 """
 
+from typing import Any, Optional
+
 import numpy as np
 
-from gps_error_ros.model.state import AgentState
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import AgentState, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
 #: What a stated covariance covers: the error about the truth, or about its mean.
 COVARIANCE_ABOUT = ('truth', 'mean')
 
 
-def mean_square(cov, mean):
+def mean_square(cov: Numbers, mean: Numbers) -> FloatArray:
     """Return ``cov + mean mean^T`` for covariances (..., 2, 2) and means (..., 2)."""
     mean = np.asarray(mean, dtype=float)
     return np.asarray(cov, dtype=float) + mean[..., :, None] * mean[..., None, :]
@@ -47,40 +50,42 @@ class AboutTruth(Wrapper[AgentState]):
     are the model's, bit for bit; only the stated covariances change.
     """
 
-    def __init__(self, core):
+    def __init__(self, core: ErrorModel[Any]) -> None:
         super().__init__(core)
         self.core = core
 
-    def part(self, state):
+    def part(self, state: AgentState) -> AgentState:
         """Return ``state``: the wrapped model's, unchanged."""
         return state
 
-    def empty_state(self, n):
+    def empty_state(self, n: int) -> AgentState:
         """Return the wrapped model's state of ``n`` agents, all zeros."""
         return self.core.empty_state(n)
 
-    def initial_state(self, keys, index):
+    def initial_state(self, keys: Keys, index: int) -> AgentState:
         """Draw the wrapped model's state at model step ``index``."""
         return self.core.initial_state(keys, index)
 
-    def state_after(self, keys, start, step, heading=None):
+    def state_after(self, keys: Keys, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> AgentState:
         """Return the wrapped model's state at ``step`` of a run started at ``start``."""
         return self.core.state_after(keys, start, step, heading)
 
-    def advance(self, state, keys, index, heading=None):
+    def advance(self, state: AgentState, keys: Keys, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
         """Advance the wrapped model's state in place; return its errors."""
         return self.core.advance(state, keys, index, heading)
 
     @property
-    def stationary_cov(self):
+    def stationary_cov(self) -> FloatArray:
         """Return the stationary mean square error matrix (2, 2)."""
         return mean_square(self.core.stationary_cov, self.core.mean)
 
-    def mean_step_cov(self):
+    def mean_step_cov(self) -> FloatArray:
         """Return the mean one-step mean square error matrix, the stationary mean's included."""
         return mean_square(self.core.mean_step_cov(), self.core.mean)
 
-    def predictive_cov(self, state, first=False):
+    def predictive_cov(self, state: AgentState, first: bool = False) -> FloatArray:
         """Return each agent's mean square error matrix of the next error given ``state``."""
         return mean_square(self.core.predictive_cov(state, first),
                            self.core.predictive_mean(state, first))

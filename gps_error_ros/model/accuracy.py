@@ -16,10 +16,12 @@ error's mean. Covariances are north/east (m^2), arrays of shape (..., 2, 2).
 
 import numpy as np
 
+from gps_error_ros.model.state import FloatArray, Numbers
+
 _THETA = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
 
 
-def ellipse(cov):
+def ellipse(cov: Numbers) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Return (semi_major, semi_minor, orientation_deg) of north/east covariances."""
     cov = np.asarray(cov, dtype=float)
     nn, ee, ne = cov[..., 0, 0], cov[..., 1, 1], cov[..., 0, 1]
@@ -32,7 +34,7 @@ def ellipse(cov):
     return major, minor, orientation
 
 
-def _inside(a, major, minor):
+def _inside(a: FloatArray, major: FloatArray, minor: FloatArray) -> FloatArray:
     """Return P(|error| <= a) for zero-mean Gaussians with these principal SDs."""
     # in the principal axes: P = 1/(2 pi) * integral of (1 - exp(-a^2 g / 2)) / (sd1 sd2 g)
     c2, s2 = np.cos(_THETA) ** 2, np.sin(_THETA) ** 2
@@ -42,11 +44,11 @@ def _inside(a, major, minor):
 
 
 #: Radii already found, by (covariance, p): a crowd's covariances repeat at every step.
-_KNOWN = {}
+_KNOWN: dict[tuple[float, ...], float] = {}
 _KNOWN_MAX = 4096
 
 
-def radius68(cov, p=0.68):
+def radius68(cov: Numbers, p: float = 0.68) -> FloatArray:
     """
     Return the radius holding ``p`` of a zero-mean error with covariance ``cov``.
 
@@ -68,7 +70,7 @@ def radius68(cov, p=0.68):
     return radii[np.ravel(inverse)].reshape(cov.shape[:-2])
 
 
-def _bisect(cov, p):
+def _bisect(cov: FloatArray, p: float) -> FloatArray:
     """Return the radius holding ``p`` of each covariance (n, 2, 2), by bisection."""
     major, minor, _ = ellipse(cov)
     minor = np.maximum(minor, 1e-9 * np.maximum(major, 1e-12))

@@ -15,9 +15,12 @@ roots of ``a(z)`` lie strictly outside the unit circle.
 from dataclasses import dataclass
 
 import numpy as np
+from typing import Any, Optional
+import numpy.typing as npt
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.state import ARState
+from gps_error_ros.model.protocol import ErrorModel, S
+from gps_error_ros.model.state import ARState, FloatArray, Keys, Numbers
 
 AXES = ('north', 'east')
 #: Largest AR order: the initial state's pairs must fit the stream slots.
@@ -28,14 +31,14 @@ class ModelError(ValueError):
     """An AR specification that cannot define a stationary error process."""
 
 
-def ar_roots(phi):
+def ar_roots(phi: Numbers) -> npt.NDArray[Any]:
     """Return the roots of ``1 - phi_1 z - ... - phi_p z**p``."""
     phi = np.asarray(phi, dtype=float)
     # numpy.roots wants the highest power first.
     return np.roots(np.r_[-phi[::-1], 1.0])
 
 
-def inverse_root_modulus(phi):
+def inverse_root_modulus(phi: Numbers) -> float:
     """
     Return the largest modulus of the inverse AR roots (spectral radius).
 
@@ -52,7 +55,7 @@ def inverse_root_modulus(phi):
     return float(np.max(np.abs(np.linalg.eigvals(comp))))
 
 
-def is_stationary(phi, margin=0.0):
+def is_stationary(phi: Numbers, margin: float = 0.0) -> bool:
     """Return True when every AR root lies outside the unit circle (+margin)."""
     phi = np.asarray(phi, dtype=float)
     if phi.size == 0 or not np.any(phi):
@@ -77,10 +80,10 @@ class AxisParams:
     """
 
     delta: float
-    phi: tuple
+    phi: tuple[float, ...]
     sigma_w: float
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         object.__setattr__(self, 'phi', tuple(float(v) for v in self.phi))
         values = (self.delta, self.sigma_w) + self.phi
         if not all(np.isfinite(v) for v in values):
@@ -101,17 +104,17 @@ class AxisParams:
                 f'modulus of 1 - sum phi_i z^i is {smallest:.4f}, expected > 1')
 
     @property
-    def order(self):
+    def order(self) -> int:
         """Return the AR order p."""
         return len(self.phi)
 
     @property
-    def mean(self):
+    def mean(self) -> float:
         """Return the process mean ``delta / (1 - sum phi)`` (Eq. 3)."""
         return self.delta / (1.0 - sum(self.phi))
 
 
-def stationary_cov(a, q):
+def stationary_cov(a: FloatArray, q: FloatArray) -> FloatArray:
     """
     Return the stationary covariance ``x = a x a' + q`` of ``s(t) = a s(t-1) + noise``.
 
@@ -124,7 +127,7 @@ def stationary_cov(a, q):
     return np.linalg.solve(lhs, q.reshape(-1)).reshape(n, n)
 
 
-def _sqrt_psd(cov):
+def _sqrt_psd(cov: FloatArray) -> FloatArray:
     """
     Return L with L @ L.T == cov: Cholesky, or from eigenvalues.
 
@@ -145,12 +148,12 @@ class ARErrorModel:
 
     Parameters
     ----------
-    north : AxisParams
+    north
         The north axis' parameters; the orders may differ (the shorter is
         zero-padded).
-    east : AxisParams
+    east
         The east axis' parameters.
-    innovation_corr : float
+    innovation_corr
         Correlation of the north and east innovations (0 in the paper).
 
     """
@@ -160,7 +163,8 @@ class ARErrorModel:
     #: The innovations do not turn with the direction of travel (street_frame).
     needs_heading = False
 
-    def __init__(self, north, east, innovation_corr=0.0):
+    def __init__(self, north: AxisParams, east: AxisParams,
+                 innovation_corr: float = 0.0) -> None:
         if not -1.0 < innovation_corr < 1.0:
             raise ModelError(
                 f'innovation_corr must be in (-1, 1), got {innovation_corr}')
@@ -188,7 +192,7 @@ class ARErrorModel:
                              'too close to the unit circle)')
         self._state_chol = _sqrt_psd(self.state_cov)
 
-    def _companion(self):
+    def _companion(self) -> FloatArray:
         p = self.order
         a = np.zeros((2 * p, 2 * p))
         for ax in range(2):
@@ -198,17 +202,17 @@ class ARErrorModel:
         return a
 
     @property
-    def stationary_cov(self):
+    def stationary_cov(self) -> FloatArray:
         """Return the 2x2 (north, east) covariance of the error about its mean."""
         i = [0, self.order]
         return self.state_cov[np.ix_(i, i)].copy()
 
     @property
-    def stationary_sd(self):
+    def stationary_sd(self) -> FloatArray:
         """Return the stationary standard deviation per axis (north, east)."""
         return np.sqrt(np.diag(self.stationary_cov))
 
-    def autocovariance(self, max_lag):
+    def autocovariance(self, max_lag: int) -> FloatArray:
         """
         Return the exact autocovariance, shape (max_lag + 1, 2, 2).
 
@@ -223,7 +227,7 @@ class ARErrorModel:
             cov = self.transition @ cov
         return out
 
-    def autocorrelation(self, max_lag):
+    def autocorrelation(self, max_lag: int) -> FloatArray:
         """Return the exact autocorrelation per axis, shape (max_lag + 1, 2)."""
         acv = self.autocovariance(max_lag)
         diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
@@ -231,7 +235,7 @@ class ARErrorModel:
 
     # --- simulation -----------------------------------------------------
 
-    def initial_state(self, keys, index):
+    def initial_state(self, keys: Keys, index: int) -> ARState:
         """
         Draw the state at model step ``index`` from the stationary law.
 
@@ -252,7 +256,7 @@ class ARErrorModel:
                     x[:, i] += self._state_chol[i, j] * z[:, j]
         return ARState(x.reshape(keys.size, 2, p))
 
-    def predictive_cov(self, state, first=False):
+    def predictive_cov(self, state: ARState, first: bool = False) -> FloatArray:
         """
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
@@ -265,7 +269,7 @@ class ARErrorModel:
             return np.repeat(self.stationary_cov[None], len(state), axis=0)
         return np.repeat(self.innovation_cov[None], len(state), axis=0)
 
-    def mean_step_cov(self):
+    def mean_step_cov(self) -> FloatArray:
         """
         Return the one-step covariance (2, 2) averaged over the stationary law.
 
@@ -275,7 +279,7 @@ class ARErrorModel:
         """
         return self.innovation_cov.copy()
 
-    def predictive_mean(self, state, first=False):
+    def predictive_mean(self, state: ARState, first: bool = False) -> FloatArray:
         """
         Return each agent's expected next error (n, 2) given ``state``, mean included.
 
@@ -290,14 +294,15 @@ class ARErrorModel:
             out += self.phi[:, i] * dev[:, :, i]
         return out
 
-    def empty_state(self, n):
+    def empty_state(self, n: int) -> ARState:
         """Return the state of ``n`` agents, all zeros."""
         return ARState(np.zeros((n, 2, self.order)))
 
-    def face(self, state, heading):
+    def face(self, state: ARState, heading: Numbers) -> None:
         """Do nothing: the AR process does not turn with the direction of travel."""
 
-    def state_after(self, keys, start, step, heading=None):
+    def state_after(self, keys: Keys, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> ARState:
         """
         Return the state at model step ``step`` of a run started at ``start``.
 
@@ -315,7 +320,7 @@ class ARErrorModel:
             self.advance(state, keys, s)
         return state
 
-    def _innovations(self, z):
+    def _innovations(self, z: FloatArray) -> FloatArray:
         """Return innovations from standard normals ``z`` (..., 2), elementwise."""
         c = self._innovation_chol
         w = np.empty_like(z)
@@ -325,7 +330,8 @@ class ARErrorModel:
             w[..., 1] += c[1, 0] * z[..., 0]
         return w
 
-    def advance(self, state, keys, index, heading=None):
+    def advance(self, state: ARState, keys: Keys, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
         """
         Advance ``state`` in place to model step ``index``; return errors.
 
@@ -336,7 +342,7 @@ class ARErrorModel:
         z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
         return self.advance_with(state, z)
 
-    def advance_with(self, state, z):
+    def advance_with(self, state: ARState, z: FloatArray) -> FloatArray:
         """Advance ``state`` in place with standard-normal draws ``z`` (n, 2)."""
         dev = state.deviations
         new = self._innovations(z)
@@ -346,11 +352,12 @@ class ARErrorModel:
         dev[:, :, 0] = new
         return new + self.mean
 
-    def errors(self, state):
+    def errors(self, state: ARState) -> FloatArray:
         """Return the current errors of ``state`` (mean included), (n, 2)."""
         return state.deviations[:, :, 0] + self.mean
 
-    def simulate(self, keys, n_steps, start=0, out=None):
+    def simulate(self, keys: Keys, n_steps: int, start: int = 0,
+                 out: Optional[FloatArray] = None) -> FloatArray:
         """
         Simulate errors at model steps ``start .. start + n_steps - 1``.
 
@@ -363,13 +370,13 @@ class ARErrorModel:
 
         Parameters
         ----------
-        keys : array of uint64
+        keys
             The agents' stream keys (:func:`~.streams.agent_keys`).
-        n_steps : int
+        n_steps
             Model steps to simulate.
-        start : int
+        start
             The first model step (the stream index of the initial state).
-        out : numpy.ndarray, optional
+        out
             Where to write the result.
 
         Returns
@@ -396,7 +403,7 @@ class ARErrorModel:
             run(keys[a0:a1], n_steps, start, out[:, a0:a1])
         return out
 
-    def _noise_innovations(self, keys, start, count):
+    def _noise_innovations(self, keys: Keys, start: int, count: int) -> FloatArray:
         """Return innovations (2, count, m) in the node's order of operations."""
         z = streams.normal_block_axes(keys, streams.DOMAIN_STEP, start, count)
         c = self._innovation_chol
@@ -406,7 +413,7 @@ class ARErrorModel:
         z[0] *= c[0, 0]
         return z
 
-    def _simulate_steps(self, keys, n_steps, start, out):
+    def _simulate_steps(self, keys: Keys, n_steps: int, start: int, out: FloatArray) -> None:
         # Axis-major history (axis, time, agent): inner loops run over agents.
         p, m = self.order, keys.size
         state = self.initial_state(keys, start)
@@ -429,7 +436,7 @@ class ARErrorModel:
                 np.add(hist[ax, p:p + cnt], self.mean[ax], out=out[t0:t0 + cnt, :, ax])
             hist[:, :p] = hist[:, cnt:cnt + p]
 
-    def _simulate_lfilter(self, keys, n_steps, start, out):
+    def _simulate_lfilter(self, keys: Keys, n_steps: int, start: int, out: FloatArray) -> None:
         # imported here: scipy.signal takes about a second to import, and a
         # node stepping its agents one fix at a time never needs it
         from scipy import signal
@@ -454,7 +461,8 @@ class ARErrorModel:
                 out[t0:t1, :, ax] = y.T + self.mean[ax]
 
 
-def state_and_cov(model, keys, start, step):
+def state_and_cov(model: ErrorModel[S], keys: Keys, start: int,
+                  step: int) -> tuple[S, FloatArray]:
     """
     Return (state at model ``step`` of a run from ``start``, its predictive covariance).
 

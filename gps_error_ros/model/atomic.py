@@ -8,10 +8,11 @@ profile writer of :mod:`.profiles` included.
 from contextlib import contextmanager
 import os
 from pathlib import Path
+from typing import Iterator
 
 
 @contextmanager
-def atomic_output(path):
+def atomic_output(path: str | os.PathLike[str]) -> Iterator[Path]:
     """
     Yield a temporary path beside ``path``; rename it to ``path`` on success.
 

@@ -30,12 +30,13 @@ gives the same errors, bit for bit, as before it existed.
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
 
@@ -48,36 +49,36 @@ class Availability:
     """Outage process parameters (see module doc)."""
 
     outage_rate: float
-    lengths: tuple          # outage lengths, model steps (ints >= 1), increasing
-    probs: tuple            # their probabilities (sum 1)
+    lengths: tuple[int, ...]     # outage lengths, model steps (ints >= 1), increasing
+    probs: tuple[float, ...]     # their probabilities (sum 1)
 
     @property
-    def mean_length(self):
+    def mean_length(self) -> float:
         """Return the mean outage length, steps."""
         return float(np.dot(self.lengths, self.probs))
 
     @property
-    def outage_fraction(self):
+    def outage_fraction(self) -> float:
         """Return the long-run fraction of steps without a fix."""
         if self.outage_rate <= 0:
             return 0.0
         m = self.mean_length
         return m / (m + 1.0 / self.outage_rate)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the profile section as plain data."""
         return {'outage_rate': float(self.outage_rate),
                 'durations': [[int(n), float(p)] for n, p in zip(self.lengths, self.probs)]}
 
     # --- the process, vectorised over agents ------------------------------
 
-    def _length(self, u):
+    def _length(self, u: FloatArray) -> FloatArray:
         cum = np.cumsum(self.probs)
         cum[-1] = 1.0
         idx = np.minimum(np.searchsorted(cum, u, side='right'), len(self.lengths) - 1)
         return np.asarray(self.lengths, dtype=np.float64)[idx]
 
-    def initial(self, keys, index):
+    def initial(self, keys: Keys, index: int) -> FloatArray:
         """Return the steps of outage left at step ``index`` (0: a fix), per agent."""
         u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_OUTAGE, index)
         left = np.zeros(u.shape[0])
@@ -93,7 +94,7 @@ class Availability:
                                      j.size - 1)]
         return left
 
-    def advance(self, left, keys, index):
+    def advance(self, left: FloatArray, keys: Keys, index: int) -> BoolArray:
         """Advance ``left`` in place to step ``index``; return the fix mask."""
         u = streams.uniform_pairs(keys, streams.DOMAIN_OUTAGE, index)
         was_fix = left == 0
@@ -104,7 +105,7 @@ class Availability:
         return left == 0
 
 
-def availability_from_dict(raw, source='<profile>'):
+def availability_from_dict(raw: Any, source: str = '<profile>') -> Availability:
     """Validate an ``availability`` mapping; return :class:`Availability`."""
     key = 'availability'
     if not isinstance(raw, dict) or sorted(raw) != ['durations', 'outage_rate']:
@@ -158,32 +159,34 @@ class WithAvailability(Wrapper[AvailabilityState]):
     the inner model's (:class:`~.wrapped.Wrapper`).
     """
 
-    def __init__(self, inner, availability):
+    def __init__(self, inner: ErrorModel[Any], availability: Availability) -> None:
         super().__init__(inner)
         self.availability = availability
 
-    def empty_state(self, n):
+    def empty_state(self, n: int) -> AvailabilityState:
         """Return the state of ``n`` agents, all zeros."""
         return AvailabilityState(self.inner.empty_state(n), np.zeros(n))
 
-    def initial_state(self, keys, index):
+    def initial_state(self, keys: Keys, index: int) -> AvailabilityState:
         """Draw the inner state and the outage state at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return AvailabilityState(self.inner.initial_state(keys, index),
                                  np.asarray(self.availability.initial(keys, index), dtype=float))
 
-    def advance(self, state, keys, index, heading=None):
+    def advance(self, state: AvailabilityState, keys: Keys, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
         """Advance both in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         err = self.inner.advance(state.inner, keys, index, heading)
         self.availability.advance(state.outage_left, keys, index)
         return err
 
-    def available(self, state):
+    def available(self, state: AvailabilityState) -> BoolArray:
         """Return which agents have a fix at the current step."""
         return state.outage_left == 0
 
-    def state_after(self, keys, start, step, heading=None):
+    def state_after(self, keys: Keys, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> AvailabilityState:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         inner = self.inner.state_after(keys, start, step, heading)
@@ -192,7 +195,7 @@ class WithAvailability(Wrapper[AvailabilityState]):
             self.availability.advance(left, keys, k)
         return AvailabilityState(inner, left)
 
-    def simulate_availability(self, keys, n_steps, start=0):
+    def simulate_availability(self, keys: Keys, n_steps: int, start: int = 0) -> BoolArray:
         """Return the fix mask at steps ``start .. start + n_steps - 1``, (n, n_steps)."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         left = self.availability.initial(keys, start)
@@ -204,14 +207,14 @@ class WithAvailability(Wrapper[AvailabilityState]):
         return out
 
 
-def runs_without_fix(mask):
+def runs_without_fix(mask: Numbers) -> list[int]:
     """Return the lengths of the runs of False in a 1-D fix mask, those at its ends included."""
     mask = np.asarray(mask, dtype=bool)
     edges = np.diff(np.r_[0, (~mask).astype(np.int8), 0])
     return (np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).tolist()
 
 
-def available(model, state):
+def available(model: ErrorModel[Any], state: Any) -> BoolArray:
     """Return the fix mask of ``state`` (all True for a model without availability)."""
     if isinstance(model, WithAvailability):
         return model.available(state)

@@ -8,11 +8,14 @@ schema (names, keys, ranges) and holds the parsed values.
 
 from dataclasses import dataclass
 import math
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.model import outliers as jumps
-from gps_error_ros.model.periodic import periodic_from_dict
+from gps_error_ros.model.outliers import Outliers
+from gps_error_ros.model.periodic import Periodic, periodic_from_dict
+from gps_error_ros.model.state import FloatArray, Numbers
 
 EFFECT_NAMES = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
                 'variance_regimes', 'street_frame', 'periodic', 'outliers')
@@ -36,7 +39,7 @@ class EffectsError(ValueError):
     """An ``effects`` section that does not match the schema."""
 
 
-def stationary_distribution(transition):
+def stationary_distribution(transition: Numbers) -> FloatArray:
     """Return the stationary distribution of a row-stochastic matrix."""
     p = np.asarray(transition, dtype=float)
     k = p.shape[0]
@@ -53,14 +56,14 @@ class Effects:
     innovation_corr: float = 0.0
     lag_s: float = 0.0
     dof: float = math.inf
-    scales: tuple = (1.0,)
-    transition: tuple = ((1.0,),)
-    street: tuple = None        # (sigma_along, sigma_across), m
-    periodic: object = None     # a periodic.Periodic
-    outliers: object = None     # an outliers.Outliers
+    scales: tuple[float, ...] = (1.0,)
+    transition: tuple[tuple[float, ...], ...] = ((1.0,),)
+    street: Optional[tuple[float, float]] = None        # (sigma_along, sigma_across), m
+    periodic: Optional[Periodic] = None
+    outliers: Optional[Outliers] = None
 
     @property
-    def names(self):
+    def names(self) -> tuple[str, ...]:
         """Return the names of the effects present, in schema order."""
         present = (self.innovation_corr != 0.0, self.lag_s != 0.0,
                    math.isfinite(self.dof), len(self.scales) > 1, self.street is not None,
@@ -68,19 +71,19 @@ class Effects:
         return tuple(n for n, p in zip(EFFECT_NAMES, present) if p)
 
     @property
-    def regime_probabilities(self):
+    def regime_probabilities(self) -> FloatArray:
         """Return the regimes' stationary probabilities."""
         return stationary_distribution(self.transition)
 
     @property
-    def variance_factor(self):
+    def variance_factor(self) -> float:
         """Return the average innovation variance multiplier (regimes and cycle)."""
         cycle = 1.0 if self.periodic is None else self.periodic.variance_factor
         return float(self.regime_probabilities @ np.square(self.scales)) * cycle
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the ``effects`` section as plain data (present ones only)."""
-        out = {}
+        out: dict[str, Any] = {}
         if self.innovation_corr:
             out['cross_axis_coupling'] = {
                 'innovation_corr': round(float(self.innovation_corr), 6)}
@@ -107,7 +110,8 @@ class Effects:
         return out
 
 
-def _num(source, key, value, lo, hi, lo_open=True):
+def _num(source: str, key: str, value: Any, lo: float, hi: float,
+         lo_open: bool = True) -> float:
     ok = isinstance(value, (int, float)) and not isinstance(value, bool) and \
         math.isfinite(value) and (value > lo if lo_open else value >= lo) and \
         value <= hi
@@ -118,14 +122,14 @@ def _num(source, key, value, lo, hi, lo_open=True):
     return float(value)
 
 
-def effects_from_dict(raw, source='<profile>'):
+def effects_from_dict(raw: Any, source: str = '<profile>') -> Effects:
     """Validate a profile's ``effects`` mapping; return :class:`Effects`."""
     if raw is None:
         return Effects()
     if not isinstance(raw, dict):
         raise EffectsError(f'{source}: key \'effects\': expected a mapping, '
                            f'got {raw!r}')
-    kw = {}
+    kw: dict[str, Any] = {}
     for name, body in raw.items():
         key = f'effects.{name}'
         if name not in _KEYS:
@@ -166,7 +170,7 @@ def effects_from_dict(raw, source='<profile>'):
     return Effects(**kw)
 
 
-def _regimes(source, key, body):
+def _regimes(source: str, key: str, body: dict[str, Any]) -> dict[str, Any]:
     scales, trans = body['scales'], body['transition']
     if not isinstance(scales, list) or len(scales) < 2:
         raise EffectsError(f'{source}: key {key + ".scales"!r}: expected a list '

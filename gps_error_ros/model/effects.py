@@ -59,6 +59,7 @@ not part of it.
 """
 
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -66,10 +67,16 @@ from gps_error_ros.model import streams
 from gps_error_ros.model import outliers as jumps
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.effect_schema import (  # noqa: F401 (the schema, re-exported)
+
     EFFECT_NAMES, Effects, effects_from_dict, EffectsError, MAX_DOF, MAX_LAG_S, MOVING_M,
     stationary_distribution)
 from gps_error_ros.model.periodic import agent_phases, mean_autocovariance, periodic_mean
-from gps_error_ros.model.state import zeros_effects_state
+from gps_error_ros.model.state import (EffectsState, FloatArray, IntArray, Keys, Numbers,
+                                       zeros_effects_state)
+
+
+__all__ = ['EFFECT_NAMES', 'Effects', 'EffectsError', 'ExtendedModel', 'MAX_DOF', 'MAX_LAG_S',
+           'MOVING_M', 'build_model', 'effects_from_dict', 'stationary_distribution']
 
 
 class ExtendedModel:
@@ -84,7 +91,7 @@ class ExtendedModel:
     state was created.
     """
 
-    def __init__(self, north, east, effects):
+    def __init__(self, north: AxisParams, east: AxisParams, effects: Effects) -> None:
         self.effects = effects
         self.street = effects.street
         if self.street is not None:
@@ -114,16 +121,16 @@ class ExtendedModel:
         self.outliers = effects.outliers
 
     @property
-    def stationary_cov(self):
+    def stationary_cov(self) -> FloatArray:
         """Return the unconditional 2x2 (north, east) error covariance (phase-averaged)."""
         return self.autocovariance(0)[0]
 
     @property
-    def stationary_sd(self):
+    def stationary_sd(self) -> FloatArray:
         """Return the unconditional standard deviation per axis."""
         return np.sqrt(np.diag(self.stationary_cov))
 
-    def autocovariance(self, max_lag):
+    def autocovariance(self, max_lag: int) -> FloatArray:
         """Return the exact unconditional autocovariance, (max_lag + 1, 2, 2)."""
         out = self.unit.autocovariance(max_lag) * self.effects.variance_factor
         if self.periodic is not None:
@@ -132,28 +139,28 @@ class ExtendedModel:
             out = out + self.outliers.autocovariance(max_lag)[:, None, None] * np.eye(2)
         return out
 
-    def autocorrelation(self, max_lag):
+    def autocorrelation(self, max_lag: int) -> FloatArray:
         """Return the exact autocorrelation per axis (max_lag + 1, 2)."""
         acv = self.autocovariance(max_lag)
         diag = np.stack([acv[:, 0, 0], acv[:, 1, 1]], axis=1)
         return diag / diag[0]
 
     @property
-    def needs_heading(self):
+    def needs_heading(self) -> bool:
         """Return True when the innovations turn with the direction of travel."""
         return self.street is not None
 
-    def empty_state(self, n):
+    def empty_state(self, n: int) -> EffectsState:
         """Return the state of ``n`` agents, all zeros."""
         return zeros_effects_state(n, self.order)
 
-    def face(self, state, heading):
+    def face(self, state: EffectsState, heading: Numbers) -> None:
         """Set the direction of travel of every agent (radians; NaN: the last one holds)."""
         heading = np.broadcast_to(np.asarray(heading, dtype=float), (len(state),))
         moving = np.isfinite(heading)
         state.heading[moving] = heading[moving]
 
-    def initial_state(self, keys, index):
+    def initial_state(self, keys: Keys, index: int) -> EffectsState:
         """
         Draw the state at model step ``index``.
 
@@ -181,7 +188,8 @@ class ExtendedModel:
             state.in_jump[:], state.jump[:] = jumps.initial_offsets(self.outliers, keys, index)
         return state
 
-    def advance(self, state, keys, index, heading=None):
+    def advance(self, state: EffectsState, keys: Keys, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
         """
         Advance ``state`` in place to model step ``index``; return errors.
 
@@ -221,33 +229,42 @@ class ExtendedModel:
             return w + self.mean + state.jump
         return w + self.mean
 
-    def _street_innovations(self, state, z, heading):
+    def _street_innovations(self, state: EffectsState, z: FloatArray,
+                            heading: Optional[FloatArray]) -> FloatArray:
         """Return the innovations along/across the direction of travel, as north/east."""
         if heading is not None:
             self.face(state, heading)
         theta = state.heading
         c, s = np.cos(theta), np.sin(theta)
-        along, across = self.street[0] * z[:, 0], self.street[1] * z[:, 1]
+        along_sd, across_sd = self._street_sd()
+        along, across = along_sd * z[:, 0], across_sd * z[:, 1]
         return np.stack([along * c - across * s, along * s + across * c], axis=1)
 
-    def street_cov(self, state):
+    def _street_sd(self) -> tuple[float, float]:
+        """Return the innovation SDs (along, across) of a street frame."""
+        if self.street is None:
+            raise ValueError('no street_frame in this model\'s effects')
+        return self.street
+
+    def street_cov(self, state: EffectsState) -> FloatArray:
         """Return each agent's innovation covariance (n, 2, 2) in its direction of travel."""
         theta = state.heading
         c, s = np.cos(theta), np.sin(theta)
-        a2, x2 = self.street[0] ** 2, self.street[1] ** 2
+        along_sd, across_sd = self._street_sd()
+        a2, x2 = along_sd ** 2, across_sd ** 2
         out = np.empty((theta.size, 2, 2))
         out[:, 0, 0] = a2 * c * c + x2 * s * s
         out[:, 1, 1] = a2 * s * s + x2 * c * c
         out[:, 0, 1] = out[:, 1, 0] = (a2 - x2) * c * s
         return out
 
-    def errors(self, state):
+    def errors(self, state: EffectsState) -> FloatArray:
         """Return the current errors, mean (and any jump) included, shape (n, 2)."""
         if self.outliers is not None:
             return state.deviations[:, :, 0] + self.mean + state.jump
         return state.deviations[:, :, 0] + self.mean
 
-    def predictive_cov(self, state, first=False):
+    def predictive_cov(self, state: EffectsState, first: bool = False) -> FloatArray:
         """
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
@@ -277,7 +294,7 @@ class ExtendedModel:
             cov = cov + jumps.offset_cov(self.outliers, state.in_jump, state.jump)
         return cov
 
-    def mean_step_cov(self):
+    def mean_step_cov(self) -> FloatArray:
         """
         Return the one-step covariance (2, 2) averaged over the stationary law.
 
@@ -299,7 +316,7 @@ class ExtendedModel:
                                          first=True)[0]
         return cov
 
-    def predictive_mean(self, state, first=False):
+    def predictive_mean(self, state: EffectsState, first: bool = False) -> FloatArray:
         """
         Return each agent's expected next error (n, 2) given ``state``, mean included.
 
@@ -321,11 +338,12 @@ class ExtendedModel:
                 (state.in_jump > 0.5)[:, None] * state.jump
         return out
 
-    def regimes(self, state):
+    def regimes(self, state: EffectsState) -> IntArray:
         """Return the current regime index of each agent."""
         return state.regime.copy()
 
-    def state_after(self, keys, start, step, heading=None):
+    def state_after(self, keys: Keys, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> EffectsState:
         """
         Return the state at model step ``step`` of a run started at ``start``.
 
@@ -338,7 +356,8 @@ class ExtendedModel:
             self.advance(state, keys, k)
         return state
 
-    def simulate(self, keys, n_steps, start=0, out=None):
+    def simulate(self, keys: Keys, n_steps: int, start: int = 0,
+                 out: Optional[FloatArray] = None) -> FloatArray:
         """
         Simulate errors at model steps ``start .. start + n_steps - 1``.
 
@@ -358,7 +377,8 @@ class ExtendedModel:
         return out
 
 
-def build_model(north, east, effects=None):
+def build_model(north: AxisParams, east: AxisParams,
+                effects: Optional[Effects] = None) -> ARErrorModel | ExtendedModel:
     """Return the plain AR model, or an :class:`ExtendedModel` with effects."""
     if effects is None or not effects.names:
         return ARErrorModel(north, east)

@@ -38,12 +38,13 @@ was.
 import dataclasses
 from dataclasses import dataclass
 import math
-from typing import Any
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
 #: The largest failure distance a profile may carry, m (a fix on the wrong continent).
@@ -60,13 +61,13 @@ OPTIONAL_KEYS = ('rate_sd_log',)
 _RATE_NODES = 241
 
 
-def rate_of(rate, rate_sd_log, z):
+def rate_of(rate: float, rate_sd_log: float, z: Numbers) -> FloatArray:
     """Return the rates of agents whose log-rate normals are ``z``: the section's law."""
     s = rate_sd_log
     return np.minimum(rate * np.exp(s * np.asarray(z) - 0.5 * s * s), MAX_AGENT_RATE)
 
 
-def rate_nodes(nodes=_RATE_NODES):
+def rate_nodes(nodes: int = _RATE_NODES) -> tuple[FloatArray, FloatArray]:
     """Return (``z``, log weights) of the standard normal on an even grid over +-6 SD."""
     z = np.linspace(-6.0, 6.0, nodes)
     log_w = -0.5 * z * z
@@ -82,10 +83,10 @@ class GrossFailureProcess:
     """The parsed section (see the module docstring)."""
 
     rate: float
-    sizes_m: tuple
-    rate_sd_log: float = None
+    sizes_m: tuple[float, ...]
+    rate_sd_log: Optional[float] = None
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the section as plain data."""
         out = {'rate': round(float(self.rate), 8),
                'sizes_m': [round(float(v), 3) for v in self.sizes_m]}
@@ -93,7 +94,7 @@ class GrossFailureProcess:
             out['rate_sd_log'] = round(float(self.rate_sd_log), 4)
         return out
 
-    def agent_rates(self, keys):
+    def agent_rates(self, keys: Keys) -> FloatArray:
         """Return each agent's rate (n,): ``rate`` for all without ``rate_sd_log``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         if not self.rate_sd_log:
@@ -101,7 +102,7 @@ class GrossFailureProcess:
         z = streams.normal_pairs(keys, streams.DOMAIN_FAILURE_RATE, 0)[:, 0]
         return rate_of(self.rate, self.rate_sd_log, z)
 
-    def count_law(self, fixes):
+    def count_law(self, fixes: int) -> FloatArray:
         """
         Return the probabilities of 0..``fixes`` failures among one agent's ``fixes`` fixes.
 
@@ -119,7 +120,7 @@ class GrossFailureProcess:
             law += weight * stats.binom.pmf(counts, int(fixes), r)
         return law / law.sum()
 
-    def count_range(self, fixes, level=0.95):
+    def count_range(self, fixes: int, level: float = 0.95) -> tuple[int, int]:
         """
         Return the central ``level`` range (lo, hi) of failures among ``fixes``.
 
@@ -133,15 +134,15 @@ class GrossFailureProcess:
         cdf = np.cumsum(law) / law.sum()
         tail = 0.5 * (1.0 - level)
         return (int(np.searchsorted(cdf, tail)),
-                int(min(np.searchsorted(cdf, 1.0 - tail), law.size - 1)))
+                min(int(np.searchsorted(cdf, 1.0 - tail)), law.size - 1))
 
-    def count_tail(self, count, fixes):
+    def count_tail(self, count: int, fixes: int) -> float:
         """Return the probability of a count as far as ``count`` or further on its side."""
         law = self.count_law(fixes)
         mean = float(np.arange(law.size) @ law)
         return float(min(1.0, law[count:].sum() if count >= mean else law[:count + 1].sum()))
 
-    def offsets(self, keys, index):
+    def offsets(self, keys: Keys, index: int) -> tuple[FloatArray, BoolArray]:
         """
         Return the failures of model step ``index``: (n, 2) north/east m and a mask.
 
@@ -165,7 +166,7 @@ class GrossFailureProcess:
         return out, fails
 
 
-def failures_from_dict(raw, source='<profile>'):
+def failures_from_dict(raw: Any, source: str = '<profile>') -> GrossFailureProcess:
     """Validate a ``gross_failures`` mapping; return :class:`GrossFailureProcess`."""
     key = 'gross_failures'
     if not isinstance(raw, dict) or not set(SECTION_KEYS) <= set(raw) or \
@@ -195,7 +196,9 @@ def failures_from_dict(raw, source='<profile>'):
                                None if spread is None else float(spread))
 
 
-def failures_from_sizes(count, fixes, sizes_m, quantiles=11, spread=None):
+def failures_from_sizes(count: int, fixes: int, sizes_m: Numbers, quantiles: int = 11,
+                        spread: Optional[tuple[float, Optional[float]]] = None
+                        ) -> Optional[GrossFailureProcess]:
     """
     Return the section fitted from failures found, or None when there were none.
 
@@ -239,21 +242,22 @@ class WithFailures(Wrapper[FailureState]):
     (:class:`~.wrapped.Wrapper`).
     """
 
-    def __init__(self, inner, failures):
+    def __init__(self, inner: ErrorModel[Any], failures: GrossFailureProcess) -> None:
         super().__init__(inner)
         self.failures = failures
 
-    def empty_state(self, n):
+    def empty_state(self, n: int) -> FailureState:
         """Return the state of ``n`` agents, all zeros."""
         return FailureState(self.inner.empty_state(n), np.zeros((n, 2)))
 
-    def initial_state(self, keys, index):
+    def initial_state(self, keys: Keys, index: int) -> FailureState:
         """Draw the inner state and this step's failure at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return FailureState(self.inner.initial_state(keys, index),
                             self.failures.offsets(keys, index)[0])
 
-    def advance(self, state, keys, index, heading=None):
+    def advance(self, state: FailureState, keys: Keys, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
         """Advance in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         err = self.inner.advance(state.inner, keys, index, heading)
@@ -261,19 +265,21 @@ class WithFailures(Wrapper[FailureState]):
         state.offset[:] = off
         return np.where(fails[:, None], off, err)
 
-    def errors(self, state):
+    def errors(self, state: FailureState) -> FloatArray:
         """Return the current north/east errors, a failed fix's where one failed."""
         err = self.inner.errors(state.inner)
         off = state.offset
         return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)
 
-    def state_after(self, keys, start, step, heading=None):
+    def state_after(self, keys: Keys, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> FailureState:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return FailureState(self.inner.state_after(keys, start, step, heading),
                             self.failures.offsets(keys, step)[0])
 
-    def simulate(self, keys, n_steps, start=0, out=None):
+    def simulate(self, keys: Keys, n_steps: int, start: int = 0,
+                 out: Optional[FloatArray] = None) -> FloatArray:
         """Return the inner model's simulation with the failures in, (n_steps, n, 2)."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         out = self.inner.simulate(keys, n_steps, start=start, out=out)

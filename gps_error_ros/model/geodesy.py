@@ -13,8 +13,12 @@ Two operations are needed:
   tangent-plane displacement to well under a millimetre.
 """
 
+from typing import Any
+
 import numpy as np
 from pyproj import Geod, Transformer
+
+from gps_error_ros.model.state import FloatArray, Numbers
 
 _GEOD = Geod(ellps='WGS84')
 
@@ -23,7 +27,7 @@ class GeodesyError(ValueError):
     """Coordinates outside their valid range."""
 
 
-def check_latlon(lat, lon, what='position'):
+def check_latlon(lat: Numbers, lon: Numbers, what: str = 'position') -> None:
     """Raise :class:`GeodesyError` unless latitude/longitude are valid."""
     lat = np.asarray(lat, dtype=float)
     lon = np.asarray(lon, dtype=float)
@@ -46,7 +50,7 @@ class LocalTangentFrame:
     local vertical, as in any flat map frame).
     """
 
-    def __init__(self, lat, lon, alt=0.0):
+    def __init__(self, lat: float, lon: float, alt: float = 0.0) -> None:
         check_latlon(lat, lon, 'datum')
         if not np.isfinite(alt):
             raise GeodesyError('datum: altitude must be finite')
@@ -62,26 +66,29 @@ class LocalTangentFrame:
             f'+lat_0={float(lat)!r} +lon_0={float(lon)!r} +h_0={float(alt)!r}')
         self._to_enu = Transformer.from_pipeline(pipeline)
 
-    def to_geodetic(self, east, north, up=0.0):
+    def to_geodetic(self, east: Numbers, north: Numbers,
+                    up: Numbers = 0.0) -> tuple[Any, ...]:
         """Return (lat, lon, alt) of local ENU coordinates (arrays or floats)."""
         east, north, up = _broadcast(east, north, up)
         return self._to_enu.transform(
             east, north, up, direction='INVERSE', errcheck=True)
 
-    def to_enu(self, lat, lon, alt=0.0):
+    def to_enu(self, lat: Numbers, lon: Numbers,
+               alt: Numbers = 0.0) -> tuple[Any, ...]:
         """Return (east, north, up) of geodetic coordinates."""
         lat, lon, alt = _broadcast(lat, lon, alt)
         return self._to_enu.transform(lat, lon, alt, errcheck=True)
 
 
-def _broadcast(*values):
+def _broadcast(*values: Numbers) -> tuple[Any, ...]:
     """Return floats unchanged, or arrays broadcast to one shape."""
     if all(np.ndim(v) == 0 for v in values):
         return tuple(float(v) for v in values)
     return tuple(np.array(v, dtype=float) for v in np.broadcast_arrays(*values))
 
 
-def offset(lat, lon, north, east):
+def offset(lat: Numbers, lon: Numbers, north: Numbers,
+           east: Numbers) -> tuple[Any, Any]:
     """
     Return (lat, lon) of the points ``north``/``east`` metres from (lat, lon).
 
@@ -97,7 +104,8 @@ def offset(lat, lon, north, east):
     return lat2, lon2
 
 
-def difference(lat, lon, lat_ref, lon_ref):
+def difference(lat: Numbers, lon: Numbers, lat_ref: Numbers,
+               lon_ref: Numbers) -> tuple[FloatArray, FloatArray]:
     """
     Return (north, east) metres from (lat_ref, lon_ref) to (lat, lon).
 

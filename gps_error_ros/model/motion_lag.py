@@ -7,7 +7,11 @@ lag_s) - truth(t)``. :func:`lag_offsets` gives that term for a whole
 trajectory; :class:`LagBuffer` for trajectories streamed one step at a time.
 """
 
+from typing import Iterable, Optional, Sequence
+
 import numpy as np
+
+from gps_error_ros.model.state import FloatArray, Numbers
 
 #: A truth gap longer than this, s, separates two runs (recordings joined one after
 #: another are :data:`~gps_error_ros.traces.trace_io.RECORDING_GAP_S` apart): a motion
@@ -15,7 +19,7 @@ import numpy as np
 RUN_GAP_S = 60.0
 
 
-def held_across_gaps(t, times, gap_s):
+def held_across_gaps(t: Numbers, times: Numbers, gap_s: Optional[float]) -> FloatArray:
     """
     Return ``times`` with each one that falls in a gap of ``t`` over ``gap_s`` moved to its end.
 
@@ -33,7 +37,8 @@ def held_across_gaps(t, times, gap_s):
     return np.where(inside, t[i + 1], times)
 
 
-def truth_at(t, values, when, gap_s=None):
+def truth_at(t: Numbers, values: Numbers, when: Numbers,
+             gap_s: Optional[float] = None) -> FloatArray:
     """
     Return ``values`` (n, k), sampled at times ``t``, interpolated linearly at ``when``, (m, k).
 
@@ -47,7 +52,8 @@ def truth_at(t, values, when, gap_s=None):
                     axis=1)
 
 
-def lag_offsets(t, north, east, lag_s, at=None, gap_s=None):
+def lag_offsets(t: Numbers, north: Numbers, east: Numbers, lag_s: float,
+                at: Optional[Numbers] = None, gap_s: Optional[float] = None) -> FloatArray:
     """
     Return ``truth(at - lag_s) - truth(at)`` (north, east metres), shape (n, 2).
 
@@ -76,11 +82,12 @@ class LagBuffer:
     held.
     """
 
-    def __init__(self, lag_s):
+    def __init__(self, lag_s: float) -> None:
         self.lag_s = float(lag_s)
-        self.hist = {}
+        self.hist: dict[str, list[tuple[float, float, float]]] = {}
 
-    def lagged(self, names, t, x, y):
+    def lagged(self, names: Sequence[str], t: float, x: Numbers,
+               y: Numbers) -> tuple[FloatArray, FloatArray]:
         """Store (t, x, y) per agent; return the positions ``lag_s`` earlier."""
         ox, oy = np.array(x, dtype=float), np.array(y, dtype=float)
         if self.lag_s == 0.0:
@@ -99,7 +106,7 @@ class LagBuffer:
                 ox[i], oy[i] = h[0][1], h[0][2]
         return ox, oy
 
-    def forget(self, names):
+    def forget(self, names: Iterable[str]) -> None:
         """Drop the history of agents that left."""
         for n in names:
             self.hist.pop(n, None)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.state import FloatArray, Keys
 
 #: The largest jump SD a profile may carry (m).
 MAX_SIGMA_M = 1e4
@@ -46,28 +47,29 @@ class Outliers:
     sigma_m: float
 
     @property
-    def end_probability(self):
+    def end_probability(self) -> float:
         """Return q, the chance per step that a jump under way ends."""
         return 1.0 / self.mean_steps
 
     @property
-    def share(self):
+    def share(self) -> float:
         """Return the stationary share of steps in a jump."""
         return self.rate / (self.rate + self.end_probability)
 
-    def autocovariance(self, max_lag):
+    def autocovariance(self, max_lag: int) -> FloatArray:
         """Return the offset's autocovariance per axis at lags 0..max_lag, (max_lag + 1,)."""
         k = np.arange(max_lag + 1)
         return self.share * (1.0 - self.end_probability) ** k * self.sigma_m ** 2
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, float]:
         """Return the section as plain data."""
         return {'rate': round(float(self.rate), 8),
                 'mean_steps': round(float(self.mean_steps), 6),
                 'sigma_m': round(float(self.sigma_m), 6)}
 
 
-def initial_offsets(outliers, keys, index):
+def initial_offsets(outliers: Outliers, keys: Keys,
+                    index: int) -> tuple[FloatArray, FloatArray]:
     """
     Return (remaining flag, offsets) of agents started at model step ``index``.
 
@@ -80,7 +82,8 @@ def initial_offsets(outliers, keys, index):
     return inside.astype(float), np.where(inside[:, None], z * outliers.sigma_m, 0.0)
 
 
-def advance_offsets(outliers, inside, offsets, keys, index):
+def advance_offsets(outliers: Outliers, inside: FloatArray, offsets: FloatArray,
+                    keys: Keys, index: int) -> FloatArray:
     """
     Advance the jump state to model step ``index`` in place; return the offsets.
 
@@ -100,7 +103,8 @@ def advance_offsets(outliers, inside, offsets, keys, index):
     return offsets
 
 
-def offset_cov(outliers, inside, offsets, first=False):
+def offset_cov(outliers: Outliers, inside: FloatArray, offsets: FloatArray,
+               first: bool = False) -> FloatArray:
     """
     Return the covariance (n, 2, 2) of the next step's offset given the jump state.
 

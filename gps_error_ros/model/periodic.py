@@ -25,10 +25,12 @@ the next phase's scale.
 
 from dataclasses import dataclass
 import math
+from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.state import FloatArray, IntArray, Keys, Numbers
 
 #: The longest cycle a profile may carry, model steps.
 MAX_PERIOD = 120
@@ -45,15 +47,15 @@ class Periodic:
     """A parsed ``periodic`` effect (see the module docstring)."""
 
     period: int
-    scales: tuple           # P positive numbers
-    offsets: tuple          # P (north, east) pairs, m
+    scales: tuple[float, ...]                      # P positive numbers
+    offsets: tuple[tuple[float, ...], ...]         # P (north, east) pairs, m
 
     @property
-    def variance_factor(self):
+    def variance_factor(self) -> float:
         """Return the innovation variance multiplier averaged over the cycle."""
         return float(np.mean(np.square(self.scales)))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the section as plain data."""
         return {'period_steps': int(self.period),
                 'scales': [round(float(v), 6) for v in self.scales],
@@ -61,7 +63,7 @@ class Periodic:
                             for a, b in self.offsets]}
 
 
-def _number(source, key, value, lo, hi):
+def _number(source: str, key: str, value: Any, lo: float, hi: float) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or \
             not math.isfinite(value) or not lo <= value <= hi:
         raise PeriodicError(f'{source}: key {key!r}: expected a number in [{lo}, {hi}], '
@@ -69,7 +71,8 @@ def _number(source, key, value, lo, hi):
     return float(value)
 
 
-def periodic_from_dict(body, source='<profile>', key='effects.periodic'):
+def periodic_from_dict(body: Any, source: str = '<profile>',
+                       key: str = 'effects.periodic') -> Periodic:
     """Validate a ``periodic`` mapping (its keys checked by the caller); return it."""
     period = body['period_steps']
     if isinstance(period, bool) or not isinstance(period, int) or \
@@ -97,13 +100,13 @@ def periodic_from_dict(body, source='<profile>', key='effects.periodic'):
     return Periodic(int(period), sc, off)
 
 
-def agent_phases(keys, period):
+def agent_phases(keys: Keys, period: int) -> IntArray:
     """Return each agent's offset in the cycle (0..period-1), from its own stream."""
     u = streams.uniform_pairs(keys, streams.DOMAIN_PERIODIC, 0)[:, 0]
     return np.minimum((u * period).astype(np.int64), period - 1)
 
 
-def periodic_mean(phi, offsets):
+def periodic_mean(phi: Numbers, offsets: Numbers) -> FloatArray:
     """
     Return the periodic steady state ``m`` (P, 2) of the AR recursion.
 
@@ -122,7 +125,7 @@ def periodic_mean(phi, offsets):
     return out
 
 
-def mean_autocovariance(m, max_lag):
+def mean_autocovariance(m: FloatArray, max_lag: int) -> FloatArray:
     """
     Return the phase-averaged autocovariance of the periodic mean, (max_lag + 1, 2, 2).
 

@@ -6,6 +6,7 @@ the bias of that run, and another day, another walk or another phone of the
 same kind has another. The optional ``population`` section makes the
 profile describe the receiver across runs (``gps_error calibrate`` fits it
 from several recordings, or from the blocks of one long recording: see
+
 :mod:`gps_error_ros.fit.population_fit`)::
 
     population:
@@ -69,7 +70,8 @@ from typing import Any, Optional
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import AgentState, FloatArray, Keys
 from gps_error_ros.model.wrapped import Wrapper
 
 SECTION_KEYS = ('bias_sd_m', 'scale_sd_log')
@@ -90,13 +92,13 @@ class PopulationError(ValueError):
 class Population:
     """The parsed section (see the module docstring)."""
 
-    bias_sd_m: tuple
+    bias_sd_m: tuple[float, ...]
     scale_sd_log: float
-    bias_time_constant_s: float = None
-    bias_dof: int = None
-    run_bias_sd_m: tuple = None
+    bias_time_constant_s: Optional[float] = None
+    bias_dof: Optional[int] = None
+    run_bias_sd_m: Optional[tuple[float, ...]] = None
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the section as plain data."""
         out = {'bias_sd_m': [round(float(v), 4) for v in self.bias_sd_m],
                'scale_sd_log': round(float(self.scale_sd_log), 4)}
@@ -109,24 +111,24 @@ class Population:
         return out
 
     @property
-    def bias_sd_total_m(self):
+    def bias_sd_total_m(self) -> tuple[float, ...]:
         """Return the SD of a run's bias per axis, both parts together."""
         held = (0.0, 0.0) if self.run_bias_sd_m is None else self.run_bias_sd_m
         return tuple(math.hypot(b, c) for b, c in zip(self.bias_sd_m, held))
 
-    def persistence(self, rate_hz=1.0):
+    def persistence(self, rate_hz: float = 1.0) -> float:
         """Return the bias's factor per model step, ``a`` (1.0: constant for the run)."""
         if self.bias_time_constant_s is None:
             return 1.0
         return math.exp(-1.0 / (self.bias_time_constant_s * rate_hz))
 
 
-def _positive_number(value, upper):
+def _positive_number(value: Any, upper: float) -> bool:
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value) and 0 <= value <= upper)
 
 
-def population_from_dict(raw, source='<profile>'):
+def population_from_dict(raw: Any, source: str = '<profile>') -> Population:
     """Validate a ``population`` mapping; return :class:`Population`."""
     key = 'population'
     if not isinstance(raw, dict) or not set(SECTION_KEYS) <= set(raw) or \
@@ -159,7 +161,7 @@ def population_from_dict(raw, source='<profile>'):
                       None if run is None else tuple(float(v) for v in run))
 
 
-def _check_sd(sd, where):
+def _check_sd(sd: Any, where: str) -> None:
     """Raise :class:`PopulationError` unless ``sd`` is two SDs (north, east) in range."""
     if not isinstance(sd, list) or len(sd) != 2 or \
             not all(_positive_number(v, MAX_BIAS_SD_M) for v in sd):
@@ -167,7 +169,7 @@ def _check_sd(sd, where):
                               f'[0, {MAX_BIAS_SD_M:g}] m, got {sd!r}')
 
 
-def agent_scales(keys, scale_sd_log):
+def agent_scales(keys: Keys, scale_sd_log: float) -> FloatArray:
     """Return each agent's scale ``f`` (n,), from its stream at position 0."""
     keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
     if scale_sd_log == 0.0:
@@ -176,7 +178,7 @@ def agent_scales(keys, scale_sd_log):
     return np.exp(scale_sd_log * z - scale_sd_log ** 2)
 
 
-def bias_factors(keys, start, dof):
+def bias_factors(keys: Keys, start: int, dof: Optional[int]) -> FloatArray:
     """
     Return each run's Student-t factor ``g = sqrt((dof - 2) / chi2)`` (n,); ones without ``dof``.
 
@@ -205,7 +207,7 @@ class AgentDraws:
     bias and scale are the same numbers with and without a zone map.
     """
 
-    def __init__(self, population, rate_hz=1.0):
+    def __init__(self, population: Population, rate_hz: float = 1.0) -> None:
         self.population = population
         self.bias_sd = np.asarray(population.bias_sd_m, dtype=float)
         self.a = population.persistence(rate_hz)
@@ -216,38 +218,39 @@ class AgentDraws:
         #: The population's spread of biases about the mean, (2, 2).
         self.spread = np.diag(self.bias_sd ** 2 + self.run_sd ** 2)
 
-    def scales(self, keys):
+    def scales(self, keys: Keys) -> FloatArray:
         """Return each agent's scale ``f`` (n,)."""
         return agent_scales(keys, self.population.scale_sd_log)
 
-    def run_bias(self, keys, start):
+    def run_bias(self, keys: Keys, start: int) -> tuple[FloatArray, FloatArray]:
         """Return the biases (n, 2) runs started at ``start`` draw, and their factors ``g``."""
         g = bias_factors(keys, start, self.population.bias_dof)
         return self.bias_sd * g[:, None] * streams.normal_pairs(
             keys, streams.DOMAIN_INIT_BIAS, start), g
 
-    def held_part(self, keys, start, g):
+    def held_part(self, keys: Keys, start: int, g: FloatArray) -> FloatArray:
         """Return the parts (n, 2) of the biases held for runs started at ``start``."""
         if not self.held:
             return np.zeros((np.size(keys), 2))
         return self.run_sd * g[:, None] * streams.normal_pairs(
             keys, streams.DOMAIN_RUN_BIAS, start)
 
-    def wander(self, bias, g, keys, index):
+    def wander(self, bias: FloatArray, g: FloatArray, keys: Keys, index: int) -> None:
         """Advance the biases ``bias`` (n, 2), factors ``g``, in place to model step ``index``."""
         if self.a < 1.0:
             bias *= self.a
             bias += self.wander_sd * g[:, None] * streams.normal_pairs(
                 keys, streams.DOMAIN_BIAS, index)
 
-    def bias_at(self, keys, start, step):
+    def bias_at(self, keys: Keys, start: int, step: int) -> tuple[FloatArray, FloatArray]:
         """Return the biases (n, 2) of runs started at ``start``, at ``step``, and ``g``."""
         bias, g = self.run_bias(keys, start)
         for k in range(start + 1, step + 1):
             self.wander(bias, g, keys, k)
         return bias, g
 
-    def agent_cov(self, cov, scale, g, first=False):
+    def agent_cov(self, cov: FloatArray, scale: FloatArray, g: FloatArray,
+                  first: bool = False) -> FloatArray:
         """
         Return agents' covariances (n, 2, 2) of the next error from the process's ``cov``.
 
@@ -260,7 +263,8 @@ class AgentDraws:
         return cov * (scale ** 2)[:, None, None] + \
             (g ** 2)[:, None, None] * np.diag(self.wander_sd ** 2)
 
-    def agent_mean(self, mean, pm, scale, bias, first=False, held=None):
+    def agent_mean(self, mean: FloatArray, pm: FloatArray, scale: FloatArray, bias: FloatArray,
+                   first: bool = False, held: Optional[FloatArray] = None) -> FloatArray:
         """
         Return agents' expected next errors (n, 2) from the process's ``pm``.
 
@@ -309,7 +313,8 @@ class WithPopulation(Wrapper[PopulationState]):
     are the inner model's, turned into the agent's by its scale and bias.
     """
 
-    def __init__(self, inner, population, rate_hz=1.0):
+    def __init__(self, inner: ErrorModel[Any], population: Population,
+                 rate_hz: float = 1.0) -> None:
         super().__init__(inner)
         self.population = population
         self.draws = AgentDraws(population, rate_hz)
@@ -317,11 +322,11 @@ class WithPopulation(Wrapper[PopulationState]):
     # --- moments ---------------------------------------------------------
 
     @property
-    def stationary_cov(self):
+    def stationary_cov(self) -> FloatArray:
         """Return the population's covariance about the mean: the process's plus the bias's."""
         return np.asarray(self.inner.stationary_cov) + self.draws.spread
 
-    def autocovariance(self, max_lag):
+    def autocovariance(self, max_lag: int) -> FloatArray:
         """Return the population's autocovariance at lags 0..max_lag, (max_lag + 1, 2, 2)."""
         decay = self.draws.a ** np.arange(max_lag + 1)
         return self.inner.autocovariance(max_lag) + \
@@ -330,47 +335,51 @@ class WithPopulation(Wrapper[PopulationState]):
 
     # --- state -----------------------------------------------------------
 
-    def _state(self, inner_state, keys, start, bias, g):
+    def _state(self, inner_state: Any, keys: Keys, start: int, bias: FloatArray,
+               g: FloatArray) -> PopulationState:
         """Return the state of ``inner_state`` with the run's biases, ``g`` and the scales."""
         held = self.draws.held_part(keys, start, g) if self.draws.held else None
         return PopulationState(inner_state, np.array(bias, dtype=float),
                                self.draws.scales(keys), np.array(g, dtype=float), held)
 
-    def empty_state(self, n):
+    def empty_state(self, n: int) -> PopulationState:
         """Return the state of ``n`` agents, all zeros."""
         return PopulationState(self.inner.empty_state(n), np.zeros((n, 2)), np.zeros(n),
                                np.zeros(n), np.zeros((n, 2)) if self.draws.held else None)
 
-    def _agent(self, inner_err, state):
+    def _agent(self, inner_err: FloatArray, state: PopulationState) -> FloatArray:
         """Return the agent's errors from the inner model's: ``m + f d + b``."""
         m = np.asarray(self.inner.mean, dtype=float)
         out = m + state.scale[:, None] * (inner_err - m) + state.bias
         return out if state.held is None else out + state.held
 
-    def initial_state(self, keys, index):
+    def initial_state(self, keys: Keys, index: int) -> PopulationState:
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return self._state(self.inner.initial_state(keys, index), keys, index,
                            *self.draws.run_bias(keys, index))
 
-    def advance(self, state, keys, index, heading=None):
+    def advance(self, state: PopulationState, keys: Keys, index: int,
+                heading: Optional[FloatArray] = None) -> FloatArray:
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         err = self.inner.advance(state.inner, keys, index, heading)
         self.draws.wander(state.bias, state.bias_factor, keys, index)
         return self._agent(err, state)
 
-    def errors(self, state):
+    def errors(self, state: PopulationState) -> FloatArray:
         """Return each agent's current north/east errors, (n, 2)."""
         return self._agent(self.inner.errors(state.inner), state)
 
-    def state_after(self, keys, start, step, heading=None):
+    def state_after(self, keys: Keys, start: int, step: int,
+                    heading: Optional[FloatArray] = None) -> PopulationState:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         inner = self.inner.state_after(keys, start, step, heading)
         return self._state(inner, keys, start, *self.draws.bias_at(keys, start, step))
 
-    def simulate(self, keys, n_steps, start=0, out=None):
+    def simulate(self, keys: Keys, n_steps: int, start: int = 0,
+                 out: Optional[FloatArray] = None) -> FloatArray:
         """Return the agents' errors at steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         out = self.inner.simulate(keys, n_steps, start=start, out=out)
@@ -390,7 +399,7 @@ class WithPopulation(Wrapper[PopulationState]):
 
     # --- what a consumer is told ------------------------------------------
 
-    def predictive_cov(self, state, first=False):
+    def predictive_cov(self, state: PopulationState, first: bool = False) -> FloatArray:
         """
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
@@ -401,11 +410,11 @@ class WithPopulation(Wrapper[PopulationState]):
         return self.draws.agent_cov(self.inner.predictive_cov(state.inner, first),
                                     state.scale, state.bias_factor, first)
 
-    def mean_step_cov(self):
+    def mean_step_cov(self) -> FloatArray:
         """Return the process's mean one-step covariance plus the population's bias spread."""
         return np.asarray(self.inner.mean_step_cov()) + self.draws.spread
 
-    def predictive_mean(self, state, first=False):
+    def predictive_mean(self, state: PopulationState, first: bool = False) -> FloatArray:
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""
         return self.draws.agent_mean(np.asarray(self.inner.mean, dtype=float),
                                      self.inner.predictive_mean(state.inner, first),

@@ -31,19 +31,21 @@ import math
 import os
 from pathlib import Path
 import re
+from typing import Any, Callable, NoReturn, Optional
 
 import yaml
 
 from gps_error_ros.model.about_truth import AboutTruth
-from gps_error_ros.model.availability import (Availability, availability_from_dict,
-                                              AvailabilityError, WithAvailability)
 from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
+from gps_error_ros.model.availability import (Availability, availability_from_dict,
+                                              AvailabilityError, WithAvailability)
 from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
 from gps_error_ros.model.failures import (failures_from_dict, FailuresError,
                                           GrossFailureProcess, WithFailures)
 from gps_error_ros.model.population import (Population, population_from_dict, PopulationError,
                                             WithPopulation)
+from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import ReportedAccuracy, reported_from_dict, ReportedError
 from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
 
@@ -74,24 +76,24 @@ class Profile:
     description: str
     source: str
     rate_hz: float
-    axes: dict = None
-    vertical_sd: float = None
+    axes: Optional[dict[str, AxisParams]] = None
+    vertical_sd: Optional[float] = None
     notes: str = ''
-    fit: dict = field(default_factory=dict)
+    fit: dict[str, Any] = field(default_factory=dict)
     effects: Effects = field(default_factory=Effects)
     path: str = ''
-    availability: Availability = None
-    velocity: Velocity = None
-    reported_accuracy: ReportedAccuracy = None
-    gross_failures: GrossFailureProcess = None
-    population: Population = None
+    availability: Optional[Availability] = None
+    velocity: Optional[Velocity] = None
+    reported_accuracy: Optional[ReportedAccuracy] = None
+    gross_failures: Optional[GrossFailureProcess] = None
+    population: Optional[Population] = None
 
     @property
-    def fitted(self):
+    def fitted(self) -> bool:
         """Return True when the profile carries AR parameters."""
         return self.axes is not None
 
-    def model(self, gross_failures=True, about_truth=False):
+    def model(self, gross_failures: bool = True, about_truth: bool = False) -> ErrorModel[Any]:
         """
         Return the :class:`ARErrorModel` of this profile.
 
@@ -103,9 +105,9 @@ class Profile:
 
         Parameters
         ----------
-        gross_failures : bool
+        gross_failures
             Include the ``gross_failures`` section, if the profile has one.
-        about_truth : bool
+        about_truth
             State covariances about the truth (see above).
 
         Returns
@@ -119,7 +121,7 @@ class Profile:
             For a placeholder profile.
 
         """
-        if not self.fitted:
+        if self.axes is None:
             fitted = [p.name for p in (load_profile(n) for n in builtin_names())
                       if p.fitted]
             raise ProfileNotFittedError(
@@ -128,6 +130,7 @@ class Profile:
                 f'{", ".join(fitted)}. Select one of those, or calibrate a '
                 f'profile from a recording of your own (`gps_error calibrate '
                 f'TRACE.csv -o PROFILE.yaml`) and pass its path')
+        model: ErrorModel[Any]
         try:
             model = build_model(self.axes['north'], self.axes['east'], self.effects)
         except ModelError as exc:
@@ -142,7 +145,7 @@ class Profile:
             model = WithAvailability(model, self.availability)
         return model
 
-    def vertical_variance(self, model=None):
+    def vertical_variance(self, model: Optional[ErrorModel[Any]] = None) -> float:
         """
         Return the altitude variance (m^2) reported in fixes.
 
@@ -157,11 +160,11 @@ class Profile:
         return (2.0 * float(max(model.stationary_sd))) ** 2
 
 
-def _fail(source, key, expected, got):
+def _fail(source: str, key: str, expected: str, got: Any) -> NoReturn:
     raise ProfileError(f'{source}: key {key!r}: expected {expected}, got {got!r}')
 
 
-def _number(source, key, value, positive=False):
+def _number(source: str, key: str, value: Any, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         _fail(source, key, 'a number', value)
     if not math.isfinite(value):
@@ -171,13 +174,13 @@ def _number(source, key, value, positive=False):
     return float(value)
 
 
-def _text(source, key, value):
+def _text(source: str, key: str, value: Any) -> str:
     if not isinstance(value, str):
         _fail(source, key, 'a string', value)
     return value
 
 
-def _axis(source, name, raw):
+def _axis(source: str, name: str, raw: Any) -> AxisParams:
     key = f'axes.{name}'
     if not isinstance(raw, dict):
         _fail(source, key, 'a mapping with delta, phi, sigma_w', raw)
@@ -200,7 +203,8 @@ def _axis(source, name, raw):
         raise ProfileError(f'{source}: key {key!r}: {exc}') from None
 
 
-def _section(raw, key, parse, source):
+def _section(raw: dict[str, Any], key: str, parse: Callable[[Any, str], Any],
+             source: str) -> Any:
     """Return an optional section parsed by ``parse``, or None; its error as ProfileError."""
     if raw.get(key) is None:
         return None
@@ -211,7 +215,7 @@ def _section(raw, key, parse, source):
         raise ProfileError(str(exc)) from None
 
 
-def profile_from_dict(raw, source='<profile>'):
+def profile_from_dict(raw: Any, source: str = '<profile>') -> Profile:
     """Validate a parsed profile mapping and return a :class:`Profile`."""
     if not isinstance(raw, dict):
         raise ProfileError(f'{source}: expected a YAML mapping at the top level, '
@@ -271,7 +275,7 @@ def profile_from_dict(raw, source='<profile>'):
         population=population)
 
 
-def load_profile_file(path):
+def load_profile_file(path: str | os.PathLike[str]) -> Profile:
     """Load and validate the profile YAML at ``path``."""
     path = Path(path)
     try:
@@ -287,7 +291,7 @@ def load_profile_file(path):
     return profile_from_dict(raw, str(path))
 
 
-def profile_dirs():
+def profile_dirs() -> list[Path]:
     """
     Return the directories searched for built-in profiles, in order.
 
@@ -311,7 +315,7 @@ def profile_dirs():
     return [d for d in dict.fromkeys(dirs)]
 
 
-def builtin_dir():
+def builtin_dir() -> Path:
     """Return the first existing built-in profile directory."""
     for d in profile_dirs():
         if d.is_dir() and any(d.glob('*.yaml')):
@@ -321,13 +325,13 @@ def builtin_dir():
         + ', '.join(str(d) for d in profile_dirs()))
 
 
-def builtin_names():
+def builtin_names() -> list[str]:
     """Return the names of the built-in profiles (DS1..DS7, then the receivers')."""
     return sorted((p.stem for p in builtin_dir().glob('*.yaml')),
                   key=lambda s: (len(s), s))
 
 
-def _choices():
+def _choices() -> str:
     """Return the built-in names for messages: the fitted ones, then the rest."""
     names = builtin_names()
     fitted = [n for n in names if load_profile_file(builtin_dir() / f'{n}.yaml').fitted]
@@ -336,7 +340,7 @@ def _choices():
                                  f'fit)' if rest else ''))
 
 
-def load_profile(spec):
+def load_profile(spec: str | os.PathLike[str]) -> Profile:
     """Load a profile by built-in name (case-insensitive) or by file path."""
     spec = str(spec).strip()
     named = {n.lower(): n for n in builtin_names()}
@@ -357,7 +361,8 @@ def load_profile(spec):
     return load_profile_file(path)
 
 
-def axes_mapping(north, east, digits=6):
+def axes_mapping(north: AxisParams, east: AxisParams,
+                 digits: int = 6) -> dict[str, dict[str, Any]]:
     """Return the ``axes`` section of two :class:`AxisParams`, rounded for YAML."""
     return {ax: {'delta': round(float(p.delta), digits),
                  'phi': [round(float(v), digits) for v in p.phi],
@@ -365,9 +370,11 @@ def axes_mapping(north, east, digits=6):
             for ax, p in zip(AXES, (north, east))}
 
 
-def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
-                    fit=None, availability=None, velocity=None, reported_accuracy=None,
-                    gross_failures=None, population=None):
+def profile_mapping(name: str, description: str, source: str, axes: Any, rate_hz: float = 1.0,
+                    effects: Any = None, fit: Optional[dict[str, Any]] = None,
+                    availability: Any = None, velocity: Any = None,
+                    reported_accuracy: Any = None, gross_failures: Any = None,
+                    population: Any = None) -> dict[str, Any]:
     """
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
@@ -408,7 +415,8 @@ def profile_mapping(name, description, source, axes, rate_hz=1.0, effects=None,
     return prof
 
 
-def write_profile(path, profile, tool='calibrate'):
+def write_profile(path: str | os.PathLike[str], profile: dict[str, Any],
+                  tool: str = 'calibrate') -> None:
     """
     Write a profile mapping as YAML (keys in schema order).
 

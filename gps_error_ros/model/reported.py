@@ -44,10 +44,13 @@ inside ``r``; no off-diagonal term (a radius has no orientation).
 
 from dataclasses import dataclass
 import math
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import FloatArray, Keys, Numbers
 from gps_error_ros.model.velocity import series
 
 #: A 2-D circular Gaussian holds 68 % inside this many per-axis SDs.
@@ -73,27 +76,28 @@ class ReportedAccuracy:
     resolution_m: float
     scale_m: float = 0.0
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the profile section as plain data."""
-        out = {'source': self.source}
+        out: dict[str, Any] = {'source': self.source}
         out.update({k: float(getattr(self, k)) for k in _KEYS[1:]})
         return out
 
-    def initial(self, keys, index):
+    def initial(self, keys: Keys, index: int) -> FloatArray:
         """Return the fluctuation ``x`` (n, 1) at a run's first step ``index``."""
         return self.sigma_log * streams.normal_pairs(
             keys, streams.DOMAIN_INIT_REPORTED, index)[:, :1]
 
-    def step(self, x, keys, index):
+    def step(self, x: FloatArray, keys: Keys, index: int) -> FloatArray:
         """Return the fluctuation at step ``index`` after ``x`` at the step before."""
         z = streams.normal_pairs(keys, streams.DOMAIN_REPORTED, index)[:, :1]
         return self.phi * x + math.sqrt(1.0 - self.phi ** 2) * self.sigma_log * z
 
-    def errors(self, keys, n_steps, start=0):
+    def errors(self, keys: Keys, n_steps: int, start: int = 0) -> FloatArray:
         """Return the fluctuation at steps ``start ..``, (n_steps, n, 1)."""
         return series(self, keys, n_steps, start)
 
-    def radius(self, x, cov=None, stationary=None):
+    def radius(self, x: Numbers, cov: Optional[Numbers] = None,
+               stationary: Optional[Numbers] = None) -> FloatArray:
         """
         Return the stated 68 % radius in metres for fluctuations ``x`` (..., 1).
 
@@ -112,7 +116,7 @@ class ReportedAccuracy:
             r = np.maximum(np.round(r / q), 1.0) * q
         return r
 
-    def covariance(self, radius, bias=None):
+    def covariance(self, radius: Numbers, bias: Optional[Numbers] = None) -> FloatArray:
         """
         Return the north/east covariances, (..., 2, 2), that stated radii imply.
 
@@ -126,12 +130,13 @@ class ReportedAccuracy:
             out += np.outer(bias, bias)
         return out
 
-    def stated(self, radius):
+    def stated(self, radius: FloatArray) -> FloatArray:
         """Return what the phone writes: the radius (m), or the HDOP it corresponds to."""
         return radius if self.source == 'accuracy' else radius / self.scale_m
 
 
-def _number(raw, k, lo, hi, source, open_lo=False):
+def _number(raw: dict[str, Any], k: str, lo: float, hi: float, source: str,
+            open_lo: bool = False) -> float:
     v = raw[k]
     ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and (
         (lo < v if open_lo else lo <= v) and v <= hi)
@@ -142,7 +147,7 @@ def _number(raw, k, lo, hi, source, open_lo=False):
     return float(v)
 
 
-def reported_from_dict(raw, source='<profile>'):
+def reported_from_dict(raw: Any, source: str = '<profile>') -> ReportedAccuracy:
     """Validate a ``reported_accuracy`` mapping; return :class:`ReportedAccuracy`."""
     if not isinstance(raw, dict) or sorted(raw) != sorted(_KEYS):
         raise ReportedError(f'{source}: key \'reported_accuracy\': expected a mapping with '
@@ -164,12 +169,12 @@ def reported_from_dict(raw, source='<profile>'):
     return ReportedAccuracy(**vals)
 
 
-def reference_cov(model):
+def reference_cov(model: ErrorModel[Any]) -> FloatArray:
     """Return the one-step predictive covariance averaged over the stationary law (``s_ref``)."""
     return model.mean_step_cov()
 
 
-def needs_predictive(covariance_mode, reported):
+def needs_predictive(covariance_mode: str, reported: Optional[ReportedAccuracy]) -> bool:
     """Return True when fixes need the predictive covariance (conditional; a following radius)."""
     return covariance_mode == 'conditional' or (
         covariance_mode == 'reported' and reported is not None and reported.follow != 0.0)

@@ -29,9 +29,15 @@ import numpy.typing as npt
 S = TypeVar('S', bound='AgentState')
 
 #: A float array (the package's errors, covariances and state fields).
-FloatArray = npt.NDArray[np.float64]
+FloatArray = npt.NDArray[np.floating[Any]]
 #: An integer array (regimes, phases).
 IntArray = npt.NDArray[np.int64]
+#: A boolean array (masks: which agents have a fix, which failed).
+BoolArray = npt.NDArray[np.bool_]
+#: The agents' stream keys: uint64 values, one per agent (:func:`~.streams.agent_keys`).
+Keys = Any
+#: Numbers in any shape numpy takes: a float, a list, an array (turned into an array inside).
+Numbers = Any
 
 
 @dataclasses.dataclass(eq=False)
@@ -50,7 +56,7 @@ class AgentState:
 
     def take(self: S, rows: Any) -> S:
         """Return the state of agents ``rows`` (an index or mask), a copy."""
-        out = {}
+        out: dict[str, Any] = {}
         for name, value in self._items():
             if value is None:
                 out[name] = None
@@ -100,7 +106,7 @@ class AgentState:
         if type(other) is not type(self):
             raise TypeError(f'cannot join a {type(other).__name__} to a '
                             f'{type(self).__name__}')
-        out = {}
+        out: dict[str, Any] = {}
         for name, value in self._items():
             if value is None:
                 out[name] = None

@@ -21,8 +21,10 @@ picks another SIMD path may differ in the last float32 bits.
 """
 
 import hashlib
+from typing import Any, Iterable
 
 import numpy as np
+import numpy.typing as npt
 
 _GAMMA = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -129,15 +131,15 @@ DOMAINS = {
 }
 
 
-def init_position(index, slot):
+def init_position(index: int, slot: int) -> int:
     """
     Return the position in ``DOMAIN_INIT`` of pair ``slot`` of step ``index``.
 
     Parameters
     ----------
-    index : int
+    index
         The model step at which the initial state is drawn.
-    slot : int
+    slot
         The pair within it, in [0, INIT_SLOTS).
 
     Returns
@@ -158,15 +160,15 @@ def init_position(index, slot):
     return index * INIT_SLOTS + slot
 
 
-def agent_key(seed, name=''):
+def agent_key(seed: int | np.integer[Any], name: str = '') -> np.uint64:
     """
     Return the 64-bit stream key of an agent.
 
     Parameters
     ----------
-    seed : int
+    seed
         The run's seed, a non-negative integer below 2**64.
-    name : str
+    name
         The agent's name ('' for a single-agent node).
 
     Returns
@@ -187,19 +189,19 @@ def agent_key(seed, name=''):
     return np.uint64(int.from_bytes(digest, 'little'))
 
 
-def agent_keys(seed, names):
+def agent_keys(seed: int, names: Iterable[str]) -> npt.NDArray[np.uint64]:
     """Return the stream keys of several agents as a uint64 array."""
     return np.array([agent_key(seed, n) for n in names], dtype=np.uint64)
 
 
-def _mix(z):
+def _mix(z: npt.NDArray[np.uint64]) -> npt.NDArray[np.uint64]:
     """Return the SplitMix64 output function applied to uint64 array ``z``."""
     z = (z ^ (z >> _S30)) * _M1
     z = (z ^ (z >> _S27)) * _M2
     return z ^ (z >> _S31)
 
 
-def _position(domain, index):
+def _position(domain: int, index: Any) -> npt.NDArray[np.uint64]:
     index = np.asarray(index, dtype=np.int64)
     if np.any(index < 0) or np.any(index >= 2 ** COUNTER_BITS):
         raise ValueError(
@@ -208,23 +210,23 @@ def _position(domain, index):
         index.astype(np.uint64)
 
 
-def _positions(keys, domain, index):
+def _positions(keys: Any, domain: int, index: Any) -> npt.NDArray[np.uint64]:
     keys = np.asarray(keys, dtype=np.uint64)
     with np.errstate(over='ignore'):
         return keys + _position(domain, index) * _GAMMA
 
 
-def uniform_pairs(keys, domain, index):
+def uniform_pairs(keys: Any, domain: int, index: Any) -> npt.NDArray[np.float64]:
     """
     Return two uniforms in (0, 1) per key at one position of each stream.
 
     Parameters
     ----------
-    keys : array of uint64, shape (n,)
+    keys
         The agents' stream keys (:func:`agent_key`).
-    domain : int
+    domain
         What the draw is for (``DOMAIN_STEP``, ``DOMAIN_INIT``, ...).
-    index : int or array of int broadcastable with ``keys``
+    index
         Position within the domain (for steps: the model step index).
 
     Returns
@@ -249,7 +251,7 @@ _F32_TWO_PI_INV32 = np.float32(2.0 * np.pi * _INV32)
 class _Workspace:
     """Cache-sized scratch arrays, reused across calls (not thread-safe)."""
 
-    def __init__(self, n=_CHUNK):
+    def __init__(self, n: int = _CHUNK) -> None:
         self.w = np.empty(n, np.uint64)
         self.t = np.empty(n, np.uint64)
         self.r = np.empty(n, np.float32)
@@ -260,7 +262,8 @@ class _Workspace:
 _WS = _Workspace()
 
 
-def _box_muller_into(pos, out_n, out_e):
+def _box_muller_into(pos: npt.NDArray[np.uint64], out_n: npt.NDArray[np.float64],
+                     out_e: npt.NDArray[np.float64]) -> None:
     """Fill ``out_n``, ``out_e`` (m,) with the normal pair of each position."""
     m = pos.size
     ws = _WS
@@ -293,7 +296,7 @@ def _box_muller_into(pos, out_n, out_e):
     np.multiply(r, c, out=out_e)
 
 
-def normal_pairs(keys, domain, index):
+def normal_pairs(keys: Any, domain: int, index: Any) -> npt.NDArray[np.float64]:
     """
     Return two independent standard normals per key (Box-Muller).
 
@@ -311,7 +314,8 @@ def normal_pairs(keys, domain, index):
     return out
 
 
-def normal_block_axes(keys, domain, start, count):
+def normal_block_axes(keys: Any, domain: int, start: int,
+                      count: int) -> npt.NDArray[np.float64]:
     """
     Return normal pairs for consecutive indices, axis-major: (2, count, n).
 
@@ -329,7 +333,7 @@ def normal_block_axes(keys, domain, start, count):
     return out
 
 
-def normal_block(keys, domain, start, count):
+def normal_block(keys: Any, domain: int, start: int, count: int) -> npt.NDArray[np.float64]:
     """
     Return standard normal pairs for ``count`` consecutive indices.
 

@@ -85,10 +85,12 @@ two come from different observables: Doppler against pseudoranges).
 """
 
 from dataclasses import dataclass
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.state import BoolArray, FloatArray, Keys, Numbers
 
 _KEYS = ('lag_s', 'phi', 'sigma', 'standstill')
 _OPTIONAL = ('sigma_by_speed', 'course_lag_s', 'speed_bias', 'scale_sd_log', 'burst_share',
@@ -113,16 +115,19 @@ class Velocity:
     phi: float
     lag_s: float
     standstill: float
-    sigma_by_speed: tuple = None    # ((speed m/s, sigma m/s), ...), speeds increasing
-    course_lag_s: float = None      # s: the course's own lag (None: ``lag_s``)
-    speed_bias: tuple = None        # ((speed m/s, mean speed error m/s), ...)
-    scale_sd_log: float = None      # SD of the log of an agent's scale (None: one scale)
-    burst_share: float = None       # share of steps whose innovation bursts (None: normal)
-    burst_ratio: float = None       # the bursts' innovation SD over the other steps'
+    # ((speed m/s, sigma m/s), ...), speeds increasing
+    sigma_by_speed: Optional[tuple[tuple[float, float], ...]] = None
+    course_lag_s: Optional[float] = None      # s: the course's own lag (None: ``lag_s``)
+    # ((speed m/s, mean speed error m/s), ...)
+    speed_bias: Optional[tuple[tuple[float, float], ...]] = None
+    scale_sd_log: Optional[float] = None      # SD of the log of an agent's scale (None: one scale)
+    burst_share: Optional[float] = None       # share of steps whose innovation bursts
+    burst_ratio: Optional[float] = None       # the bursts' innovation SD over the other steps'
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the profile section as plain data."""
-        out = {k: float(getattr(self, k)) for k in ('sigma', 'phi', 'lag_s', 'standstill')}
+        out: dict[str, Any] = {k: float(getattr(self, k))
+                               for k in ('sigma', 'phi', 'lag_s', 'standstill')}
         if self.sigma_by_speed is not None:
             out['sigma_by_speed'] = [[float(v), float(s)] for v, s in self.sigma_by_speed]
         if self.course_lag_s is not None:
@@ -135,13 +140,13 @@ class Velocity:
         return out
 
     @property
-    def lags(self):
+    def lags(self) -> tuple[float, ...]:
         """Return the times (s) the truth is taken back by: the speed's, and any course's."""
         if self.course_lag_s is None:
             return (self.lag_s,)
         return (self.lag_s, self.course_lag_s)
 
-    def truth_reported(self, v_speed, v_course=None):
+    def truth_reported(self, v_speed: Numbers, v_course: Numbers = None) -> FloatArray:
         """
         Return the true velocity (..., 2) the phone reports, from the truth at its lags.
 
@@ -153,13 +158,14 @@ class Velocity:
             return v_speed
         return speed_along(v_speed, v_course)
 
-    def sd_at(self, speed):
+    def sd_at(self, speed: Numbers) -> FloatArray:
         """Return the error's SD per component (m/s) at true speeds ``speed``."""
         if self.sigma_by_speed is None:
             return np.full(np.shape(speed), self.sigma)
         return sd_from_table(self.sigma_by_speed, speed)
 
-    def scaled(self, v_true, w, speed=None, sd=None):
+    def scaled(self, v_true: Numbers, w: FloatArray, speed: Numbers = None,
+               sd: Numbers = None) -> FloatArray:
         """
         Return the error ``w`` (..., 2) scaled to the SD at the speed of ``v_true``.
 
@@ -171,7 +177,7 @@ class Velocity:
             sd = self.sd_at(np.hypot(v_true[..., 0], v_true[..., 1]) if speed is None else speed)
         return w * (sd / self.sigma)[..., None]
 
-    def agent_sds(self, keys):
+    def agent_sds(self, keys: Keys) -> Any:
         """
         Return each agent's ``sigma`` times its scale ``f`` (n, 1), or ``sigma`` without one.
 
@@ -192,32 +198,32 @@ class Velocity:
         object.__setattr__(self, '_kept_sds', (tag, sds))   # (frozen: not a field)
         return sds
 
-    def bursts(self, z, keys, domain, index):
+    def bursts(self, z: FloatArray, keys: Keys, domain: int, index: Any) -> FloatArray:
         """Return the draws ``z`` (n, 2) times each agent's burst factor (no bursts: ``z``)."""
         if self.burst_share is None:
             return z
-        p, r = self.burst_share, self.burst_ratio
+        p, r = self.burst_share, float(self.burst_ratio or 1.0)
         c0 = 1.0 / np.sqrt(1.0 - p + p * r * r)
         u = streams.uniform_pairs(keys, domain, index)[:, :1]
         return z * np.where(u < p, r * c0, c0)
 
-    def initial(self, keys, index):
+    def initial(self, keys: Keys, index: int) -> FloatArray:
         """Return the error (n, 2) east/north at a run's first step ``index``."""
         z = self.bursts(streams.normal_pairs(keys, streams.DOMAIN_INIT_VELOCITY, index), keys,
                         streams.DOMAIN_INIT_VELOCITY_BURST, index)
         return self.agent_sds(keys) * z
 
-    def step(self, w, keys, index):
+    def step(self, w: FloatArray, keys: Keys, index: int) -> FloatArray:
         """Return the error at step ``index`` after ``w`` at the step before."""
         z = self.bursts(streams.normal_pairs(keys, streams.DOMAIN_VELOCITY, index), keys,
                         streams.DOMAIN_VELOCITY_BURST, index)
         return self.phi * w + np.sqrt(1.0 - self.phi ** 2) * self.agent_sds(keys) * z
 
-    def errors(self, keys, n_steps, start=0):
+    def errors(self, keys: Keys, n_steps: int, start: int = 0) -> FloatArray:
         """Return the velocity errors at steps ``start ..``, (n_steps, n, 2) east/north m/s."""
         return series(self, keys, n_steps, start)
 
-    def report(self, v_true, w):
+    def report(self, v_true: Numbers, w: FloatArray) -> tuple[FloatArray, FloatArray]:
         """
         Return (speed m/s, course deg) a phone reports for true velocity ``v_true``.
 
@@ -228,7 +234,7 @@ class Velocity:
         v, still = self.vector(v_true, w)
         return np.hypot(v[..., 0], v[..., 1]), np.where(still, np.nan, course_deg(v))
 
-    def vector(self, v_true, w):
+    def vector(self, v_true: Numbers, w: FloatArray) -> tuple[FloatArray, BoolArray]:
         """
         Return (the velocity (..., 2) a phone reports, whether it stands still (...)).
 
@@ -238,14 +244,15 @@ class Velocity:
         v, still, _ = self.vector_and_mean(v_true, w)
         return v, still
 
-    def mean_error(self, v_true):
+    def mean_error(self, v_true: Numbers) -> FloatArray:
         """Return the error's mean (..., 2) at true velocities ``v_true``: the speed bias."""
         v_true = np.asarray(v_true, dtype=float)
         speed = np.hypot(v_true[..., 0], v_true[..., 1])
         still = speed <= self.standstill                # NaN: not still
         return np.where(still[..., None], 0.0, self.biased(v_true, speed) - v_true)
 
-    def vector_and_mean(self, v_true, w):
+    def vector_and_mean(self, v_true: Numbers,
+                        w: FloatArray) -> tuple[FloatArray, BoolArray, Optional[FloatArray]]:
         """
         Return (what :meth:`vector` returns, and :meth:`mean_error` or None), in one pass.
 
@@ -255,7 +262,9 @@ class Velocity:
         v, still, mean, _ = self.report_parts(v_true, w)
         return v, still, mean
 
-    def report_parts(self, v_true, w):
+    def report_parts(self, v_true: Numbers,
+                     w: FloatArray
+                     ) -> tuple[FloatArray, BoolArray, Optional[FloatArray], FloatArray]:
         """
         Return (:meth:`vector_and_mean`'s three, and the error's SD (...) at the true speed).
 
@@ -272,14 +281,14 @@ class Velocity:
             return v, still, None, sd
         return v, still, np.where(still[..., None], 0.0, biased - v_true), sd
 
-    def biased(self, v_true, speed=None):
+    def biased(self, v_true: Numbers, speed: Numbers = None) -> FloatArray:
         """Return ``v_true`` (..., 2) with its speed moved by ``speed_bias`` (never below 0)."""
         if self.speed_bias is None:
             return v_true
         return with_speed_bias(v_true, self.speed_bias, speed)
 
 
-def series(process, keys, n_steps, start=0):
+def series(process: Any, keys: Keys, n_steps: int, start: int = 0) -> FloatArray:
     """
     Return a side stream's values at steps ``start ..``, (n_steps, n, d).
 
@@ -297,7 +306,8 @@ def series(process, keys, n_steps, start=0):
     return out
 
 
-def with_speed_bias(v_true, table, speed=None):
+def with_speed_bias(v_true: Numbers, table: tuple[tuple[float, float], ...],
+                    speed: Numbers = None) -> FloatArray:
     """Return ``v_true`` (..., 2) lengthened by a speed table's bias at its speed (not below 0)."""
     if speed is None:
         speed = np.hypot(v_true[..., 0], v_true[..., 1])
@@ -306,7 +316,7 @@ def with_speed_bias(v_true, table, speed=None):
     return v_true * np.where(speed > 0.0, gain, 1.0)[..., None]
 
 
-def speed_along(v_speed, v_course):
+def speed_along(v_speed: Numbers, v_course: Numbers) -> FloatArray:
     """
     Return velocities (..., 2) with the speed of ``v_speed`` and the direction of ``v_course``.
 
@@ -323,18 +333,19 @@ def speed_along(v_speed, v_course):
     return out
 
 
-def sd_from_table(table, speed):
+def sd_from_table(table: tuple[tuple[float, float], ...], speed: Numbers) -> FloatArray:
     """Return a speed table's value (SD, bias) at ``speed``: linear between, flat beyond."""
     nodes = np.asarray(table, dtype=float)
     return np.interp(np.asarray(speed, dtype=float), nodes[:, 0], nodes[:, 1])
 
 
-def course_deg(v):
+def course_deg(v: FloatArray) -> FloatArray:
     """Return the direction of east/north velocities (..., 2), degrees clockwise from north."""
     return np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 360.0
 
 
-def _speed_table(raw, source, key='sigma_by_speed'):
+def _speed_table(raw: Any, source: str,
+                 key: str = 'sigma_by_speed') -> tuple[tuple[float, float], ...]:
     """Validate ``sigma_by_speed`` (or ``speed_bias``); return ((speed, value), ...)."""
     value = 'sigma m/s' if key == 'sigma_by_speed' else 'bias m/s'
     bounds = 'sigma in (0, 100)' if key == 'sigma_by_speed' else 'bias in (-100, 100)'
@@ -342,7 +353,7 @@ def _speed_table(raw, source, key='sigma_by_speed'):
             f'[speed m/s, {value}] pairs, speeds in [0, 100] increasing, {bounds}')
     low = 0.0 if key == 'sigma_by_speed' else -100.0
 
-    def number(v):
+    def number(v: Any) -> bool:
         return isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
 
     if not isinstance(raw, (list, tuple)) or not 1 <= len(raw) <= MAX_NODES:
@@ -358,7 +369,7 @@ def _speed_table(raw, source, key='sigma_by_speed'):
     return tuple(rows)
 
 
-def velocity_from_dict(raw, source='<profile>'):
+def velocity_from_dict(raw: Any, source: str = '<profile>') -> Velocity:
     """Validate a ``velocity`` mapping; return :class:`Velocity`."""
     keys = sorted(k for k in raw if k not in _OPTIONAL) if isinstance(raw, dict) else None
     if keys != sorted(_KEYS):
@@ -368,7 +379,7 @@ def velocity_from_dict(raw, source='<profile>'):
               'lag_s': (0.0, 10.0, False), 'standstill': (0.0, 100.0, False)}
     if 'course_lag_s' in raw:
         bounds['course_lag_s'] = bounds['lag_s']
-    vals = {}
+    vals: dict[str, Any] = {}
     for k, (lo, hi, open_ends) in bounds.items():
         v = raw[k]
         ok = isinstance(v, (int, float)) and not isinstance(v, bool) and (
@@ -392,14 +403,15 @@ def velocity_from_dict(raw, source='<profile>'):
     return Velocity(**vals)
 
 
-def _bursts(raw, source):
+def _bursts(raw: dict[str, Any], source: str) -> dict[str, float]:
     """Validate ``burst_share`` and ``burst_ratio`` (both or neither); return them."""
     given = [k for k in ('burst_share', 'burst_ratio') if k in raw]
     if not given:
         return {}
     what = (f'{source}: key velocity.burst_share and burst_ratio: expected both, a share in '
             f'(0, {MAX_BURST_SHARE:g}] and a ratio in (1, {MAX_BURST_RATIO:g}]')
-    p, r = raw.get('burst_share'), raw.get('burst_ratio')
+    p: Any = raw.get('burst_share')
+    r: Any = raw.get('burst_ratio')
     ok = len(given) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
                                  for v in (p, r))
     if not (ok and 0.0 < p <= MAX_BURST_SHARE and 1.0 < r <= MAX_BURST_RATIO):

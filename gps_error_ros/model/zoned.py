@@ -45,6 +45,7 @@ due, because the zone is known only once the truth for the step is.
 """
 
 import math
+from typing import Any, Iterator, Optional, Sequence
 
 import numpy as np
 
@@ -52,14 +53,18 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.about_truth import AboutTruth, mean_square
 from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.effects import ExtendedModel, MOVING_M
-from gps_error_ros.model.failures import WithFailures
+from gps_error_ros.model.failures import GrossFailureProcess, WithFailures
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.population import AgentDraws, WithPopulation
+from gps_error_ros.model.profiles import Profile
+from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import needs_predictive
-from gps_error_ros.model.zones import OUTSIDE, zone_models
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
+from gps_error_ros.model.zones import OUTSIDE, zone_models, ZoneMap
 
 
-def travel_direction(lat0, lon0, lat1, lon1, ok=None):
+def travel_direction(lat0: Numbers, lon0: Numbers, lat1: Numbers, lon1: Numbers,
+                     ok: Optional[BoolArray] = None) -> FloatArray:
     """
     Return the direction (radians from north, clockwise) from point 0 to point 1.
 
@@ -75,12 +80,20 @@ def travel_direction(lat0, lon0, lat1, lon1, ok=None):
     return np.where(moving, np.arctan2(east, north), np.nan)
 
 
-def _core(model):
+def _core(model: ErrorModel[Any]) -> tuple[ErrorModel[Any], bool]:
     """Return (the model beneath an :class:`AboutTruth`, whether it was wrapped)."""
     return (model.core, True) if isinstance(model, AboutTruth) else (model, False)
 
 
-def _has_regimes(model):
+def _process(model: ErrorModel[Any]) -> ExtendedModel:
+    """Return the process with effects beneath any :class:`AboutTruth`."""
+    core = _core(model)[0]
+    if not isinstance(core, ExtendedModel):
+        raise TypeError(f'expected a model with effects, got {type(core).__name__}')
+    return core
+
+
+def _has_regimes(model: ErrorModel[Any]) -> bool:
     """Return True when the process (beneath any :class:`AboutTruth`) has variance regimes."""
     core = _core(model)[0]
     return isinstance(core, ExtendedModel) and core.scales.size > 1
@@ -97,28 +110,31 @@ class ZonedErrors:
 
     Parameters
     ----------
-    models : list
+    models
         The error models of the zones, in the zone map's order, then the
         default model last (zone index ``OUTSIDE`` = -1 picks it). Zones
         with the same model object are stepped together, and moving between
         them is not entering a new zone (the regime carries on).
-    n : int
+    n
         Slots to start with (more with :meth:`grow`).
-    conditional_cov : bool
+    conditional_cov
         Covariance of each error given the state a step before (the node's
         ``covariance_mode`` conditional); else the zone's stationary one.
-    failures : GrossFailureProcess or None
+    failures
         The gross failures of every zone (the default profile's section).
-    population : AgentDraws or None
+    population
         Each agent's bias and scale in every zone (the default profile's
         ``population`` section).
 
     """
 
-    def __init__(self, models, n=0, conditional_cov=False, failures=None, population=None):
+    def __init__(self, models: Sequence[ErrorModel[Any]], n: int = 0,
+                 conditional_cov: bool = False,
+                 failures: Optional[GrossFailureProcess] = None,
+                 population: Optional[AgentDraws] = None) -> None:
         assert OUTSIDE == -1
-        self.models = []                       # distinct models
-        index = {}
+        self.models: list[ErrorModel[Any]] = []      # distinct models
+        index: dict[int, int] = {}
         for m in models:
             if id(m) not in index:
                 index[id(m)] = len(self.models)
@@ -135,10 +151,10 @@ class ZonedErrors:
             self.stationary = self.stationary + population.spread
         #: whether any zone's innovations turn with the direction of travel
         self.needs_heading = any(m.needs_heading for m in self.models)
-        self.start = None
+        self.start: Optional[int] = None
         self._alloc(n)
 
-    def _alloc(self, n):
+    def _alloc(self, n: int) -> None:
         self.err = np.zeros((n, 2, self.order))    # last P errors, newest first
         self.regime = np.zeros(n, dtype=np.int64)
         self.zone = np.zeros(n, dtype=np.int64)    # the distinct model in use
@@ -152,33 +168,34 @@ class ZonedErrors:
         self.held = np.zeros((n, 2))               # the part of the bias held for the run
 
     @property
-    def n(self):
+    def n(self) -> int:
         """Return the number of slots."""
         return self.started.size
 
-    def grow(self, n):
+    def grow(self, n: int) -> None:
         """Add ``n`` slots (not started)."""
         old = [getattr(self, k) for k in _SLOT_ARRAYS]
         self._alloc(n)
         for k, a in zip(_SLOT_ARRAYS, old):
             setattr(self, k, np.concatenate([a, getattr(self, k)]))
 
-    def keep(self, mask):
+    def keep(self, mask: BoolArray) -> None:
         """Keep only the slots where ``mask`` is True (in order)."""
         for name in _SLOT_ARRAYS:
             setattr(self, name, getattr(self, name)[mask])
 
-    def restart(self, start, rows=slice(None)):
+    def restart(self, start: int, rows: Any = slice(None)) -> None:
         """Forget ``rows`` (all by default); runs count from model step ``start``."""
         self.start = int(start)
         self.started[rows] = False
 
-    def forget(self, rows):
+    def forget(self, rows: Any) -> None:
         """Forget ``rows``: their next fix starts them again from the run's start."""
         self.started[rows] = False
         self.heading[rows] = 0.0
 
-    def errors(self, rows, keys, step, zones, heading=None):
+    def errors(self, rows: IntArray, keys: Keys, step: int, zones: IntArray,
+               heading: Optional[FloatArray] = None) -> tuple[FloatArray, FloatArray]:
         """
         Return the error, shape (m, 2), and covariance (m, 2, 2) of ``rows`` at a step.
 
@@ -221,11 +238,11 @@ class ZonedErrors:
             err[fails] = off[fails]
         return err, cov
 
-    def _groups(self, zones):
+    def _groups(self, zones: IntArray) -> Iterator[tuple[int, IntArray]]:
         for z in np.unique(zones):
             yield int(z), np.flatnonzero(zones == z)
 
-    def _begin(self, rows, keys, step, zones):
+    def _begin(self, rows: IntArray, keys: Keys, step: int, zones: IntArray) -> None:
         """Start ``rows`` at ``step``: the state of a run from the start in one zone."""
         if self.population is not None:            # the bias a step before, the scale
             self._draw(rows, keys, step)
@@ -236,7 +253,7 @@ class ZonedErrors:
             elif self.conditional_cov:
                 state = self._conditional_start(model, r, k, step)
             else:
-                state = model.state_after(k, self.start, step)
+                state = model.state_after(k, self._start(), step)
             p = model.order
             self.err[r] = model.mean[None, :, None]       # lags beyond p: the mean
             self.err[r, :, :p] = state.deviations + model.mean[None, :, None]
@@ -244,23 +261,36 @@ class ZonedErrors:
             self.zone[r] = z
             self.step[r] = step
             self.started[r] = True
-        if self.population is not None and step > self.start:
+        if self.population is not None and step > self._start():
             self._wander(rows, keys, step)
 
-    def _draw(self, rows, keys, step):
-        """Draw the agents' scales and their runs' biases, wandered to ``step - 1``."""
-        self.bias[rows], self.bias_factor[rows] = self.population.bias_at(keys, self.start,
-                                                                          step - 1)
-        self.scale[rows] = self.population.scales(keys)
-        self.held[rows] = self.population.held_part(keys, self.start, self.bias_factor[rows])
+    def _start(self) -> int:
+        """Return the run's first model step (set by :meth:`restart`)."""
+        if self.start is None:
+            raise ValueError('ZonedErrors.restart(start) was not called')
+        return self.start
 
-    def _wander(self, rows, keys, step):
+    def _draws(self) -> AgentDraws:
+        """Return the population's draws (only called when there is a population)."""
+        if self.population is None:
+            raise ValueError('this ZonedErrors has no population')
+        return self.population
+
+    def _draw(self, rows: IntArray, keys: Keys, step: int) -> None:
+        """Draw the agents' scales and their runs' biases, wandered to ``step - 1``."""
+        draws, start = self._draws(), self._start()
+        self.bias[rows], self.bias_factor[rows] = draws.bias_at(keys, start, step - 1)
+        self.scale[rows] = draws.scales(keys)
+        self.held[rows] = draws.held_part(keys, start, self.bias_factor[rows])
+
+    def _wander(self, rows: IntArray, keys: Keys, step: int) -> None:
         """Wander the runs' biases of ``rows`` to model step ``step``."""
         bias = self.bias[rows]
-        self.population.wander(bias, self.bias_factor[rows], keys, step)
+        self._draws().wander(bias, self.bias_factor[rows], keys, step)
         self.bias[rows] = bias
 
-    def _stated(self, model, rows, state, first=False):
+    def _stated(self, model: ErrorModel[Any], rows: IntArray, state: Any,
+                first: bool = False) -> FloatArray:
         """Return the covariances (m, 2, 2) of ``rows``' next errors given ``state``."""
         if self.population is None:
             return model.predictive_cov(state, first)
@@ -274,18 +304,19 @@ class ZonedErrors:
                                                  scale, self.bias[rows], first,
                                                  self.held[rows] if draws.held else None))
 
-    def _conditional_start(self, model, rows, keys, step):
+    def _conditional_start(self, model: ErrorModel[Any], rows: IntArray, keys: Keys,
+                           step: int) -> Any:
         """Return the state at ``step`` of a run from the start; set its covariance."""
         if step == self.start:
             state = model.initial_state(keys, step)
             self.cov[rows] = self._stated(model, rows, state, first=True)
             return state
-        state = model.state_after(keys, self.start, step - 1)
+        state = model.state_after(keys, self._start(), step - 1)
         self.cov[rows] = self._stated(model, rows, state)
         model.advance(state, keys, step)
         return state
 
-    def _street_start(self, model, rows, keys, step):
+    def _street_start(self, model: ErrorModel[Any], rows: IntArray, keys: Keys, step: int) -> Any:
         """Return the state at ``step`` of a street-frame run from the start, heading now."""
         if step == self.start:
             state = model.initial_state(keys, step)
@@ -293,13 +324,13 @@ class ZonedErrors:
             if self.conditional_cov:
                 self.cov[rows] = self._stated(model, rows, state, first=True)
             return state
-        state = model.state_after(keys, self.start, step - 1, heading=self.heading[rows])
+        state = model.state_after(keys, self._start(), step - 1, heading=self.heading[rows])
         if self.conditional_cov:
             self.cov[rows] = self._stated(model, rows, state)
         model.advance(state, keys, step)
         return state
 
-    def _advance(self, rows, keys, step, zones):
+    def _advance(self, rows: IntArray, keys: Keys, step: int, zones: IntArray) -> None:
         """Advance ``rows`` (one step behind) to ``step`` with their zones' recursions."""
         for z, sel in self._groups(zones):
             model, r, k = self.models[z], rows[sel], keys[sel]
@@ -314,7 +345,7 @@ class ZonedErrors:
                 if entering.any():
                     u = streams.uniform_pairs(k[entering], streams.DOMAIN_INIT_REGIME,
                                               step)[:, 0]
-                    regime[entering] = np.searchsorted(_core(model)[0].cum_pi, u, side='right')
+                    regime[entering] = np.searchsorted(_process(model).cum_pi, u, side='right')
                 tmp.regime[:] = regime
             if self.conditional_cov:
                 self.cov[r] = self._stated(model, r, tmp)
@@ -328,7 +359,7 @@ class ZonedErrors:
             self._wander(rows, keys, step)
 
 
-def one_zone(model, conditional_cov=False):
+def one_zone(model: ErrorModel[Any], conditional_cov: bool = False) -> ZonedErrors:
     """
     Return the :class:`ZonedErrors` of a street-frame model without a zone map.
 
@@ -350,7 +381,9 @@ def one_zone(model, conditional_cov=False):
                        population=draws)
 
 
-def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=False):
+def zoned_errors(zone_map: ZoneMap, profile: Profile, covariance_mode: str = 'stationary',
+                 about_truth: bool = False
+                 ) -> tuple[Profile, ErrorModel[Any], tuple[ZoneMap, ZonedErrors]]:
     """
     Return (default profile, its model, ``(zone_map, ZonedErrors)``) for a run.
 
@@ -367,7 +400,7 @@ def zoned_errors(zone_map, profile, covariance_mode='stationary', about_truth=Fa
         failures=default.gross_failures, population=draws))
 
 
-def simulate_along(zoned, keys, steps, zones):
+def simulate_along(zoned: ZonedErrors, keys: Keys, steps: Numbers, zones: Numbers) -> FloatArray:
     """
     Return errors (n samples, agents, 2) simulated along sampled steps in zones.
 
@@ -405,11 +438,11 @@ class TravelDirections:
     reaches back that far or when it moved less than ``MOVING_M``.
     """
 
-    def __init__(self, lag_s=0.0):
+    def __init__(self, lag_s: float = 0.0) -> None:
         self.lag_s = float(lag_s)
-        self.hist = {}
+        self.hist: dict[str, list[tuple[float, float, float]]] = {}
 
-    def _at(self, h, when):
+    def _at(self, h: list[tuple[float, float, float]], when: float) -> tuple[float, float]:
         for (t0, a0, b0), (t1, a1, b1) in zip(h[:-1], h[1:]):
             if t0 <= when <= t1:
                 w = (when - t0) / (t1 - t0) if t1 > t0 else 0.0
@@ -418,7 +451,8 @@ class TravelDirections:
             return h[-1][1], h[-1][2]
         return math.nan, math.nan
 
-    def directions(self, names, t, lat, lon):
+    def directions(self, names: Sequence[str], t: float, lat: Numbers,
+                   lon: Numbers) -> FloatArray:
         """Store (t, lat, lon) per agent; return each one's direction now (rad or NaN)."""
         out = np.full(len(names), np.nan)
         back = t - self.lag_s - 1.0

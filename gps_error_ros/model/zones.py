@@ -39,10 +39,14 @@ Point-in-polygon is vectorised over agents: one query of a shapely 2
 from dataclasses import replace
 import json
 from pathlib import Path
+from typing import Any, NoReturn, Optional, Sequence
 
 import numpy as np
+import os
 
-from gps_error_ros.model.profiles import load_profile, ProfileError
+from gps_error_ros.model.profiles import load_profile, Profile, ProfileError
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import FloatArray, IntArray, Numbers
 
 #: The zone index of a point outside every polygon.
 OUTSIDE = -1
@@ -52,7 +56,7 @@ class ZoneMapError(ValueError):
     """A zone map that cannot be used; the message names what and where."""
 
 
-def _shapely():
+def _shapely() -> Any:
     try:
         import shapely
         import shapely.geometry  # noqa: F401  (shape(), used on GeoJSON)
@@ -69,31 +73,32 @@ class ZoneMap:
 
     Parameters
     ----------
-    polygons : sequence of shapely geometries
+    polygons
         The zones, in feature order.
-    names : sequence of str
+    names
         Each zone's name.
-    profiles : sequence of Profile
+    profiles
         Each zone's profile.
-    default : Profile, optional
+    default
         The map's ``default_profile``.
-    path : str
+    path
         Where the map was read from.
 
     Attributes
     ----------
-    names : list of str
+    names
         Each zone's ``name`` (``zone<i>`` when the feature has none).
-    profiles : list of Profile
+    profiles
         Each zone's profile, in feature order.
-    default : Profile or None
+    default
         The map's ``default_profile``, if it names one.
-    path : str
+    path
         Where the map was read from (for messages).
 
     """
 
-    def __init__(self, polygons, names, profiles, default=None, path='<zones>'):
+    def __init__(self, polygons: Sequence[Any], names: Sequence[str], profiles: Sequence[Profile],
+                 default: Optional[Profile] = None, path: str = '<zones>') -> None:
         shapely = _shapely()
         self.polygons = np.asarray(polygons, dtype=object)
         self.names = list(names)
@@ -102,10 +107,10 @@ class ZoneMap:
         self.path = str(path)
         self._index = _CellIndex(self.polygons, shapely)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.names)
 
-    def lookup(self, lat, lon):
+    def lookup(self, lat: Numbers, lon: Numbers) -> IntArray:
         """
         Return the zone index of each point (``OUTSIDE`` outside every polygon).
 
@@ -134,7 +139,7 @@ class _CellIndex:
     ``intersects_xy`` on prepared polygons (a point on an edge is inside).
     """
 
-    def __init__(self, polygons, shapely, cells=64):
+    def __init__(self, polygons: Any, shapely: Any, cells: int = 64) -> None:
         self.polygons, self.shapely = polygons, shapely
         shapely.prepare(polygons)
         b = shapely.bounds(polygons).reshape(-1, 4)
@@ -144,7 +149,7 @@ class _CellIndex:
         self.dy = max((float(b[:, 3].max()) - self.y0) / cells, 1e-12)
         lo_x, hi_x = self._cell(b[:, 0], self.x0, self.dx), self._cell(b[:, 2], self.x0, self.dx)
         lo_y, hi_y = self._cell(b[:, 1], self.y0, self.dy), self._cell(b[:, 3], self.y0, self.dy)
-        lists = [[] for _ in range(cells * cells)]
+        lists: list[list[int]] = [[] for _ in range(cells * cells)]
         for z in range(len(polygons)):
             for i in range(lo_x[z], hi_x[z] + 1):
                 for j in range(lo_y[z], hi_y[z] + 1):
@@ -154,10 +159,10 @@ class _CellIndex:
         for c, zs in enumerate(lists):
             self.candidates[c, :len(zs)] = zs
 
-    def _cell(self, v, v0, dv):
+    def _cell(self, v: FloatArray, v0: float, dv: float) -> IntArray:
         return np.clip(np.floor((v - v0) / dv), 0, self.cells - 1).astype(np.int64)
 
-    def hits(self, x, y):
+    def hits(self, x: FloatArray, y: FloatArray) -> tuple[IntArray, IntArray]:
         """Return (point index, polygon index) of every point inside a polygon."""
         inside_box = (x >= self.x0) & (x <= self.x0 + self.cells * self.dx) & \
             (y >= self.y0) & (y <= self.y0 + self.cells * self.dy)
@@ -171,14 +176,14 @@ class _CellIndex:
         return pts[pi[inside]], zi[inside]
 
 
-def _fail(path, where, expected, got):
+def _fail(path: str, where: str, expected: str, got: Any) -> NoReturn:
     got = repr(got)
     if len(got) > 80:
         got = got[:77] + '...'
     raise ZoneMapError(f'{path}: {where}: expected {expected}, got {got}')
 
 
-def _load_zone_profile(path, where, spec):
+def _load_zone_profile(path: str, where: str, spec: Any) -> Profile:
     """Load a zone's profile: a built-in name, or a path relative to the map."""
     if not isinstance(spec, str) or not spec.strip():
         _fail(path, where, 'a property "profile" naming a built-in profile or a '
@@ -197,7 +202,7 @@ def _load_zone_profile(path, where, spec):
     return profile
 
 
-def _polygon(shapely, path, where, geometry):
+def _polygon(shapely: Any, path: str, where: str, geometry: Any) -> Any:
     if not isinstance(geometry, dict) or geometry.get('type') not in ('Polygon',
                                                                       'MultiPolygon'):
         _fail(path, f'{where} geometry', 'a GeoJSON Polygon or MultiPolygon',
@@ -221,7 +226,7 @@ def _polygon(shapely, path, where, geometry):
     return poly
 
 
-def zone_map_from_dict(raw, path='<zones>'):
+def zone_map_from_dict(raw: Any, path: str = '<zones>') -> ZoneMap:
     """Validate a parsed GeoJSON mapping and return a :class:`ZoneMap`."""
     shapely = _shapely()
     if not isinstance(raw, dict) or raw.get('type') != 'FeatureCollection':
@@ -254,7 +259,7 @@ def zone_map_from_dict(raw, path='<zones>'):
     return ZoneMap(polygons, names, profiles, default, path)
 
 
-def load_zone_map(path):
+def load_zone_map(path: str | os.PathLike[str]) -> ZoneMap:
     """Read and validate a zone map file (GeoJSON)."""
     path = Path(path).expanduser()
     try:
@@ -270,7 +275,8 @@ def load_zone_map(path):
     return zone_map_from_dict(raw, str(path))
 
 
-def zone_models(zone_map, profile, about_truth=False):
+def zone_models(zone_map: ZoneMap, profile: Profile,
+                about_truth: bool = False) -> tuple[Profile, list[ErrorModel[Any]]]:
     """
     Return (the default profile, the error models of the zones then the default).
 
@@ -285,7 +291,8 @@ def zone_models(zone_map, profile, about_truth=False):
     # every zone (zoned.ZonedErrors draws the population)
     inner = replace(default, availability=None, population=None).model(
         gross_failures=False, about_truth=about_truth)
-    models, built = [], {}
+    models: list[ErrorModel[Any]] = []
+    built: dict[str, ErrorModel[Any]] = {}
     _no_cycle(inner, f'{zone_map.path}: default profile {default.name}')
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
@@ -315,7 +322,7 @@ def zone_models(zone_map, profile, about_truth=False):
     return default, models
 
 
-def _no_cycle(model, where):
+def _no_cycle(model: ErrorModel[Any], where: str) -> None:
     """Refuse the ``periodic`` and ``outliers`` effects: zones do not carry their state."""
     if getattr(model, 'periodic', None) is not None:
         raise ZoneMapError(f'{where}: has the periodic effect; expected none: a zone '

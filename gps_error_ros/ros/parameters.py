@@ -2,6 +2,7 @@
 
 from dataclasses import dataclass
 import math
+from typing import Optional
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange,
                                 ParameterDescriptor, ParameterType)
@@ -31,8 +32,8 @@ class ParamSpec:
     type: int
     description: str
     read_only: bool = True
-    low: float = None
-    high: float = None
+    low: Optional[float] = None
+    high: Optional[float] = None
     choices: tuple = ()
 
     def descriptor(self):

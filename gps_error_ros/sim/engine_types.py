@@ -6,6 +6,7 @@ that module about the engine's rules.
 """
 
 from dataclasses import dataclass, field
+from typing import Optional
 
 import numpy as np
 
@@ -36,12 +37,13 @@ class FixBatch:
     lon: np.ndarray
     alt: np.ndarray
     error: np.ndarray = field(repr=False)
-    fix: np.ndarray = field(default=None, repr=False)   # False: no fix (an outage)
-    velocity: np.ndarray = field(default=None, repr=False)  # (m, 2) east/north m/s
-    velocity_sd: np.ndarray = field(default=None, repr=False)  # (m,) its error's SD, m/s
-    velocity_mean: np.ndarray = field(default=None, repr=False)  # (m, 2) its mean (speed bias)
-    cov: np.ndarray = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
-    accuracy: np.ndarray = field(default=None, repr=False)  # (m,) stated 68 % radius, m
+    fix: Optional[np.ndarray] = field(default=None, repr=False)   # False: no fix (an outage)
+    velocity: Optional[np.ndarray] = field(default=None, repr=False)  # (m, 2) east/north m/s
+    velocity_sd: Optional[np.ndarray] = field(default=None, repr=False)  # (m,) its error's SD, m/s
+    # (m, 2) the velocity error's mean (speed bias)
+    velocity_mean: Optional[np.ndarray] = field(default=None, repr=False)
+    cov: Optional[np.ndarray] = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
+    accuracy: Optional[np.ndarray] = field(default=None, repr=False)  # (m,) stated 68 % radius, m
 
 
 @dataclass
@@ -54,4 +56,4 @@ class PendingStep:
     done: np.ndarray      # (n,) True once resolved (or free)
     fix: np.ndarray       # (n,) False in an outage (profile availability)
     side: dict            # name -> (n, d): the side streams' values (velocity, reported)
-    cov: np.ndarray = None       # (n, 2, 2) north/east covariance (conditional_cov)
+    cov: Optional[np.ndarray] = None       # (n, 2, 2) north/east covariance (conditional_cov)

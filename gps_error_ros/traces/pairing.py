@@ -10,6 +10,7 @@ sub-second to few-second intervals involved.
 """
 
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -28,7 +29,7 @@ class PairingStats:
     paired: int
     outside_truth: int
     in_truth_gap: int
-    used: np.ndarray = None      # which input fixes were paired (bool)
+    used: Optional[np.ndarray] = None      # which input fixes were paired (bool)
 
     def describe(self):
         """Return a one-line account for people."""

@@ -1,0 +1,61 @@
+"""
+The type checker is clean, and the wings held to it strictly are annotated whole.
+
+mypy (pinned in requirements-dev.txt) with the configuration of setup.cfg:
+the whole package checked, and the wings of ``STRICT`` held to the strict
+rules there (every function annotated, no untyped calls, bodies checked).
+"""
+
+import ast
+from pathlib import Path
+import subprocess
+import sys
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+PKG = ROOT / 'gps_error_ros'
+#: The wings mypy holds strictly (setup.cfg: [mypy-gps_error_ros.<wing>.*]).
+STRICT = ('model',)
+
+
+def _annotated(fn):
+    args = fn.args.posonlyargs + fn.args.args + fn.args.kwonlyargs
+    args += [a for a in (fn.args.vararg, fn.args.kwarg) if a is not None]
+    return fn.returns is not None and all(
+        a.annotation is not None for a in args if a.arg not in ('self', 'cls'))
+
+
+def annotation_counts():
+    """Return {wing: (functions annotated, functions)} over the package."""
+    out = {}
+    for path in sorted(PKG.rglob('*.py')):
+        wing = path.relative_to(PKG).parts[0] if path.parent != PKG else '(top)'
+        done, total = out.get(wing, (0, 0))
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                done, total = done + _annotated(node), total + 1
+        out[wing] = (done, total)
+    return out
+
+
+@pytest.mark.linter
+def test_mypy_is_clean():
+    run = subprocess.run([sys.executable, '-m', 'mypy', '--config-file',
+                          str(ROOT / 'setup.cfg'), str(PKG)],
+                         capture_output=True, text=True, cwd=ROOT)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+@pytest.mark.linter
+def test_the_strict_wings_are_annotated_whole():
+    counts = annotation_counts()
+    cfg = (ROOT / 'setup.cfg').read_text()
+    for wing in STRICT:
+        assert f'[mypy-gps_error_ros.{wing}.*]' in cfg, wing
+        done, total = counts[wing]
+        assert done == total, f'{wing}: {total - done} of {total} functions not annotated'
+    done = sum(d for d, _ in counts.values())
+    total = sum(t for _, t in counts.values())
+    print(f'annotated: {done} of {total} functions; ' + ', '.join(
+        f'{w} {d}/{t}' for w, (d, t) in sorted(counts.items())))
