@@ -43,7 +43,8 @@ def traces(data):
 def compare(label, trace, sims):
     """Return the lines of one trace's comparison."""
     fit = calibrate(slice_trace(trace, 0.0, 0.7))
-    section, evidence = fit.reported
+    fitted = fit.reported
+    section, evidence = fitted.section, fitted.evidence
     if section is None:
         return [f'{label}: no reported_accuracy fit ({evidence["reason"]})']
     profile = profile_from_dict(fit.profile_dict('evidence'))

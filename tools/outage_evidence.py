@@ -30,7 +30,8 @@ def describe(path):
     """Return the lines that describe one trace."""
     tr = read_trace_csv(path)
     grid = errors_on_grid(tr)
-    section, ev = estimate_availability(grid)
+    fitted = estimate_availability(grid)
+    section, ev = fitted.section, fitted.evidence
     lines = [f'{path.name}: {grid.n} fixes on the grid, {ev["outages"]} outage(s), '
              f'{ev["dropped_steps"]} dropped step(s)'
              + (f'; outage rate < {ev["outage_rate_upper_95"]:.2g} per step (95 %)'

@@ -113,7 +113,7 @@ def tails(trace):
     small ratio and a large kurtosis: most rows err far less than the RMS
     says, a few far more.
     """
-    section, _ = estimate_velocity(trace)
+    section = estimate_velocity(trace).section
     moving, v_all, w_all = residuals(trace, section)
     speed = trace.extra['truth_speed'][moving]
     out = []
@@ -151,7 +151,7 @@ def lag_alone(trace):
     out = [f'  open road ({lo_speed:g}+ m/s) on the rolling folds: the phone\'s speed error '
            f'SD against the section\'s SD and its lag alone']
     for label, split in rolling_splits(trace):
-        section, _ = estimate_velocity(split.velocity[0])
+        section = estimate_velocity(split.velocity[0]).section
         test = split.velocity[1]
         fast = test.extra['truth_speed'] >= lo_speed
         if section is None or fast.sum() < 2:
@@ -173,7 +173,8 @@ def lag_alone(trace):
 def compare(path, sims):
     """Return the lines of one trace's comparison."""
     trace = read_trace_csv(path)
-    section, evidence = estimate_velocity(slice_trace(trace, 0.0, 0.7))
+    fitted = estimate_velocity(slice_trace(trace, 0.0, 0.7))
+    section, evidence = fitted.section, fitted.evidence
     if section is None:
         return [f'{path.name}: no velocity fit ({evidence["reason"]})']
     velocity = velocity_from_dict(section)

@@ -88,7 +88,7 @@ def velocity_group(train, test, sims=100, seed=0):
     """
     if not (has_velocity(train) and has_velocity(test)):
         return None
-    section, _ = estimate_velocity(train)
+    section = estimate_velocity(train).section
     if section is None:
         return None
     vel = velocity_from_dict(section)

@@ -37,6 +37,7 @@ import math
 import numpy as np
 from scipy import optimize, special
 
+from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.reported import reported_from_dict, ReportedError
 
@@ -168,7 +169,7 @@ def _stated(trace):
 
 def estimate_reported(trace):
     """
-    Return (reported_accuracy section or None, evidence) for ``trace`` (see module doc).
+    Return the reported_accuracy section (or why none) for ``trace`` (see module doc).
 
     Times are taken on the 1 s grid (a receiver's stamps jitter about whole
     seconds). A fit that cannot be made gives None and the reason, never a
@@ -176,20 +177,20 @@ def estimate_reported(trace):
     """
     source, stated = _stated(trace)
     if source is None:
-        return None, {'fitted': False, 'reason': stated}
+        return SectionFit(None, {'fitted': False, 'reason': stated})
     with np.errstate(all='ignore'):
         section, evidence = _estimate(trace, source, stated)
     bad = [k for k, v in section.items() if isinstance(v, float) and not math.isfinite(v)]
     if bad:
-        return None, {'fitted': False,
-                      'reason': f'the fit of {", ".join(bad)} is not finite '
-                                f'({evidence["rows"]} rows with a stated value and a '
-                                f'local error scale; {MIN_ROWS} needed)'}
+        return SectionFit(None, {'fitted': False,
+                                 'reason': f'the fit of {", ".join(bad)} is not finite '
+                                           f'({evidence["rows"]} rows with a stated value '
+                                           f'and a local error scale; {MIN_ROWS} needed)'})
     try:
         reported_from_dict(section, 'the fit')
     except ReportedError as exc:
-        return None, {'fitted': False, 'reason': f'outside the profile schema: {exc}'}
-    return section, evidence
+        return SectionFit(None, {'fitted': False, 'reason': f'outside the profile schema: {exc}'})
+    return SectionFit(section, evidence)
 
 
 def _estimate(trace, source, stated):

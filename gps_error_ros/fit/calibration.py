@@ -23,7 +23,7 @@ over all of them, and a recording too short for a fit alone still adds its
 samples. Outages are counted within each recording.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional
 
 import numpy as np
@@ -33,6 +33,7 @@ from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
 from gps_error_ros.fit.gross_failures import fit_rate_spread, without_gross_failures
 from gps_error_ros.fit.population_fit import (DAY_RATIO, fit_population, occasions,
                                               segment_weights, with_day_allowance)
+from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
@@ -123,13 +124,13 @@ def errors_on_grid(trace, rate_hz=1.0):
 
 
 def estimate_availability(grid, min_outage_steps=MIN_OUTAGE_STEPS):
-    """Return (availability section or None, evidence) from the gaps of ``grid``."""
+    """Return the availability section (or why none) from the gaps of ``grid``."""
     return availability_from_mask(grid.fix_mask(), min_outage_steps)
 
 
 def availability_from_mask(mask, min_outage_steps=MIN_OUTAGE_STEPS):
     """
-    Return (availability section or None, evidence) from a fix mask on the grid.
+    Return the availability section (or why none) from a fix mask on the grid.
 
     ``mask`` may be a list of masks, one per recording: outages are counted
     within each, never across the time between two recordings.
@@ -151,14 +152,14 @@ def availability_from_mask(mask, min_outage_steps=MIN_OUTAGE_STEPS):
                 'steps_with_fix': n}
     if not outages:
         evidence['outage_rate_upper_95'] = round(3.0 / chances, 6)
-        return None, evidence
+        return SectionFit(None, evidence)
     lengths, counts = np.unique(outages, return_counts=True)
     section = {'outage_rate': round(len(outages) / chances, 8),
                'durations': [[int(k), round(float(c) / len(outages), 8)]
                              for k, c in zip(lengths, counts)]}
     total = sum(p for _, p in section['durations'])
     section['durations'][-1][1] = round(section['durations'][-1][1] + 1.0 - total, 8)
-    return section, evidence
+    return SectionFit(section, evidence)
 
 
 @dataclass(frozen=True)
@@ -169,15 +170,15 @@ class CalibrationResult:
     east: AxisFit
     grid: GriddedErrors
     input: str
-    velocity: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
-    reported: tuple = (None, {'fitted': False, 'reason': 'not looked for'})
+    velocity: SectionFit = field(default_factory=SectionFit.not_looked_for)
+    reported: SectionFit = field(default_factory=SectionFit.not_looked_for)
     failures: tuple = ()        # GrossFailures per recording
     fix_masks: Optional[tuple] = None     # per recording, every grid step: a fix (failures too)
     population: object = None   # PopulationFit, when asked for
 
     @property
     def availability(self):
-        """Return (availability section or None, evidence) of the recordings' gaps."""
+        """Return the availability section (or why none) from the recordings' gaps."""
         if self.fix_masks is None:
             return estimate_availability(self.grid)
         return availability_from_mask(list(self.fix_masks))
@@ -203,7 +204,7 @@ class CalibrationResult:
 
     def profile_dict(self, name, description=None, source=None):
         """Return the profile (schema 1) with a ``fit`` section, as plain data."""
-        availability, evidence = self.availability
+        availability = self.availability
         pop = self.population
         fit = {
             'method': 'Yule-Walker, biased autocovariance pooled over '
@@ -214,18 +215,18 @@ class CalibrationResult:
             'time_span_s': float(self.grid.span_s),
             'order_selection': {ax: f.evidence() for ax, f in
                                 zip(AXES, (self.north, self.east))},
-            'availability': evidence,
+            'availability': availability.evidence,
             'gross_failures': self.failures_summary(),
-            'velocity': self.velocity[1],
-            'reported_accuracy': self.reported[1]}
+            'velocity': self.velocity.evidence,
+            'reported_accuracy': self.reported.evidence}
         if pop is not None:
             fit['population'] = pop.evidence
         return profile_mapping(
             name, description or f'fitted to {self.input}',
             source or f'gps_error calibrate {self.input}',
             self.axis_params, rate_hz=self.grid.rate_hz, fit=fit,
-            availability=availability, velocity=self.velocity[0],
-            reported_accuracy=self.reported[0], gross_failures=self.failure_process(),
+            availability=availability.section, velocity=self.velocity.section,
+            reported_accuracy=self.reported.section, gross_failures=self.failure_process(),
             population=None if pop is None else pop.population)
 
     def failure_process(self):

@@ -55,6 +55,7 @@ import numpy as np
 from scipy import optimize
 
 from gps_error_ros.fit.population_fit import block_ids, BLOCK_S, MIN_BLOCK_SAMPLES, MIN_BLOCKS
+from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
 from gps_error_ros.model.velocity import (MAX_BURST_RATIO, MAX_BURST_SHARE, sd_from_table,
                                           speed_along, with_speed_bias)
@@ -266,16 +267,17 @@ def residuals(trace, section):
 
 
 def estimate_velocity(trace):
-    """Return (velocity section or None, evidence) for ``trace`` (see module doc)."""
+    """Return the velocity section (or why none) for ``trace`` (see module doc)."""
     missing = [k for k in NEEDED if k not in trace.extra]
     if missing:
-        return None, {'fitted': False, 'reason': f'no column(s) {missing}'}
+        return SectionFit(None, {'fitted': False, 'reason': f'no column(s) {missing}'})
     ex = trace.extra
     phone, truth, known, rows, odd = _velocities(trace)
     if rows.sum() < 30 or known.sum() < 2:
-        return None, {'fitted': False, 'reason': f'{int(rows.sum())} moving rows with both '
-                                                 f'velocities (30 needed)',
-                      'implausible_rows': int(odd.sum())}
+        return SectionFit(None, {'fitted': False,
+                                 'reason': f'{int(rows.sum())} moving rows with both '
+                                           f'velocities (30 needed)',
+                                 'implausible_rows': int(odd.sum())})
     t = trace.t                 # the truth earlier, never reaching back into the recording before
     past = {float(lag): truth_at(t[known], truth[known], t[rows] - lag, RUN_GAP_S)
             for lag in LAGS}
@@ -300,9 +302,9 @@ def estimate_velocity(trace):
     phi = min(max(phi, -0.99), 0.99)
     sds = [sigma] + ([sd for _, sd in table] if table is not None else [])
     if not all(0.0 < sd < MAX_SPEED for sd in sds):
-        return None, {'fitted': False, 'implausible_rows': int(odd.sum()),
-                      'reason': f'the error\'s RMS {max(sds):.4g} m/s lies outside (0, '
-                                f'{MAX_SPEED:g}) m/s'}
+        return SectionFit(None, {'fitted': False, 'implausible_rows': int(odd.sum()),
+                                 'reason': f'the error\'s RMS {max(sds):.4g} m/s lies '
+                                           f'outside (0, {MAX_SPEED:g}) m/s'})
     zero = ex['speed'] == 0
     standstill = _standstill(np.where(odd, np.nan, ex['truth_speed']), zero) \
         if zero.sum() >= 10 else 0.0
@@ -318,4 +320,4 @@ def estimate_velocity(trace):
                                           for a in range(2)],
                 'zero_speed_rows': int(zero.sum()), 'implausible_rows': int(odd.sum()),
                 'scale_between_blocks': between}
-    return section, evidence
+    return SectionFit(section, evidence)

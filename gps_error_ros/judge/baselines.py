@@ -176,7 +176,7 @@ def training_outages(split, model, sims, seed=0):
     agents' ``outage`` streams of the keys :func:`~gps_error_ros.diagnose.fidelity.simulate_part`
     uses.
     """
-    section, _ = availability_from_mask(run_masks(split.train))
+    section = availability_from_mask(run_masks(split.train)).section
     if section is None:
         return None
     avail = WithAvailability(model, availability_from_dict(section))

@@ -71,7 +71,8 @@ def test_round_trip_recovers_the_stated_radius(tmp_path, seed):
     each (the AR(1) coefficient's doubled for the rounding to whole metres).
     """
     trace = walk(tmp_path, profile_with(tmp_path, TRUE), seed)
-    got, evidence = estimate_reported(trace)
+    fitted = estimate_reported(trace)
+    got, evidence = fitted.section, fitted.evidence
     n_eff = STEPS * 0.1 / 1.9
     assert got['source'] == 'accuracy' and got['resolution_m'] == 1.0
     assert abs(math.log(got['median_m'] / 3.0)) < 4 * 0.2 / math.sqrt(n_eff)
@@ -90,7 +91,8 @@ def test_a_radius_that_follows_the_error_scale_is_found(tmp_path):
     check is that it is clearly above 0, not that it equals 1.
     """
     rep = dict(TRUE, follow=1.0, resolution_m=0.0)
-    got, evidence = estimate_reported(walk(tmp_path, profile_with(tmp_path, rep, True), 1))
+    fitted = estimate_reported(walk(tmp_path, profile_with(tmp_path, rep, True), 1))
+    got, evidence = fitted.section, fitted.evidence
     assert got['follow'] > 6 * evidence['follow_se']
     assert 0.5 < got['follow'] < 1.2
 
@@ -138,11 +140,13 @@ def test_missing_key_is_named():
 
 def test_the_measured_phones():
     """What the real phones state: constant-ish values, whatever their error does."""
-    static, evidence = estimate_reported(read_trace_csv(DATA / 'gmt-static-phone-2016-08-22.csv'))
+    fitted = estimate_reported(read_trace_csv(DATA / 'gmt-static-phone-2016-08-22.csv'))
+    static, evidence = fitted.section, fitted.evidence
     assert static['median_m'] == 4.0 and static['sigma_log'] == 0.0
     assert evidence['coverage_measured'] == 1.0          # 4 m stated, every error inside
     for name in ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv'):
-        got, evidence = estimate_reported(read_trace_csv(DATA / name))
+        fitted = estimate_reported(read_trace_csv(DATA / name))
+        got, evidence = fitted.section, fitted.evidence
         assert got['source'] == 'hdop' and got['scale_m'] > 0
         assert got['resolution_m'] == pytest.approx(0.01 * got['scale_m'], rel=1e-5)
         assert abs(evidence['coverage_measured'] - 0.68) < 0.01       # scale_m's definition
@@ -150,7 +154,8 @@ def test_the_measured_phones():
     walk = read_trace_csv(DATA / 'snapper-walk-w00.csv')
     silent = replace(walk, extra={k: v for k, v in walk.extra.items()
                                   if k not in ('accuracy', 'hdop')})
-    none, evidence = estimate_reported(silent)
+    fitted = estimate_reported(silent)
+    none, evidence = fitted.section, fitted.evidence
     assert none is None and 'no column accuracy or hdop' in evidence['reason']
 
 
@@ -166,7 +171,8 @@ def test_a_corrupted_accuracy_column_gives_a_finite_section_or_a_reason():
     trace = Trace('corrupt', np.arange(n, dtype=float), lat0 + 1e-5 * rng.standard_normal(n),
                   lon0 + 1e-5 * rng.standard_normal(n), np.full(n, lat0), np.full(n, lon0),
                   extra={'accuracy': acc})
-    section, evidence = estimate_reported(trace)
+    fitted = estimate_reported(trace)
+    section, evidence = fitted.section, fitted.evidence
     if section is None:
         assert evidence['fitted'] is False and evidence['reason'], evidence
     else:

@@ -101,7 +101,7 @@ def test_walk_fit_is_not_set_by_its_failures(path):
     north, east = difference(trace.lat, trace.lon, trace.truth_lat, trace.truth_lon)
     near = np.hypot(north, east) <= 200.0
     result = calibrate(trace)
-    assert result.reported[0] is not None, result.reported[1]
+    assert result.reported.fitted, result.reported.reason
     sd = ARErrorModel(result.north.params, result.east.params).stationary_sd
     for i, axis in enumerate((north, east)):
         robust = robust_centre_scale(axis[near])[1]

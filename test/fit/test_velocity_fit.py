@@ -156,7 +156,8 @@ def test_calibrate_recovers_the_agents_scale_from_the_stretches():
         'truth_speed': np.full(t.size, 10.0), 'truth_bearing': zeros,
         'speed': np.hypot(phone[:, 0], phone[:, 1]),
         'bearing': np.degrees(np.arctan2(phone[:, 0], phone[:, 1])) % 360.0})
-    section, evidence = estimate_velocity(trace)
+    fitted = estimate_velocity(trace)
+    section, evidence = fitted.section, fitted.evidence
     between = evidence['scale_between_blocks']
     assert between['blocks'] == 40
     assert section['scale_sd_log'] == between['beyond_sampling_sd']
@@ -256,7 +257,7 @@ def test_a_speed_bias_is_the_mean_along_the_track_not_the_mean_speed_error():
     trace = Trace('walk', t, zeros, zeros, zeros, zeros, extra={
         'truth_speed': np.full(t.size, 2.0), 'truth_bearing': zeros,
         'speed': np.hypot(east, north), 'bearing': np.degrees(np.arctan2(east, north)) % 360})
-    section, _ = estimate_velocity(trace)
+    section = estimate_velocity(trace).section
     assert np.mean(trace.extra['speed']) - 2.0 > 0.07              # the speed's mean error
     assert [b for _, b in section['speed_bias']] == [pytest.approx(0.0, abs=0.015)]
     assert section['sigma'] == pytest.approx(0.6, rel=0.02)
@@ -338,13 +339,14 @@ def test_implausible_speeds_and_courses_are_left_out_and_counted():
     from gps_error_ros.fit.velocity_fit import estimate_velocity
     from gps_error_ros.traces.trace_io import read_trace_csv
     trace = read_trace_csv(DATA / 'gsdc2020-mtv1-pixel4.csv')
-    clean, _ = estimate_velocity(trace)
+    clean = estimate_velocity(trace).section
     rng = np.random.default_rng(3)
     hit = {k: rng.random(len(trace)) < 0.02 for k in ('speed', 'truth_speed', 'bearing')}
     trace.extra['speed'][hit['speed']] = 1e9
     trace.extra['truth_speed'][hit['truth_speed']] = -1.0
     trace.extra['bearing'][hit['bearing']] = 720.0
-    got, evidence = estimate_velocity(trace)
+    fitted = estimate_velocity(trace)
+    got, evidence = fitted.section, fitted.evidence
     assert evidence['implausible_rows'] == int((hit['speed'] | hit['truth_speed']
                                                 | hit['bearing']).sum())
     assert got['sigma'] == pytest.approx(clean['sigma'], rel=0.1)
@@ -373,8 +375,8 @@ def test_a_velocitys_lag_never_reaches_back_into_the_recording_before():
     from gps_error_ros.traces.trace_io import join_recordings
     rng = np.random.default_rng(11)
     north, south = _turning_drive('a', 0.0, rng), _turning_drive('b', 180.0, rng)
-    alone = [estimate_velocity(tr)[0] for tr in (north, south)]
-    joined, _ = estimate_velocity(join_recordings([north, south]))
+    alone = [estimate_velocity(tr).section for tr in (north, south)]
+    joined = estimate_velocity(join_recordings([north, south])).section
     assert [s['course_lag_s'] for s in alone] == [0.5, 0.5] and joined['course_lag_s'] == 0.5
     assert joined['lag_s'] in [s['lag_s'] for s in alone]
     # (each alone has its own speed bias; joined, one: the two bias's spread adds)
