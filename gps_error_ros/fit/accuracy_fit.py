@@ -33,6 +33,7 @@ stated log-radius with the error's local log-scale at delays -10..10 s
 """
 
 import math
+from typing import Any, Optional
 
 import numpy as np
 from scipy import optimize, special
@@ -40,13 +41,15 @@ from scipy import optimize, special
 from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.reported import reported_from_dict, ReportedError
+from gps_error_ros.model.state import FloatArray, Numbers
+from gps_error_ros.traces.trace_io import Trace
 
 MIN_ROWS = 30
 WINDOW = 31
 _QUANTA = (10.0, 1.0, 0.1, 0.01, 0.001)
 
 
-def quantum(values):
+def quantum(values: Numbers) -> float:
     """Return the largest power of ten (10 .. 0.001) of which every value is a multiple, or 0."""
     v = np.asarray(values, dtype=float)
     for q in _QUANTA:
@@ -55,7 +58,7 @@ def quantum(values):
     return 0.0
 
 
-def local_scale(t, err, window=WINDOW):
+def local_scale(t: Numbers, err: FloatArray, window: int = WINDOW) -> FloatArray:
     """Return each row's local innovation RMS over the trace-wide one (NaN: too few)."""
     t = np.asarray(t, dtype=float)
     next_ok = np.r_[False, np.isclose(np.diff(t), 1.0)]
@@ -77,7 +80,7 @@ def local_scale(t, err, window=WINDOW):
     return out / math.sqrt(np.nanmean(u2))
 
 
-def _bounds(r, q):
+def _bounds(r: FloatArray, q: float) -> tuple[FloatArray, FloatArray]:
     """Return the log-radius interval each stated radius rounds from."""
     if q <= 0:
         return np.log(r), np.log(r)
@@ -85,7 +88,7 @@ def _bounds(r, q):
     return np.log(lo), np.log(r + 0.5 * q)
 
 
-def _censored_fit(lo, hi, x):
+def _censored_fit(lo: FloatArray, hi: FloatArray, x: FloatArray) -> tuple[float, float, float]:
     """Return (c, follow, sigma) by maximum likelihood of interval-censored normals."""
     exact = np.allclose(lo, hi)
     mid = 0.5 * (lo + hi)
@@ -95,7 +98,7 @@ def _censored_fit(lo, hi, x):
     if exact:
         return float(beta[0]), float(beta[1]), float(np.std(mid - design @ beta))
 
-    def nll(p):
+    def nll(p: FloatArray) -> float:
         m, s = design @ p[:2], np.exp(p[2])
         a, b = (lo - m) / s, (hi - m) / s
         prob = 0.5 * (special.erfc(-b / math.sqrt(2)) - special.erfc(-a / math.sqrt(2)))
@@ -106,7 +109,7 @@ def _censored_fit(lo, hi, x):
     return float(res.x[0]), float(res.x[1]), float(np.exp(res.x[2]))
 
 
-def _latent_mean(lo, hi, m, s):
+def _latent_mean(lo: FloatArray, hi: FloatArray, m: FloatArray, s: float) -> FloatArray:
     """Return E[x | x + m in [lo, hi)] for x ~ N(0, s^2)."""
     if s <= 0:
         return np.zeros_like(m)
@@ -116,7 +119,8 @@ def _latent_mean(lo, hi, m, s):
     return np.where(z > 1e-12, s * dens / np.maximum(z, 1e-12), 0.5 * (lo + hi) - m)
 
 
-def _phi_through_rounding(changes, m, sigma, q, pair, reps=8, seed=20261123):
+def _phi_through_rounding(changes: float, m: FloatArray, sigma: float, q: float, pair: Any,
+                          reps: int = 8, seed: int = 20261123) -> float:
     """
     Return the latent AR(1) coefficient whose rounded radii change as often as measured.
 
@@ -132,21 +136,21 @@ def _phi_through_rounding(changes, m, sigma, q, pair, reps=8, seed=20261123):
     from scipy import signal        # here: about a second to import, for this fit alone
     z = np.random.default_rng(seed).standard_normal((reps, m.size))
     grid = np.linspace(0.0, 0.995, 100)
-    share = []
+    shares = []
     for rho in grid:
         x = np.empty_like(z)
         x[:, 0] = z[:, 0]
         x[:, 1:] = signal.lfilter([math.sqrt(1 - rho ** 2)], [1.0, -rho], z[:, 1:],
                                   axis=1, zi=rho * z[:, :1])[0]
         r = np.maximum(np.round(np.exp(m + sigma * x) / q), 1.0) * q
-        share.append(np.mean(r[:, pair] != r[:, pair + 1]))
-    share = np.minimum.accumulate(np.asarray(share))
+        shares.append(np.mean(r[:, pair] != r[:, pair + 1]))
+    share = np.minimum.accumulate(np.asarray(shares))
     return float(np.interp(-changes, -share, grid))
 
 
-def _follow_lags(t, log_r, log_s):
+def _follow_lags(t: FloatArray, log_r: FloatArray, log_s: FloatArray) -> dict[int, float]:
     """Return {delay s: correlation of log r(t) with log s(t - delay)} for -10..10 s."""
-    out = {}
+    out: dict[int, float] = {}
     index = {float(v): i for i, v in enumerate(t)}
     for d in range(-10, 11):
         j = np.array([index.get(float(v) - d, -1) for v in t])
@@ -158,7 +162,7 @@ def _follow_lags(t, log_r, log_s):
     return out
 
 
-def _stated(trace):
+def _stated(trace: Trace) -> tuple[Optional[str], Any]:
     """Return (source, stated values) of the trace, or (None, reason)."""
     for source in ('accuracy', 'hdop'):
         v = trace.extra.get(source)
@@ -167,7 +171,7 @@ def _stated(trace):
     return None, (f'no column accuracy or hdop with {MIN_ROWS} positive values')
 
 
-def estimate_reported(trace):
+def estimate_reported(trace: Trace) -> SectionFit:
     """
     Return the reported_accuracy section (or why none) for ``trace`` (see module doc).
 
@@ -193,7 +197,8 @@ def estimate_reported(trace):
     return SectionFit(section, evidence)
 
 
-def _estimate(trace, source, stated):
+def _estimate(trace: Trace, source: str,
+              stated: FloatArray) -> tuple[dict[str, Any], dict[str, Any]]:
     """Return (section, evidence) of :func:`estimate_reported` (values may be NaN)."""
     t = np.rint(trace.t - trace.t[0])
     north, east = difference(trace.lat, trace.lon, trace.truth_lat, trace.truth_lon)

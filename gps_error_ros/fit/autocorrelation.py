@@ -6,10 +6,15 @@ segment. Also the partial autocorrelation (Durbin-Levinson) and the
 large-sample standard errors of the sample ACF and variance.
 """
 
+from typing import Any, Optional, Sequence
+
 import numpy as np
 
+from gps_error_ros.model.state import FloatArray, Numbers
 
-def pooled_autocovariance(segments, max_lag, mean=None):
+
+def pooled_autocovariance(segments: Sequence[Numbers], max_lag: int,
+                          mean: Numbers = None) -> tuple[FloatArray, int, Any]:
     """
     Return the pooled biased autocovariance at lags 0..max_lag, n and the mean.
 
@@ -36,7 +41,8 @@ def pooled_autocovariance(segments, max_lag, mean=None):
     return acv / n, n, mean
 
 
-def about_recording_means(segments, recording=None):
+def about_recording_means(segments: Sequence[Numbers],
+                          recording: Optional[Sequence[Any]] = None) -> Sequence[Numbers]:
     """
     Return ``segments`` each less the mean of its recording (``recording``: a label each).
 
@@ -57,13 +63,13 @@ def about_recording_means(segments, recording=None):
     return out
 
 
-def pooled_acf(segments, max_lag):
+def pooled_acf(segments: Sequence[Numbers], max_lag: int) -> FloatArray:
     """Return the pooled autocorrelation at lags 0..max_lag (see above)."""
     acv, _, _ = pooled_autocovariance(segments, max_lag)
     return acv / acv[0]
 
 
-def segment_acf(x, seg, max_lag):
+def segment_acf(x: Numbers, seg: Numbers, max_lag: int) -> FloatArray:
     """
     Return the pooled autocorrelation of ``x`` at lags 1..max_lag.
 
@@ -79,7 +85,7 @@ def segment_acf(x, seg, max_lag):
     return acv[1:] / acv[0]
 
 
-def autocovariance(x, max_lag):
+def autocovariance(x: Numbers, max_lag: int) -> FloatArray:
     """
     Return the biased sample autocovariance of one series at lags 0..max_lag.
 
@@ -95,13 +101,13 @@ def autocovariance(x, max_lag):
     return pooled_autocovariance([x], max_lag)[0]
 
 
-def autocorrelation(x, max_lag):
+def autocorrelation(x: Numbers, max_lag: int) -> FloatArray:
     """Return the sample autocorrelation of ``x`` at lags 0..max_lag."""
     acv = autocovariance(x, max_lag)
     return acv / acv[0]
 
 
-def durbin_levinson(acv, max_lag):
+def durbin_levinson(acv: FloatArray, max_lag: int) -> tuple[FloatArray, FloatArray]:
     """
     Return (pacf at lags 1..max_lag, innovation variance for orders 0..max_lag).
 
@@ -119,18 +125,18 @@ def durbin_levinson(acv, max_lag):
     return pacf, var
 
 
-def bartlett_acf_se(rho, lag, n):
+def bartlett_acf_se(rho: Numbers, lag: int, n: int) -> float:
     """
     Return Bartlett's standard error of the sample autocorrelation.
 
     Parameters
     ----------
-    rho : array
+    rho
         The true autocorrelation at lags 0..L, with L well past the point
         where it has decayed (L >= lag + the decay length).
-    lag : int
+    lag
         The lag whose estimate is considered.
-    n : int
+    n
         Sample size.
 
     Returns
@@ -147,7 +153,7 @@ def bartlett_acf_se(rho, lag, n):
     rho = np.asarray(rho, dtype=float)
     L = rho.size - 1
 
-    def r(j):
+    def r(j: int) -> float:
         j = abs(j)
         return rho[j] if j <= L else 0.0
 
@@ -159,7 +165,7 @@ def bartlett_acf_se(rho, lag, n):
     return float(np.sqrt(total / n))
 
 
-def variance_se(rho, n, variance):
+def variance_se(rho: Numbers, n: int, variance: float) -> float:
     """
     Return the large-sample standard error of the sample variance.
 

@@ -24,25 +24,27 @@ samples. Outages are counted within each recording.
 """
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
 from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
-from gps_error_ros.fit.gross_failures import fit_rate_spread, without_gross_failures
+from gps_error_ros.fit.gross_failures import fit_rate_spread, GrossFailures, without_gross_failures
 from gps_error_ros.fit.population_fit import (DAY_RATIO, fit_population, occasions,
-                                              segment_weights, with_day_allowance)
+                                              PopulationFit, segment_weights,
+                                              with_day_allowance)
 from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
-from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.ar_model import AXES, AxisParams
 from gps_error_ros.model.availability import runs_without_fix
-from gps_error_ros.model.failures import failures_from_sizes
+from gps_error_ros.model.failures import failures_from_sizes, GrossFailureProcess
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import profile_mapping
-from gps_error_ros.traces.trace_io import join_recordings, recordings_of
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.traces.trace_io import join_recordings, recordings_of, Trace
 
 __all__ = ['AxisFit', 'calibrate', 'CalibrationError', 'CalibrationResult', 'check_sampling',
            'DEFAULT_MAX_ORDER', 'errors_on_grid', 'fit_axis', 'GriddedErrors']
@@ -52,27 +54,27 @@ __all__ = ['AxisFit', 'calibrate', 'CalibrationError', 'CalibrationResult', 'che
 class GriddedErrors:
     """Errors on the model grid, split at gaps into segments."""
 
-    segments: tuple
-    starts: tuple
+    segments: tuple[FloatArray, ...]
+    starts: tuple[int, ...]
     rate_hz: float
     rows: Optional[np.ndarray] = None   # trace row of each sample, segments concatenated
 
     @property
-    def n(self):
+    def n(self) -> int:
         """Return the total number of samples."""
         return int(sum(len(s) for s in self.segments))
 
     @property
-    def span_s(self):
+    def span_s(self) -> float:
         """Return the time from the first to the last sample, in seconds."""
         last = self.starts[-1] + len(self.segments[-1]) - 1
         return (last - self.starts[0]) / self.rate_hz
 
-    def axis(self, a):
+    def axis(self, a: int) -> list[FloatArray]:
         """Return the segments of axis ``a`` (0 north, 1 east)."""
         return [s[:, a] for s in self.segments]
 
-    def fix_mask(self):
+    def fix_mask(self) -> BoolArray:
         """Return, for every step from the first sample to the last, whether it has one."""
         first = self.starts[0]
         mask = np.zeros(self.starts[-1] + len(self.segments[-1]) - first, dtype=bool)
@@ -87,7 +89,7 @@ class GriddedErrors:
 MAX_MEDIAN_INTERVAL_STEPS = 1.5
 
 
-def check_sampling(trace, rate_hz=1.0):
+def check_sampling(trace: Trace, rate_hz: float = 1.0) -> None:
     """
     Refuse a recording whose fixes are mostly more than a model step apart.
 
@@ -105,7 +107,7 @@ def check_sampling(trace, rate_hz=1.0):
             f'interval of at most {MAX_MEDIAN_INTERVAL_STEPS / rate_hz:g} s)')
 
 
-def errors_on_grid(trace, rate_hz=1.0):
+def errors_on_grid(trace: Trace, rate_hz: float = 1.0) -> GriddedErrors:
     """Return the trace's north/east errors as :class:`GriddedErrors`."""
     north, east = difference(trace.lat, trace.lon, trace.truth_lat,
                              trace.truth_lon)
@@ -123,12 +125,14 @@ def errors_on_grid(trace, rate_hz=1.0):
                          float(rate_hz), keep)
 
 
-def estimate_availability(grid, min_outage_steps=MIN_OUTAGE_STEPS):
+def estimate_availability(grid: GriddedErrors,
+                          min_outage_steps: int = MIN_OUTAGE_STEPS) -> SectionFit:
     """Return the availability section (or why none) from the gaps of ``grid``."""
     return availability_from_mask(grid.fix_mask(), min_outage_steps)
 
 
-def availability_from_mask(mask, min_outage_steps=MIN_OUTAGE_STEPS):
+def availability_from_mask(mask: Numbers | Sequence[Numbers],
+                           min_outage_steps: int = MIN_OUTAGE_STEPS) -> SectionFit:
     """
     Return the availability section (or why none) from a fix mask on the grid.
 
@@ -147,19 +151,20 @@ def availability_from_mask(mask, min_outage_steps=MIN_OUTAGE_STEPS):
     outages = [g for g in gaps if g >= min_outage_steps]
     n = int(sum(m.sum() for m in masks))
     chances = max(sum(max(int(m.sum()) - 1, 0) for m in masks), 1)
-    evidence = {'min_outage_steps': int(min_outage_steps), 'outages': len(outages),
-                'dropped_steps': int(sum(g for g in gaps if g < min_outage_steps)),
-                'steps_with_fix': n}
+    evidence: dict[str, Any] = {
+        'min_outage_steps': int(min_outage_steps), 'outages': len(outages),
+        'dropped_steps': int(sum(g for g in gaps if g < min_outage_steps)),
+        'steps_with_fix': n}
     if not outages:
         evidence['outage_rate_upper_95'] = round(3.0 / chances, 6)
         return SectionFit(None, evidence)
     lengths, counts = np.unique(outages, return_counts=True)
-    section = {'outage_rate': round(len(outages) / chances, 8),
-               'durations': [[int(k), round(float(c) / len(outages), 8)]
-                             for k, c in zip(lengths, counts)]}
-    total = sum(p for _, p in section['durations'])
-    section['durations'][-1][1] = round(section['durations'][-1][1] + 1.0 - total, 8)
-    return SectionFit(section, evidence)
+    durations: list[list[Any]] = [[int(k), round(float(c) / len(outages), 8)]
+                                  for k, c in zip(lengths, counts)]
+    total = sum(p for _, p in durations)
+    durations[-1][1] = round(durations[-1][1] + 1.0 - total, 8)
+    return SectionFit({'outage_rate': round(len(outages) / chances, 8), 'durations': durations},
+                      evidence)
 
 
 @dataclass(frozen=True)
@@ -172,18 +177,19 @@ class CalibrationResult:
     input: str
     velocity: SectionFit = field(default_factory=SectionFit.not_looked_for)
     reported: SectionFit = field(default_factory=SectionFit.not_looked_for)
-    failures: tuple = ()        # GrossFailures per recording
-    fix_masks: Optional[tuple] = None     # per recording, every grid step: a fix (failures too)
-    population: object = None   # PopulationFit, when asked for
+    failures: tuple[GrossFailures, ...] = ()        # per recording
+    # per recording, every grid step: a fix (failures too)
+    fix_masks: Optional[tuple[BoolArray, ...]] = None
+    population: Optional[PopulationFit] = None   # when asked for
 
     @property
-    def availability(self):
+    def availability(self) -> SectionFit:
         """Return the availability section (or why none) from the recordings' gaps."""
         if self.fix_masks is None:
             return estimate_availability(self.grid)
         return availability_from_mask(list(self.fix_masks))
 
-    def failures_summary(self):
+    def failures_summary(self) -> dict[str, Any]:
         """Return the gross failures of every recording as plain data."""
         return {'count': sum(f.count for f in self.failures),
                 'fixes': sum(f.rows for f in self.failures),
@@ -191,18 +197,19 @@ class CalibrationResult:
                                zip(self.names, self.failures)}}
 
     @property
-    def names(self):
+    def names(self) -> tuple[str, ...]:
         """Return the recordings' names."""
         return tuple(f.name for f in self.failures)
 
     @property
-    def axis_params(self):
+    def axis_params(self) -> tuple[AxisParams, ...]:
         """Return the profile's (north, east) AR: the within process with a population."""
         if self.population is not None and self.population.population is not None:
             return self.population.axis_params()
         return self.north.params, self.east.params
 
-    def profile_dict(self, name, description=None, source=None):
+    def profile_dict(self, name: str, description: Optional[str] = None,
+                     source: Optional[str] = None) -> dict[str, Any]:
         """Return the profile (schema 1) with a ``fit`` section, as plain data."""
         availability = self.availability
         pop = self.population
@@ -229,7 +236,7 @@ class CalibrationResult:
             reported_accuracy=self.reported.section, gross_failures=self.failure_process(),
             population=None if pop is None else pop.population)
 
-    def failure_process(self):
+    def failure_process(self) -> Optional[GrossFailureProcess]:
         """
         Return the profile's ``gross_failures`` section fitted from every recording, or None.
 
@@ -247,27 +254,28 @@ class CalibrationResult:
                                    if self.failures else [], spread=spread)
 
 
-def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, population=False,
-              day_allowance=DAY_RATIO):
+def calibrate(trace: Trace | Sequence[Trace], order: Optional[int] = None,
+              max_order: int = DEFAULT_MAX_ORDER, rate_hz: float = 1.0, population: bool = False,
+              day_allowance: float = DAY_RATIO) -> CalibrationResult:
     """
     Fit both axes; return a :class:`CalibrationResult`.
 
     Parameters
     ----------
-    trace : Trace or sequence of Trace
+    trace
         One recording, or several of one receiver (see the module docstring).
-    order : int, optional
+    order
         The AR order of both axes (default: chosen per axis by the PACF).
-    max_order : int
+    max_order
         The largest order the PACF may choose.
-    rate_hz : float
+    rate_hz
         The model grid's rate.
-    population : bool
+    population
         Also fit a ``population`` section (:mod:`population_fit`): the AR
         becomes the process within blocks, the section how blocks and
         recordings differ (without enough blocks, no section, and the
         evidence says why).
-    day_allowance : float
+    day_allowance
         For a population from one occasion: the SD of a part of the bias
         held for the run, as a ratio to the blocks' bias SD, an allowance
         for days the recording did not see
@@ -309,7 +317,7 @@ def calibrate(trace, order=None, max_order=DEFAULT_MAX_ORDER, rate_hz=1.0, popul
 LITTLE_DATA_SAMPLES = 600
 
 
-def little_data_note(result):
+def little_data_note(result: CalibrationResult) -> Optional[str]:
     """
     Return a note on a fit from little data, or None (``LITTLE_DATA_SAMPLES`` or more).
 
@@ -334,7 +342,8 @@ def little_data_note(result):
 DAMAGE_SHARE = 0.01
 
 
-def damage_note(grid, fixes_in=None, in_truth_gap=0):
+def damage_note(grid: GriddedErrors, fixes_in: Optional[int] = None,
+                in_truth_gap: int = 0) -> Optional[str]:
     """
     Return a warning when the data look damaged in transport, else None.
 

@@ -7,9 +7,11 @@ measured value's percentile among the simulated values (a tie counts half).
 ``validate``, ``compare`` and the reported-accuracy check all use it.
 """
 
+
 import numpy as np
 
 from gps_error_ros.model.availability import runs_without_fix
+from gps_error_ros.model.state import Numbers
 
 #: A gap of this many missing grid steps or more is an outage (the phone had
 #: no fix); a shorter one is a message dropped on the way (a logger's or a
@@ -17,7 +19,7 @@ from gps_error_ros.model.availability import runs_without_fix
 MIN_OUTAGE_STEPS = 2
 
 
-def envelope(measured, simulated, tol=0.0):
+def envelope(measured: float, simulated: Numbers, tol: float = 0.0) -> dict[str, float]:
     """
     Return ``measured`` against the values ``simulated`` of the same statistic.
 
@@ -34,12 +36,12 @@ def envelope(measured, simulated, tol=0.0):
             'percentile': float(100.0 * (np.mean((v < m) & ~tie) + 0.5 * np.mean(tie)))}
 
 
-def inside(row):
+def inside(row: dict[str, float]) -> bool:
     """Return whether an :func:`envelope` row's measured value is inside its 95 % range."""
     return bool(row['sim_lo'] <= row['measured'] <= row['sim_hi'])
 
 
-def outage_stats(mask, min_steps=MIN_OUTAGE_STEPS):
+def outage_stats(mask: Numbers, min_steps: int = MIN_OUTAGE_STEPS) -> tuple[int, int, float, int]:
     """
     Return (outages, steps in outages, median and longest outage) of a fix mask.
 
@@ -59,7 +61,8 @@ OUTAGE_MEASURES = ('outages', 'steps_in_outages', 'median_outage_steps',
                    'longest_outage_steps')
 
 
-def outage_envelopes(mask, simulated_masks):
+def outage_envelopes(mask: Numbers, simulated_masks: Numbers
+                     ) -> dict[str, dict[str, float]]:
     """Return {measure: envelope} of a measured fix mask against simulated ones."""
     measured = outage_stats(mask)
     sims = np.array([outage_stats(m) for m in simulated_masks], dtype=float)

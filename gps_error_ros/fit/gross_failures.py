@@ -40,13 +40,15 @@ profile's ``gross_failures`` section (:mod:`~gps_error_ros.model.failures`).
 """
 
 from dataclasses import dataclass
+from typing import Any, Optional, Sequence
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from gps_error_ros.model.failures import MAX_AGENT_RATE, MAX_RATE_SD_LOG, rate_nodes, rate_of
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.traces.trace_io import recordings_of
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.traces.trace_io import recordings_of, Trace
 
 #: The robust distance (in robust SDs) beyond which a fix is a gross failure.
 K_ROBUST_SD = 5.0
@@ -61,7 +63,7 @@ _MEAN_ABS_TO_SD = 1.2533
 _MAD_TO_SD = 1.4826
 
 
-def robust_centre_scale(x):
+def robust_centre_scale(x: Numbers) -> tuple[Any, Any]:
     """
     Return (median, robust SD) of ``x`` (the module docstring's scale).
 
@@ -77,7 +79,7 @@ def robust_centre_scale(x):
     return m, s
 
 
-def _neighbour_median(x, h):
+def _neighbour_median(x: FloatArray, h: int) -> FloatArray:
     """Return the median of each element's ``h`` neighbours on each side (itself out)."""
     pad = np.r_[np.full(h, np.nan), x, np.full(h, np.nan)]
     win = sliding_window_view(pad, 2 * h + 1).copy()
@@ -88,23 +90,24 @@ def _neighbour_median(x, h):
     return out
 
 
-def failure_mask(north, east, k=K_ROBUST_SD, neighbours=NEIGHBOURS,
-                 min_departure_m=MIN_DEPARTURE_M):
+def failure_mask(north: Numbers, east: Numbers, k: float = K_ROBUST_SD,
+                 neighbours: int = NEIGHBOURS,
+                 min_departure_m: float = MIN_DEPARTURE_M) -> BoolArray:
     """
     Return the gross failures of an error series (the module docstring's rule).
 
     Parameters
     ----------
-    north : array_like
+    north
         The north errors (m), in time order; one recording (neighbours are
         taken along it).
-    east : array_like
+    east
         The east errors (m), likewise.
-    k : float
+    k
         The robust distance both tests must exceed.
-    neighbours : int
+    neighbours
         Fixes on each side giving the local reference.
-    min_departure_m : float
+    min_departure_m
         The least distance (m) from the median error of a gross failure.
 
     Returns
@@ -138,20 +141,20 @@ class GrossFailures:
     t: np.ndarray           # their times, s
     size_m: np.ndarray      # their horizontal distance from the truth, m
     rows: int               # the trace's rows
-    scale_m: tuple          # the robust SD per axis (north, east), m
+    scale_m: tuple[float, ...]  # the robust SD per axis (north, east), m
     name: str = ''          # the recording's
 
     @property
-    def count(self):
+    def count(self) -> int:
         """Return the number of gross failures."""
         return int(self.mask.sum())
 
     @property
-    def rate(self):
+    def rate(self) -> float:
         """Return the share of fixes that are gross failures."""
         return self.count / self.rows if self.rows else 0.0
 
-    def describe(self, listed=5, kept_out=True):
+    def describe(self, listed: int = 5, kept_out: bool = True) -> str:
         """
         Return a line for people: how many, which, and the rule.
 
@@ -172,7 +175,7 @@ class GrossFailures:
         return (f'{name}: {self.count} gross failure(s) of {self.rows} fixes ({rule}), '
                 f'{fate}; largest: {items}{more}')
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """Return the findings as plain data (the fit and JSON reports carry it)."""
         return {'rule': f'robust distance > {K_ROBUST_SD:g} from the trace median and '
                         f'from the median of {NEIGHBOURS} neighbours each side, and more '
@@ -184,7 +187,7 @@ class GrossFailures:
                              for t, s in zip(self.t, self.size_m)]}
 
 
-def find_gross_failures(trace):
+def find_gross_failures(trace: Trace) -> GrossFailures:
     """Return the :class:`GrossFailures` of a trace (see the module docstring)."""
     north, east = difference(trace.lat, trace.lon, trace.truth_lat, trace.truth_lon)
     mask = failure_mask(north, east)
@@ -193,7 +196,8 @@ def find_gross_failures(trace):
                          trace.name)
 
 
-def without_gross_failures(recordings):
+def without_gross_failures(recordings: Trace | Sequence[Trace]
+                           ) -> tuple[list[Trace], list[GrossFailures]]:
     """
     Return each recording without its gross failures, and the failures found.
 
@@ -206,7 +210,7 @@ def without_gross_failures(recordings):
     return [without_rows(t, f.mask) for t, f in zip(traces, found)], found
 
 
-def failures_doc(found):
+def failures_doc(found: Sequence[GrossFailures]) -> dict[str, dict[str, Any]]:
     """Return the recordings' gross failures as plain data, keyed by recording."""
     return {f.name: f.summary() for f in found}
 
@@ -217,7 +221,7 @@ MIN_RECORDINGS_FOR_SPREAD = 3
 MIN_RATE_SD_LOG = 0.01
 
 
-def fit_rate_spread(counts, fixes):
+def fit_rate_spread(counts: Numbers, fixes: Numbers) -> tuple[float, Optional[float]]:
     """
     Return the mean rate and the SD of the log rate, fitted from each recording's failures.
 
@@ -238,7 +242,7 @@ def fit_rate_spread(counts, fixes):
         return pooled, None
     z, logw = rate_nodes()
 
-    def nll(p):
+    def nll(p: FloatArray) -> float:
         rates = rate_of(np.exp(p[0]), p[1], z)
         ll = stats.binom.logpmf(counts[:, None], fixes[:, None], rates[None, :]) + logw
         top = ll.max(axis=1, keepdims=True)
@@ -253,7 +257,7 @@ def fit_rate_spread(counts, fixes):
     return float(np.exp(best.x[0])), float(best.x[1])
 
 
-def without_rows(trace, mask):
+def without_rows(trace: Trace, mask: BoolArray) -> Trace:
     """Return ``trace`` without the rows where ``mask`` is True (same name, extras kept)."""
     keep = ~np.asarray(mask, dtype=bool)
     if keep.all():
@@ -264,8 +268,10 @@ def without_rows(trace, mask):
                        extra={k: v[keep] for k, v in trace.extra.items()})
 
 
-def false_positive_rate(phis=(0.0, 0.5, 0.9, 0.98, 0.995), lengths=(200, 600, 1800),
-                        traces=300, seed=20261125, sd_m=10.0):
+def false_positive_rate(phis: Sequence[float] = (0.0, 0.5, 0.9, 0.98, 0.995),
+                        lengths: Sequence[int] = (200, 600, 1800), traces: int = 300,
+                        seed: int = 20261125,
+                        sd_m: float = 10.0) -> dict[tuple[float, int], float]:
     """
     Return {(phi, length): flagged share per fix} on clean Gaussian AR(1) traces.
 
@@ -276,7 +282,7 @@ def false_positive_rate(phis=(0.0, 0.5, 0.9, 0.98, 0.995), lengths=(200, 600, 18
     """
     from scipy import signal
     rng = np.random.default_rng(seed)
-    out = {}
+    out: dict[tuple[float, int], float] = {}
     for phi in phis:
         for n in lengths:
             flagged = 0

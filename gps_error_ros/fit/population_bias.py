@@ -9,11 +9,18 @@ the predictive factors that write the section for a run the fit did not
 see. The blocks are :class:`~gps_error_ros.fit.population_fit.Block`s.
 """
 
+from __future__ import annotations
+
 import math
+from typing import Any, Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
 
 from gps_error_ros.model.population import MAX_BIAS_DOF, Population
+from gps_error_ros.model.state import FloatArray
+
+if TYPE_CHECKING:         # population_fit imports this module
+    from gps_error_ros.fit.population_fit import Block
 
 #: Neighbour pairs a time constant needs.
 MIN_PAIRS = 3
@@ -28,7 +35,11 @@ ADJACENT_GAP_S = 60.0
 FLOOR_R = math.exp(-1.0)
 
 
-def bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence, r_estimate=None):
+def bias_section(blocks: Sequence[Block], bias_sd: FloatArray, tau: Optional[float],
+                 r: Optional[float],
+                 two: Optional[tuple[FloatArray, FloatArray, float, dict[str, Any]]],
+                 scale_sd: float, block_s: float, evidence: dict[str, Any],
+                 r_estimate: Optional[float] = None) -> Population:
     """
     Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
 
@@ -55,13 +66,13 @@ def bias_section(blocks, bias_sd, tau, r, two, scale_sd, block_s, evidence, r_es
     dof, inflate = predictive(draws)
     evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
                     independent_draws=round(draws, 3))
-    if tau is not None:
+    if tau is not None and r is not None:
         evidence['bias_time_constant'] = time_constant_evidence(
             r if r_estimate is None else r_estimate, r, evidence['neighbour_pairs'], block_s)
     return Population(tuple(float(x) * inflate for x in bias_sd), scale_sd, tau, dof)
 
 
-def chains_of(blocks):
+def chains_of(blocks: Sequence[Block]) -> list[list[int]]:
     """Return the blocks' indices cut into chains: runs of blocks less than a gap apart."""
     chains = [[0]] if blocks else []
     for j in range(1, len(blocks)):
@@ -72,12 +83,13 @@ def chains_of(blocks):
     return chains
 
 
-def neighbour_pairs(blocks):
+def neighbour_pairs(blocks: Sequence[Block]) -> list[int]:
     """Return the indices ``j`` of the blocks whose successor ``j + 1`` lies in their chain."""
     return [j for chain in chains_of(blocks) for j in chain[:-1]]
 
 
-def neighbour_cov_beyond(blocks, dev, process_cov, pairs):
+def neighbour_cov_beyond(blocks: Sequence[Block], dev: FloatArray, process_cov: FloatArray,
+                         pairs: Sequence[int]) -> Optional[FloatArray]:
     """
     Return the neighbours' covariance of mean deviations per axis (2,), or None without pairs.
 
@@ -92,7 +104,9 @@ def neighbour_cov_beyond(blocks, dev, process_cov, pairs):
                       weights=[blocks[j].weight for j in pairs])
 
 
-def two_scale_bias(blocks, dev, v, near, a):
+def two_scale_bias(blocks: Sequence[Block], dev: FloatArray, v: FloatArray,
+                   near: Optional[FloatArray],
+                   a: float) -> Optional[tuple[FloatArray, FloatArray, float, dict[str, Any]]]:
     """
     Return (wander SD (2,), held SD (2,), ``a``, evidence) of a bias on two time scales, or None.
 
@@ -110,7 +124,7 @@ def two_scale_bias(blocks, dev, v, near, a):
     chains = chains_of(blocks)
     w = np.array([blocks[ch[0]].weight for ch in chains])
     m = np.array([len(ch) for ch in chains], dtype=float)
-    if w.sum() < 2.0 or m.max() < 2:
+    if near is None or w.sum() < 2.0 or m.max() < 2:
         return None
     means = np.array([dev[ch].mean(axis=0) for ch in chains])
     ssw = sum(wi * ((dev[ch] - mu) ** 2).sum(axis=0) for wi, ch, mu in zip(w, chains, means))
@@ -136,7 +150,7 @@ def two_scale_bias(blocks, dev, v, near, a):
         'wander_correlation_estimate': round(estimate, 4)}
 
 
-def independent_draws(blocks, r=None):
+def independent_draws(blocks: Sequence[Block], r: Optional[float] = None) -> float:
     """
     Return how many independent draws of the bias ``blocks`` hold, counted by their weights.
 
@@ -157,7 +171,7 @@ def independent_draws(blocks, r=None):
     return total
 
 
-def wander_contrasts(blocks):
+def wander_contrasts(blocks: Sequence[Block]) -> float:
     """
     Return the blocks' contrasts within their chains, ``sum (m - 1)``, counted by the weights.
 
@@ -168,7 +182,7 @@ def wander_contrasts(blocks):
     return float(sum(blocks[ch[0]].weight * (len(ch) - 1) for ch in chains_of(blocks)))
 
 
-def variance_predictive(dof):
+def variance_predictive(dof: float) -> float:
     """
     Return the factor on an SD estimated from ``dof`` degrees of freedom, for a new draw.
 
@@ -181,7 +195,7 @@ def variance_predictive(dof):
     return 1.0 if dof > MAX_BIAS_DOF else math.sqrt(dof / (dof - 2.0))
 
 
-def predictive(draws):
+def predictive(draws: float) -> tuple[Optional[int], float]:
     """
     Return (degrees of freedom or None, the factor on the bias SD) for a new occasion.
 
@@ -197,7 +211,8 @@ def predictive(draws):
     return dof, location * variance_predictive(dof)
 
 
-def neighbour_correlation(pairs, near, between):
+def neighbour_correlation(pairs: int, near: Optional[FloatArray],
+                          between: FloatArray) -> Optional[float]:
     """
     Return the neighbours' correlation as estimated, or None.
 
@@ -206,13 +221,14 @@ def neighbour_correlation(pairs, near, between):
     taken over the axes whose bias variance ``between`` is not nil. None
     with fewer than :data:`MIN_PAIRS` pairs or no bias.
     """
-    if pairs < MIN_PAIRS or not np.any(between > 0):
+    if near is None or pairs < MIN_PAIRS or not np.any(between > 0):
         return None
     w = between > 0
     return float(np.sum(near[w]) / np.sum(between[w]))
 
 
-def time_constant(pairs, near, between, block_s):
+def time_constant(pairs: int, near: Optional[FloatArray], between: FloatArray,
+                  block_s: float) -> tuple[Optional[float], Optional[float]]:
     """
     Return (time constant s or None, the neighbours' correlation used or None).
 
@@ -235,7 +251,7 @@ def time_constant(pairs, near, between, block_s):
     return float(_tau(r, block_s)), r
 
 
-def block_mean_correlation(x):
+def block_mean_correlation(x: float) -> float:
     """
     Return the correlation of neighbouring block means of a bias with ``x`` = block / tau.
 
@@ -250,7 +266,7 @@ def block_mean_correlation(x):
     return math.expm1(-x) ** 2 / (2.0 * (x + math.expm1(-x)))
 
 
-def _tau(r, block_s):
+def _tau(r: float, block_s: float) -> float:
     """
     Return the time constant (s) whose neighbouring block means correlate by ``r``.
 
@@ -271,7 +287,8 @@ def _tau(r, block_s):
     return block_s / math.exp(0.5 * (lo + hi))
 
 
-def time_constant_evidence(estimate, used, pairs, block_s):
+def time_constant_evidence(estimate: float, used: float, pairs: int,
+                           block_s: float) -> dict[str, Any]:
     """
     Return what the fit knows of the bias's time constant, for the profile's ``fit`` section.
 
@@ -296,7 +313,7 @@ def time_constant_evidence(estimate, used, pairs, block_s):
             'resolution_s': float(block_s)}
 
 
-def time_constant_words(evidence):
+def time_constant_words(evidence: dict[str, Any]) -> str:
     """Return how a line or page states the bias's time constant from its evidence."""
     tc = evidence['bias_time_constant']
     lo, hi = tc['interval_95_s']

@@ -70,6 +70,7 @@ one car) share their environment, and so their bias: they are one
 *occasion*, one draw of the population, not several. :func:`occasions`
 finds them from the recordings' truths (the same track at the same time
 from the start, within :data:`OCCASION_M`, allowing a start offset of up to
+
 :data:`OCCASION_LAG_S`; a truth that stays within :data:`OCCASION_TRACK_M`
 of its start says nothing of when it was recorded, so standing recordings
 are each an occasion of their own); each block then weighs ``1 / k``, ``k`` the
@@ -89,6 +90,7 @@ from dataclasses import dataclass, replace
 import math
 
 import numpy as np
+from typing import Any, Optional, Sequence
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
 from gps_error_ros.fit.population_bias import (ADJACENT_GAP_S, bias_section,
@@ -99,7 +101,8 @@ from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis, solve_yul
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.population import Population
-from gps_error_ros.traces.trace_io import recording_offsets
+from gps_error_ros.traces.trace_io import recording_offsets, Trace
+from gps_error_ros.model.state import FloatArray, IntArray, Numbers
 
 #: Block length, s: the stretch whose bias and scale one run is taken to have.
 BLOCK_S = 300.0
@@ -132,7 +135,7 @@ class Block:
     weight: float = 1.0
 
 
-def block_ids(times, block_s=BLOCK_S):
+def block_ids(times: Sequence[Numbers], block_s: float = BLOCK_S) -> list[IntArray]:
     """
     Return each sample's block number, one array per segment of ``times``.
 
@@ -154,7 +157,8 @@ def block_ids(times, block_s=BLOCK_S):
     return np.split(ids, np.cumsum([len(x) for x in times])[:-1])
 
 
-def blocks_of(segments, times, block_s=BLOCK_S, weights=None):
+def blocks_of(segments: Sequence[Numbers], times: Sequence[Numbers], block_s: float = BLOCK_S,
+              weights: Optional[Sequence[float]] = None) -> list[Block]:
     """
     Return the :class:`Block` list of error segments with their times.
 
@@ -175,7 +179,7 @@ def blocks_of(segments, times, block_s=BLOCK_S, weights=None):
             for ee, tt, ww in zip(np.split(e, cuts), np.split(t, cuts), np.split(w, cuts))]
 
 
-def _same_track(a, b):
+def _same_track(a: Trace, b: Trace) -> bool:
     """Return whether recordings ``a`` and ``b`` follow one truth at one time (see the doc)."""
     span = min(a.t[-1] - a.t[0], b.t[-1] - b.t[0])
     if span <= 0:
@@ -197,7 +201,7 @@ def _same_track(a, b):
     return False
 
 
-def occasions(traces):
+def occasions(traces: Sequence[Trace]) -> list[int]:
     """
     Return each recording's occasion, a list of ints from 0 in order of appearance.
 
@@ -213,7 +217,7 @@ def occasions(traces):
     return [first[v] for v in label]
 
 
-def segment_weights(traces, times):
+def segment_weights(traces: Sequence[Trace], times: Sequence[Numbers]) -> list[float]:
     """
     Return each segment's weight, ``1 / k`` for a recording one of ``k`` of its occasion.
 
@@ -227,13 +231,13 @@ def segment_weights(traces, times):
             for t in times]
 
 
-def mean_variance(rho, n, gamma0):
+def mean_variance(rho: FloatArray, n: int, gamma0: Any) -> Any:
     """Return the variance of the mean of ``n`` samples of a process (ACF ``rho`` from lag 0)."""
     k = np.arange(1, min(n, rho.size))
     return gamma0 * (1.0 + 2.0 * np.sum((1.0 - k / n) * rho[k])) / n
 
 
-def neighbour_covariance(rho, n, gamma0):
+def neighbour_covariance(rho: FloatArray, n: int, gamma0: Any) -> Any:
     """Return the covariance of the means of two adjacent blocks of ``n`` samples of a process."""
     k = np.arange(1, 2 * n)
     k = k[k < rho.size]
@@ -247,16 +251,17 @@ class PopulationFit:
     north: AxisParams
     east: AxisParams
     mean: np.ndarray
-    population: Population
-    evidence: dict
+    population: Optional[Population]
+    evidence: dict[str, Any]
 
-    def axis_params(self):
+    def axis_params(self) -> tuple[AxisParams, ...]:
         """Return the within AR as (north, east) :class:`AxisParams`, delta for the grand mean."""
         return tuple(AxisParams((1.0 - float(np.sum(p.phi))) * float(m), p.phi, p.sigma_w)
                      for p, m in zip((self.north, self.east), self.mean))
 
 
-def fit_within(pieces, sizes, order=None, max_order=DEFAULT_MAX_ORDER, axis='axis'):
+def fit_within(pieces: Sequence[FloatArray], sizes: Sequence[int], order: Optional[int] = None,
+               max_order: int = DEFAULT_MAX_ORDER, axis: str = 'axis') -> AxisParams:
     """
     Return the within process of one axis (:class:`AxisParams`, delta 0) from demeaned pieces.
 
@@ -285,27 +290,29 @@ def fit_within(pieces, sizes, order=None, max_order=DEFAULT_MAX_ORDER, axis='axi
     return params
 
 
-def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
-                   block_s=BLOCK_S, weights=None, two_scales=True):
+def fit_population(segments: Sequence[Numbers], times: Sequence[Numbers],
+                   order: Optional[int] = None, max_order: int = DEFAULT_MAX_ORDER,
+                   block_s: float = BLOCK_S, weights: Optional[Sequence[float]] = None,
+                   two_scales: bool = True) -> PopulationFit:
     """
     Fit the within process and the population (see the module docstring).
 
     Parameters
     ----------
-    segments : list of numpy.ndarray
+    segments
         North/east errors (n_s, 2) of each gap-free segment, every recording.
-    times : list of numpy.ndarray
+    times
         Each segment's sample times, s (recordings one after another).
-    order : int, optional
+    order
         The AR order of both axes (default: chosen per axis by the PACF).
-    max_order : int
+    max_order
         The largest order the PACF may choose.
-    block_s : float
+    block_s
         The block length, s.
-    weights : list of float, optional
+    weights
         Each segment's weight: ``1 / k`` for a recording one of ``k`` of its
         occasion (:func:`segment_weights`); default 1 each.
-    two_scales : bool
+    two_scales
         Whether the bias may have a part held for the run beside its
         wander (step 6 of the module docstring).
 
@@ -334,7 +341,7 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                         f'{MIN_BLOCK_SAMPLES} samples or more (recordings of one occasion '
                         f'counted once); a population needs {MIN_BLOCKS}')
         return PopulationFit(axes[0], axes[1], grand, None, evidence)
-    model = ARErrorModel(*axes)
+    model = ARErrorModel(axes[0], axes[1])
     rho = model.autocorrelation(ACF_LAGS)
     gamma0 = np.diag(model.stationary_cov)
     means = np.array([b.err.mean(axis=0) for b in blocks])
@@ -362,13 +369,15 @@ def fit_population(segments, times, order=None, max_order=DEFAULT_MAX_ORDER,
                     neighbour_correlation_estimate=None if r_estimate is None else
                     round(float(r_estimate), 4),
                     block_log_sd_sd=round(math.sqrt(log_var), 4))
-    two = None if not two_scales or tau is None else two_scale_bias(blocks, dev, v, near, r)
+    two = None if not two_scales or tau is None or r is None else \
+        two_scale_bias(blocks, dev, v, near, r)
     pop = bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence,
                        r_estimate)
     return PopulationFit(axes[0], axes[1], grand, pop, evidence)
 
 
-def block_pieces(segments, times, block_s=BLOCK_S, alongside=()):
+def block_pieces(segments: Sequence[Numbers], times: Sequence[Numbers], block_s: float = BLOCK_S,
+                 alongside: Sequence[Sequence[Any]] = ()) -> list[tuple[Any, ...]]:
     """
     Return ``[(piece (k, 2), block number, *alongside)]``: each segment cut at its blocks' edges.
 
@@ -385,24 +394,26 @@ def block_pieces(segments, times, block_s=BLOCK_S, alongside=()):
     return pieces
 
 
-def block_means(pieces):
+def block_means(pieces: Sequence[tuple[Any, ...]]) -> dict[int, FloatArray]:
     """Return ``{block number: mean error (2,)}`` over :func:`block_pieces`' pieces."""
-    by_block = {}
+    by_block: dict[int, list[FloatArray]] = {}
     for s, i, *_ in pieces:
         by_block.setdefault(i, []).append(s)
     return {i: np.concatenate(v).mean(axis=0) for i, v in by_block.items()}
 
 
-def _within_segments(segments, times, block_s):
+def _within_segments(segments: Sequence[Numbers], times: Sequence[Numbers],
+                     block_s: float) -> tuple[list[FloatArray], list[int]]:
     """Return (the errors about their block's mean, in gap-free pieces; the blocks' sizes)."""
     pieces = block_pieces(segments, times, block_s)
-    means, sizes = block_means(pieces), {}
+    means = block_means(pieces)
+    sizes: dict[int, int] = {}
     for s, i in pieces:
         sizes[i] = sizes.get(i, 0) + len(s)
     return [s - means[i] for s, i in pieces if len(s) > 1], [sizes[i] for i in means]
 
 
-def population_line(fit):
+def population_line(fit: PopulationFit) -> str:
     """Return one line saying what a :class:`PopulationFit` found, or why it found nothing."""
     pop, ev = fit.population, fit.evidence
     if pop is None:
@@ -429,7 +440,7 @@ ONE_OCCASION_NOTE = (
     'had the other sign). Recordings of several days give a spread between days')
 
 
-def one_occasion_note(fit):
+def one_occasion_note(fit: PopulationFit) -> Optional[str]:
     """Return what calibrate says of a population from one occasion (None for several)."""
     if fit is None or fit.population is None or fit.evidence.get('occasions') != 1:
         return None
@@ -442,7 +453,7 @@ def one_occasion_note(fit):
             f'it out)')
 
 
-def with_day_allowance(fit, ratio=DAY_RATIO):
+def with_day_allowance(fit: PopulationFit, ratio: float = DAY_RATIO) -> PopulationFit:
     """
     Return ``fit`` with an allowance for other days, for a population of one occasion.
 
@@ -465,13 +476,13 @@ def with_day_allowance(fit, ratio=DAY_RATIO):
     return replace(fit, population=replace(pop, run_bias_sd_m=run), evidence=evidence)
 
 
-def _predicted(ev, estimate):
+def _predicted(ev: dict[str, Any], estimate: str) -> str:
     """Return what a new occasion's SD was predicted from, and the SD fitted."""
     return (f'(a new occasion\'s, predicted from {ev["independent_draws"]:.1f} independent '
             f'draws: the fitted SD is {estimate[0]:.2f} / {estimate[1]:.2f} m)')
 
 
-def _one_part_words(pop, ev):
+def _one_part_words(pop: Population, ev: dict[str, Any]) -> str:
     """Return the words on a bias of one part (see :func:`population_line`)."""
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with {time_constant_words(ev)}'
@@ -485,9 +496,9 @@ def _one_part_words(pop, ev):
             f'{wander}{days}')
 
 
-def _two_part_words(pop, ev):
+def _two_part_words(pop: Population, ev: dict[str, Any]) -> str:
     """Return the words on a bias held for the run and a wander (see :func:`population_line`)."""
-    held = pop.run_bias_sd_m
+    held = pop.run_bias_sd_m or (0.0, 0.0)
     shape = 'normal' if pop.bias_dof is None else \
         f'Student-t with {pop.bias_dof} degrees of freedom'
     return (f'a part held for the run, SD {held[0]:.2f} m north, {held[1]:.2f} m east '

@@ -17,15 +17,21 @@ Each as measured, the simulated median and central 95 % range, and the
 measured value's percentile among the simulations (ties count half).
 """
 
+from typing import Any, Optional
+
 import numpy as np
 
 from gps_error_ros.fit.envelope import envelope
-from gps_error_ros.model.reported import reference_cov
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.reported import reference_cov, ReportedAccuracy
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
+from gps_error_ros.traces.trace_io import Trace
 
 MEASURES = ('coverage', 'radius_median_m', 'radius_q95_m', 'radius_changes_per_100')
 
 
-def stated_radius(trace, reported, rows=None):
+def stated_radius(trace: Trace, reported: ReportedAccuracy,
+                  rows: Optional[Numbers] = None) -> Optional[FloatArray]:
     """Return the trace's stated 68 % radius (m) at ``rows``, or None without the column."""
     col = trace.extra.get(reported.source)
     if col is None:
@@ -35,7 +41,7 @@ def stated_radius(trace, reported, rows=None):
     return col * reported.scale_m if reported.source == 'hdop' else col
 
 
-def _stats(err, radius, consecutive):
+def _stats(err: FloatArray, radius: FloatArray, consecutive: BoolArray) -> dict[str, float]:
     """Return the measures of errors (n, 2) and stated radii (n,)."""
     ok = np.isfinite(radius)
     r = radius[ok]
@@ -47,7 +53,8 @@ def _stats(err, radius, consecutive):
             else 0.0}
 
 
-def _simulated_radius(model, reported, keys, span, steps, sim):
+def _simulated_radius(model: ErrorModel[Any], reported: ReportedAccuracy, keys: Keys,
+                      span: int, steps: IntArray, sim: FloatArray) -> FloatArray:
     """Return each simulation's stated radius at ``steps``, (n, sims)."""
     x = reported.errors(keys, span)[steps, :, :]             # (n, sims, 1)
     if reported.follow == 0.0:
@@ -61,7 +68,9 @@ def _simulated_radius(model, reported, keys, span, steps, sim):
     return reported.radius(x, covs[steps], reference_cov(model))
 
 
-def reported_check(model, reported, trace, rows, steps, measured, sim, keys):
+def reported_check(model: ErrorModel[Any], reported: ReportedAccuracy, trace: Trace,
+                   rows: Numbers, steps: IntArray, measured: FloatArray, sim: FloatArray,
+                   keys: Keys) -> Optional[dict[str, dict[str, float]]]:
     """
     Return the stated-accuracy measures, measured against simulated (see module doc).
 
@@ -76,7 +85,7 @@ def reported_check(model, reported, trace, rows, steps, measured, sim, keys):
     meas = _stats(measured, radius, consecutive)
     sim_r = _simulated_radius(model, reported, keys, int(steps[-1]) + 1, steps, sim)
     per_sim = [_stats(sim[:, j], sim_r[:, j], consecutive) for j in range(keys.size)]
-    out = {}
+    out: dict[str, dict[str, float]] = {}
     for name in MEASURES:
         # a tie is the same value to YAML's 6 digits
         row = envelope(meas[name], [p[name] for p in per_sim], tol=1e-5)

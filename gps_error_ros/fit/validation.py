@@ -22,18 +22,21 @@ the simulated values):
 """
 
 from dataclasses import dataclass
-from typing import Optional
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
 from gps_error_ros.fit.autocorrelation import pooled_acf
-from gps_error_ros.fit.calibration import errors_on_grid
+from gps_error_ros.fit.calibration import errors_on_grid, GriddedErrors
 from gps_error_ros.fit.envelope import outage_envelopes
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.availability import WithAvailability
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.reported import ReportedAccuracy
+from gps_error_ros.model.state import FloatArray, Keys, Numbers
 from gps_error_ros.model.zoned import simulate_along
 from gps_error_ros.traces.trace_io import Trace
 
@@ -42,7 +45,7 @@ QQ_PROBS = np.linspace(0.01, 0.99, 99)
 FAILURE_COLUMN = 'gross_failure'
 
 
-def slice_trace(trace, start_frac=0.0, end_frac=1.0):
+def slice_trace(trace: Trace, start_frac: float = 0.0, end_frac: float = 1.0) -> Trace:
     """Return the part of ``trace`` between two fractions of its duration."""
     t0, t1 = trace.t[0], trace.t[-1]
     lo, hi = t0 + start_frac * (t1 - t0), t0 + end_frac * (t1 - t0)
@@ -62,21 +65,24 @@ class ValidationResult:
     segments: int
     sims: int
     lags: np.ndarray
-    acf: dict            # axis -> measured ACF (lags 0..L)
-    acf_env: dict        # axis -> (3, L+1): 2.5 %, 50 %, 97.5 %
-    quant: dict          # axis -> measured quantiles at QQ_PROBS
-    quant_env: dict      # axis -> (3, len(QQ_PROBS))
+    acf: dict[str, Any]  # axis -> measured ACF (lags 0..L)
+    acf_env: dict[str, Any]  # axis -> (3, L+1): 2.5 %, 50 %, 97.5 %
+    quant: dict[str, Any]  # axis -> measured quantiles at QQ_PROBS
+    quant_env: dict[str, Any]  # axis -> (3, len(QQ_PROBS))
     grid_steps: np.ndarray
     measured: np.ndarray   # (n, 2) errors
     simulated: np.ndarray  # (n, 2) one simulated error trace
-    truth: tuple           # (lat, lon) at the measured steps
-    availability: Optional[dict] = None   # outage statistics, measured against simulated
-    per_zone: Optional[dict] = None       # zone name -> the same checks on its samples (--zones)
-    reported: Optional[dict] = None       # stated accuracy, measured against simulated
-    share_pct: Optional[dict] = None      # axis -> {'acf', 'quantiles'}: see share_percentile
+    truth: tuple[Any, ...]  # (lat, lon) at the measured steps
+    # outage statistics, measured against simulated
+    availability: Optional[dict[str, Any]] = None
+    # zone name -> the same checks on its samples (--zones)
+    per_zone: Optional[dict[str, Any]] = None
+    reported: Optional[dict[str, Any]] = None       # stated accuracy, measured against simulated
+    # axis -> {'acf', 'quantiles'}: see share_percentile
+    share_pct: Optional[dict[str, Any]] = None
     joint_pct: Optional[float] = None     # the four shares together: see joint_share_percentile
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
         """Return the numbers behind the figures as plain data."""
         out = {'input': self.name, 'samples': self.samples,
                'segments': self.segments, 'simulations': self.sims,
@@ -113,7 +119,9 @@ class ValidationResult:
         return out
 
 
-def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=None):
+def validate(model: ErrorModel[Any], trace: Trace, sims: int = 200, max_lag: int = 60,
+             seed: int = 0, zones: Any = None,
+             reported: Optional[ReportedAccuracy] = None) -> ValidationResult:
     """
     Compare ``trace`` with ``sims`` traces simulated by ``model``.
 
@@ -178,7 +186,7 @@ def validate(model, trace, sims=200, max_lag=60, seed=0, zones=None, reported=No
                             share_pct, joint_share_percentile(shares))
 
 
-def share_percentile(measured, simulated, env):
+def share_percentile(measured: Numbers, simulated: Numbers, env: FloatArray) -> float:
     """
     Return the percentile of the measured share inside ``env`` among the simulated ones.
 
@@ -196,7 +204,7 @@ def share_percentile(measured, simulated, env):
     return float(100.0 * np.mean(share_inside(simulated, env) <= share_inside(measured, env)))
 
 
-def family_verdict(joint_percentiles, labels):
+def family_verdict(joint_percentiles: Sequence[float], labels: Sequence[str]) -> dict[str, Any]:
     """
     Return how recordings judged one by one fare together (Sidak over their occasions).
 
@@ -209,7 +217,7 @@ def family_verdict(joint_percentiles, labels):
     Returns ``{'occasions', 'smallest_percentile', 'family_probability',
     'unlike'}``; ``unlike`` at a family probability below 0.05.
     """
-    by_occasion = {}
+    by_occasion: dict[str, float] = {}
     for pct, label in zip(joint_percentiles, labels):
         by_occasion[label] = min(by_occasion.get(label, 100.0), float(pct))
     k, low = len(by_occasion), min(by_occasion.values()) / 100.0
@@ -218,7 +226,7 @@ def family_verdict(joint_percentiles, labels):
             'family_probability': family, 'unlike': bool(family < 0.05)}
 
 
-def joint_share_percentile(checks):
+def joint_share_percentile(checks: Sequence[tuple[Any, Any, Any]]) -> float:
     """
     Return the percentile of a trace's worst share percentile among the model's own traces.
 
@@ -244,7 +252,7 @@ def joint_share_percentile(checks):
     return float(100.0 * np.mean(worst <= min(measured)))
 
 
-def share_inside(values, env):
+def share_inside(values: Numbers, env: FloatArray) -> Any:
     """Return the share of ``values`` (..., m) inside ``env`` (its first and last rows)."""
     inside = np.mean((values >= env[0]) & (values <= env[-1]), axis=-1)
     return float(inside) if np.ndim(inside) == 0 else inside
@@ -254,7 +262,8 @@ def share_inside(values, env):
 MIN_ZONE_CHECK_SAMPLES = 60
 
 
-def zone_checks(measured, sim, steps, zone, names, max_lag):
+def zone_checks(measured: FloatArray, sim: FloatArray, steps: Numbers, zone: Numbers,
+                names: Sequence[str], max_lag: int) -> dict[str, Any]:
     """
     Return, per zone, the ACF and quantile checks on the zone's samples alone.
 
@@ -264,10 +273,11 @@ def zone_checks(measured, sim, steps, zone, names, max_lag):
     :data:`MIN_ZONE_CHECK_SAMPLES` samples are listed with their count only.
     """
     names = list(names) + ['outside']
-    out = {}
+    out: dict[str, Any] = {}
     for z in np.unique(zone):
         idx = np.flatnonzero(zone == z)
-        entry = out[names[z]] = {'samples': int(idx.size)}
+        entry: dict[str, Any] = {'samples': int(idx.size)}
+        out[names[z]] = entry
         if idx.size < MIN_ZONE_CHECK_SAMPLES:
             continue
         cuts = np.flatnonzero((np.diff(idx) > 1) | (np.diff(steps[idx]) > 1)) + 1
@@ -290,7 +300,8 @@ def zone_checks(measured, sim, steps, zone, names, max_lag):
     return out
 
 
-def availability_check(model, grid, keys):
+def availability_check(model: ErrorModel[Any], grid: GriddedErrors,
+                       keys: Keys) -> dict[str, Any]:
     """
     Return outage statistics, measured (the trace's gaps) against simulated.
 

@@ -50,6 +50,7 @@ moves at 1 m/s or more and the phone reports a course:
 """
 
 import math
+from typing import Any, Optional, Sequence
 
 import numpy as np
 from scipy import optimize
@@ -57,8 +58,10 @@ from scipy import optimize
 from gps_error_ros.fit.population_fit import block_ids, BLOCK_S, MIN_BLOCK_SAMPLES, MIN_BLOCKS
 from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import (MAX_BURST_RATIO, MAX_BURST_SHARE, sd_from_table,
                                           speed_along, with_speed_bias)
+from gps_error_ros.traces.trace_io import Trace
 
 NEEDED = ('speed', 'bearing', 'truth_speed', 'truth_bearing')
 MOVING = 1.0          # m/s: rows used for sigma, phi and the lag
@@ -74,7 +77,7 @@ BAND_ROWS = 30
 NORMAL_KURTOSIS = 3.5
 
 
-def vectors(speed, course_deg, zero_below=0.0):
+def vectors(speed: Numbers, course_deg: Numbers, zero_below: float = 0.0) -> FloatArray:
     """Turn speeds and courses into east/north rows; no course at a low speed is 0."""
     speed = np.asarray(speed, dtype=float)
     c = np.radians(np.asarray(course_deg, dtype=float))
@@ -84,7 +87,7 @@ def vectors(speed, course_deg, zero_below=0.0):
     return v
 
 
-def _plausible(speed, course):
+def _plausible(speed: FloatArray, course: FloatArray) -> BoolArray:
     """Return rows whose speed is in [0, MAX_SPEED) m/s and course, where given, in [0, 360]."""
     speed, course = np.asarray(speed, dtype=float), np.asarray(course, dtype=float)
     with np.errstate(invalid='ignore'):
@@ -92,7 +95,8 @@ def _plausible(speed, course):
                 & (np.isnan(course) | ((course >= 0.0) & (course <= 360.0))))
 
 
-def speed_bands(speed, edges=SPEED_EDGES, least=BAND_ROWS):
+def speed_bands(speed: FloatArray, edges: Sequence[float] = SPEED_EDGES,
+                least: int = BAND_ROWS) -> list[BoolArray]:
     """
     Return the rows of each band of ``speed``, as index arrays, slowest first.
 
@@ -114,7 +118,7 @@ def speed_bands(speed, edges=SPEED_EDGES, least=BAND_ROWS):
     return bands
 
 
-def _by_speed(w, speed):
+def _by_speed(w: FloatArray, speed: FloatArray) -> Optional[tuple[tuple[float, float], ...]]:
     """Return ((median speed, RMS of the components), ...) per band, or None below two."""
     bands = speed_bands(speed)
     if len(bands) < 2:
@@ -123,13 +127,13 @@ def _by_speed(w, speed):
                   round(max(float(np.sqrt(np.mean(w[b] ** 2))), 1e-4), 6)) for b in bands)
 
 
-def _speed_bias(d, speed):
+def _speed_bias(d: FloatArray, speed: FloatArray) -> tuple[tuple[float, float], ...]:
     """Return ((median speed, mean error along the track), ...) per band of ``speed``."""
     return tuple((round(float(np.median(speed[b])), 3), round(float(np.mean(d[b])), 6))
                  for b in speed_bands(speed))
 
 
-def _standstill(truth_speed, zero):
+def _standstill(truth_speed: FloatArray, zero: BoolArray) -> float:
     """Return the true speed at or below which the phone's zero reports are best told."""
     ok = np.isfinite(truth_speed)
     ts, z = truth_speed[ok], zero[ok]
@@ -138,7 +142,7 @@ def _standstill(truth_speed, zero):
     return float(candidates[int(np.argmin(wrong))])
 
 
-def fit_bursts(u):
+def fit_bursts(u: FloatArray) -> Optional[tuple[float, float]]:
     """
     Return ``(burst_share, burst_ratio)`` of the error ``u`` (rows, both components), or None.
 
@@ -158,7 +162,7 @@ def fit_bursts(u):
     if kurt <= NORMAL_KURTOSIS:
         return None
 
-    def misfit(v):
+    def misfit(v: FloatArray) -> list[float]:
         p, s1 = 1.0 / (1.0 + math.exp(-v[0])), math.exp(v[1])
         s2sq = (1.0 - (1.0 - p) * s1 * s1) / p
         if s2sq <= s1 * s1:
@@ -178,7 +182,8 @@ def fit_bursts(u):
     return round(p, 5), round(ratio, 4)
 
 
-def block_scale(u, t, phi, block_s=BLOCK_S):
+def block_scale(u: FloatArray, t: FloatArray, phi: float,
+                block_s: float = BLOCK_S) -> Optional[dict[str, Any]]:
     """
     Return how the error's scale spreads between blocks, or None with too few blocks.
 
@@ -219,12 +224,15 @@ def block_scale(u, t, phi, block_s=BLOCK_S):
             'beyond_sampling_sd': round(math.sqrt(max(0.0, spread - sampling)), 4)}
 
 
-def _section(sigma, phi, lag, course_lag, standstill, bias, table, between):
+def _section(sigma: float, phi: float, lag: float, course_lag: float, standstill: float,
+             bias: tuple[tuple[float, float], ...],
+             table: Optional[tuple[tuple[float, float], ...]],
+             between: Optional[dict[str, Any]]) -> dict[str, Any]:
     """Return the fitted ``velocity`` section as plain data (see the module doc)."""
-    section = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
-               'lag_s': float(lag), 'standstill': round(standstill, 4),
-               'course_lag_s': float(course_lag),
-               'speed_bias': [list(node) for node in bias]}
+    section: dict[str, Any] = {'sigma': round(sigma, 6), 'phi': round(phi, 6),
+                               'lag_s': float(lag), 'standstill': round(standstill, 4),
+                               'course_lag_s': float(course_lag),
+                               'speed_bias': [list(node) for node in bias]}
     if table is not None:
         section['sigma_by_speed'] = [list(node) for node in table]
     if between is not None and between['beyond_sampling_sd'] > 0.0:
@@ -232,7 +240,7 @@ def _section(sigma, phi, lag, course_lag, standstill, bias, table, between):
     return section
 
 
-def _velocities(trace):
+def _velocities(trace: Trace) -> tuple[FloatArray, FloatArray, Any, Any, BoolArray]:
     """
     Return (the phone's vectors, the truth's, rows with the truth, moving rows, implausible rows).
 
@@ -250,7 +258,7 @@ def _velocities(trace):
     return phone, truth, known, rows, odd
 
 
-def residuals(trace, section):
+def residuals(trace: Trace, section: dict[str, Any]) -> tuple[BoolArray, FloatArray, FloatArray]:
     """
     Return (the moving rows (n,), the truth there (m, 2), the error left (m, 2)) under ``section``.
 
@@ -266,7 +274,7 @@ def residuals(trace, section):
     return rows, v_true, phone[rows] - with_speed_bias(v_true, section['speed_bias'])
 
 
-def estimate_velocity(trace):
+def estimate_velocity(trace: Trace) -> SectionFit:
     """Return the velocity section (or why none) for ``trace`` (see module doc)."""
     missing = [k for k in NEEDED if k not in trace.extra]
     if missing:
@@ -283,10 +291,10 @@ def estimate_velocity(trace):
             for lag in LAGS}
     speed = np.hypot(phone[rows, 0], phone[rows, 1])
     speed_sd = {lag: float(np.std(speed - np.hypot(v[:, 0], v[:, 1]))) for lag, v in past.items()}
-    lag = min(speed_sd, key=speed_sd.get)
+    lag = min(speed_sd, key=lambda k: speed_sd[k])
     left = {c: phone[rows] - speed_along(past[lag], v) for c, v in past.items()}
     rms = {c: float(np.sqrt(np.mean(d ** 2))) for c, d in left.items()}
-    course_lag = min(rms, key=rms.get)
+    course_lag = min(rms, key=lambda k: rms[k])
     v_true = speed_along(past[lag], past[course_lag])
     along = v_true / np.maximum(np.hypot(v_true[:, 0], v_true[:, 1]), 1e-9)[:, None]
     bias = _speed_bias(np.sum((phone[rows] - v_true) * along, axis=1), ex['truth_speed'][rows])

@@ -12,14 +12,15 @@ bound ``z / sqrt(n)`` (z = 1.96, 5 %). BIC's choice is recorded beside it.
 
 from dataclasses import dataclass
 import math
+from typing import Any, Optional, Sequence
 
 import numpy as np
 from scipy import linalg
 
 from gps_error_ros.fit.autocorrelation import (autocovariance, durbin_levinson,
                                                pooled_autocovariance)
-from gps_error_ros.model.ar_model import AxisParams, is_stationary, MAX_ORDER, \
-    ModelError
+from gps_error_ros.model.ar_model import AxisParams, is_stationary, MAX_ORDER, ModelError
+from gps_error_ros.model.state import FloatArray, Numbers
 
 PACF_Z = 1.959963984540054
 DEFAULT_MAX_ORDER = 10
@@ -29,12 +30,12 @@ class CalibrationError(ValueError):
     """Data that cannot give a profile (too few samples, not stationary)."""
 
 
-def _num(value, digits=6):
+def _num(value: float, digits: int = 6) -> float:
     """Return ``value`` as a plain float rounded for a YAML file."""
     return round(float(value), digits)
 
 
-def solve_yule_walker(acv, order):
+def solve_yule_walker(acv: FloatArray, order: int) -> tuple[FloatArray, float]:
     """
     Return (phi, innovation variance) of AR(``order``) from autocovariances.
 
@@ -73,24 +74,24 @@ class YuleWalkerFit:
     n: int
 
     @property
-    def delta(self):
+    def delta(self) -> float:
         """Return the constant term ``(1 - sum phi) * mean`` (Eq. 3)."""
         return float((1.0 - self.phi.sum()) * self.mean)
 
-    def axis_params(self):
+    def axis_params(self) -> AxisParams:
         """Return the fit as :class:`AxisParams` (validated)."""
         return AxisParams(self.delta, tuple(self.phi), self.sigma_w)
 
 
-def yule_walker(x, order):
+def yule_walker(x: Numbers, order: int) -> YuleWalkerFit:
     """
     Fit AR(``order``) to one series by Yule-Walker (biased autocovariance).
 
     Parameters
     ----------
-    x : array_like
+    x
         The series, without gaps.
-    order : int
+    order
         The AR order, at least 1.
 
     Returns
@@ -126,14 +127,14 @@ class AxisFit:
 
     params: AxisParams
     mean: float
-    pacf: tuple
+    pacf: tuple[float, ...]
     pacf_bound: float
     pacf_order: int
-    bic: tuple
+    bic: tuple[float, ...]
     bic_order: int
     fixed_order: bool
 
-    def evidence(self):
+    def evidence(self) -> dict[str, Any]:
         """Return the order-selection evidence as plain data."""
         return {
             'order': self.params.order,
@@ -147,7 +148,8 @@ class AxisFit:
         }
 
 
-def fit_axis(segments, order=None, max_order=DEFAULT_MAX_ORDER, axis='axis'):
+def fit_axis(segments: Sequence[Numbers], order: Optional[int] = None,
+             max_order: int = DEFAULT_MAX_ORDER, axis: str = 'axis') -> AxisFit:
     """Fit one axis from its segments (see the module docstring)."""
     if order is not None and order < 1:
         raise CalibrationError(f'order must be >= 1, got {order}')

@@ -25,18 +25,22 @@ fitted zone, and ``OUT_DIR/zones.geojson``: the input map's polygons, each
 
 from dataclasses import dataclass
 import json
+import os
 from pathlib import Path
 import re
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
-from gps_error_ros.fit.calibration import (calibrate, CalibrationError, errors_on_grid,
-                                           GriddedErrors)
-from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER, fit_axis
+from gps_error_ros.fit.calibration import (calibrate, CalibrationError, CalibrationResult,
+                                           errors_on_grid, GriddedErrors)
+from gps_error_ros.fit.yule_walker import AxisFit, DEFAULT_MAX_ORDER, fit_axis
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.profiles import load_profile_file, profile_mapping, write_profile
+from gps_error_ros.model.state import BoolArray, IntArray
+from gps_error_ros.model.zones import ZoneMap
+from gps_error_ros.traces.trace_io import Trace
 
 #: Fewest grid samples a zone needs for a profile of its own (see module doc).
 MIN_ZONE_SAMPLES = 300
@@ -50,13 +54,15 @@ class ZoneFit:
     name: str
     samples: int
     segments: int
-    fits: Optional[tuple] = None          # (north AxisFit, east AxisFit), or None
+    fits: Optional[tuple[AxisFit, AxisFit]] = None          # (north, east), or None
     reason: str = ''
 
 
-def _zone_grid(grid, steps, mask):
+def _zone_grid(grid: GriddedErrors, steps: IntArray, mask: BoolArray) -> GriddedErrors:
     """Return the samples where ``mask`` holds as a grid, cut where the run breaks."""
     idx = np.flatnonzero(mask)
+    if grid.rows is None:
+        raise ValueError('a grid without its trace rows cannot be split by zone')
     err = np.concatenate(grid.segments)[idx]
     st = steps[idx]
     cuts = np.flatnonzero((np.diff(st) > 1) | (np.diff(idx) > 1)) + 1
@@ -65,8 +71,9 @@ def _zone_grid(grid, steps, mask):
                          grid.rate_hz, grid.rows[idx])
 
 
-def calibrate_zones(trace, zone_map, order=None, max_order=DEFAULT_MAX_ORDER,
-                    min_samples=MIN_ZONE_SAMPLES, rate_hz=1.0):
+def calibrate_zones(trace: Trace, zone_map: ZoneMap, order: Optional[int] = None,
+                    max_order: int = DEFAULT_MAX_ORDER, min_samples: int = MIN_ZONE_SAMPLES,
+                    rate_hz: float = 1.0) -> tuple[CalibrationResult, list[ZoneFit]]:
     """Return (the whole trace's CalibrationResult, [ZoneFit per zone])."""
     whole = calibrate(trace, order, max_order, rate_hz)
     grid = errors_on_grid(trace, rate_hz)
@@ -82,8 +89,8 @@ def calibrate_zones(trace, zone_map, order=None, max_order=DEFAULT_MAX_ORDER,
             continue
         zg = _zone_grid(grid, steps, mask)
         try:
-            fits = tuple(fit_axis(zg.axis(a), order, max_order, axis=ax)
-                         for a, ax in enumerate(AXES))
+            fits = (fit_axis(zg.axis(0), order, max_order, axis=AXES[0]),
+                    fit_axis(zg.axis(1), order, max_order, axis=AXES[1]))
         except CalibrationError as exc:
             out.append(ZoneFit(name, n, len(zg.segments), reason=f'fit refused: {exc}'))
             continue
@@ -91,13 +98,15 @@ def calibrate_zones(trace, zone_map, order=None, max_order=DEFAULT_MAX_ORDER,
     return whole, out
 
 
-def file_stem(name):
+def file_stem(name: str) -> str:
     """Return a file name for zone ``name`` (letters, digits, _ and - kept)."""
     stem = re.sub(r'[^A-Za-z0-9_-]+', '_', name).strip('_') or 'zone'
     return stem if stem != FALLBACK else f'{stem}_zone'
 
 
-def write_zone_profiles(out_dir, trace_name, map_path, zone_map, whole, fits):
+def write_zone_profiles(out_dir: str | os.PathLike[str], trace_name: str,
+                        map_path: str | os.PathLike[str], zone_map: ZoneMap,
+                        whole: CalibrationResult, fits: Sequence[ZoneFit]) -> Path:
     """Write the profiles and the zone map (see module doc); return the map's path."""
     import shapely.geometry
     out_dir = Path(out_dir)

@@ -16,6 +16,7 @@ import csv
 from dataclasses import dataclass, field
 import math
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -215,7 +216,7 @@ RECORDING_GAP_S = 100.0
 RECORDING = 'recording'
 
 
-def recordings_of(traces):
+def recordings_of(traces: Trace | Sequence[Trace]) -> list[Trace]:
     """Return ``traces`` as a list: one :class:`Trace`, or a sequence of them."""
     if isinstance(traces, Trace):
         return [traces]
@@ -226,7 +227,7 @@ def recordings_of(traces):
     return out
 
 
-def recording_offsets(traces, gap_s=RECORDING_GAP_S):
+def recording_offsets(traces: Sequence[Trace], gap_s: float = RECORDING_GAP_S) -> list[float]:
     """Return where each recording starts in :func:`join_recordings`'s time line, s."""
     out, start = [], 0.0
     for tr in recordings_of(traces):
@@ -235,7 +236,7 @@ def recording_offsets(traces, gap_s=RECORDING_GAP_S):
     return out
 
 
-def join_recordings(traces, gap_s=RECORDING_GAP_S):
+def join_recordings(traces: Trace | Sequence[Trace], gap_s: float = RECORDING_GAP_S) -> Trace:
     """
     Return one :class:`Trace` of several recordings, each after the last.
 
