@@ -177,9 +177,20 @@ def fit_bursts(u: FloatArray) -> Optional[tuple[float, float]]:
                key=lambda sol: sol.cost)
     p, s1 = 1.0 / (1.0 + math.exp(-best.x[0])), math.exp(best.x[1])
     ratio = math.sqrt((1.0 - (1.0 - p) * s1 * s1) / p) / s1
-    if best.cost > 1e-6 or not (0.0 < p <= MAX_BURST_SHARE and 1.0 < ratio <= MAX_BURST_RATIO):
+    return None if best.cost > 1e-6 else bursts_as_written(p, ratio)
+
+
+def bursts_as_written(p: float, ratio: float) -> Optional[tuple[float, float]]:
+    """
+    Return ``(burst_share, burst_ratio)`` as a profile writes them, or None outside its bounds.
+
+    Checked after the rounding: a share of a few millionths rounds to 0, which
+    the profile schema refuses (found by the calibration fuzz test).
+    """
+    p, ratio = round(p, 5), round(ratio, 4)
+    if not (0.0 < p <= MAX_BURST_SHARE and 1.0 < ratio <= MAX_BURST_RATIO):
         return None
-    return round(p, 5), round(ratio, 4)
+    return p, ratio
 
 
 def block_scale(u: FloatArray, t: FloatArray, phi: float,

@@ -132,6 +132,16 @@ def test_the_bursts_are_fitted_from_the_errors_shape():
     assert fit_bursts(x[:50]) is None                             # too few values
 
 
+@pytest.mark.parametrize('share, ratio', [(3e-6, 40.0), (0.6, 3.0), (0.05, 1.00004),
+                                          (0.05, 150.0)])
+def test_bursts_outside_the_schema_once_rounded_are_not_written(share, ratio):
+    """A share of a few millionths rounds to 0: calibrate wrote it; its profile did not load."""
+    from gps_error_ros.fit.velocity_fit import bursts_as_written
+    assert bursts_as_written(share, ratio) is None
+    p, r = bursts_as_written(0.0123456, 6.54321)
+    velocity_from_dict(dict(TRUE, burst_share=p, burst_ratio=r))      # loads
+
+
 def test_a_heavy_tailed_error_of_one_scale_has_no_scale_beyond_sampling():
     """The sampling of a block's RMS follows the kurtosis within the blocks."""
     from gps_error_ros.fit.velocity_fit import block_scale
