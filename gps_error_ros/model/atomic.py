@@ -8,7 +8,10 @@ profile writer of :mod:`.profiles` included.
 from contextlib import contextmanager
 import os
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Union
+
+#: A file's path, as a string or a path object.
+PathArg = Union[str, 'os.PathLike[str]']
 
 
 @contextmanager

@@ -9,15 +9,17 @@ bag.
 from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
+from typing import Any, Iterator, Optional, Sequence
 
 import numpy as np
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.traces.validity import pose_problem, STATUS_NO_FIX, usable_fix
 
 
 @lru_cache(maxsize=1)
-def typestore():
+def typestore() -> Any:
     """Return the rosbags type store of ROS 2 Jazzy."""
     from rosbags.typesys import get_typestore, Stores
     return get_typestore(Stores.ROS2_JAZZY)
@@ -28,7 +30,7 @@ class BagError(ValueError):
 
 
 @contextmanager
-def opened(path):
+def opened(path: PathArg) -> Iterator[Any]:
     """Yield an open rosbags Reader; failures to open become BagError."""
     from rosbags.rosbag2 import Reader
     path = Path(path)
@@ -43,7 +45,7 @@ def opened(path):
         reader.close()
 
 
-def read_messages(path, topics):
+def read_messages(path: PathArg, topics: Sequence[str]) -> dict[str, list[tuple[int, Any]]]:
     """
     Return {topic: [(bag_timestamp_ns, message), ...]} for ``topics``.
 
@@ -58,7 +60,7 @@ def read_messages(path, topics):
             listing = ', '.join(f'{t} ({m})' for t, m in sorted(have.items()))
             raise BagError(f'{path}: topic(s) {missing} not in the bag; it has: '
                            f'{listing or "no topics"}')
-        out = {t: [] for t in topics}
+        out: dict[str, list[tuple[int, Any]]] = {t: [] for t in topics}
         conns = [c for c in reader.connections if c.topic in out]
         for conn, ts, raw in reader.messages(connections=conns):
             out[conn.topic].append(
@@ -66,7 +68,7 @@ def read_messages(path, topics):
         return out
 
 
-def open_writer(path, storage='mcap'):
+def open_writer(path: PathArg, storage: str = 'mcap') -> Any:
     """Return an opened rosbags :class:`Writer` (MCAP or SQLite3 storage)."""
     from rosbags.rosbag2 import StoragePlugin, Writer
     plugin = {'mcap': StoragePlugin.MCAP, 'sqlite3': StoragePlugin.SQLITE3}[storage]
@@ -75,7 +77,7 @@ def open_writer(path, storage='mcap'):
     return writer
 
 
-def add_topic(writer, topic, msgtype):
+def add_topic(writer: Any, topic: str, msgtype: str) -> Any:
     """Add a connection for ``topic`` of ``msgtype`` (e.g. sensor_msgs/msg/NavSatFix)."""
     return writer.add_connection(topic, msgtype, typestore=typestore())
 
@@ -91,17 +93,17 @@ __all__ = ['BagError', 'FIX_TYPE', 'STATUS_NO_FIX', 'TRUTH_TYPES', 'add_topic',
            'topic_types', 'typestore']
 
 
-def topic_types(path):
+def topic_types(path: PathArg) -> dict[str, str]:
     """Return {topic: msgtype} of a bag."""
     with opened(path) as reader:
         return {c.topic: c.msgtype for c in reader.connections}
 
 
-def _stamp_s(header):
+def _stamp_s(header: Any) -> float:
     return header.stamp.sec + header.stamp.nanosec * 1e-9
 
 
-def _truth_kind(path, fix_topic, truth_topic, datum):
+def _truth_kind(path: PathArg, fix_topic: str, truth_topic: str, datum: Any) -> str:
     """Return the truth's kind ('pose', 'odometry', 'navsatfix'); check topics."""
     types = topic_types(path)
     listing = ', '.join(f'{t} ({m})' for t, m in sorted(types.items())) or \
@@ -119,7 +121,7 @@ def _truth_kind(path, fix_topic, truth_topic, datum):
     return kind
 
 
-def _truth_sample(msg, kind):
+def _truth_sample(msg: Any, kind: str) -> Optional[tuple[float, float]]:
     """Return (x, y) of a truth message (lat/lon or ENU m), or None if unusable."""
     if kind == 'navsatfix':
         if not usable_fix(msg.status.status, msg.latitude, msg.longitude):
@@ -132,21 +134,22 @@ def _truth_sample(msg, kind):
     return p.x, p.y
 
 
-def read_fix_and_truth(path, fix_topic, truth_topic, datum=None, progress=None):
+def read_fix_and_truth(path: PathArg, fix_topic: str, truth_topic: str, datum: Any = None,
+                       progress: Any = None) -> tuple[dict[str, Any], dict[str, Any], int]:
     """
     Read measured fixes and ground truth from a bag.
 
     Parameters
     ----------
-    path : str or Path
+    path
         The rosbag2 directory or file (MCAP or SQLite3).
-    fix_topic : str
+    fix_topic
         The fixes' topic (``sensor_msgs/NavSatFix``).
-    truth_topic : str
+    truth_topic
         The truth's topic (PoseStamped, Odometry or NavSatFix).
-    datum : sequence of float, optional
+    datum
         The map frame's origin, for pose or odometry truth (ENU metres).
-    progress : callable, optional
+    progress
         Called with each message's count, for a progress bar.
 
     Returns
@@ -166,7 +169,9 @@ def read_fix_and_truth(path, fix_topic, truth_topic, datum=None, progress=None):
 
     """
     kind = _truth_kind(path, fix_topic, truth_topic, datum)
-    fixes, truth, skipped = ([], [], []), ([], [], []), 0
+    fixes: tuple[list[float], list[float], list[float]] = ([], [], [])
+    truth: tuple[list[float], list[float], list[float]] = ([], [], [])
+    skipped = 0
     try:
         with opened(path) as reader:
             conns = [c for c in reader.connections
@@ -181,9 +186,10 @@ def read_fix_and_truth(path, fix_topic, truth_topic, datum=None, progress=None):
                         continue
                     row, into = (msg.latitude, msg.longitude), fixes
                 else:
-                    row, into = _truth_sample(msg, kind), truth
-                    if row is None:
+                    sample = _truth_sample(msg, kind)
+                    if sample is None:
                         continue
+                    row, into = sample, truth
                 into[0].append(_stamp_s(msg.header))
                 into[1].append(row[0])
                 into[2].append(row[1])
@@ -200,7 +206,7 @@ def read_fix_and_truth(path, fix_topic, truth_topic, datum=None, progress=None):
             {'t': t, 'lat': np.asarray(x), 'lon': np.asarray(y)}, skipped)
 
 
-def message_count(path, topics):
+def message_count(path: PathArg, topics: Sequence[str]) -> int:
     """Return how many messages of ``topics`` the bag holds."""
     with opened(path) as reader:
         return sum(c.msgcount for c in reader.connections if c.topic in topics)

@@ -14,7 +14,7 @@ Android's ``Accuracy`` is the 68 % horizontal radius in metres.
 import math
 from pathlib import Path
 
-
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.traces.recording import Recording, time_ordered
 
 #: field -> the names the two layouts give it
@@ -35,7 +35,7 @@ class GnssLoggerError(ValueError):
     """A GnssLogger log that cannot give fixes."""
 
 
-def _columns(header, path):
+def _columns(header: str, path: PathArg) -> dict[str, int]:
     """Return field -> column index of the ``# Fix,...`` header line."""
     names = [n.strip() for n in header.lstrip('#').split(',')]
     cols = {}
@@ -50,14 +50,14 @@ def _columns(header, path):
     return cols
 
 
-def _value(row, cols, field):
+def _value(row: list[str], cols: dict[str, int], field: str) -> float:
     i = cols.get(field)
     if i is None or i >= len(row) or row[i].strip() == '':
         return math.nan
     return float(row[i])
 
 
-def read_gnsslogger(path, provider='gps'):
+def read_gnsslogger(path: PathArg, provider: str = 'gps') -> Recording:
     """Return the :class:`~.recording.Recording` of ``provider``'s fixes in a log."""
     path = Path(path)
     try:

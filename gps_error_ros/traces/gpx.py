@@ -11,9 +11,11 @@ skipped and counted.
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.traces.recording import Recording, time_ordered
 
 
@@ -21,7 +23,7 @@ class GpxError(ValueError):
     """A GPX file that cannot give fixes."""
 
 
-def _gpxpy():
+def _gpxpy() -> Any:
     try:
         import gpxpy
     except ImportError:
@@ -30,11 +32,11 @@ def _gpxpy():
     return gpxpy
 
 
-def _num(v):
+def _num(v: Any) -> float:
     return math.nan if v is None else float(v)
 
 
-def read_gpx(path):
+def read_gpx(path: PathArg) -> Recording:
     """Return the :class:`~.recording.Recording` of a GPX file's track points."""
     gpxpy = _gpxpy()
     path = Path(path)

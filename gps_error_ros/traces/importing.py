@@ -16,15 +16,19 @@ chord of its positions 0.5 s before and after each fix (empty below
 
 import datetime as dt
 import math
+from typing import Any, Optional
 
 import numpy as np
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.state import FloatArray
 from gps_error_ros.traces.gnsslogger import read_gnsslogger
 from gps_error_ros.traces.gpx import read_gpx
 from gps_error_ros.traces.landmarks import landmark_truth
 from gps_error_ros.traces.nmea import read_nmea
 from gps_error_ros.traces.pairing import pair
+from gps_error_ros.traces.recording import Recording
 from gps_error_ros.traces.trace_io import Trace
 
 FORMATS = ('nmea', 'gnsslogger', 'gpx')
@@ -32,7 +36,7 @@ FORMATS = ('nmea', 'gnsslogger', 'gpx')
 MIN_COURSE_SPEED = 0.2
 
 
-def parse_point(text):
+def parse_point(text: str) -> Optional[tuple[float, ...]]:
     """Return (lat, lon, alt) of 'LAT,LON[,ALT]', or None if ``text`` is not one."""
     try:
         v = [float(x) for x in str(text).split(',')]
@@ -43,7 +47,7 @@ def parse_point(text):
     return tuple(v + [math.nan] * (3 - len(v)))
 
 
-def _truth(spec, fixes, truth_date=None):
+def _truth(spec: str, fixes: Recording, truth_date: Any = None) -> tuple[Any, ...]:
     """
     Return the truth as (t, lat, lon, alt) arrays, and a line for people.
 
@@ -67,7 +71,8 @@ def _truth(spec, fixes, truth_date=None):
     return ref.t, ref.lat, ref.lon, ref.alt, f'truth {spec}: {ref.describe()}'
 
 
-def _chord(t, lat, lon, at, half=0.5):
+def _chord(t: FloatArray, lat: FloatArray, lon: FloatArray, at: FloatArray,
+           half: float = 0.5) -> tuple[FloatArray, FloatArray]:
     """Return speed (m/s) and course (deg) of the truth's chord around ``at``."""
     la0, lo0 = np.interp(at - half, t, lat), np.interp(at - half, t, lon)
     la1, lo1 = np.interp(at + half, t, lat), np.interp(at + half, t, lon)
@@ -80,7 +85,7 @@ def _chord(t, lat, lon, at, half=0.5):
     return speed, course
 
 
-def read_recording(fmt, path, provider='gps'):
+def read_recording(fmt: str, path: PathArg, provider: str = 'gps') -> Recording:
     """Return the :class:`~.recording.Recording` of a recording in ``fmt``."""
     if fmt == 'nmea':
         return read_nmea(path)
@@ -91,8 +96,8 @@ def read_recording(fmt, path, provider='gps'):
     raise ValueError(f'format {fmt!r}: expected one of {list(FORMATS)}')
 
 
-def import_recording(fmt, path, truth, max_truth_gap=None, provider='gps',
-                     truth_date=None):
+def import_recording(fmt: str, path: PathArg, truth: str, max_truth_gap: Optional[float] = None,
+                     provider: str = 'gps', truth_date: Any = None) -> tuple[Trace, list[str]]:
     """Return (Trace, notes) of a recording in ``fmt`` against its truth."""
     fixes = read_recording(fmt, path, provider)
     tt, tlat, tlon, talt, note = _truth(truth, fixes, truth_date)
@@ -110,6 +115,7 @@ def import_recording(fmt, path, truth, max_truth_gap=None, provider='gps',
     return trace, [f'{path}: {fixes.describe()}', note, stats.describe()]
 
 
-def import_nmea(path, truth, max_truth_gap=None):
+def import_nmea(path: PathArg, truth: str,
+                max_truth_gap: Optional[float] = None) -> tuple[Trace, list[str]]:
     """Return (Trace, notes) of an NMEA recording against its truth."""
     return import_recording('nmea', path, truth, max_truth_gap)

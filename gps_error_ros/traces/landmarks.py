@@ -15,15 +15,19 @@ import csv
 import datetime as dt
 import math
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
+
+from gps_error_ros.model.atomic import PathArg
+from gps_error_ros.model.state import FloatArray
 
 
 class LandmarkError(ValueError):
     """Landmark or pass files that cannot give a truth."""
 
 
-def _rows(path, need):
+def _rows(path: PathArg, need: Sequence[str]) -> list[dict[str, str]]:
     path = Path(path)
     try:
         rows = list(csv.DictReader(path.read_text(encoding='utf-8-sig').splitlines()))
@@ -34,7 +38,7 @@ def _rows(path, need):
     return rows
 
 
-def _time(text, path, line):
+def _time(text: str, path: PathArg, line: int) -> float:
     text = text.strip()
     try:
         return float(text)
@@ -50,7 +54,8 @@ def _time(text, path, line):
     return when.timestamp()
 
 
-def landmark_truth(landmarks_csv, passes_csv):
+def landmark_truth(landmarks_csv: PathArg, passes_csv: PathArg
+                   ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Return the truth (t, lat, lon, alt arrays) of landmarks and their passes."""
     places = {}
     for i, r in enumerate(_rows(landmarks_csv, ('name', 'lat', 'lon')), start=2):
@@ -60,15 +65,16 @@ def landmark_truth(landmarks_csv, passes_csv):
         except ValueError:
             raise LandmarkError(f'{landmarks_csv}: line {i}: expected numbers for '
                                 f'lat, lon (and alt)') from None
-    t, pos = [], []
+    times: list[float] = []
+    pos = []
     for i, r in enumerate(_rows(passes_csv, ('time', 'landmark')), start=2):
         name = r['landmark'].strip()
         if name not in places:
             raise LandmarkError(f'{passes_csv}: line {i}: landmark {name!r} is not in '
                                 f'{landmarks_csv} (it has {sorted(places)[:10]})')
-        t.append(_time(r['time'], passes_csv, i))
+        times.append(_time(r['time'], passes_csv, i))
         pos.append(places[name])
-    t = np.asarray(t)
+    t = np.asarray(times, dtype=float)
     if t.size < 2 or np.any(np.diff(t) <= 0):
         raise LandmarkError(f'{passes_csv}: expected at least 2 passes at increasing '
                             f'times')

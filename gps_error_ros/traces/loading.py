@@ -7,14 +7,16 @@ at the fixes' stamps (:mod:`gps_error_ros.traces.pairing`).
 """
 
 from pathlib import Path
+from typing import Any, Optional, Sequence
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.traces import bag_io
 from gps_error_ros.traces.pairing import pair
 from gps_error_ros.traces.progress import Progress
-from gps_error_ros.traces.trace_io import read_trace_csv_counted, TraceError
+from gps_error_ros.traces.trace_io import read_trace_csv_counted, Trace, TraceError
 
 
-def is_bag(path):
+def is_bag(path: PathArg) -> Optional[Path]:
     """Return the bag directory if ``path`` names a rosbag2, else None."""
     path = Path(path)
     if path.is_dir():
@@ -32,7 +34,7 @@ def is_bag(path):
     return None
 
 
-def expand_inputs(paths):
+def expand_inputs(paths: Sequence[PathArg]) -> list[Path]:
     """
     Return the recordings named by ``paths``, folders expanded, in order.
 
@@ -56,7 +58,7 @@ def expand_inputs(paths):
     return out
 
 
-def parse_datum(text):
+def parse_datum(text: Optional[str]) -> Optional[tuple[float, ...]]:
     """Return (lat, lon, alt) from 'LAT,LON[,ALT]'."""
     if text is None:
         return None
@@ -70,8 +72,9 @@ def parse_datum(text):
     return tuple(values + [0.0] * (3 - len(values)))
 
 
-def load_trace(path, fix_topic='/fix', truth_topic='/pose', datum=None,
-               max_truth_gap=None, agent=None):
+def load_trace(path: PathArg, fix_topic: str = '/fix', truth_topic: str = '/pose',
+               datum: Any = None, max_truth_gap: Optional[float] = None,
+               agent: Optional[str] = None) -> tuple[Trace, list[str]]:
     """
     Return (Trace, notes): the paired trace and lines describing the loading.
 

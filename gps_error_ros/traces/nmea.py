@@ -17,9 +17,11 @@ Epochs without a GGA position, or with fix quality 0 (no fix), are left out.
 import datetime as dt
 import math
 from pathlib import Path
+from typing import Any, Iterator
 
 import numpy as np
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.traces.recording import Recording, time_ordered
 
 KNOT = 0.514444                 # m/s per knot (as the data's README uses)
@@ -29,7 +31,7 @@ class NmeaError(ValueError):
     """An NMEA file that cannot give fixes (unreadable, nothing usable)."""
 
 
-def _pynmea2():
+def _pynmea2() -> Any:
     try:
         import pynmea2
     except ImportError:
@@ -38,14 +40,14 @@ def _pynmea2():
     return pynmea2
 
 
-def _num(v):
+def _num(v: Any) -> float:
     try:
         return float(v)
     except (TypeError, ValueError):
         return math.nan
 
 
-def _sentences(path, pynmea2, skipped):
+def _sentences(path: PathArg, pynmea2: Any, skipped: dict[str, int]) -> Iterator[Any]:
     """Yield parsed GGA and RMC sentences with valid checksums."""
     try:
         text = Path(path).read_text(encoding='ascii', errors='replace')
@@ -65,7 +67,7 @@ def _sentences(path, pynmea2, skipped):
             skipped['unparsable'] += 1
 
 
-def read_nmea(path, date=None):
+def read_nmea(path: PathArg, date: Any = None) -> Recording:
     """
     Return the :class:`~.recording.Recording` of an NMEA file (module doc).
 
@@ -79,7 +81,8 @@ def read_nmea(path, date=None):
     """
     pynmea2 = _pynmea2()
     skipped = {'bad checksum': 0, 'unparsable': 0, 'no fix': 0}
-    epochs, order = {}, []          # (day offset, time of day) -> fields
+    epochs: dict[tuple[int, float], dict[str, Any]] = {}   # (day offset, time of day) ->
+    order: list[tuple[int, float]] = []                     # fields
     base, last, day = None, None, 0
     for msg in _sentences(path, pynmea2, skipped):
         try:
@@ -123,7 +126,7 @@ def read_nmea(path, date=None):
                      {'speed': a[:, 4], 'bearing': course, 'hdop': a[:, 6]}, skipped)
 
 
-def _add(epoch, msg, skipped):
+def _add(epoch: dict[str, Any], msg: Any, skipped: dict[str, int]) -> None:
     """Put what a GGA or RMC sentence says into its epoch's fields."""
     if msg.sentence_type == 'RMC':
         epoch.update(speed=_num(msg.spd_over_grnd) * KNOT, course=_num(msg.true_course))

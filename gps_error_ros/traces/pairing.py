@@ -14,6 +14,7 @@ from typing import Optional
 
 import numpy as np
 
+from gps_error_ros.model.state import FloatArray, Numbers
 from gps_error_ros.traces.trace_io import Trace
 
 
@@ -31,14 +32,14 @@ class PairingStats:
     in_truth_gap: int
     used: Optional[np.ndarray] = None      # which input fixes were paired (bool)
 
-    def describe(self):
+    def describe(self) -> str:
         """Return a one-line account for people."""
         return (f'{self.paired} of {self.fixes_in} fixes paired with truth '
                 f'({self.outside_truth} outside the truth\'s time span, '
                 f'{self.in_truth_gap} in gaps of the truth stream)')
 
 
-def default_truth_gap(truth_t):
+def default_truth_gap(truth_t: Numbers) -> float:
     """
     Return the default largest truth interval that may be bridged (s).
 
@@ -49,7 +50,7 @@ def default_truth_gap(truth_t):
     return max(1.5, 3.0 * float(np.median(np.diff(truth_t))))
 
 
-def _check_order(t, what):
+def _check_order(t: FloatArray, what: str) -> None:
     d = np.diff(t)
     if np.any(d <= 0):
         i = int(np.flatnonzero(d <= 0)[0])
@@ -58,30 +59,31 @@ def _check_order(t, what):
                            f'after {float(t[i])!r}): expected strictly increasing stamps')
 
 
-def pair(fix_t, fix_lat, fix_lon, truth_t, truth_lat, truth_lon,
-         max_truth_gap=None, name='input'):
+def pair(fix_t: Numbers, fix_lat: Numbers, fix_lon: Numbers, truth_t: Numbers, truth_lat: Numbers,
+         truth_lon: Numbers, max_truth_gap: Optional[float] = None,
+         name: str = 'input') -> tuple[Trace, PairingStats]:
     """
     Return (Trace, PairingStats): each usable fix with the truth at its stamp.
 
     Parameters
     ----------
-    fix_t : array of float
+    fix_t
         The fixes' stamps in seconds (any epoch shared with the truth),
         strictly increasing.
-    fix_lat : array of float
+    fix_lat
         The measured latitudes (degrees, WGS84).
-    fix_lon : array of float
+    fix_lon
         The measured longitudes.
-    truth_t : array of float
+    truth_t
         The truth's stamps, strictly increasing.
-    truth_lat : array of float
+    truth_lat
         The true latitudes.
-    truth_lon : array of float
+    truth_lon
         The true longitudes.
-    max_truth_gap : float, optional
+    max_truth_gap
         Largest truth interval bridged by interpolation (default
         :func:`default_truth_gap`).
-    name : str
+    name
         The input's name, for messages and the returned trace.
 
     Returns

@@ -2,6 +2,7 @@
 
 import sys
 import time
+from typing import Optional, TextIO
 
 
 class Progress:
@@ -12,7 +13,8 @@ class Progress:
     ``min_total`` units), at most ten times a second.
     """
 
-    def __init__(self, total, label, stream=None, min_total=20000):
+    def __init__(self, total: int, label: str, stream: Optional[TextIO] = None,
+                 min_total: int = 20000) -> None:
         self.stream = stream or sys.stderr
         self.total = max(int(total), 1)
         self.label = label
@@ -21,7 +23,7 @@ class Progress:
         self.done = 0
         self._last = 0.0
 
-    def update(self, n=1):
+    def update(self, n: int = 1) -> None:
         """Advance by ``n`` units."""
         self.done += n
         now = time.monotonic()
@@ -32,7 +34,7 @@ class Progress:
             self.stream.write(f'\r{self.label} [{bar:<30}] {100 * frac:5.1f}%')
             self.stream.flush()
 
-    def close(self):
+    def close(self) -> None:
         """Finish the line."""
         if self.enabled:
             self.stream.write('\n')

@@ -1,6 +1,7 @@
 """What a recording reader returns: fixes as arrays, and what it skipped."""
 
 from dataclasses import dataclass, field
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -18,16 +19,16 @@ class Recording:
     lat: np.ndarray
     lon: np.ndarray
     alt: np.ndarray             # ellipsoidal height, m (NaN where unknown)
-    extra: dict = field(default_factory=dict)
-    skipped: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+    skipped: dict[str, int] = field(default_factory=dict)
 
-    def describe(self):
+    def describe(self) -> str:
         """Return a line for people: fixes kept and what was skipped."""
         sk = ', '.join(f'{v} {k}' for k, v in self.skipped.items() if v)
         return f'{self.t.size} fixes' + (f' ({sk} skipped)' if sk else '')
 
 
-def time_ordered(rows, skipped):
+def time_ordered(rows: Sequence[Sequence[Any]], skipped: dict[str, int]) -> Any:
     """
     Return ``rows`` (t first) as an array sorted by time, one row per time.
 

@@ -16,11 +16,13 @@ import csv
 from dataclasses import dataclass, field
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
-from gps_error_ros.model.atomic import atomic_output
+from gps_error_ros.model.atomic import atomic_output, PathArg
+from gps_error_ros.model.state import FloatArray, IntArray, Numbers
+
 
 REQUIRED = ('t', 'lat', 'lon', 'truth_lat', 'truth_lon')
 #: Required columns whose empty cell means "not available" (the row is a gap).
@@ -46,14 +48,14 @@ class Trace:
     lon: np.ndarray
     truth_lat: np.ndarray
     truth_lon: np.ndarray
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
 
-    def __len__(self):
+    def __len__(self) -> int:
         """Return the number of fixes."""
         return self.t.size
 
 
-def _header_and_rows(path):
+def _header_and_rows(path: Path) -> tuple[list[str], list[list[str]]]:
     """Return (header, data rows) of a trace CSV; refuse what cannot be one."""
     try:
         text = path.read_text(encoding='utf-8-sig')
@@ -77,7 +79,7 @@ def _header_and_rows(path):
     return header, body
 
 
-def _column(path, body, i, name):
+def _column(path: Path, body: list[list[str]], i: int, name: str) -> FloatArray:
     """Return column ``i`` as floats (empty optional cells NaN), checked."""
     values = np.empty(len(body))
     for r, row in enumerate(body, start=2):
@@ -97,7 +99,7 @@ def _column(path, body, i, name):
     return values
 
 
-def _fix_rows(path, body, i):
+def _fix_rows(path: Path, body: list[list[str]], i: int) -> list[list[str]]:
     """Return the rows whose ``status`` is ``fix``; refuse another value."""
     out = []
     for r, row in enumerate(body, start=2):
@@ -113,7 +115,8 @@ def _fix_rows(path, body, i):
     return out
 
 
-def _agent_rows(path, header, body, agent):
+def _agent_rows(path: Path, header: list[str], body: list[list[str]],
+                agent: Optional[str]) -> list[list[str]]:
     """Return the rows of ``agent`` (a trace CSV with an ``agent`` column)."""
     i = header.index('agent')
     names = [r[i].strip() if i < len(r) else '' for r in body]
@@ -131,7 +134,7 @@ def _agent_rows(path, header, body, agent):
     return rows
 
 
-def read_trace_csv(path, agent=None):
+def read_trace_csv(path: PathArg, agent: Optional[str] = None) -> Trace:
     """
     Read and validate a trace CSV.
 
@@ -142,9 +145,9 @@ def read_trace_csv(path, agent=None):
 
     Parameters
     ----------
-    path : str or Path
+    path
         The CSV file.
-    agent : str, optional
+    agent
         The agent to read, in a file with an ``agent`` column.
 
     Returns
@@ -161,7 +164,8 @@ def read_trace_csv(path, agent=None):
     return read_trace_csv_counted(path, agent)[0]
 
 
-def read_trace_csv_counted(path, agent=None):
+def read_trace_csv_counted(path: PathArg,
+                           agent: Optional[str] = None) -> tuple[Trace, dict[str, int]]:
     """
     Return (:func:`read_trace_csv`'s trace, the rows left out by why).
 
@@ -227,7 +231,8 @@ def recordings_of(traces: Trace | Sequence[Trace]) -> list[Trace]:
     return out
 
 
-def recording_offsets(traces: Sequence[Trace], gap_s: float = RECORDING_GAP_S) -> list[float]:
+def recording_offsets(traces: Sequence[Trace],
+                      gap_s: float = RECORDING_GAP_S) -> list[float]:
     """Return where each recording starts in :func:`join_recordings`'s time line, s."""
     out, start = [], 0.0
     for tr in recordings_of(traces):
@@ -236,7 +241,8 @@ def recording_offsets(traces: Sequence[Trace], gap_s: float = RECORDING_GAP_S) -
     return out
 
 
-def join_recordings(traces: Trace | Sequence[Trace], gap_s: float = RECORDING_GAP_S) -> Trace:
+def join_recordings(traces: Trace | Sequence[Trace],
+                    gap_s: float = RECORDING_GAP_S) -> Trace:
     """
     Return one :class:`Trace` of several recordings, each after the last.
 
@@ -270,12 +276,13 @@ def join_recordings(traces: Trace | Sequence[Trace], gap_s: float = RECORDING_GA
                         RECORDING: np.concatenate(labels)})
 
 
-def recording_labels(trace):
+def recording_labels(trace: Trace) -> IntArray:
     """Return each row's recording (:func:`join_recordings`; zeros for one recording)."""
     return np.asarray(trace.extra.get(RECORDING, np.zeros(len(trace))), dtype=np.int64)
 
 
-def write_trace_csv(trace, path, agent=None, fix=None):
+def write_trace_csv(trace: Trace, path: PathArg, agent: Optional[str] = None,
+                    fix: Optional[Numbers] = None) -> PathArg:
     """
     Write ``trace`` as a trace CSV: the one writer of the format read above.
 
@@ -292,7 +299,7 @@ def write_trace_csv(trace, path, agent=None, fix=None):
     return path
 
 
-def _write_rows(trace, path, agent, fix):
+def _write_rows(trace: Trace, path: Path, agent: Optional[str], fix: Optional[Numbers]) -> None:
     cols = ['t'] + (['agent'] if agent is not None else []) + \
         (['status'] if fix is not None else []) + \
         ['lat', 'lon', 'truth_lat', 'truth_lon'] + list(trace.extra)
@@ -312,7 +319,7 @@ def _write_rows(trace, path, agent, fix):
             f.write(','.join(cells) + '\n')
 
 
-def _csv_cell(text):
+def _csv_cell(text: str) -> str:
     text = str(text)
     if any(c in text for c in ',"\n\r'):
         return '"' + text.replace('"', '""') + '"'

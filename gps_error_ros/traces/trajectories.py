@@ -14,12 +14,15 @@ to x (east) and y (north) directly.
 import csv
 from pathlib import Path
 import re
+from typing import Any, Iterator, Optional, Sequence
 import xml.etree.ElementTree as ET
 
 import numpy as np
 from pyproj import Transformer
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.model.state import FloatArray, Numbers
 
 FCD_AGENTS = ('vehicle', 'person', 'container')
 
@@ -31,7 +34,7 @@ class TrajectoryError(ValueError):
 class NetProjection:
     """The georeference of a SUMO network (its ``<location>`` element)."""
 
-    def __init__(self, net_path):
+    def __init__(self, net_path: PathArg) -> None:
         net_path = Path(net_path)
         loc = None
         try:
@@ -55,14 +58,21 @@ class NetProjection:
         self._tf = Transformer.from_crs(proj, 'EPSG:4326', always_xy=True) \
             if self.geo else None
 
-    def to_lonlat(self, x, y):
-        """Return lon, lat of network x/y."""
-        return self._tf.transform(np.asarray(x) - self.offset[0],
-                                  np.asarray(y) - self.offset[1])
+    def _transformer(self) -> Transformer:
+        """Return the network's projection (a network without one has no geography)."""
+        if self._tf is None:
+            raise TrajectoryError('the network has no projParameter: its x/y are not '
+                                  'geographic')
+        return self._tf
 
-    def to_xy(self, lon, lat):
+    def to_lonlat(self, x: Numbers, y: Numbers) -> tuple[Any, Any]:
+        """Return lon, lat of network x/y."""
+        return self._transformer().transform(np.asarray(x) - self.offset[0],
+                                             np.asarray(y) - self.offset[1])
+
+    def to_xy(self, lon: Numbers, lat: Numbers) -> tuple[Any, Any]:
         """Return network x/y of lon, lat."""
-        px, py = self._tf.transform(lon, lat, direction='INVERSE')
+        px, py = self._transformer().transform(lon, lat, direction='INVERSE')
         return np.asarray(px) + self.offset[0], np.asarray(py) + self.offset[1]
 
 
@@ -70,7 +80,7 @@ _SUMO_HEADER = re.compile(r'<!--(.*?)-->', re.S)
 _GEO_OPTION = re.compile(r'<fcd-output\.geo\s+value="(true|1|yes|on)"', re.I)
 
 
-def _before_root(path, head_bytes):
+def _before_root(path: PathArg, head_bytes: int) -> str:
     """Return the text before an FCD file's ``<fcd-export>`` (SUMO's options comment)."""
     try:
         with open(path, 'rb') as f:
@@ -80,7 +90,7 @@ def _before_root(path, head_bytes):
     return head.split('<fcd-export', 1)[0]
 
 
-def fcd_coordinates(path, head_bytes=1 << 16):
+def fcd_coordinates(path: PathArg, head_bytes: int = 1 << 16) -> Optional[str]:
     """
     Return 'lonlat' or 'xy' as SUMO's options comment says, or None.
 
@@ -101,7 +111,7 @@ def fcd_coordinates(path, head_bytes=1 << 16):
 _NET_FILE = re.compile(r'<net-file\s+value="([^"]+)"')
 
 
-def fcd_net_file(path, head_bytes=1 << 16):
+def fcd_net_file(path: PathArg, head_bytes: int = 1 << 16) -> Optional[Path]:
     """
     Return the network SUMO's options comment names (``net-file``), or None.
 
@@ -119,7 +129,7 @@ def fcd_net_file(path, head_bytes=1 << 16):
     return None
 
 
-def check_fcd_root(path):
+def check_fcd_root(path: PathArg) -> None:
     """Raise TrajectoryError unless the file's root element is <fcd-export>."""
     try:
         with open(path, 'rb') as f:
@@ -133,7 +143,7 @@ def check_fcd_root(path):
                               f'<fcd-export> (SUMO --fcd-output)')
 
 
-def iter_fcd(path, progress=None):
+def iter_fcd(path: PathArg, progress: Any = None) -> Iterator[tuple[float, Any, list[Any]]]:
     """
     Yield (time, element, agents) per ``<timestep>``.
 
@@ -184,7 +194,8 @@ def iter_fcd(path, progress=None):
             raise TrajectoryError(f'{path}: malformed XML: {exc}') from None
 
 
-def add_errors_lonlat(lon, lat, err):
+def add_errors_lonlat(lon: Numbers, lat: Numbers,
+                      err: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Return (lon, lat) moved by north/east errors ``err`` (n, 2)."""
     lat2, lon2 = offset(lat, lon, err[:, 0], err[:, 1])
     return np.asarray(lon2), np.asarray(lat2)
@@ -193,13 +204,13 @@ def add_errors_lonlat(lon, lat, err):
 class FcdWriter:
     """Write an FCD file with the same structure as the input."""
 
-    def __init__(self, path):
+    def __init__(self, path: PathArg) -> None:
         self.f = open(path, 'w', encoding='utf-8')
         self.f.write('<?xml version="1.0" encoding="UTF-8"?>\n')
         self.f.write('<!-- positions with smartphone GPS errors added by '
                      'gps_error simulate -->\n<fcd-export>\n')
 
-    def timestep(self, elem, children):
+    def timestep(self, elem: Any, children: Sequence[tuple[Any, dict[str, str]]]) -> None:
         """
         Write a timestep: ``children`` are (element, attribute overrides).
 
@@ -218,7 +229,7 @@ class FcdWriter:
         self.f.write(''.join(lines))
         self.f.write('    </timestep>\n')
 
-    def close(self):
+    def close(self) -> None:
         """Finish the file."""
         self.f.write('</fcd-export>\n')
         self.f.close()
@@ -227,12 +238,12 @@ class FcdWriter:
 _SPECIAL = re.compile('[&"<>]')
 
 
-def _xml_escape(v):
+def _xml_escape(v: Any) -> str:
     return (str(v).replace('&', '&amp;').replace('"', '&quot;')
             .replace('<', '&lt;').replace('>', '&gt;'))
 
 
-def read_truth_csv(path):
+def read_truth_csv(path: PathArg) -> dict[str, Any]:
     """
     Read a CSV of true positions: t, truth_lat, truth_lon [, agent].
 
@@ -248,7 +259,7 @@ def read_truth_csv(path):
     if not rows or any(c not in rows[0] for c in need):
         raise TrajectoryError(f'{path}: expected columns {list(need)} '
                               f'(optional: agent, truth_alt)')
-    out = {'agent': [r.get('agent') or '' for r in rows]}
+    out: dict[str, Any] = {'agent': [r.get('agent') or '' for r in rows]}
     for c in need:
         try:
             out[c] = np.array([float(r[c]) for r in rows])

@@ -7,14 +7,18 @@ Used by the bag reader, the error node (truth) and the calibration node
 needs no message package (the ROS layer's tests check that they agree).
 """
 
+from typing import Any, Optional
+
 import numpy as np
+
+from gps_error_ros.model.state import Numbers
 
 STATUS_NO_FIX = -1
 #: Quaternions shorter than this mark a corrupt pose message.
 MIN_QUATERNION_NORM = 1e-9
 
 
-def fix_problem(status, lat, lon):
+def fix_problem(status: int, lat: float, lon: float) -> Optional[str]:
     """Return why a fix (or a NavSatFix truth) is unusable, or None."""
     if status == STATUS_NO_FIX:
         return 'status is STATUS_NO_FIX'
@@ -25,7 +29,7 @@ def fix_problem(status, lat, lon):
     return None
 
 
-def usable_fix(status, lat, lon):
+def usable_fix(status: Numbers, lat: Numbers, lon: Numbers) -> Any:
     """Return True where a fix is usable (vectorised :func:`fix_problem`)."""
     status, lat, lon = (np.asarray(v) for v in (status, lat, lon))
     with np.errstate(invalid='ignore'):
@@ -34,7 +38,7 @@ def usable_fix(status, lat, lon):
     return ok if ok.ndim else bool(ok)
 
 
-def pose_problem(position, orientation):
+def pose_problem(position: Numbers, orientation: Numbers) -> Optional[str]:
     """
     Return why a pose (x, y, z; quaternion x, y, z, w) is unusable, or None.
 
@@ -49,7 +53,7 @@ def pose_problem(position, orientation):
     return None
 
 
-def usable_pose(positions, orientations):
+def usable_pose(positions: Numbers, orientations: Numbers) -> Any:
     """Return True per row where a pose is usable (vectorised :func:`pose_problem`)."""
     positions, orientations = np.asarray(positions), np.asarray(orientations)
     with np.errstate(invalid='ignore', over='ignore'):
