@@ -119,6 +119,10 @@ class Driver:
             if self.patient and not self.served(agent) and k - agent.dies < MAX_HOLD_STEPS:
                 self.held += 1
                 continue
+            if self.patient and agent.sent:
+                # its last poses may still be on their way: closing the
+                # publisher would drop them, and their fixes would be missing
+                self.wait_last(agent)
             del self.alive[name]
             agent.close(self.drv)
             if agent.sent:
@@ -131,6 +135,13 @@ class Driver:
                 self.departed.append((name, 1, 0))
             self.gone.append(name)
             self.born(k)
+
+    def wait_last(self, agent, timeout_s=60.0):
+        """Wait up to ``timeout_s`` for the fix of ``agent``'s last pose sent."""
+        end, last = time.monotonic() + timeout_s, agent.sent[-1]
+        while last not in self.fixes.get(agent.name, {}) and time.monotonic() < end:
+            time.sleep(0.001)
+            self.drain(agent)
 
     def served(self, agent):
         """Return whether ``agent`` has had a fix in its present life."""
@@ -218,8 +229,10 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
     ``wait_matched_s`` > 0 (the test's way): before each clock step, wait up
     to that many seconds of wall time until the node has matched every agent
     alive, and hold a life past its end until it has had a fix (at most
-    :data:`MAX_HOLD_STEPS` steps; counted in ``steps_held_unserved``), so
-    that no life ends unseen however slowly the machine schedules the node.
+    :data:`MAX_HOLD_STEPS` steps; counted in ``steps_held_unserved``), and
+    wait as long for each step's fixes before the clock moves on, so that no
+    life ends unseen and no step expires however slowly the machine
+    schedules the node.
     The soak leaves discovery to race, and counts the lives it lost as
     ``lives_never_served``.
     """
@@ -293,7 +306,9 @@ def run(concurrent, sim_s, life_s=(60, 600), return_every=5, sample_s=300, warmu
                     crowd.wait_matched(wait_matched_s)
                 crowd.send(k, msg)
                 clock.publish(Clock(clock=to_stamp(k * NS)))
-                crowd.wait_for(k - 1)
+                # patient: as long as the node needs (a step expires, and is
+                # skipped, only once the clock is max_pose_age past it)
+                crowd.wait_for(k - 1, wait_matched_s if wait_matched_s > 0 else 10.0)
                 read_status()
                 ahead = (k - T0) / max_speed - (time.monotonic() - wall0)
                 if ahead > 0:
