@@ -50,9 +50,10 @@ class AboutTruth(Wrapper[AgentState]):
     are the model's, bit for bit; only the stated covariances change.
     """
 
-    def __init__(self, core: ErrorModel[Any]) -> None:
-        super().__init__(core)
-        self.core = core
+    @property
+    def core(self) -> ErrorModel[Any]:
+        """Return the wrapped model (the one ``inner`` names)."""
+        return self.inner
 
     def part(self, state: AgentState) -> AgentState:
         """Return ``state``: the wrapped model's, unchanged."""
