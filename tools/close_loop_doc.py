@@ -18,7 +18,7 @@ from close_loop_evidence import render_trace, run_evidence
 from data_sources import CREDITS, WALKS
 
 from gps_error_ros.diagnose import diagnose, DiagnosisError, extended_profile
-from gps_error_ros.judge.baselines import CLASSES, compare, compare_json
+from gps_error_ros.judge.baselines import CLASSES, compare, split_comparison
 from gps_error_ros.diagnose.fidelity import binomial_interval
 from gps_error_ros.model.profiles import write_profile
 from gps_error_ros.reports.compare_figure import compare_figure
@@ -124,8 +124,8 @@ def run(data_dir, out_dir, sims=SIMS):
         rec['summary'] = diag.to_dict()
         rec['classes'] = compare(diag, sims=sims)
         rec['evidence'] = run_evidence(diag.fitted, trace, sims)
-        compare_figure(compare_json(csv_path.name, diag.split, rec['classes']),
-                       sub / f'{stem}.compare.png')
+        compare_figure(split_comparison(csv_path.name, diag.split, rec['classes'],
+                                        sims).to_dict(), sub / f'{stem}.compare.png')
         (sub / f'{stem}.json').write_text(json.dumps(
             {'diagnosis': rec['summary'], 'classes': rec['classes'],
              'evidence': rec['evidence']}, indent=1))

@@ -11,6 +11,9 @@ held-out data; ``gps_error synth SCENARIO -o WALK.csv`` writes a synthetic
 walk; ``gps_error scenario DIR`` builds a georeferenced SUMO walking scenario.
 """
 
+from typing import Any, TYPE_CHECKING
+from collections.abc import Callable, Mapping, Sequence
+import argparse
 import secrets
 from pathlib import Path
 import sys
@@ -18,12 +21,11 @@ import sys
 from gps_error_ros.cli.parser import build_parser
 from gps_error_ros.fit.calibration import (calibrate, CalibrationError, check_sampling,
                                            little_data_note)
-from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures,
+from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures, GrossFailures,
                                               without_gross_failures)
 from gps_error_ros.fit.population_fit import one_occasion_note, population_line
 from gps_error_ros.model.ar_model import ARErrorModel
-from gps_error_ros.model.profiles import load_profile_file, ProfileError, \
-    write_profile
+from gps_error_ros.model.profiles import load_profile_file, Profile, ProfileError, write_profile
 from gps_error_ros.traces.bag_io import BagError
 from gps_error_ros.traces.gnsslogger import GnssLoggerError
 from gps_error_ros.traces.gpx import GpxError
@@ -31,20 +33,25 @@ from gps_error_ros.traces.landmarks import LandmarkError
 from gps_error_ros.traces.nmea import NmeaError
 from gps_error_ros.traces.loading import expand_inputs, load_trace, parse_datum
 from gps_error_ros.traces.pairing import PairingError
-from gps_error_ros.traces.trace_io import join_recordings, TraceError
+from gps_error_ros.traces.trace_io import join_recordings, Trace, TraceError
+
+if TYPE_CHECKING:
+    from gps_error_ros.diagnose.pipeline import Diagnosis
+    from gps_error_ros.diagnose.split import Split
+    from gps_error_ros.traces.progress import Progress
 
 # DiagnosisError is a ValueError
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
           NmeaError, GnssLoggerError, GpxError, LandmarkError, ValueError, OSError)
 
 
-def _load_inputs(args, paths=None):
+def _load_inputs(args: argparse.Namespace, paths: Sequence[str] | None = None) -> list[Trace]:
     """
     Load every INPUT (or ``paths``: files, or folders of them); print how it went.
 
     A recording sampled slower than the 1-Hz grid is refused (:func:`check_sampling`).
     """
-    traces = []
+    traces: list[Trace] = []
     for path in expand_inputs(args.input if paths is None else paths):
         trace, notes = load_trace(path, args.fix_topic, args.truth_topic,
                                   parse_datum(args.datum), args.max_truth_gap, args.agent)
@@ -55,12 +62,13 @@ def _load_inputs(args, paths=None):
     return traces
 
 
-def _load_input(args):
+def _load_input(args: argparse.Namespace) -> Trace:
     """Return :func:`_load_clean`'s trace alone."""
     return _load_clean(args)[0]
 
 
-def clean_recordings(args, paths=None, mark=None):
+def clean_recordings(args: argparse.Namespace, paths: Sequence[str] | None = None,
+                     mark: str | None = None) -> tuple[list[Trace], list[GrossFailures]]:
     """
     Return the INPUTs (or ``paths``) without their gross failures, and the failures.
 
@@ -80,13 +88,14 @@ def clean_recordings(args, paths=None, mark=None):
     return traces, found
 
 
-def _load_clean(args, mark=None):
+def _load_clean(args: argparse.Namespace,
+                mark: str | None = None) -> tuple[Trace, list[GrossFailures]]:
     """Return :func:`clean_recordings` joined into one trace (:func:`join_recordings`)."""
     traces, found = clean_recordings(args, mark=mark)
     return join_recordings(traces), found
 
 
-def _failure_check(profile, found):
+def _failure_check(profile: Profile, found: Sequence[GrossFailures]) -> str:
     """
     Return a line: the failures measured against the profile's rate (95 % range).
 
@@ -108,7 +117,7 @@ def _failure_check(profile, found):
             f'{lo}-{hi} (95 %): {inside}')
 
 
-def cmd_simulate(args):
+def cmd_simulate(args: argparse.Namespace) -> int:
     """Run ``gps_error simulate``; return the exit code."""
     from gps_error_ros.sim import simulate as batch
     from gps_error_ros.model.profiles import load_profile
@@ -162,14 +171,14 @@ def cmd_simulate(args):
     return 0
 
 
-def _check_output_dir(path, option):
+def _check_output_dir(path: str, option: str) -> None:
     """Refuse an output whose directory does not exist, before any work."""
     parent = Path(path).expanduser().resolve().parent
     if not parent.is_dir():
         raise ValueError(f'{option} {path}: directory {parent} does not exist')
 
 
-def _part(text):
+def _part(text: str) -> tuple[float, float]:
     try:
         lo, hi = (float(v) for v in text.split(','))
     except ValueError:
@@ -179,13 +188,13 @@ def _part(text):
     return lo, hi
 
 
-def cmd_validate(args):
+def cmd_validate(args: argparse.Namespace) -> int:
     """Run ``gps_error validate``; return the exit code (:mod:`.validate`)."""
     from gps_error_ros.cli.validate import run_validate
     return run_validate(args)
 
 
-def cmd_calibrate(args):
+def cmd_calibrate(args: argparse.Namespace) -> int:
     """Run ``gps_error calibrate``; return the exit code."""
     if args.zones:
         from gps_error_ros.cli.zones import calibrate_per_zone
@@ -228,7 +237,7 @@ def cmd_calibrate(args):
     return 0
 
 
-def improvement_note(summary):
+def improvement_note(summary: Mapping[str, Any]) -> str | None:
     """Return the remark diagnose prints under the held-out improvement, or None."""
     if not summary['effects']:
         return None
@@ -241,7 +250,7 @@ def improvement_note(summary):
     return None
 
 
-def cmd_diagnose(args):
+def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run ``gps_error diagnose``; return the exit code."""
     from gps_error_ros.diagnose import diagnose
     from gps_error_ros.diagnose.pipeline import STAGES
@@ -293,7 +302,7 @@ def cmd_diagnose(args):
     return 0
 
 
-def _write_diagnosed_profile(args, diag):
+def _write_diagnosed_profile(args: argparse.Namespace, diag: 'Diagnosis') -> None:
     """Write ``diagnose --profile-out``: the extended profile, or with ``--population`` that."""
     from gps_error_ros.diagnose import extended_profile
     out, source = Path(args.profile_out), diag.summary['input']
@@ -317,7 +326,7 @@ def _write_diagnosed_profile(args, diag):
 LONG_RECORDING = 20000
 
 
-def _stage_progress(recordings, stages, what):
+def _stage_progress(recordings: Sequence[Trace], stages: int, what: str) -> 'Progress':
     """Return a progress bar over ``stages`` stages, shown for long recordings."""
     from gps_error_ros.traces.progress import Progress
     samples = sum(len(t) for t in recordings)
@@ -326,7 +335,8 @@ def _stage_progress(recordings, stages, what):
                     min_total=0 if samples >= LONG_RECORDING else stages + 1)
 
 
-def _write_results(args, doc, figure_name, draw):
+def _write_results(args: argparse.Namespace, doc: Any, figure_name: str,
+                   draw: Callable[[Path], object]) -> None:
     """Write ``doc`` to ``--json`` and ``draw(path)`` into ``--report``, if asked."""
     from gps_error_ros.reports.jsonfile import write_json
     if args.json_out:
@@ -339,7 +349,7 @@ def _write_results(args, doc, figure_name, draw):
         print(f'wrote {out / figure_name}')
 
 
-def cmd_compare(args):
+def cmd_compare(args: argparse.Namespace) -> int:
     """Run ``gps_error compare``; return the exit code."""
     if args.folds or args.test:
         from gps_error_ros.cli.folds import compare_folds
@@ -347,7 +357,7 @@ def cmd_compare(args):
     if args.smoother:
         raise SystemExit('gps_error compare: --smoother goes with --folds or --test '
                          '(the groups of measures); the single 70/30 split has none')
-    from gps_error_ros.judge.baselines import compare, compare_json
+    from gps_error_ros.judge.baselines import compare, split_comparison
     from gps_error_ros.diagnose.pipeline import fit_models, STAGES
     from gps_error_ros.reports.compare_figure import compare_figure
 
@@ -362,34 +372,24 @@ def cmd_compare(args):
         progress.close()
     for found in fitted.failures:
         print(found.describe())
-    doc = compare_json(fitted.name, fitted.split,
-                       compare(fitted, sims=args.sims, seed=args.seed))
-    doc['gross_failures'] = failures_doc(fitted.failures)
-    print(f'{fitted.name}: {doc["train_samples"]} train / {doc["test_samples"]} held '
-          f'out; {args.sims} simulated traces per class')
-    print(f'  {"class":12} {"held-out NLL":>13} {"- lowest (95 % interval)":>28} '
-          f'{"inside_95":>10}')
-    for name, c in doc['classes'].items():
-        d = c['nll_minus_best']
-        print(f'  {name:12} {c["heldout_nll_per_sample"]:13.4f} {d["mean"]:9.4f} '
-              f'({d["ci95"][0]:7.4f} .. {d["ci95"][1]:7.4f}) '
-              f'{c["fidelity"]["inside_95"]:10.2f}')
-    print('  (- lowest: the NLL minus the lowest class\'s, paired on the held-out samples; '
-          'an interval that holds 0 cannot tell the two apart)')
+    result = split_comparison(fitted.name, fitted.split,
+                              compare(fitted, sims=args.sims, seed=args.seed), args.sims)
+    result.gross_failures = failures_doc(fitted.failures)
+    print(result.summary())
     if args.zones:
-        _compare_zones(args, recordings[0], fitted.split, doc)
+        result.zones = _compare_zones(args, recordings[0], fitted.split)
+    doc = result.to_dict()
     _write_results(args, doc, 'compare.png', lambda path: compare_figure(doc, path))
     return 0
 
 
-def _compare_zones(args, trace, split, doc):
-    """Add one profile against a profile per zone to ``doc``; print it."""
+def _compare_zones(args: argparse.Namespace, trace: Trace, split: 'Split') -> dict[str, Any]:
+    """Return one profile against a profile per zone; print it."""
     from gps_error_ros.judge.zoned_compare import compare_zones
     from gps_error_ros.model.zones import load_zone_map
 
     origin = (float(trace.truth_lat[0]), float(trace.truth_lon[0]))
-    z = doc['zones'] = compare_zones(split, load_zone_map(args.zones), origin,
-                                     sims=args.sims, seed=args.seed)
+    z = compare_zones(split, load_zone_map(args.zones), origin, sims=args.sims, seed=args.seed)
     print(f'  zones of {args.zones} (Yule-Walker profiles, as calibrate and '
           f'calibrate --zones write them):')
     for name, c in z['classes'].items():
@@ -403,9 +403,10 @@ def _compare_zones(args, trace, split, doc):
         held = (f'; held out {e["heldout_samples"]}: NLL one {e["heldout_nll_one_profile"]:.4f},'
                 f' per zone {e["heldout_nll_per_zone"]:.4f}' if 'heldout_samples' in e else '')
         print(f'    {name}: {fitted}{held}')
+    return z
 
 
-def cmd_import(args):
+def cmd_import(args: argparse.Namespace) -> int:
     """Run ``gps_error import``; return the exit code."""
     from gps_error_ros.traces.importing import import_recording
     from gps_error_ros.traces.trace_io import write_trace_csv
@@ -426,7 +427,7 @@ def cmd_import(args):
     return 0
 
 
-def cmd_synth(args):
+def cmd_synth(args: argparse.Namespace) -> int:
     """Run ``gps_error synth``; return the exit code."""
     from gps_error_ros.sim.synthetic import synthetic_trace
     from gps_error_ros.traces.trace_io import write_trace_csv
@@ -439,7 +440,7 @@ def cmd_synth(args):
     return 0
 
 
-def cmd_scenario(args):
+def cmd_scenario(args: argparse.Namespace) -> int:
     """Run ``gps_error scenario``; return the exit code."""
     from gps_error_ros.sim import sumo_scenario as sumo
 
@@ -463,7 +464,7 @@ def cmd_scenario(args):
     return 0
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``gps_error``."""
     args = build_parser().parse_args(argv)
     try:

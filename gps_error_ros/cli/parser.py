@@ -1,20 +1,29 @@
 """The ``gps_error`` command line: its parser, one builder per command."""
 
 import argparse
+from collections.abc import Callable
+import datetime
+from typing import TYPE_CHECKING, TypeAlias
 
 from gps_error_ros.fit.population_fit import DAY_RATIO
 from gps_error_ros.fit.yule_walker import DEFAULT_MAX_ORDER
 from gps_error_ros.model.ar_model import MAX_ORDER
 
+if TYPE_CHECKING:
+    #: What ``add_subparsers`` returns: each command's builder adds its parser to it
+    #: (generic to the type checker only).
+    Subparsers: TypeAlias = argparse._SubParsersAction[argparse.ArgumentParser]
 
-def number(kind, lo=None, hi=None, lo_open=False):
+
+def number(kind: type[int] | type[float], lo: float | None = None, hi: float | None = None,
+           lo_open: bool = False) -> Callable[[str], float]:
     """
     Return an argparse type: ``kind`` (int or float) in [lo, hi].
 
     argparse turns its ValueError into "argument --X: invalid value" with the
     reason, exit 2, before anything runs.
     """
-    def parse(text):
+    def parse(text: str) -> float:
         try:
             v = kind(text)
         except ValueError:
@@ -32,7 +41,7 @@ def number(kind, lo=None, hi=None, lo_open=False):
     return parse
 
 
-def _date(text):
+def _date(text: str) -> datetime.date:
     """Return a ``datetime.date`` of 'YYYY-MM-DD' (an argparse type)."""
     import datetime as dt
     try:
@@ -46,7 +55,7 @@ def _date(text):
 MIN_SIMS = 20
 
 
-def _add_input_options(p):
+def _add_input_options(p: argparse.ArgumentParser) -> None:
     p.add_argument('--fix-topic', default='/fix',
                    help='bag input: topic of the measured sensor_msgs/NavSatFix '
                         '(default /fix)')
@@ -65,12 +74,12 @@ def _add_input_options(p):
                         'interpolation (default 3 x the median, >= 1.5 s)')
 
 
-def _scenarios():
+def _scenarios() -> list[str]:
     from gps_error_ros.sim.synthetic import SCENARIOS
     return list(SCENARIOS)
 
 
-def _add_calibrate(sub):
+def _add_calibrate(sub: 'Subparsers') -> None:
     c = sub.add_parser(
         'calibrate', help='fit a profile from a measured trace',
         description='Fit an AR profile (schema 1, with a fit section) to the '
@@ -115,7 +124,7 @@ def _add_calibrate(sub):
                         'none)')
 
 
-def _add_validate(sub):
+def _add_validate(sub: 'Subparsers') -> None:
     v = sub.add_parser(
         'validate', help='cross-validate a profile against a measured trace',
         description='Simulate many traces of the measured trace\'s length and '
@@ -151,7 +160,7 @@ def _add_validate(sub):
     _add_input_options(v)
 
 
-def _add_simulate(sub):
+def _add_simulate(sub: 'Subparsers') -> None:
     s = sub.add_parser(
         'simulate', help='add errors to trajectories, or write raw error series',
         description='Smartphone GPS errors for simulators that do not run ROS, '
@@ -199,7 +208,7 @@ def _add_simulate(sub):
                    help='raw mode: time of the first step, s (default 0)')
 
 
-def _add_diagnose(sub):
+def _add_diagnose(sub: 'Subparsers') -> None:
     d = sub.add_parser(
         'diagnose', help='find what the AR model misses, add it, report',
         description='Split INPUT in time (first 70 % trains, the rest is '
@@ -239,7 +248,7 @@ def _add_diagnose(sub):
                    help='seed of the simulations and the bootstrap')
 
 
-def _add_compare(sub):
+def _add_compare(sub: 'Subparsers') -> None:
     c = sub.add_parser(
         'compare', help='every model class as a simulator of the held-out data',
         description='The split and models of diagnose, and the model classes '
@@ -297,7 +306,7 @@ def _add_compare(sub):
                         '"gps_error_ros[smoother]"; default 0: off)')
 
 
-def _add_import(sub):
+def _add_import(sub: 'Subparsers') -> None:
     m = sub.add_parser(
         'import', help='turn a recording and its truth into a trace CSV',
         description='Read a recording in a format phones and receivers write '
@@ -336,7 +345,7 @@ def _add_import(sub):
                         '(default 3 x the median, >= 1.5 s)')
 
 
-def _add_synth(sub):
+def _add_synth(sub: 'Subparsers') -> None:
     y = sub.add_parser(
         'synth', help='write a synthetic walk with an undeclared effect',
         description='A pedestrian walking Manhattan\'s grid at 1 Hz (turns, '
@@ -351,7 +360,7 @@ def _add_synth(sub):
                    help='seconds (default 3600)')
 
 
-def _add_scenario(sub):
+def _add_scenario(sub: 'Subparsers') -> None:
     c = sub.add_parser(
         'scenario', help='build a georeferenced SUMO walking scenario',
         description='Write a SUMO scenario of people walking a street grid, placed on '
@@ -379,18 +388,18 @@ def _add_scenario(sub):
                    help='run SUMO for S simulated seconds, writing DIR/fcd.xml in lon/lat')
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     """Return the ``gps_error`` parser (its subcommands by name: :func:`command_parsers`)."""
     return _build()[0]
 
 
-def command_parsers():
+def command_parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
     """Return (the ``gps_error`` parser, {subcommand: its parser}) in the order of ``--help``."""
     p, sub = _build()
     return p, dict(sub.choices)
 
 
-def _build():
+def _build() -> tuple[argparse.ArgumentParser, 'Subparsers']:
     p = argparse.ArgumentParser(
         prog='gps_error',
         description='Smartphone GPS error model tools (no ROS needed).')

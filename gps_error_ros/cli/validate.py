@@ -6,17 +6,21 @@ each recording on its own and the recordings judged together by occasion
 (:func:`~gps_error_ros.fit.validation.family_verdict`).
 """
 
+import argparse
 from pathlib import Path
+from typing import Any
 
 from gps_error_ros.cli import _failure_check, _load_clean, _part, clean_recordings
 from gps_error_ros.fit.population_fit import occasions
 from gps_error_ros.fit.validation import FAILURE_COLUMN, family_verdict, slice_trace, validate
-from gps_error_ros.model.profiles import load_profile
+from gps_error_ros.model.profiles import load_profile, Profile
 from gps_error_ros.reports.jsonfile import write_json
 from gps_error_ros.reports.validation_figure import validation_figure
+from gps_error_ros.traces.trace_io import Trace
 
 
-def _validate_one(args, profile, model, zones, trace, out, part):
+def _validate_one(args: argparse.Namespace, profile: Profile, model: Any, zones: Any, trace: Trace,
+                  out: Path, part: tuple[float, float]) -> dict[str, Any]:
     """Validate ``model`` on ``trace``, write ``out``'s JSON and figure; return the summary."""
     lo, hi = part
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
@@ -31,7 +35,8 @@ def _validate_one(args, profile, model, zones, trace, out, part):
     return summary
 
 
-def _validate_each(args, profile, model, zones, part):
+def _validate_each(args: argparse.Namespace, profile: Profile, model: Any, zones: Any,
+                   part: tuple[float, float]) -> int:
     """``validate --each``: every recording on its own, then the recordings as a family."""
     traces, found = clean_recordings(args, mark=FAILURE_COLUMN)
     lo, hi = part
@@ -67,7 +72,7 @@ def _validate_each(args, profile, model, zones, part):
     return 0
 
 
-def run_validate(args):
+def run_validate(args: argparse.Namespace) -> int:
     """Run ``gps_error validate``; return the exit code."""
     lo, hi = _part(args.part)
     profile, zones = load_profile(args.profile), None

@@ -1,9 +1,14 @@
 """``gps_error calibrate --zones``: a profile per zone of a map."""
 
+import argparse
+from collections.abc import Callable
 from pathlib import Path
 
+from gps_error_ros.traces.trace_io import Trace
 
-def calibrate_per_zone(args, load_input):
+
+def calibrate_per_zone(args: argparse.Namespace,
+                       load_input: Callable[[argparse.Namespace], Trace]) -> int:
     """
     Run ``gps_error calibrate --zones``: a profile per zone; return the exit code.
 

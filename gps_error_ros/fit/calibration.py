@@ -202,7 +202,7 @@ class CalibrationResult:
         return tuple(f.name for f in self.failures)
 
     @property
-    def axis_params(self) -> tuple[AxisParams, ...]:
+    def axis_params(self) -> tuple[AxisParams, AxisParams]:
         """Return the profile's (north, east) AR: the within process with a population."""
         if self.population is not None and self.population.population is not None:
             return self.population.axis_params()

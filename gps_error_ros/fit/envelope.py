@@ -7,6 +7,7 @@ measured value's percentile among the simulated values (a tie counts half).
 ``validate``, ``compare`` and the reported-accuracy check all use it.
 """
 
+from typing import TypedDict
 
 import numpy as np
 
@@ -19,7 +20,20 @@ from gps_error_ros.model.state import Numbers
 MIN_OUTAGE_STEPS = 2
 
 
-def envelope(measured: float, simulated: Numbers, tol: float = 0.0) -> dict[str, float]:
+class Envelope(TypedDict):
+    """A measured value against the simulated traces' values of the same statistic."""
+
+    #: The measured value.
+    measured: float
+    #: The simulated values' median, and their 2.5 and 97.5 % points.
+    sim_median: float
+    sim_lo: float
+    sim_hi: float
+    #: Where the measured value falls among the simulated ones, % (a tie counts half).
+    percentile: float
+
+
+def envelope(measured: float, simulated: Numbers, tol: float = 0.0) -> Envelope:
     """
     Return ``measured`` against the values ``simulated`` of the same statistic.
 
@@ -36,7 +50,7 @@ def envelope(measured: float, simulated: Numbers, tol: float = 0.0) -> dict[str,
             'percentile': float(100.0 * (np.mean((v < m) & ~tie) + 0.5 * np.mean(tie)))}
 
 
-def inside(row: dict[str, float]) -> bool:
+def inside(row: Envelope) -> bool:
     """Return whether an :func:`envelope` row's measured value is inside its 95 % range."""
     return bool(row['sim_lo'] <= row['measured'] <= row['sim_hi'])
 
@@ -62,7 +76,7 @@ OUTAGE_MEASURES = ('outages', 'steps_in_outages', 'median_outage_steps',
 
 
 def outage_envelopes(mask: Numbers, simulated_masks: Numbers
-                     ) -> dict[str, dict[str, float]]:
+                     ) -> dict[str, Envelope]:
     """Return {measure: envelope} of a measured fix mask against simulated ones."""
     measured = outage_stats(mask)
     sims = np.array([outage_stats(m) for m in simulated_masks], dtype=float)

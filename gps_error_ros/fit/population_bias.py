@@ -12,10 +12,12 @@ see. The blocks are :class:`~gps_error_ros.fit.population_fit.Block`s.
 from __future__ import annotations
 
 import math
-from typing import Any, Optional, Sequence, TYPE_CHECKING
+from typing import Optional, Sequence, TYPE_CHECKING
 
 import numpy as np
 
+from gps_error_ros.fit.population_evidence import (PopulationEvidence, TimeConstant,
+                                                   TwoScaleSpreads)
 from gps_error_ros.model.population import MAX_BIAS_DOF, Population
 from gps_error_ros.model.state import FloatArray
 
@@ -37,8 +39,8 @@ FLOOR_R = math.exp(-1.0)
 
 def bias_section(blocks: Sequence[Block], bias_sd: FloatArray, tau: Optional[float],
                  r: Optional[float],
-                 two: Optional[tuple[FloatArray, FloatArray, float, dict[str, Any]]],
-                 scale_sd: float, block_s: float, evidence: dict[str, Any],
+                 two: Optional[tuple[FloatArray, FloatArray, float, TwoScaleSpreads]],
+                 scale_sd: float, block_s: float, evidence: PopulationEvidence,
                  r_estimate: Optional[float] = None) -> Population:
     """
     Return the :class:`Population` of one bias part or of two (``two``); add to ``evidence``.
@@ -52,10 +54,11 @@ def bias_section(blocks: Sequence[Block], bias_sd: FloatArray, tau: Optional[flo
         draws = independent_draws(blocks)
         dof, inflate = predictive(draws)
         contrasts = wander_contrasts(blocks)
-        evidence.update(spreads, wander_sd_estimate_m=[round(float(x), 4) for x in wander_sd],
-                        wander_contrasts=round(contrasts, 3),
-                        held_sd_estimate_m=[round(float(x), 4) for x in held_sd],
-                        independent_draws=round(draws, 3))
+        evidence.update(spreads)
+        evidence['wander_sd_estimate_m'] = [round(float(x), 4) for x in wander_sd]
+        evidence['wander_contrasts'] = round(contrasts, 3)
+        evidence['held_sd_estimate_m'] = [round(float(x), 4) for x in held_sd]
+        evidence['independent_draws'] = round(draws, 3)
         spread = variance_predictive(contrasts)
         evidence['bias_time_constant'] = time_constant_evidence(
             spreads['wander_correlation_estimate'], a, evidence['neighbour_pairs'], block_s)
@@ -64,8 +67,8 @@ def bias_section(blocks: Sequence[Block], bias_sd: FloatArray, tau: Optional[flo
                           tuple(float(x) * inflate for x in held_sd))
     draws = independent_draws(blocks, None if tau is None else r)
     dof, inflate = predictive(draws)
-    evidence.update(bias_sd_estimate_m=[round(float(x), 4) for x in bias_sd],
-                    independent_draws=round(draws, 3))
+    evidence['bias_sd_estimate_m'] = [round(float(x), 4) for x in bias_sd]
+    evidence['independent_draws'] = round(draws, 3)
     if tau is not None and r is not None:
         evidence['bias_time_constant'] = time_constant_evidence(
             r if r_estimate is None else r_estimate, r, evidence['neighbour_pairs'], block_s)
@@ -106,7 +109,7 @@ def neighbour_cov_beyond(blocks: Sequence[Block], dev: FloatArray, process_cov: 
 
 def two_scale_bias(blocks: Sequence[Block], dev: FloatArray, v: FloatArray,
                    near: Optional[FloatArray],
-                   a: float) -> Optional[tuple[FloatArray, FloatArray, float, dict[str, Any]]]:
+                   a: float) -> Optional[tuple[FloatArray, FloatArray, float, TwoScaleSpreads]]:
     """
     Return (wander SD (2,), held SD (2,), ``a``, evidence) of a bias on two time scales, or None.
 
@@ -288,7 +291,7 @@ def _tau(r: float, block_s: float) -> float:
 
 
 def time_constant_evidence(estimate: float, used: float, pairs: int,
-                           block_s: float) -> dict[str, Any]:
+                           block_s: float) -> TimeConstant:
     """
     Return what the fit knows of the bias's time constant, for the profile's ``fit`` section.
 
@@ -313,7 +316,7 @@ def time_constant_evidence(estimate: float, used: float, pairs: int,
             'resolution_s': float(block_s)}
 
 
-def time_constant_words(evidence: dict[str, Any]) -> str:
+def time_constant_words(evidence: PopulationEvidence) -> str:
     """Return how a line or page states the bias's time constant from its evidence."""
     tc = evidence['bias_time_constant']
     lo, hi = tc['interval_95_s']

@@ -93,6 +93,7 @@ import numpy as np
 from typing import Any, Optional, Sequence
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
+from gps_error_ros.fit.population_evidence import PopulationEvidence
 from gps_error_ros.fit.population_bias import (ADJACENT_GAP_S, bias_section,
                                                neighbour_correlation, neighbour_cov_beyond,
                                                neighbour_pairs, time_constant,
@@ -252,12 +253,13 @@ class PopulationFit:
     east: AxisParams
     mean: np.ndarray
     population: Optional[Population]
-    evidence: dict[str, Any]
+    evidence: PopulationEvidence
 
-    def axis_params(self) -> tuple[AxisParams, ...]:
+    def axis_params(self) -> tuple[AxisParams, AxisParams]:
         """Return the within AR as (north, east) :class:`AxisParams`, delta for the grand mean."""
-        return tuple(AxisParams((1.0 - float(np.sum(p.phi))) * float(m), p.phi, p.sigma_w)
-                     for p, m in zip((self.north, self.east), self.mean))
+        north, east = (AxisParams((1.0 - float(np.sum(p.phi))) * float(m), p.phi, p.sigma_w)
+                       for p, m in zip((self.north, self.east), self.mean))
+        return north, east
 
 
 def fit_within(pieces: Sequence[FloatArray], sizes: Sequence[int], order: Optional[int] = None,
@@ -332,14 +334,16 @@ def fit_population(segments: Sequence[Numbers], times: Sequence[Numbers],
             for a, ax in enumerate(AXES)]
     wb = np.array([b.weight for b in blocks])
     total = float(wb.sum())
-    evidence = {'block_s': float(block_s), 'blocks': len(blocks),
-                'within_order': {ax: p.order for ax, p in zip(AXES, axes)}}
+    evidence: PopulationEvidence = {
+        'block_s': float(block_s), 'blocks': len(blocks),
+        'within_order': {ax: p.order for ax, p in zip(AXES, axes)}}
     if total != len(blocks):
         evidence['weighted_blocks'] = round(total, 4)
     if total < MIN_BLOCKS:
-        evidence.update(fitted=False, reason=f'{total:g} blocks of {block_s:g} s with '
-                        f'{MIN_BLOCK_SAMPLES} samples or more (recordings of one occasion '
-                        f'counted once); a population needs {MIN_BLOCKS}')
+        evidence['fitted'] = False
+        evidence['reason'] = (f'{total:g} blocks of {block_s:g} s with {MIN_BLOCK_SAMPLES} '
+                              f'samples or more (recordings of one occasion counted once); '
+                              f'a population needs {MIN_BLOCKS}')
         return PopulationFit(axes[0], axes[1], grand, None, evidence)
     model = ARErrorModel(axes[0], axes[1])
     rho = model.autocorrelation(ACF_LAGS)
@@ -361,14 +365,14 @@ def fit_population(segments: Sequence[Numbers], times: Sequence[Numbers],
     sampling = np.average([(rho2[0] + rho2[1]) / 2.0 / (4.0 * k) for k in n], weights=wb)
     log_var = float(np.sum(wb * (log_sd - np.average(log_sd, weights=wb)) ** 2) / (total - 1))
     scale_var = max(0.0, log_var - sampling)
-    evidence.update(fitted=True, block_mean_sd_m=[round(float(x), 4) for x in
-                                                  np.sqrt(spread)],
-                    within_mean_sd_m=[round(float(x), 4) for x in np.sqrt(v.mean(axis=0))],
-                    neighbour_pairs=len(pairs),
-                    neighbour_correlation=None if r is None else round(float(r), 4),
-                    neighbour_correlation_estimate=None if r_estimate is None else
-                    round(float(r_estimate), 4),
-                    block_log_sd_sd=round(math.sqrt(log_var), 4))
+    evidence['fitted'] = True
+    evidence['block_mean_sd_m'] = [round(float(x), 4) for x in np.sqrt(spread)]
+    evidence['within_mean_sd_m'] = [round(float(x), 4) for x in np.sqrt(v.mean(axis=0))]
+    evidence['neighbour_pairs'] = len(pairs)
+    evidence['neighbour_correlation'] = None if r is None else round(float(r), 4)
+    evidence['neighbour_correlation_estimate'] = None if r_estimate is None else \
+        round(float(r_estimate), 4)
+    evidence['block_log_sd_sd'] = round(math.sqrt(log_var), 4)
     two = None if not two_scales or tau is None or r is None else \
         two_scale_bias(blocks, dev, v, near, r)
     pop = bias_section(blocks, bias_sd, tau, r, two, math.sqrt(scale_var), block_s, evidence,
@@ -469,20 +473,21 @@ def with_day_allowance(fit: PopulationFit, ratio: float = DAY_RATIO) -> Populati
     held = ratio * math.sqrt(0.5 * (pop.bias_sd_m[0] ** 2 + pop.bias_sd_m[1] ** 2))
     own = (0.0, 0.0) if pop.run_bias_sd_m is None else pop.run_bias_sd_m
     run = tuple(math.hypot(h, held) for h in own)
-    evidence = dict(fit.evidence, between_days={
+    evidence = fit.evidence.copy()
+    evidence['between_days'] = {
         'ratio': float(ratio), 'held_sd_m': round(held, 4),
         'source': 'SD of the bias between days over that within a day, the SnapperGPS '
-                  'walks (docs/decisions/0029-an-allowance-for-other-days.md)'})
+                  'walks (docs/decisions/0029-an-allowance-for-other-days.md)'}
     return replace(fit, population=replace(pop, run_bias_sd_m=run), evidence=evidence)
 
 
-def _predicted(ev: dict[str, Any], estimate: str) -> str:
+def _predicted(ev: PopulationEvidence, estimate: Sequence[float]) -> str:
     """Return what a new occasion's SD was predicted from, and the SD fitted."""
     return (f'(a new occasion\'s, predicted from {ev["independent_draws"]:.1f} independent '
             f'draws: the fitted SD is {estimate[0]:.2f} / {estimate[1]:.2f} m)')
 
 
-def _one_part_words(pop: Population, ev: dict[str, Any]) -> str:
+def _one_part_words(pop: Population, ev: PopulationEvidence) -> str:
     """Return the words on a bias of one part (see :func:`population_line`)."""
     wander = 'constant for a run' if pop.bias_time_constant_s is None else \
         f'wandering with {time_constant_words(ev)}'
@@ -496,7 +501,7 @@ def _one_part_words(pop: Population, ev: dict[str, Any]) -> str:
             f'{wander}{days}')
 
 
-def _two_part_words(pop: Population, ev: dict[str, Any]) -> str:
+def _two_part_words(pop: Population, ev: PopulationEvidence) -> str:
     """Return the words on a bias held for the run and a wander (see :func:`population_line`)."""
     held = pop.run_bias_sd_m or (0.0, 0.0)
     shape = 'normal' if pop.bias_dof is None else \

@@ -17,7 +17,7 @@ Each as measured, the simulated median and central 95 % range, and the
 measured value's percentile among the simulations (ties count half).
 """
 
-from typing import Any, Optional
+from typing import Any, cast, Optional
 
 import numpy as np
 
@@ -89,5 +89,6 @@ def reported_check(model: ErrorModel[Any], reported: ReportedAccuracy, trace: Tr
     for name in MEASURES:
         # a tie is the same value to YAML's 6 digits
         row = envelope(meas[name], [p[name] for p in per_sim], tol=1e-5)
-        out[name] = {k: round(v, 1 if k == 'percentile' else 4) for k, v in row.items()}
+        values = cast(dict[str, float], row)
+        out[name] = {k: round(v, 1 if k == 'percentile' else 4) for k, v in values.items()}
     return out

@@ -22,7 +22,7 @@ the simulated values):
 """
 
 from dataclasses import dataclass
-from typing import Any, Optional, Sequence
+from typing import Any, Hashable, Optional, Sequence
 
 import numpy as np
 
@@ -204,7 +204,8 @@ def share_percentile(measured: Numbers, simulated: Numbers, env: FloatArray) -> 
     return float(100.0 * np.mean(share_inside(simulated, env) <= share_inside(measured, env)))
 
 
-def family_verdict(joint_percentiles: Sequence[float], labels: Sequence[str]) -> dict[str, Any]:
+def family_verdict(joint_percentiles: Sequence[float],
+                   labels: Sequence[Hashable]) -> dict[str, Any]:
     """
     Return how recordings judged one by one fare together (Sidak over their occasions).
 
@@ -217,7 +218,7 @@ def family_verdict(joint_percentiles: Sequence[float], labels: Sequence[str]) ->
     Returns ``{'occasions', 'smallest_percentile', 'family_probability',
     'unlike'}``; ``unlike`` at a family probability below 0.05.
     """
-    by_occasion: dict[str, float] = {}
+    by_occasion: dict[Hashable, float] = {}
     for pct, label in zip(joint_percentiles, labels):
         by_occasion[label] = min(by_occasion.get(label, 100.0), float(pct))
     k, low = len(by_occasion), min(by_occasion.values()) / 100.0

@@ -20,7 +20,9 @@ total length join every class's calibrated measures; a class without
 availability simulates a fix at every step.
 """
 
+from collections.abc import Mapping
 import math
+from typing import Any
 
 import numpy as np
 from scipy import optimize, signal
@@ -31,40 +33,46 @@ from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, p
                                              simulate_part, with_outages)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
+from gps_error_ros.diagnose.split import Part, Split
 from gps_error_ros.fit.calibration import availability_from_mask
 from gps_error_ros.fit.envelope import outage_stats
+from gps_error_ros.judge.results import SplitComparison
 from gps_error_ros.model import streams
 from gps_error_ros.model.availability import availability_from_dict, WithAvailability
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
+
+#: Simulated traces, each a list of segments (n_s, 2), north/east error, m.
+Traces = list[list[FloatArray]]
 
 CLASSES = ('white noise + bias', 'AR(1)', 'ARMA(1,1)', 'AR(3), paper',
            'AR(p), PACF', 'extended')
 
 
-def _scored(part, m0):
+def _scored(part: Part, m0: int) -> list[IntArray]:
     """Return per-segment index arrays of the scored samples."""
     return [np.arange(m0, len(e)) for e in part.err]
 
 
-def _gauss_ll(r, var):
+def _gauss_ll(r: FloatArray, var: Numbers) -> FloatArray:
     return -0.5 * (LOG2PI + np.log(var) + r * r / var)
 
 
 class WhiteBias:
     """Constant plus white Gaussian noise, per axis."""
 
-    def fit(self, train):
+    def fit(self, train: Part) -> 'WhiteBias':
         """Fit on the training part."""
         x = np.concatenate(train.err)
         self.mu, self.var = x.mean(axis=0), x.var(axis=0)
         return self
 
-    def logpdf(self, part, m0):
+    def logpdf(self, part: Part, m0: int) -> FloatArray:
         """Return per-sample log densities of the scored samples."""
         out = [(_gauss_ll(e[idx] - self.mu, self.var)).sum(axis=1)
                for e, idx in zip(part.err, _scored(part, m0))]
         return np.concatenate(out)
 
-    def simulate(self, part, sims, rng):
+    def simulate(self, part: Part, sims: int, rng: np.random.Generator) -> Traces:
         """Return ``sims`` traces on ``part``'s segments."""
         return [[self.mu + rng.standard_normal((len(e), 2)) * np.sqrt(self.var)
                  for e in part.err] for _ in range(sims)]
@@ -73,15 +81,15 @@ class WhiteBias:
 class Arma11:
     """ARMA(1,1) per axis, conditional Gaussian ML (innovations from 0)."""
 
-    def fit(self, train, m0):
+    def fit(self, train: Part, m0: int) -> 'Arma11':
         """Fit on the training part, scoring from ``m0`` in each segment."""
-        self.params = []
+        self.params: list[tuple[float, float, float, float]] = []
         for a in range(2):
             segs = [e[:, a] for e in train.err]
             x = np.concatenate(segs)
             phi0 = np.clip(np.corrcoef(x[:-1], x[1:])[0, 1], -0.9, 0.99)
 
-            def sse(v, segs=segs):
+            def sse(v: FloatArray, segs: list[FloatArray] = segs) -> float:
                 mu, phi, theta = v[0], math.tanh(v[1]), math.tanh(v[2])
                 tot = 0.0
                 for s in segs:
@@ -99,13 +107,13 @@ class Arma11:
         return self
 
     @staticmethod
-    def _innov(s, mu, phi, theta):
+    def _innov(s: Numbers, mu: float, phi: float, theta: float) -> FloatArray:
         # w_t = (x_t - mu) - phi (x_{t-1} - mu) - theta w_{t-1}, w_0 = x_0 - mu
         y = np.asarray(s) - mu
         e = np.r_[y[0], y[1:] - phi * y[:-1]]
         return signal.lfilter([1.0], [1.0, theta], e)
 
-    def logpdf(self, part, m0):
+    def logpdf(self, part: Part, m0: int) -> FloatArray:
         """Return per-sample log densities of the scored samples."""
         out = []
         for e, idx in zip(part.err, _scored(part, m0)):
@@ -116,11 +124,12 @@ class Arma11:
             out.append(ll)
         return np.concatenate(out)
 
-    def simulate(self, part, sims, rng, burn=500):
+    def simulate(self, part: Part, sims: int, rng: np.random.Generator,
+                 burn: int = 500) -> Traces:
         """Return ``sims`` traces on ``part``'s grid, gaps kept (stationary start)."""
         steps = part_steps(part)
         n = int(steps[-1][-1]) + 1 + burn
-        out = []
+        out: Traces = []
         for _ in range(sims):
             cols = []
             for mu, phi, theta, var in self.params:
@@ -136,7 +145,8 @@ KEYS = {'white noise + bias': 'white_bias', 'AR(1)': 'ar1', 'ARMA(1,1)': 'arma11
         'AR(3), paper': 'ar3_paper', 'AR(p), PACF': 'ar_p', 'extended': 'extended'}
 
 
-def _classes(diag, sims, seed, m0=None):
+def _classes(diag: Any, sims: int, seed: int,
+             m0: int | None = None) -> dict[str, tuple[FloatArray, Traces]]:
     """
     Return {class: (held-out log densities, simulated traces)}, same samples.
 
@@ -165,7 +175,7 @@ def _classes(diag, sims, seed, m0=None):
     return {k: out[k] for k in CLASSES}
 
 
-def training_outages(split, model, sims, seed=0):
+def training_outages(split: Split, model: Any, sims: int, seed: int = 0) -> BoolArray | None:
     """
     Return a class's simulated fix masks over the held-out span, (sims, span).
 
@@ -184,7 +194,7 @@ def training_outages(split, model, sims, seed=0):
     return avail.simulate_availability(keys, part_fix_mask(split.test).size)
 
 
-def compare(diag, sims=100, seed=0):
+def compare(diag: Any, sims: int = 100, seed: int = 0) -> dict[str, dict[str, Any]]:
     """
     Fit every class on the diagnosis's training part; score on its test part.
 
@@ -203,7 +213,7 @@ def compare(diag, sims=100, seed=0):
     classes = _classes(diag, sims, seed)
     lls = {label: ll for label, (ll, _) in classes.items()}
     against = score_differences(lls, max(lls, key=lambda k: float(np.mean(lls[k]))), seed)
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
     for label, (ll, traces) in classes.items():
         calibrated = calibrated_fidelity(test, traces)
         if outages:
@@ -215,12 +225,12 @@ def compare(diag, sims=100, seed=0):
     return out
 
 
-def compare_json(name, split, compared):
-    """Return ``gps_error compare``'s JSON document of a :func:`compare` result."""
-    return {'input': name, 'train_samples': split.train.n,
-            'test_samples': split.test.n,
-            'classes': {KEYS[k]: {'heldout_nll_per_sample': v['heldout_nll_per_sample'],
-                                  'nll_minus_best': v['nll_minus_best'],
-                                  'fidelity': {key: v['calibrated'][key] for key in
-                                               ('inside_95', 'measures')}}
-                        for k, v in compared.items()}}
+def split_comparison(name: str, split: Split, compared: Mapping[str, Mapping[str, Any]],
+                     sims: int) -> SplitComparison:
+    """Return ``gps_error compare``'s result of a :func:`compare` result on ``split``."""
+    return SplitComparison(
+        name, split.train.n, split.test.n, sims,
+        {KEYS[k]: {'heldout_nll_per_sample': v['heldout_nll_per_sample'],
+                   'nll_minus_best': v['nll_minus_best'],
+                   'fidelity': {key: v['calibrated'][key] for key in ('inside_95', 'measures')}}
+         for k, v in compared.items()})

@@ -12,12 +12,17 @@ the population's process within carries over to data without them), and
 receiver's dynamics) or fit one stretch (a selection that over-fits).
 """
 
+from collections.abc import Mapping, Sequence
+from typing import Any
+
 import numpy as np
 
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean
+from gps_error_ros.diagnose.split import Part
 from gps_error_ros.fit.population_fit import (block_pieces, BLOCK_S, MIN_BLOCK_SAMPLES,
                                               MIN_BLOCKS)
 from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 
 #: Scored held-out samples per block where :func:`where_beaten` shows a class's gain.
 WHERE_BLOCK = 150
@@ -29,7 +34,8 @@ FAR_SD = 2.0
 ORDER_GAIN = 0.01
 
 
-def pacf_against(train, held_out):
+def pacf_against(train: Mapping[str, Any] | None,
+                 held_out: Mapping[str, Any] | None) -> dict[str, Any]:
     """
     Return ``{'train', 'held_out', 'only_in_training'}`` from two :func:`part_pacf`.
 
@@ -45,7 +51,7 @@ def pacf_against(train, held_out):
     return {'train': train, 'held_out': held_out, 'only_in_training': only}
 
 
-def part_pacf(part, lags=DEFAULT_MAX_ORDER):
+def part_pacf(part: Part, lags: int = DEFAULT_MAX_ORDER) -> dict[str, Any] | None:
     """
     Return a part's partial autocorrelation at lags 1..``lags`` per axis and its bound, or None.
 
@@ -60,7 +66,7 @@ def part_pacf(part, lags=DEFAULT_MAX_ORDER):
     lags = min(lags, n // 4 - 1)        # fit_axis needs 4 samples a lag
     if lags < 1 or n < 20:
         return None
-    out = {}
+    out: dict[str, Any] = {}
     for a, axis in enumerate(('north', 'east')):
         try:
             fit = fit_axis([e[:, a] for e in part.err], max_order=lags, axis=axis)
@@ -71,7 +77,8 @@ def part_pacf(part, lags=DEFAULT_MAX_ORDER):
     return out
 
 
-def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
+def block_orders(part: Part, max_order: int = DEFAULT_MAX_ORDER,
+                 block_s: float = BLOCK_S) -> dict[str, Any] | None:
     """
     Return the AR order per axis that predicts each block of ``part`` best from the others.
 
@@ -93,7 +100,7 @@ def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
     blocks = _blocks(part, block_s, max_order)
     if len(blocks) < MIN_BLOCKS:
         return None
-    out = {'blocks': len(blocks)}
+    out: dict[str, Any] = {'blocks': len(blocks)}
     for a, axis in enumerate(('north', 'east')):
         runs = [[r[:, a] for r in b] for b in blocks]
         nll = np.array([_left_out_nll(runs, p, max_order) for p in range(1, max_order + 1)])
@@ -103,9 +110,9 @@ def block_orders(part, max_order=DEFAULT_MAX_ORDER, block_s=BLOCK_S):
     return out
 
 
-def _blocks(part, block_s, max_order):
+def _blocks(part: Part, block_s: float, max_order: int) -> list[list[FloatArray]]:
     """Return the blocks of ``part``: each a list of runs (n, 2) about the block's mean."""
-    by_block = {}
+    by_block: dict[int, list[FloatArray]] = {}
     for piece, i in block_pieces(part.err, part.t, block_s):
         by_block.setdefault(i, []).append(piece)
     out = []
@@ -117,13 +124,13 @@ def _blocks(part, block_s, max_order):
     return [b for b in out if b]
 
 
-def _lagged(runs, p, first):
+def _lagged(runs: Sequence[FloatArray], p: int, first: int) -> tuple[FloatArray, FloatArray]:
     """Return (design (m, p), targets (m,)) of the runs' samples from index ``first`` on."""
     xs = [np.column_stack([r[first - i - 1:len(r) - i - 1] for i in range(p)]) for r in runs]
     return np.vstack(xs), np.concatenate([r[first:] for r in runs])
 
 
-def _left_out_nll(runs, p, max_order):
+def _left_out_nll(runs: Sequence[Sequence[FloatArray]], p: int, max_order: int) -> float:
     """Return the summed one-step NLL of each block of ``runs``, an AR(p) fitted on the rest."""
     total = 0.0
     for k in range(len(runs)):
@@ -136,7 +143,9 @@ def _left_out_nll(runs, p, max_order):
     return total
 
 
-def where_beaten(lls, against, reference, err, t, mean, bias_sd, seed=0, block=WHERE_BLOCK):
+def where_beaten(lls: Mapping[str, Numbers], against: Mapping[str, Mapping[str, Any]],
+                 reference: str, err: Numbers, t: Numbers, mean: Numbers, bias_sd: Numbers,
+                 seed: int = 0, block: int = WHERE_BLOCK) -> dict[str, Any] | None:
     """
     Return where the classes that score better than ``reference`` beyond noise do so, or None.
 
@@ -170,7 +179,8 @@ def where_beaten(lls, against, reference, err, t, mean, bias_sd, seed=0, block=W
         cuts.pop()
     edges = cuts + [ref.size]
     sd = np.maximum(np.asarray(bias_sd, dtype=float), 1e-9)
-    rows, far = [], np.zeros(ref.size, dtype=bool)
+    rows: list[dict[str, Any]] = []
+    far = np.zeros(ref.size, dtype=bool)
     for a, b in zip(edges[:-1], edges[1:]):
         m = err[a:b].mean(axis=0)
         level = float(np.max(np.abs(m - np.asarray(mean, dtype=float)) / sd))
@@ -179,8 +189,8 @@ def where_beaten(lls, against, reference, err, t, mean, bias_sd, seed=0, block=W
                      'level_sd': level,
                      'minus_reference': {c: float(d[a:b].mean()) for c, d in diffs.items()}})
 
-    def gain(mask):
-        out = {'samples': int(mask.sum())}
+    def gain(mask: BoolArray) -> dict[str, Any]:
+        out: dict[str, Any] = {'samples': int(mask.sum())}
         for c, d in diffs.items():
             if mask.any():
                 mu, lo, hi = block_bootstrap_mean(d[mask], seed=seed)
@@ -192,6 +202,42 @@ def where_beaten(lls, against, reference, err, t, mean, bias_sd, seed=0, block=W
             'far': gain(far), 'near': gain(~far)}
 
 
-def gain_text(d):
+def gain_text(d: Mapping[str, Any]) -> str:
     """Return a difference ``{'mean', 'ci95'}`` as text: the mean and its interval."""
     return f'{d["mean"]:+.3f} ({d["ci95"][0]:+.3f} to {d["ci95"][1]:+.3f})'
+
+
+def beaten_lines(folds: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Return lines on the folds where a class scores better than the population beyond noise."""
+    out: list[str] = []
+    for f in folds:
+        wb = f['classes'].get('population', {}).get('where_beaten')
+        if not wb:
+            continue
+        gains = {part: ', '.join(f'{c} {gain_text(wb[part][c])}' for c in wb['winners']
+                                 if c in wb[part]) or '-' for part in ('far', 'near')}
+        out.append(f'  {f["fold"]}: {", ".join(wb["winners"])} below the population class '
+                   f'beyond the 95 % interval. NLL minus the population\'s over held-out '
+                   f'blocks of {wb["block_samples"]} samples whose mean lies more than '
+                   f'{wb["far_sd"]:g} bias SDs from the population\'s mean '
+                   f'({wb["far"]["samples"]} samples): {gains["far"]}; over the others '
+                   f'({wb["near"]["samples"]} samples): {gains["near"]}')
+        only = (wb.get('pacf') or {}).get('only_in_training')
+        if only is not None:
+            out.append('    partial autocorrelation beyond 1.96/sqrt(n) in the training part '
+                       'and not held out, lags: ' + '; '.join(
+                           f'{axis} ' + (','.join(map(str, v)) or 'none')
+                           for axis, v in only.items()))
+        orders = wb.get('orders') or {}
+        if orders.get('train'):
+            out.append('    AR order that predicts each 300-s block best from the part\'s '
+                       f'others: training part {_orders_text(orders["train"])}; held out '
+                       f'{_orders_text(orders.get("held_out"))}')
+    return out
+
+
+def _orders_text(o: Mapping[str, Any] | None) -> str:
+    """Return a part's :func:`~gps_error_ros.judge.beaten.block_orders` in words."""
+    if o is None:
+        return 'fewer than 3 blocks'
+    return f'north {o["north"]["order"]}, east {o["east"]["order"]} ({o["blocks"]} blocks)'

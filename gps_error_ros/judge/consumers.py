@@ -26,10 +26,14 @@ the same settings, tuned on the training part as a study would tune them:
   non-conflicts warned (false warnings).
 """
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy import stats
 
-from gps_error_ros.fit.envelope import envelope
+from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.envelope import envelope, Envelope
+from gps_error_ros.model.state import BoolArray, FloatArray
 
 #: The filter's white acceleration, m/s^2.
 ACCEL_SD = 0.5
@@ -46,7 +50,7 @@ V2P_MEASURES = ('v2p_warned', 'v2p_false_warning')
 FILTER_PARTS = ('mean_size_m', 'sd_m', 'filter_rms_per_sd')
 
 
-def _grid(part):
+def _grid(part: Part) -> tuple[FloatArray, FloatArray, BoolArray, BoolArray]:
     """Return (times, truth (n, 2), segment start flags, recording start flags) of a part."""
     t = np.concatenate(part.t)
     truth = np.concatenate(part.truth)
@@ -58,7 +62,7 @@ def _grid(part):
     return t, truth, first, new_run
 
 
-def _truth_velocity(t, truth, first):
+def _truth_velocity(t: FloatArray, truth: FloatArray, first: BoolArray) -> FloatArray:
     """Return the truth's velocity at each sample (backward difference; forward at a start)."""
     v = np.zeros_like(truth)
     if t.size > 1:
@@ -70,7 +74,8 @@ def _truth_velocity(t, truth, first):
     return v
 
 
-def run_filter(part, errors, fix_var, seed=0):
+def run_filter(part: Part, errors: FloatArray, fix_var: FloatArray,
+               seed: int = 0) -> FloatArray:
     """
     Return the filter measures for each error trace.
 
@@ -119,11 +124,12 @@ def run_filter(part, errors, fix_var, seed=0):
                      nees.mean(axis=0), rejected / updates], axis=1)
 
 
-def _nees(err, cov):
+def _nees(err: FloatArray, cov: FloatArray) -> FloatArray:
     return np.einsum('ki,kij,kj->k', err, np.linalg.inv(cov), err)
 
 
-def _update(x, p, nu, sel, r, gate=None):
+def _update(x: FloatArray, p: FloatArray, nu: FloatArray, sel: slice, r: FloatArray,
+            gate: float | None = None) -> tuple[FloatArray, FloatArray, BoolArray]:
     """Update with a measurement of the state's ``sel`` entries; innovation ``nu`` (k, 2)."""
     s = p[:, sel, sel] + r
     s_inv = np.linalg.inv(s)
@@ -137,7 +143,8 @@ def _update(x, p, nu, sel, r, gate=None):
     return x, p, ok
 
 
-def v2p_warnings(part, errors, accuracy_m, seed=0):
+def v2p_warnings(part: Part, errors: FloatArray, accuracy_m: float,
+                 seed: int = 0) -> FloatArray:
     """
     Return the V2P measures for each error trace, (traces, 2).
 
@@ -158,14 +165,17 @@ def v2p_warnings(part, errors, accuracy_m, seed=0):
     return np.stack([hit, false], axis=1)
 
 
-def _stacked(measured, simulated, train_err):
+def _stacked(measured: Sequence[FloatArray], simulated: Sequence[Sequence[FloatArray]],
+             train_err: Sequence[FloatArray]) -> tuple[FloatArray, FloatArray]:
     """Return (the fixes' stated variance per axis (2,), the errors (traces, n, 2))."""
     fix_var = np.mean(np.concatenate(train_err) ** 2, axis=0)
     errors = np.stack([np.concatenate(measured)] + [np.concatenate(s) for s in simulated])
     return fix_var, errors
 
 
-def filter_parts(part, measured, simulated, train_err, seed=0):
+def filter_parts(part: Part, measured: Sequence[FloatArray],
+                 simulated: Sequence[Sequence[FloatArray]], train_err: Sequence[FloatArray],
+                 seed: int = 0) -> dict[str, Envelope]:
     """
     Return {name: envelope row} of what the filter's RMS error is made of (:data:`FILTER_PARTS`).
 
@@ -187,7 +197,10 @@ def filter_parts(part, measured, simulated, train_err, seed=0):
     return {name: envelope(values[0, j], values[1:, j]) for j, name in enumerate(FILTER_PARTS)}
 
 
-def consumer_measures(part, measured, simulated, train_err, seed=0):
+def consumer_measures(part: Part, measured: Sequence[FloatArray],
+                      simulated: Sequence[Sequence[FloatArray]],
+                      train_err: Sequence[FloatArray],
+                      seed: int = 0) -> tuple[list[str], FloatArray, FloatArray]:
     """
     Return (names, measured (m,), simulated (sims, m)) of both consumers.
 

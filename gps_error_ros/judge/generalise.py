@@ -31,25 +31,36 @@ no group outvotes another (:func:`grouped_measures`):
 ``inside_95`` of a group is the share of its measures inside their ranges.
 """
 
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import replace
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
-from gps_error_ros.judge.baselines import _classes, KEYS, training_outages
-from gps_error_ros.judge.consumers import consumer_measures, filter_parts
-from gps_error_ros.judge.beaten import block_orders, pacf_against, part_pacf, where_beaten
 from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
                                              score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
-from gps_error_ros.judge.population_class import _within_split, PopulationClass
-from gps_error_ros.diagnose.split import cut_trace, like_windows, Split
-from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
-from gps_error_ros.judge.window_persistence import persistence_spread
-from gps_error_ros.fit.envelope import (envelope, inside, OUTAGE_MEASURES, outage_envelopes,
-                                        outage_stats)
+from gps_error_ros.diagnose.split import cut_trace, like_windows, Part, Split
+from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group, velocity_line
+from gps_error_ros.fit.envelope import (envelope, Envelope, inside, OUTAGE_MEASURES,
+                                        outage_envelopes, outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import occasions, segment_weights
-from gps_error_ros.traces.trace_io import join_recordings
+from gps_error_ros.judge.baselines import _classes, KEYS, training_outages
+from gps_error_ros.judge.beaten import (beaten_lines, block_orders, pacf_against, part_pacf,
+                                        where_beaten)
+from gps_error_ros.judge.consumers import consumer_measures, filter_parts
+from gps_error_ros.judge.population_class import _within_split, PopulationClass
+from gps_error_ros.judge.results import (ClassJudgement, ClassSummary, Fold, FoldComparison,
+                                         group_of, measure_key, name_of, OwnVerdict,
+                                         TrainingWindows)
+from gps_error_ros.judge.window_persistence import persistence_spread, spread_line
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.traces.trace_io import join_recordings, Trace
+
+if TYPE_CHECKING:
+    from gps_error_ros.diagnose.pipeline import FittedModels
+    from gps_error_ros.diagnose.models import FittedModel
 
 #: Rolling origins, as shares of the time span.
 ORIGINS = (0.5, 0.625, 0.75)
@@ -72,7 +83,7 @@ OUTAGE_CLASSES = ('extended', 'population_ar', 'population')
 EXTRA_GROUPS = ('outages', 'smoother')
 
 
-def split_between(trace, cut_t, end_t, rule):
+def split_between(trace: Trace, cut_t: float, end_t: float, rule: str) -> Split:
     """
     Return the ``Split`` of ``trace``: train before ``cut_t``, test in [cut_t, end_t).
 
@@ -88,11 +99,12 @@ def split_between(trace, cut_t, end_t, rule):
     return Split(train, test, truth, rule, cut_s, velocity=velocity)
 
 
-def rolling_splits(trace, origins=ORIGINS, horizon=HORIZON):
+def rolling_splits(trace: Trace, origins: Sequence[float] = ORIGINS,
+                   horizon: float = HORIZON) -> list[tuple[str, Split]]:
     """Return [(label, Split)] of the rolling origins (see the module docstring)."""
     t0, t1 = float(trace.t[0]), float(trace.t[-1])
     span = t1 - t0
-    out = []
+    out: list[tuple[str, Split]] = []
     for o in origins:
         end = t0 + (o + horizon) * span + (1e-6 if o + horizon >= 1.0 else 0.0)
         out.append((f'origin {o:.3g}', split_between(
@@ -102,7 +114,7 @@ def rolling_splits(trace, origins=ORIGINS, horizon=HORIZON):
     return out
 
 
-def recording_splits(traces):
+def recording_splits(traces: Sequence[Trace]) -> list[tuple[str, Split]]:
     """
     Return [(label, Split)]: each recording held out, those of other occasions train.
 
@@ -110,7 +122,8 @@ def recording_splits(traces):
     another receiver) shares its bias, so it trains in no fold that holds
     the other out. The training segments carry their occasion weights.
     """
-    out, labels = [], occasions(traces)
+    out: list[tuple[str, Split]] = []
+    labels = occasions(traces)
     for i, held in enumerate(traces):
         others = [t for j, t in enumerate(traces) if labels[j] != labels[i]]
         if not others:
@@ -130,7 +143,8 @@ def recording_splits(traces):
 
 # --- the measures ----------------------------------------------------------
 
-def _basic(segments, jump_m, recording=None):
+def _basic(segments: Sequence[FloatArray], jump_m: float,
+           recording: Sequence[Any] | None = None) -> dict[str, float]:
     """
     Return the error-statistic measures of one trace (list of segments), by name.
 
@@ -139,7 +153,7 @@ def _basic(segments, jump_m, recording=None):
     """
     x = np.concatenate(segments)
     acf = acf_by_axis(segments, ACF_LAGS, recording)
-    out = {}
+    out: dict[str, float] = {}
     for i, ax in enumerate(('north', 'east')):
         out[f'persistence:acf1_{ax}'] = float(acf[0, i])
         out[f'persistence:acf10_{ax}'] = float(acf[9, i])
@@ -156,13 +170,16 @@ def _basic(segments, jump_m, recording=None):
     return out
 
 
-def _jump_threshold(train):
+def _jump_threshold(train: Part) -> float:
     """Return the training part's 99 % point of the horizontal step between samples, m."""
     steps = np.concatenate([np.hypot(*np.diff(s, axis=0).T) for s in train.err if len(s) > 1])
     return float(np.quantile(steps, 0.99))
 
 
-def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=None):
+def grouped_measures(part: Part, train: Part, simulated: Sequence[Sequence[FloatArray]],
+                     seed: int = 0, smoother_sims: int = 0,
+                     outages: str | BoolArray | None = None
+                     ) -> tuple[dict[str, Envelope], dict[str, float], dict[str, list[float]]]:
     """
     Return {measure: envelope row} and {group: inside_95} of ``part`` against ``simulated``.
 
@@ -187,8 +204,9 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
     rows = {n: envelope(measured[n], sims[:, j]) for j, n in enumerate(names)}
     per_trace = {n: sims[:, j] for j, n in enumerate(names)}
     for j, n in enumerate(cn):
-        rows[f'{n.split("_")[0]}:{n}'] = envelope(cm[j], cs[:, j])
-        per_trace[f'{n.split("_")[0]}:{n}'] = cs[:, j]
+        key = measure_key(n.split('_')[0], n)
+        rows[key] = envelope(cm[j], cs[:, j])
+        per_trace[key] = cs[:, j]
     if smoother_sims:
         from gps_error_ros.judge.smoother import head, run_smoother, SMOOTHER_MEASURES
         short = head(part, SMOOTHER_SAMPLES)
@@ -198,23 +216,22 @@ def grouped_measures(part, train, simulated, seed=0, smoother_sims=0, outages=No
                           [np.concatenate(s)[:n] for s in simulated[:smoother_sims]])
         values = run_smoother(short, errors, fix_var, seed)
         for j, name in enumerate(SMOOTHER_MEASURES):
-            rows[f'smoother:{name}'] = envelope(values[0, j], values[1:, j])
+            rows[measure_key('smoother', name)] = envelope(values[0, j], values[1:, j])
     if outages is not None:
         mask = part_fix_mask(part)
         masks = np.ones((len(simulated), mask.size), dtype=bool) \
             if isinstance(outages, str) else outages
         for name, row in outage_envelopes(mask, masks).items():
-            rows[f'outages:{name}'] = row
+            rows[measure_key('outages', name)] = row
         stats = np.array([outage_stats(m) for m in masks], dtype=float)
         for j, name in enumerate(OUTAGE_MEASURES):
-            per_trace[f'outages:{name}'] = stats[:, j]
-    groups = {g: float(np.mean([inside(r) for k, r in rows.items()
-                                if k.split(':')[0] == g]))
-              for g in GROUPS + EXTRA_GROUPS if any(k.split(':')[0] == g for k in rows)}
+            per_trace[measure_key('outages', name)] = stats[:, j]
+    groups = {g: float(np.mean([inside(r) for k, r in rows.items() if group_of(k) == g]))
+              for g in GROUPS + EXTRA_GROUPS if any(group_of(k) == g for k in rows)}
     return rows, groups, own_shares(per_trace)
 
 
-def own_shares(values):
+def own_shares(values: Mapping[str, Numbers]) -> dict[str, list[float]]:
     """
     Return {group: each simulated trace's share of the group's measures inside (list)}.
 
@@ -228,15 +245,16 @@ def own_shares(values):
     v = np.column_stack([np.asarray(values[n], dtype=float) for n in names])
     lo, hi = np.percentile(v, [2.5, 97.5], axis=0)
     ins = (v >= lo) & (v <= hi)
-    out = {}
+    out: dict[str, list[float]] = {}
     for g in GROUPS + EXTRA_GROUPS:
-        cols = [j for j, n in enumerate(names) if n.split(':')[0] == g]
+        cols = [j for j, n in enumerate(names) if group_of(n) == g]
         if cols:
             out[g] = [round(float(x), 4) for x in ins[:, cols].mean(axis=1)]
     return out
 
 
-def _outage_masks(split, labels, model, sims, seed):
+def _outage_masks(split: Split, labels: Sequence[str], model: Any, sims: int,
+                  seed: int) -> dict[str, str | BoolArray] | None:
     """
     Return {class label: its fix masks over the held-out span, or ``'none'``}, or None.
 
@@ -253,8 +271,9 @@ def _outage_masks(split, labels, model, sims, seed):
             else 'none' for label in labels}
 
 
-def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
-                smoother_classes=None):
+def judge_split(fitted: 'FittedModels', sims: int = 100, seed: int = 0,
+                within: 'FittedModel | None' = None, smoother_sims: int = 0,
+                smoother_classes: Collection[str] | None = None) -> dict[str, ClassJudgement]:
     """
     Return {class key: {heldout_nll_per_sample, nll_minus_population, groups, measures}}.
 
@@ -305,7 +324,7 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     reference = POPULATION if within is not None else POPULATION_AR
     scores = {label: ll for label, (ll, _) in classes.items()}
     against = score_differences(scores, reference, seed)
-    out = {}
+    out: dict[str, ClassJudgement] = {}
     for label, (lls, traces) in classes.items():
         key = KEYS.get(label, label)
         smooth = smoother_sims if smoother_classes is None or key in smoother_classes else 0
@@ -341,7 +360,9 @@ def judge_split(fitted, sims=100, seed=0, within=None, smoother_sims=0,
     return out
 
 
-def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_classes=None):
+def judge_folds(splits: Sequence[tuple[str, Split]], sims: int = 100, seed: int = 0,
+                done: Callable[[], object] | None = None, smoother_sims: int = 0,
+                smoother_classes: Collection[str] | None = None) -> list[Fold]:
     """
     Fit and judge every class on every ``(label, Split)``; return the folds.
 
@@ -355,7 +376,7 @@ def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_c
     fold.
     """
     from gps_error_ros.diagnose.pipeline import fit_split
-    folds = []
+    folds: list[Fold] = []
     for label, split in splits:
         fitted = fit_split(label, split, seed=seed)
         within = fit_split(label, _within_split(split), seed=seed).extended
@@ -366,14 +387,22 @@ def judge_folds(splits, sims=100, seed=0, done=None, smoother_sims=0, smoother_c
                       'train_windows': training_windows(split.train, split.test),
                       'classes': judge_split(fitted, sims, seed, within, smoother_sims,
                                              smoother_classes),
-                      'velocity': None if split.velocity is None else
-                      velocity_group(*split.velocity, sims=sims, seed=seed)})
+                      'velocity': _velocity(split, sims, seed)})
         if done is not None:
             done()
     return folds
 
 
-def training_windows(train, test, gap_s=60.0, least=0.8):
+def _velocity(split: Split, sims: int, seed: int) -> dict[str, Any] | None:
+    """Return the speed and course group of a split with velocity columns, or None."""
+    if split.velocity is None:
+        return None
+    train, test = split.velocity
+    return velocity_group(train, test, sims=sims, seed=seed)
+
+
+def training_windows(train: Part, test: Part, gap_s: float = 60.0,
+                     least: float = 0.8) -> TrainingWindows:
     """
     Return the range of each error measure over the training part's stretches like ``test``.
 
@@ -410,7 +439,7 @@ def training_windows(train, test, gap_s=60.0, least=0.8):
 ERROR_GROUPS = ('persistence', 'scale', 'bias', 'quantiles', 'tails')
 
 
-def precedent(fold, cls=POPULATION):
+def precedent(fold: Fold, cls: str = POPULATION) -> tuple[list[str], list[str]]:
     """
     Return (the error measures outside the class's range, those of them without precedent).
 
@@ -419,19 +448,21 @@ def precedent(fold, cls=POPULATION):
     none is a precedent): nothing that trained looked like it. Measures are
     named without their group.
     """
-    rng = fold.get('train_windows', {}).get('range', {})
-    miss, new = [], []
+    windows = fold.get('train_windows')
+    rng = {} if windows is None else windows['range']
+    miss: list[str] = []
+    new: list[str] = []
     for k, r in fold['classes'][cls]['measures'].items():
-        if k.split(':')[0] not in ERROR_GROUPS or inside(r):
+        if group_of(k) not in ERROR_GROUPS or inside(r):
             continue
-        miss.append(k.split(':')[1])
+        miss.append(name_of(k))
         lo, hi = rng.get(k, (np.inf, -np.inf))
         if not lo <= r['measured'] <= hi:
-            new.append(k.split(':')[1])
+            new.append(name_of(k))
     return miss, new
 
 
-def precedent_line(folds, cls=POPULATION):
+def precedent_line(folds: Sequence[Fold], cls: str = POPULATION) -> str | None:
     """
     Return a line on the class's error measures outside their ranges, or None without any.
 
@@ -449,7 +480,7 @@ def precedent_line(folds, cls=POPULATION):
             f'held-out part as well (no precedent)' + (f': {listed}' if listed else ''))
 
 
-def summarise(folds):
+def summarise(folds: Sequence[Fold]) -> dict[str, ClassSummary]:
     """
     Return per class: the held-out NLL per fold and its mean, the folds it scored best.
 
@@ -469,13 +500,13 @@ def summarise(folds):
     classes = list(folds[0]['classes'])
     best = [min(f['classes'][c]['heldout_nll_per_sample'] for c in f['classes'])
             for f in folds]
-    out = {}
+    out: dict[str, ClassSummary] = {}
     for c in classes:
         nll = [f['classes'][c]['heldout_nll_per_sample'] for f in folds]
         groups = {g: float(np.mean(v)) for g in GROUPS + EXTRA_GROUPS
                   for v in [[f['classes'][c]['groups'][g] for f in folds
                              if g in f['classes'][c]['groups']]] if v}
-        worst = min(groups, key=groups.get)
+        worst = min(groups, key=lambda g: groups[g])
         diff = [f['classes'][c]['nll_minus_population'] for f in folds]
         out[c] = {'heldout_nll_per_sample': float(np.mean(nll)),
                   'heldout_nll_per_fold': nll,
@@ -496,7 +527,7 @@ def summarise(folds):
 GROUP_BAR = 0.90
 
 
-def own_verdict(fold_classes):
+def own_verdict(fold_classes: Sequence[Mapping[str, Any]]) -> OwnVerdict | None:
     """
     Return the class's worst group read against its own traces', or None.
 
@@ -524,7 +555,38 @@ def own_verdict(fold_classes):
             'own_meet_bar': float(100.0 * np.mean(np.all(own >= GROUP_BAR - 1e-12, axis=1)))}
 
 
-def population_profile(split, name, source, seed=0):
+def compare_on_folds(splits: Sequence[tuple[str, Split]], sims: int = 100, seed: int = 0,
+                     done: Callable[[], object] | None = None,
+                     smoother_sims: int = 0) -> FoldComparison:
+    """
+    Judge every class on every fold and over the folds: ``gps_error compare --folds``.
+
+    :func:`judge_folds` and :func:`summarise`, with the lines that follow
+    the table: each class's worst group against its own traces
+    (:func:`own_verdict`), where a class beat the population class
+    (:func:`~.beaten.beaten_lines`), and the measures without precedent,
+    the persistence spread and the velocity group.
+    """
+    folds = judge_folds(splits, sims, seed, done=done, smoother_sims=smoother_sims)
+    classes = summarise(folds)
+    groups = GROUPS + tuple(g for g in EXTRA_GROUPS
+                            if any(g in c['groups'] for c in classes.values()))
+    notes: list[str] = []
+    owns = {name: c['own'] for name, c in classes.items() if 'own' in c}
+    if len(owns) == len(classes):
+        notes.append('  worst group against the class\'s own traces (over the groups every '
+                     'trace has; own: the median of its own; %: own sets of folds as low or '
+                     f'lower; bar: own sets with every group >= {GROUP_BAR:.2f}):')
+        notes += [f'  {name:13} {o["worst"]:5.2f}  own {o["own_worst_median"]:4.2f}  '
+                  f'{o["percentile"]:5.1f} %  bar {o["own_meet_bar"]:5.1f} %'
+                  for name, o in owns.items()]
+    notes += beaten_lines(folds)
+    notes += [line for line in (precedent_line(folds), spread_line(folds),
+                                velocity_line(folds)) if line]
+    return FoldComparison(folds, classes, sims, seed, groups, notes)
+
+
+def population_profile(split: Split, name: str, source: str, seed: int = 0) -> dict[str, Any]:
     """
     Return the population profile of a split's training part, as a profile mapping.
 
@@ -536,18 +598,18 @@ def population_profile(split, name, source, seed=0):
 
     Parameters
     ----------
-    split : Split
+    split
         The diagnosis's split; its training part is fitted.
-    name : str
+    name
         The profile's name.
-    source : str
+    source
         What it was fitted to (the recording's name).
-    seed : int
+    seed
         The seed of the effect selection's simulations.
 
     Returns
     -------
-    dict
+    dict[str, Any]
         The profile (schema 1).
 
     """

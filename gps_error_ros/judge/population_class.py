@@ -13,17 +13,23 @@ averaged over the run's bias and the agent's scale
 ``docs/decisions``).
 """
 
+from collections.abc import Sequence
 from dataclasses import replace
 from types import SimpleNamespace
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
 from gps_error_ros.diagnose.mean import motion_offsets
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.diagnose.split import Part, Split, TruthTrack
 from gps_error_ros.fit.population_fit import block_means, block_pieces, BLOCK_S, fit_population
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.effects import build_model
-from gps_error_ros.model.population import WithPopulation
+from gps_error_ros.model.population import Population, WithPopulation
+from gps_error_ros.model.state import FloatArray
+
+if TYPE_CHECKING:
+    from gps_error_ros.diagnose.models import FittedModel
 
 
 class PopulationClass:
@@ -36,7 +42,9 @@ class PopulationClass:
     :func:`~gps_error_ros.fit.population_fit.fit_population`.
     """
 
-    def __init__(self, train, within=None, truth=None, weights=None):
+    def __init__(self, train: Part, within: 'FittedModel | None' = None,
+                 truth: TruthTrack | None = None,
+                 weights: Sequence[float] | None = None) -> None:
         self.lag = (0.0, 1.0) if within is None else (within.mean.lag_s, within.mean.gain)
         self.truth = truth
         # a bias on two time scales where the scorer can follow it (the Kalman filter's)
@@ -44,7 +52,7 @@ class PopulationClass:
                              two_scales=within is None)
         self.fit, self.within = fit, within
         self.ar = ARErrorModel(*fit.axis_params())
-        inner = self.ar
+        inner: Any = self.ar
         if within is not None:
             axes = [AxisParams((1.0 - sum(p.phi)) * float(m), p.phi, p.sigma_w)
                     for p, m in zip(within.axis_params(), fit.mean)]
@@ -52,19 +60,19 @@ class PopulationClass:
         self.axes = axes if within is not None else fit.axis_params()
         pop = fit.population
         self.model = inner if pop is None else WithPopulation(inner, pop)
-        self.mean = within.mean if within is not None else SimpleNamespace(lag_s=0.0,
-                                                                           gain=1.0)
+        self.mean: Any = within.mean if within is not None else \
+            SimpleNamespace(lag_s=0.0, gain=1.0)
 
-    def _without_lag(self, part):
+    def _without_lag(self, part: Part) -> list[FloatArray]:
         """Return ``part``'s error segments less the motion lag's offsets."""
         offsets = motion_offsets(part, self.truth, *self.lag)
         return [e - o for e, o in zip(part.err, offsets)]
 
-    def simulator(self):
+    def simulator(self) -> Any:
         """Return the model to simulate with."""
         return self.model
 
-    def logpdf(self, part, m0):
+    def logpdf(self, part: Part, m0: int) -> FloatArray:
         """
         Return the held-out one-step log densities of the scored samples.
 
@@ -92,7 +100,7 @@ class PopulationClass:
                                for s, e in zip(starts, part.err)])
         return out[keep]
 
-    def _mixture_logpdf(self, part, m0):
+    def _mixture_logpdf(self, part: Part, m0: int) -> FloatArray:
         """
         Return the held-out one-step log densities under the ``within`` model and the population.
 
@@ -109,18 +117,20 @@ class PopulationClass:
         the within model's of ``(error - grand mean - bias) / f`` (less
         ``2 log f``), so every lag of a prediction sees one bias and scale.
         """
-        pop = self.fit.population
+        pop, within = self.fit.population, self.within
+        if within is None:
+            raise AssertionError('the mixture scores a class with a model within')
         if pop is None:
-            return self.within.score(Part([e - self.fit.mean for e in part.err],
-                                          part.truth, part.t), self.truth, m0)[0]
+            return within.score(Part([e - self.fit.mean for e in part.err],
+                                     part.truth, part.t), self.truth, m0)[0]
         nodes, log_bias = bias_grid(pop)
         scales, log_scale = scale_nodes(pop.scale_sd_log)
         t = np.concatenate([tt[m0:] for tt in part.t])
         per_scale = []
         for f in scales:            # one scale at a time: (nodes, scored) in memory
-            lls = np.array([self.within.score(Part([(e - self.fit.mean - b) / f
-                                                    for e in part.err], part.truth, part.t),
-                                              self.truth, m0)[0] for b in nodes])
+            lls = np.array([within.score(Part([(e - self.fit.mean - b) / f
+                                               for e in part.err], part.truth, part.t),
+                                         self.truth, m0)[0] for b in nodes])
             if t.size != lls.shape[1]:
                 raise AssertionError(f'scored {lls.shape[1]} samples, expected {t.size}')
             per_scale.append(bias_forward(lls - 2.0 * np.log(f), log_bias, t,
@@ -128,7 +138,8 @@ class PopulationClass:
         return over_scales(np.array(per_scale), log_scale)
 
 
-def bias_forward(lls, log_bias, t, rate):
+def bias_forward(lls: FloatArray, log_bias: FloatArray, t: FloatArray,
+                 rate: float) -> FloatArray:
     """
     Return each sample's predictive log density given one scale, averaged over the bias nodes.
 
@@ -151,7 +162,7 @@ def bias_forward(lls, log_bias, t, rate):
     return out
 
 
-def over_scales(lps, log_scale):
+def over_scales(lps: FloatArray, log_scale: FloatArray) -> FloatArray:
     """
     Return each sample's predictive log density averaged over the agent's scale.
 
@@ -164,7 +175,8 @@ def over_scales(lps, log_scale):
     return np.logaddexp.reduce(prior + lps, axis=0) - np.logaddexp.reduce(prior, axis=0)
 
 
-def mixture_forward(lls, log_scale, log_bias, t, rate):
+def mixture_forward(lls: FloatArray, log_scale: FloatArray, log_bias: FloatArray,
+                    t: FloatArray, rate: float) -> FloatArray:
     """
     Return each sample's predictive log density, averaged over scale and bias nodes.
 
@@ -189,7 +201,7 @@ SCALE_NODES = 31
 SCALE_REACH = 4.0
 
 
-def scale_nodes(scale_sd_log):
+def scale_nodes(scale_sd_log: float) -> tuple[FloatArray, FloatArray]:
     """
     Return (scales ``f``, log weights) of an agent's scale law on a grid.
 
@@ -207,7 +219,7 @@ def scale_nodes(scale_sd_log):
     return np.exp(scale_sd_log * z - scale_sd_log ** 2), log_w - np.logaddexp.reduce(log_w)
 
 
-def bias_grid(pop):
+def bias_grid(pop: Population) -> tuple[FloatArray, FloatArray]:
     """
     Return (nodes (k, 2), log weights (k,)) of a population's bias law on a grid.
 
@@ -230,12 +242,12 @@ def bias_grid(pop):
     return z * np.asarray(pop.bias_sd_m, dtype=float), log_w
 
 
-def _within_split(split):
+def _within_split(split: Split) -> Split:
     """Return ``split`` with its training part about its blocks' means (:func:`within_part`)."""
     return replace(split, train=within_part(split.train), train_weights=None)
 
 
-def within_part(part, block_s=BLOCK_S):
+def within_part(part: Part, block_s: float = BLOCK_S) -> Part:
     """
     Return ``part`` with each sample's block mean taken off, segments cut at block edges.
 
@@ -252,7 +264,8 @@ def within_part(part, block_s=BLOCK_S):
     return out
 
 
-def _kalman_ll(part, a, phi, sigma_w, mean, bias_sd, rate, held_sd=0.0):
+def _kalman_ll(part: Part, a: int, phi: FloatArray, sigma_w: float, mean: float,
+               bias_sd: float, rate: float, held_sd: float = 0.0) -> FloatArray:
     """
     Return the one-step log densities of axis ``a`` of every sample of ``part``.
 

@@ -22,9 +22,13 @@ GTSAM is the optional extra ``smoother`` (``pip install gtsam``); without it
 with what to install.
 """
 
+from typing import Any
+
 import numpy as np
 
+from gps_error_ros.diagnose.split import Part
 from gps_error_ros.judge.consumers import _grid, _truth_velocity, VELOCITY_SD
+from gps_error_ros.model.state import FloatArray, Numbers
 
 #: The Huber loss's threshold, in standard deviations of a fix.
 HUBER_K = 1.345
@@ -34,7 +38,7 @@ SMOOTHER_MEASURES = ('smoother_online_rms_m', 'smoother_online_p95_m', 'smoother
 INSTALL = 'pip install gtsam (the optional extra "smoother": requirements-smoother.txt)'
 
 
-def available():
+def available() -> bool:
     """Return whether GTSAM can be imported."""
     try:
         import gtsam  # noqa: F401
@@ -43,7 +47,7 @@ def available():
     return True
 
 
-def _gtsam():
+def _gtsam() -> Any:
     try:
         import gtsam
     except ImportError as exc:
@@ -51,26 +55,28 @@ def _gtsam():
     return gtsam
 
 
-def head(part, n):
+def head(part: Part, n: int) -> Part:
     """
     Return the first ``n`` samples of a ``Part``, its segments kept.
 
     Within the part's first recording: the smoother never bridges two recordings.
     """
-    out, left = type(part)([], [], [], []), n
-    labels = part.recordings()
+    out, left = Part([], [], []), n
+    labels, kept = part.recordings(), []
     for e, r, t, rec in zip(part.err, part.truth, part.t, labels):
         if left <= 0 or rec != labels[0]:
             break
         out.err.append(e[:left])
         out.truth.append(r[:left])
         out.t.append(t[:left])
-        out.recording.append(rec)
+        kept.append(rec)
         left -= len(e)
+    out.recording = kept
     return out
 
 
-def run_smoother(part, errors, fix_var, seed=0):
+def run_smoother(part: Part, errors: FloatArray, fix_var: Numbers,
+                 seed: int = 0) -> FloatArray:
     """
     Return the smoother measures for each error trace, (traces, 3).
 
@@ -89,9 +95,9 @@ def run_smoother(part, errors, fix_var, seed=0):
         gtsam.noiseModel.Diagonal.Sigmas(np.array([sd[0], sd[1], 0.1])))
     tight = 1e-3       # rotation and height: the walk stays on the plane
     start = gtsam.noiseModel.Diagonal.Sigmas(np.array([tight] * 3 + [1e3, 1e3, 0.1]))
-    between = {}
+    between: dict[float, Any] = {}
 
-    def odometry(dt):
+    def odometry(dt: float) -> Any:
         if dt not in between:
             between[dt] = gtsam.noiseModel.Diagonal.Sigmas(np.array(
                 [tight] * 3 + [VELOCITY_SD * dt, VELOCITY_SD * dt, 0.01]))

@@ -13,17 +13,23 @@ range says the recording's stretches differ in persistence more than the
 model's own stretches do by chance, which no draw of bias or scale mends.
 """
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
-from gps_error_ros.fit.envelope import envelope
+from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.envelope import envelope, Envelope
 from gps_error_ros.fit.population_fit import block_pieces, MIN_BLOCK_SAMPLES
+from gps_error_ros.judge.results import Fold
 from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.state import FloatArray, Numbers
 
 #: Blocks the spread needs (an SD of fewer says nothing).
 MIN_WINDOWS = 3
 
 
-def window_acf1(segments, times):
+def window_acf1(segments: Sequence[FloatArray], times: Sequence[Numbers]) -> FloatArray:
     """
     Return each block's lag-1 autocorrelation per axis, (blocks, 2).
 
@@ -32,7 +38,7 @@ def window_acf1(segments, times):
     those of neighbouring samples of one segment (none across a gap).
     Blocks of fewer than :data:`MIN_BLOCK_SAMPLES` samples are left out.
     """
-    by_block = {}
+    by_block: dict[int, list[FloatArray]] = {}
     for piece, i in block_pieces(segments, times):
         by_block.setdefault(i, []).append(piece)
     out = []
@@ -47,7 +53,8 @@ def window_acf1(segments, times):
     return np.array(out).reshape(-1, 2)
 
 
-def persistence_spread(part, simulated):
+def persistence_spread(part: Part,
+                       simulated: Sequence[Sequence[FloatArray]]) -> dict[str, Any] | None:
     """
     Return the spread of ``part``'s block lag-1 ACFs against the simulated traces', or None.
 
@@ -61,28 +68,31 @@ def persistence_spread(part, simulated):
     if len(measured) < MIN_WINDOWS:
         return None
     sims = [window_acf1(s, part.t) for s in simulated]
-    out = {'windows': len(measured)}
+    out: dict[str, Any] = {'windows': len(measured)}
     for a, ax in enumerate(AXES):
-        out[f'acf1_sd_{ax}'] = envelope(np.std(measured[:, a], ddof=1),
+        out[f'acf1_sd_{ax}'] = envelope(float(np.std(measured[:, a], ddof=1)),
                                         [np.std(s[:, a], ddof=1) for s in sims])
-        out[f'lowest_acf1_{ax}'] = envelope(measured[:, a].min(), [s[:, a].min() for s in sims])
+        out[f'lowest_acf1_{ax}'] = envelope(float(measured[:, a].min()),
+                                            [s[:, a].min() for s in sims])
     return out
 
 
-def spread_above(folds, cls='population'):
+def spread_above(folds: Sequence[Fold], cls: str = 'population'
+                 ) -> tuple[list[tuple[str, str, Envelope]], int]:
     """
     Return (the fold axes whose blocks' ACF spread lies above the class's range, those judged).
 
     The first: ``(fold, axis, envelope row)`` of each; the second, how many
     fold axes have the figures (``persistence_spread``) at all.
     """
-    rows = [(f['fold'], ax, f['classes'][cls]['persistence_spread'][f'acf1_sd_{ax}'])
-            for f in folds if f['classes'].get(cls, {}).get('persistence_spread')
+    spreads = [(f['fold'], f['classes'][cls].get('persistence_spread'))
+               for f in folds if cls in f['classes']]
+    rows = [(fold, ax, spread[f'acf1_sd_{ax}']) for fold, spread in spreads if spread
             for ax in AXES]
     return [r for r in rows if r[2]['measured'] > r[2]['sim_hi']], len(rows)
 
 
-def spread_line(folds, cls='population'):
+def spread_line(folds: Sequence[Fold], cls: str = 'population') -> str | None:
     """
     Return a line on the folds' training blocks' ACF spread (``persistence_spread``), or None.
 

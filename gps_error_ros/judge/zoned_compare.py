@@ -18,39 +18,45 @@ the held-out part exactly as the classes are:
   bootstrap over the held-out samples, blocks of 30).
 """
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
 from gps_error_ros.diagnose.common import LOG2PI
 from gps_error_ros.diagnose.fidelity import (block_bootstrap_mean, calibrated_fidelity,
                                              part_steps)
+from gps_error_ros.diagnose.split import Part, Split
 from gps_error_ros.fit.calibration import CalibrationError
 from gps_error_ros.fit.yule_walker import fit_axis
 from gps_error_ros.fit.zone_calibration import MIN_ZONE_SAMPLES
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AXES
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.model.state import FloatArray, IntArray
 from gps_error_ros.model.zoned import simulate_along, ZonedErrors
+from gps_error_ros.model.zones import ZoneMap
 
 
-def part_zones(part, zone_map, origin):
+def part_zones(part: Part, zone_map: ZoneMap, origin: tuple[float, float]) -> list[IntArray]:
     """Return the zone of every sample of ``part``, per segment."""
-    out = []
+    out: list[IntArray] = []
     for tr in part.truth:
         lat, lon = offset(origin[0], origin[1], tr[:, 0], tr[:, 1])
         out.append(zone_map.lookup(lat, lon))
     return out
 
 
-def _fit(segments):
+def _fit(segments: Sequence[FloatArray]) -> ARErrorModel:
     """Return an ARErrorModel fitted per axis on ``segments`` (list of (n, 2))."""
     fits = [fit_axis([s[:, a] for s in segments if len(s)], axis=ax)
             for a, ax in enumerate(AXES)]
     return ARErrorModel(fits[0].params, fits[1].params)
 
 
-def _zone_segments(part, zones, z):
+def _zone_segments(part: Part, zones: Sequence[IntArray], z: int) -> list[FloatArray]:
     """Return ``part``'s errors in zone ``z``, cut where the walk leaves it."""
-    out = []
+    out: list[FloatArray] = []
     for e, zz in zip(part.err, zones):
         mask = zz == z
         if not mask.any():
@@ -60,7 +66,9 @@ def _zone_segments(part, zones, z):
     return out
 
 
-def fit_zoned(train, zones, zone_map, min_samples=MIN_ZONE_SAMPLES):
+def fit_zoned(train: Part, zones: Sequence[IntArray], zone_map: ZoneMap,
+              min_samples: int = MIN_ZONE_SAMPLES
+              ) -> tuple[ARErrorModel, list[ARErrorModel], dict[str, dict[str, Any]]]:
     """
     Return (one model, [model per zone, the one model last], {zone: fit note}).
 
@@ -68,7 +76,8 @@ def fit_zoned(train, zones, zone_map, min_samples=MIN_ZONE_SAMPLES):
     refused, uses the one model (note says why).
     """
     one = _fit(train.err)
-    models, notes = [], {}
+    models: list[ARErrorModel] = []
+    notes: dict[str, dict[str, Any]] = {}
     all_zones = np.concatenate(zones)
     for z, name in enumerate(zone_map.names):
         n = int(np.sum(all_zones == z))
@@ -87,9 +96,11 @@ def fit_zoned(train, zones, zone_map, min_samples=MIN_ZONE_SAMPLES):
     return one, models + [one], notes
 
 
-def _loglik(part, zones, models, m0):
+def _loglik(part: Part, zones: Sequence[IntArray], models: Sequence[ARErrorModel],
+            m0: int) -> tuple[FloatArray, IntArray]:
     """Return (log density, zone) of every scored sample: one-step Gaussian per zone."""
-    ll, where = [], []
+    ll: list[float] = []
+    where: list[int] = []
     for e, zz in zip(part.err, zones):
         for t in range(m0, len(e)):
             m = models[zz[t]]
@@ -103,7 +114,8 @@ def _loglik(part, zones, models, m0):
     return np.array(ll), np.array(where, dtype=np.int64)
 
 
-def _simulate(part, zones, models, sims, seed):
+def _simulate(part: Part, zones: Sequence[IntArray], models: Sequence[ARErrorModel],
+              sims: int, seed: int) -> list[list[FloatArray]]:
     """Return ``sims`` traces along ``part``'s grid, each step in its zone's model."""
     steps = part_steps(part)
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
@@ -113,14 +125,16 @@ def _simulate(part, zones, models, sims, seed):
     return [[x[b0:b1, i] for b0, b1 in zip(bounds[:-1], bounds[1:])] for i in range(sims)]
 
 
-def compare_zones(split, zone_map, origin, sims=100, seed=0):
+def compare_zones(split: Split, zone_map: ZoneMap, origin: tuple[float, float],
+                  sims: int = 100, seed: int = 0) -> dict[str, Any]:
     """Return the ``zones`` section of ``compare --zones`` (see module doc)."""
     train_z = part_zones(split.train, zone_map, origin)
     test_z = part_zones(split.test, zone_map, origin)
     one, per_zone, notes = fit_zoned(split.train, train_z, zone_map)
     m0 = max(m.order for m in per_zone)
-    out = {'min_zone_samples': MIN_ZONE_SAMPLES, 'zones': notes, 'classes': {}}
-    lls = {}
+    out: dict[str, Any] = {'min_zone_samples': MIN_ZONE_SAMPLES, 'zones': notes,
+                           'classes': {}}
+    lls: dict[str, tuple[FloatArray, IntArray]] = {}
     for name, models in (('one_profile', [one] * len(per_zone)), ('per_zone', per_zone)):
         ll, where = _loglik(split.test, test_z, models, m0)
         lls[name] = (ll, where)

@@ -38,7 +38,7 @@ was.
 import dataclasses
 from dataclasses import dataclass
 import math
-from typing import Any, Optional
+from typing import Any, Optional, Sequence
 
 import numpy as np
 
@@ -120,7 +120,8 @@ class GrossFailureProcess:
             law += weight * stats.binom.pmf(counts, int(fixes), r)
         return law / law.sum()
 
-    def count_range(self, fixes: int, level: float = 0.95) -> tuple[int, int]:
+    def count_range(self, fixes: int | Sequence[int],
+                    level: float = 0.95) -> tuple[int, int]:
         """
         Return the central ``level`` range (lo, hi) of failures among ``fixes``.
 

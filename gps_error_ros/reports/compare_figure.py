@@ -1,14 +1,20 @@
 """The figure of ``gps_error compare``: the held-out trace in every class's envelope."""
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 
 from gps_error_ros.fit.envelope import OUTAGE_MEASURES
+from gps_error_ros.model.atomic import PathArg
+from gps_error_ros.model.state import FloatArray, IntArray
 
 OTHER = ('ne_correlation', 'sd_north', 'sd_east', 'horizontal_q50',
          'horizontal_q68', 'horizontal_q95', 'horizontal_q99') + OUTAGE_MEASURES
 
 
-def _acf_rows(measures, axis):
+def _acf_rows(measures: Mapping[str, Mapping[str, float]],
+              axis: str) -> tuple[IntArray, dict[str, FloatArray]]:
     names = sorted(n for n in measures if n.startswith(f'acf_{axis}_lag'))
     lags = np.array([int(n.rsplit('lag', 1)[1]) for n in names])
     cols = {k: np.array([measures[n][k] for n in names])
@@ -16,7 +22,7 @@ def _acf_rows(measures, axis):
     return lags, cols
 
 
-def compare_figure(doc, path):
+def compare_figure(doc: Mapping[str, Any], path: PathArg) -> PathArg:
     """
     Write a PNG: one column per model class, measured against its envelope.
 

@@ -5,18 +5,22 @@ Used by the demo to analyse the bag it recorded: the errors are measured
 independently of the node, from the published fixes and the recorded truth.
 """
 
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
 
-from gps_error_ros.traces import bag_io
-
-from gps_error_ros.model import geodesy
-
 from gps_error_ros.fit import autocorrelation
+from gps_error_ros.model import geodesy
+from gps_error_ros.model.ar_model import ARErrorModel
+from gps_error_ros.model.atomic import PathArg
+from gps_error_ros.traces import bag_io
 
 NS = 1_000_000_000
 
 
-def errors_from_bag(bag, datum, pose_topic='/pose', fix_topic='/fix'):
+def errors_from_bag(bag: PathArg, datum: tuple[float, float, float],
+                    pose_topic: str = '/pose', fix_topic: str = '/fix') -> dict[str, Any]:
     """
     Return fix errors (north, east metres) measured against recorded poses.
 
@@ -51,13 +55,14 @@ def errors_from_bag(bag, datum, pose_topic='/pose', fix_topic='/fix'):
     }
 
 
-def _stamp(s):
+def _stamp(s: Any) -> int:
     return s.sec * NS + s.nanosec
 
 
-def summarise(err, model, max_lag=300):
+def summarise(err: Mapping[str, Any], model: ARErrorModel,
+              max_lag: int = 300) -> dict[str, Any]:
     """Return a dict comparing measured error statistics with the model."""
-    out = {'fixes': int(err['north'].size)}
+    out: dict[str, Any] = {'fixes': int(err['north'].size)}
     if err['north'].size < max_lag + 2:
         max_lag = max(1, err['north'].size - 2)
     theory_acf = model.autocorrelation(max_lag)
@@ -75,7 +80,8 @@ def summarise(err, model, max_lag=300):
     return out
 
 
-def demo_figure(err, model, path, title):
+def demo_figure(err: Mapping[str, Any], model: ARErrorModel, path: PathArg,
+                title: str) -> None:
     """Write the demo's PNG: map, error time series, autocorrelation."""
     import matplotlib
     matplotlib.use('Agg')

@@ -1,23 +1,27 @@
 """Figures of ``gps_error diagnose``: the residual structure, before and after."""
 
 import math
+from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from gps_error_ros.diagnose.family import pit_radial, standardised
 from gps_error_ros.diagnose.laws import mahalanobis
+from gps_error_ros.diagnose.pipeline import Diagnosis
 from gps_error_ros.fit.autocorrelation import segment_acf
+from gps_error_ros.model.atomic import PathArg
+from gps_error_ros.model.state import FloatArray, IntArray
 
 MAX_LAG = 30
 
 
-def _base_z(diag):
+def _base_z(diag: Diagnosis) -> tuple[FloatArray, IntArray]:
     r, seg = diag.train_residuals['base']
     return r / np.sqrt(np.diag(diag.base.law.cov)), seg
 
 
-def _ext_z(diag):
+def _ext_z(diag: Diagnosis) -> tuple[FloatArray, IntArray, FloatArray, FloatArray]:
     r, seg, pred = diag.train_residuals['extended']
     return standardised(diag.extended, r, pred), seg, r, pred
 
@@ -25,7 +29,7 @@ def _ext_z(diag):
 class _Views:
     """The innovations and their summaries that the panels draw."""
 
-    def __init__(self, diag):
+    def __init__(self, diag: Diagnosis) -> None:
         self.diag = diag
         self.zb, self.segb = _base_z(diag)
         self.ze, self.sege, self.re, self.pred = _ext_z(diag)
@@ -35,7 +39,7 @@ class _Views:
         self.lags = np.arange(1, MAX_LAG + 1)
 
 
-def _acf_panel(a, v):
+def _acf_panel(a: Any, v: _Views) -> None:
     """Draw the innovation autocorrelation per axis, base (and extended)."""
     for i, (name, colour) in enumerate((('north', 'C0'), ('east', 'C1'))):
         a.plot(v.lags, segment_acf(v.zb[:, i], v.segb, MAX_LAG), 'o-', ms=3,
@@ -49,7 +53,7 @@ def _acf_panel(a, v):
     a.legend(fontsize=8)
 
 
-def _scatter_panel(a, v):
+def _scatter_panel(a: Any, v: _Views) -> None:
     """Draw the north-east innovations with 2-sigma ellipses."""
     r0 = v.diag.train_residuals['base'][0]
     a.plot(r0[:, 1], r0[:, 0], '.', ms=2, alpha=0.4, color='0.3')
@@ -75,7 +79,7 @@ def _scatter_panel(a, v):
     a.legend(fontsize=8)
 
 
-def _qq_panel(a, v):
+def _qq_panel(a: Any, v: _Views) -> None:
     """Draw the QQ plot against the normal (extended: score of the radius PIT)."""
     q = (np.arange(1, v.n + 1) - 0.5) / v.n
     theo = stats.norm.ppf(q)
@@ -96,7 +100,7 @@ def _qq_panel(a, v):
     a.legend(fontsize=8)
 
 
-def _persistence_panel(a, v):
+def _persistence_panel(a: Any, v: _Views) -> None:
     """Draw the persistence of the squared innovations: ACF of their ranks."""
     r0 = v.diag.train_residuals['base'][0]
     d2 = mahalanobis(r0 - r0.mean(axis=0), np.cov(r0.T, bias=True))
@@ -113,7 +117,7 @@ def _persistence_panel(a, v):
     a.legend(fontsize=8)
 
 
-def diagnosis_figure(diag, path, title):
+def diagnosis_figure(diag: Diagnosis, path: PathArg, title: str) -> PathArg:
     """Write a 2x2 PNG: innovation ACF, north-east scatter, QQ, squared ACF."""
     import matplotlib
     matplotlib.use('Agg')

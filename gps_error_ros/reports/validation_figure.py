@@ -1,12 +1,16 @@
 """The validation figure (the paper's Figs. 5, 7 and 8): envelopes and a map."""
 
+from typing import Any
+
 import numpy as np
 
+from gps_error_ros.fit.validation import ValidationResult
 from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.geodesy import LocalTangentFrame, offset
 
 
-def _acf_panel(ax, res, ax_name):
+def _acf_panel(ax: Any, res: ValidationResult, ax_name: str) -> None:
     """Draw the measured autocorrelation in the simulated envelope."""
     env = res.acf_env[ax_name]
     ax.fill_between(res.lags, env[0], env[2], color='tab:blue', alpha=0.25,
@@ -20,7 +24,7 @@ def _acf_panel(ax, res, ax_name):
     ax.legend(fontsize=8)
 
 
-def _qq_panel(ax, res, ax_name):
+def _qq_panel(ax: Any, res: ValidationResult, ax_name: str) -> None:
     """Draw the measured quantiles against the simulated ones, with envelope."""
     q, qenv = res.quant[ax_name], res.quant_env[ax_name]
     ax.fill_between(qenv[1], qenv[0], qenv[2], color='tab:orange', alpha=0.3,
@@ -34,7 +38,7 @@ def _qq_panel(ax, res, ax_name):
     ax.legend(fontsize=8)
 
 
-def map_window_of(res, map_window):
+def map_window_of(res: ValidationResult, map_window: int) -> tuple[slice, LocalTangentFrame]:
     """
     Return the slice of samples the map shows, and its local frame.
 
@@ -56,7 +60,7 @@ def map_window_of(res, map_window):
     return slice(lo, hi + 1), centre
 
 
-def _map_panel(ax, res, map_window):
+def _map_panel(ax: Any, res: ValidationResult, map_window: int) -> None:
     """
     Draw truth, measured fixes and one simulated run around the middle.
 
@@ -108,7 +112,8 @@ def _map_panel(ax, res, map_window):
 LEGEND_MARKER_PT = 8
 
 
-def validation_figure(res, path, title, map_window=180):
+def validation_figure(res: ValidationResult, path: PathArg, title: str,
+                      map_window: int = 180) -> None:
     """
     Write the validation PNG: ACF envelopes, QQ envelopes, map.
 

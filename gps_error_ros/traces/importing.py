@@ -47,7 +47,8 @@ def parse_point(text: str) -> Optional[tuple[float, ...]]:
     return tuple(v + [math.nan] * (3 - len(v)))
 
 
-def _truth(spec: str, fixes: Recording, truth_date: Any = None) -> tuple[Any, ...]:
+def _truth(spec: str | tuple[str, str], fixes: Recording,
+           truth_date: Any = None) -> tuple[Any, ...]:
     """
     Return the truth as (t, lat, lon, alt) arrays, and a line for people.
 
@@ -96,7 +97,8 @@ def read_recording(fmt: str, path: PathArg, provider: str = 'gps') -> Recording:
     raise ValueError(f'format {fmt!r}: expected one of {list(FORMATS)}')
 
 
-def import_recording(fmt: str, path: PathArg, truth: str, max_truth_gap: Optional[float] = None,
+def import_recording(fmt: str, path: PathArg, truth: str | tuple[str, str],
+                     max_truth_gap: Optional[float] = None,
                      provider: str = 'gps', truth_date: Any = None) -> tuple[Trace, list[str]]:
     """Return (Trace, notes) of a recording in ``fmt`` against its truth."""
     fixes = read_recording(fmt, path, provider)

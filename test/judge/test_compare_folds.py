@@ -6,7 +6,11 @@ import math
 import pytest
 
 from gps_error_ros.cli import main as cli
+from gps_error_ros.fit.envelope import Envelope
+from gps_error_ros.fit.population_evidence import PopulationEvidence
 from gps_error_ros.judge.generalise import GROUPS, precedent
+from gps_error_ros.judge.results import (ClassJudgement, ClassSummary, Fold, group_of,
+                                         measure_key, name_of, OwnVerdict, TrainingWindows)
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, write_trace_csv
@@ -72,6 +76,34 @@ def test_train_on_recordings_and_hold_out_another(tmp_path, capsys):
     # the population's error measures outside their ranges are counted in a line, or none
     missed = any(precedent(f)[0] for f in doc['folds'])
     assert ('error measures outside their ranges (population)' in printed) == missed
+    _holds_the_declared_keys(doc)
+
+
+def _declared(record):
+    return record.__required_keys__, record.__required_keys__ | record.__optional_keys__
+
+
+def _keys_ok(found, record, what):
+    required, allowed = _declared(record)
+    assert required <= set(found) <= allowed, (what, set(found) ^ allowed)
+
+
+def _holds_the_declared_keys(doc):
+    # the JSON's records are the TypedDicts of judge/results.py: no key undeclared or missing
+    for fold in doc['folds']:
+        _keys_ok(fold, Fold, 'fold')
+        _keys_ok(fold['train_windows'], TrainingWindows, 'train_windows')
+        for name, c in fold['classes'].items():
+            _keys_ok(c, ClassJudgement, name)
+            for measure, row in c['measures'].items():
+                _keys_ok(row, Envelope, measure)
+                assert measure_key(group_of(measure), name_of(measure)) == measure
+            if 'fit' in c:
+                _keys_ok(c['fit'], PopulationEvidence, f'{name} fit')
+    for name, c in doc['summary'].items():
+        _keys_ok(c, ClassSummary, name)
+        if 'own' in c:
+            _keys_ok(c['own'], OwnVerdict, f'{name} own')
 
 
 def test_leaving_recordings_out_needs_two(tmp_path):
@@ -107,7 +139,7 @@ def test_without_blocks_to_pool_a_population_class_is_the_class_it_wraps(tmp_pat
 
 
 def test_a_fold_where_a_class_beats_the_population_says_where():
-    from gps_error_ros.cli.folds import beaten_lines
+    from gps_error_ros.judge.beaten import beaten_lines
     from gps_error_ros.judge.beaten import pacf_against
 
     pacf = pacf_against({'north': [0.9, 0.3, 0.01], 'east': [0.8, 0.02, 0.2], 'bound': 0.05},
