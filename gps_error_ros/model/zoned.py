@@ -359,6 +359,11 @@ class ZonedErrors:
             self._wander(rows, keys, step)
 
 
+#: What the engine, the crowd and ``simulate`` take as ``zones``: a zone map and the
+#: errors per zone (the map None: a street frame, everyone in one zone).
+ZoneSetup = tuple[Optional[ZoneMap], ZonedErrors]
+
+
 def one_zone(model: ErrorModel[Any], conditional_cov: bool = False) -> ZonedErrors:
     """
     Return the :class:`ZonedErrors` of a street-frame model without a zone map.

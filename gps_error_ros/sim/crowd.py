@@ -11,11 +11,18 @@ caught up from the run's start (vectorised), so what it gets does not depend
 on when it appeared or who else is present.
 """
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.ar_model import state_and_cov  # noqa: F401  (the engine's too)
+from gps_error_ros.model.ar_model import state_and_cov
 from gps_error_ros.model.availability import available
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
+from gps_error_ros.model.zoned import ZonedErrors, ZoneSetup
+from gps_error_ros.model.zones import ZoneMap
 
 
 class CrowdErrors:
@@ -24,44 +31,48 @@ class CrowdErrors:
 
     Parameters
     ----------
-    model : ARErrorModel or ExtendedModel
+    model
         The profile's model (one for the whole crowd).
-    seed : int
+    seed
         The run's seed (as the node's ``seed`` parameter).
-    start_step : int
+    start_step
         The run's first model step (the node: its first clock step).
-    forget_after : int
+    forget_after
         Agents unseen for this many steps are dropped from the state; if they
         come back they are caught up again from the start (same values).
-    conditional_cov : bool
+    conditional_cov
         Keep each agent's covariance given the state a step before.
-    zoned : tuple, optional
+    zoned
         ``(ZoneMap, ZonedErrors)``: the errors follow each agent's zone.
 
     """
 
-    def __init__(self, model, seed, start_step, forget_after=600, conditional_cov=False,
-                 zoned=None):
+    def __init__(self, model: ErrorModel[Any], seed: int, start_step: int,
+                 forget_after: int = 600, conditional_cov: bool = False,
+                 zoned: ZoneSetup | None = None) -> None:
         self.model = model
         self.seed = seed
         self.start = int(start_step)
         self.step = int(start_step)
         self.forget_after = forget_after
-        self.names = []
-        self.index = {}
+        self.names: list[str] = []
+        self.index: dict[str, int] = {}
         self.keys = np.zeros(0, dtype=np.uint64)
         self.state = model.empty_state(0)
         self.last_seen = np.zeros(0, dtype=np.int64)
         # conditional_cov: each agent's covariance of its current error given
         # the state a step before (covariance_mode conditional)
         self.conditional_cov = conditional_cov
-        self.cov_now = np.zeros((0, 2, 2))
+        self.cov_now: FloatArray = np.zeros((0, 2, 2))
         # zoned: (ZoneMap, ZonedErrors) when the errors follow a zone map
-        self.zone_map, self.zoned = zoned if zoned is not None else (None, None)
+        self.zone_map: ZoneMap | None = None
+        self.zoned: ZonedErrors | None = None
+        if zoned is not None:
+            self.zone_map, self.zoned = zoned
         if self.zoned is not None:
             self.zoned.restart(self.start)
 
-    def advance_to(self, step):
+    def advance_to(self, step: int) -> None:
         """Advance every known agent to model step ``step`` (never back)."""
         if step < self.step:
             raise ValueError(f'time went backwards: model step {step} after '
@@ -73,7 +84,7 @@ class CrowdErrors:
                     self.cov_now = self.model.predictive_cov(self.state)
                 self.model.advance(self.state, self.keys, self.step)
 
-    def errors(self, names):
+    def errors(self, names: Sequence[str]) -> FloatArray:
         """Return the named agents' current north/east errors, in metres."""
         rows = self._rows(names)
         self.last_seen[rows] = self.step
@@ -82,7 +93,8 @@ class CrowdErrors:
             self._forget()
         return out
 
-    def zoned_errors(self, names, lat, lon, heading=None):
+    def zoned_errors(self, names: Sequence[str], lat: Numbers, lon: Numbers,
+                     heading: Numbers | None = None) -> tuple[FloatArray, FloatArray]:
         """
         Return the named agents' errors and covariances in the zones of (lat, lon).
 
@@ -96,27 +108,29 @@ class CrowdErrors:
         self.last_seen[rows] = self.step
         zones = np.full(rows.size, -1) if self.zone_map is None else \
             self.zone_map.lookup(lat, lon)
+        if self.zoned is None:
+            raise ValueError('zoned_errors: the crowd has no zones (expected zoned=...)')
         out = self.zoned.errors(rows, self.keys[rows], self.step, zones, heading)
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out
 
-    def covariance(self, names):
+    def covariance(self, names: Sequence[str]) -> FloatArray:
         """Return the named agents' predictive covariances now (conditional_cov), (n, 2, 2)."""
         return self.cov_now[self._rows(names)]
 
-    def available(self, names):
+    def available(self, names: Sequence[str]) -> BoolArray:
         """Return which named agents have a fix now (profile availability; else all)."""
         return available(self.model, self.state.take(self._rows(names)))
 
-    def _rows(self, names):
+    def _rows(self, names: Sequence[str]) -> IntArray:
         """Return the state rows of ``names``, adding the agents not yet known."""
         new = [n for n in dict.fromkeys(names) if n not in self.index]
         if new:
             self._add(new)
         return np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
 
-    def _add(self, names):
+    def _add(self, names: Sequence[str]) -> None:
         keys = np.array([streams.agent_key(self.seed, n) for n in names],
                         dtype=np.uint64)
         if self.conditional_cov:
@@ -135,7 +149,7 @@ class CrowdErrors:
         if self.zoned is not None:
             self.zoned.grow(len(names))
 
-    def _forget(self):
+    def _forget(self) -> None:
         keep = self.step - self.last_seen <= self.forget_after
         if keep.all():
             return

@@ -11,15 +11,19 @@ documentation: ``docs/timing.md``.
 """
 
 from collections import deque
+from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model.availability import available
+from gps_error_ros.model.ar_model import state_and_cov
 from gps_error_ros.model.geodesy import offset
-from gps_error_ros.model.reported import reference_cov
-from gps_error_ros.model.zoned import one_zone, travel_direction
-from gps_error_ros.model.zones import OUTSIDE
-from gps_error_ros.sim.crowd import state_and_cov
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.reported import reference_cov, ReportedAccuracy
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray, Keys, Numbers
+from gps_error_ros.model.velocity import Velocity
+from gps_error_ros.model.zoned import one_zone, travel_direction, ZonedErrors, ZoneSetup
+from gps_error_ros.model.zones import OUTSIDE, ZoneMap
 from gps_error_ros.sim.engine_types import EngineStats, FixBatch, PendingStep
 from gps_error_ros.sim.truth_ring import TruthRing
 from gps_error_ros.sim.velocity_state import SideStream, VelocityState
@@ -34,46 +38,50 @@ class FixEngine:
 
     Parameters
     ----------
-    model : ARErrorModel
+    model
         The error process (shared by all agents).
-    keys : array of uint64
+    keys
         One stream key per agent (:func:`streams.agent_key`).
-    rate : float
+    rate
         Output rate in Hz.
-    model_rate : float
+    model_rate
         The model's own rate in Hz (the profile's ``rate_hz``).
-    max_pose_age : float
+    max_pose_age
         Seconds a truth sample may be held past its stamp (see module doc).
-    history : int
+    history
         Truth samples kept per agent.
-    max_pending : int
+    max_pending
         Output steps that may wait for truth at once; older ones are
         resolved (held or skipped) early when more arrive.
-    active : bool
+    active
         False: every slot starts free (agents come with :meth:`attach`).
-    start_ns : int or None
+    start_ns
         Clock time of the streams' first step (rounded up to a step); None:
         the first clock reading. Fixed, it makes the fixes independent of
         when the engine saw its first reading (see :meth:`on_clock`).
-    velocity : Velocity or None
+    velocity
         The profile's velocity section: each fix carries a reported velocity.
-    conditional_cov : bool
+    conditional_cov
         Each fix carries the model's covariance of its error given the state
         a step before (else the node states the stationary one).
-    zones : tuple or None
+    zones
         ``(ZoneMap, ZonedErrors)``: the errors follow each fix's zone.
-    reported : ReportedAccuracy or None
+    reported
         The profile's reported_accuracy: each fix carries the radius the
         phone states and the covariance it implies.
-    reported_bias : array of 2 floats or None
+    reported_bias
         With ``reported``: the error's mean, added to the stated covariance
         as ``m m^T`` (covariance about the truth).
 
     """
 
-    def __init__(self, model, keys, rate=1.0, model_rate=1.0, max_pose_age=1.0,
-                 history=64, max_pending=1000, active=True, start_ns=None, velocity=None,
-                 conditional_cov=False, zones=None, reported=None, reported_bias=None):
+    def __init__(self, model: ErrorModel[Any], keys: Keys, rate: float = 1.0,
+                 model_rate: float = 1.0, max_pose_age: float = 1.0, history: int = 64,
+                 max_pending: int = 1000, active: bool = True, start_ns: int | None = None,
+                 velocity: Velocity | None = None, conditional_cov: bool = False,
+                 zones: ZoneSetup | None = None,
+                 reported: ReportedAccuracy | None = None,
+                 reported_bias: Numbers | None = None) -> None:
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -101,44 +109,58 @@ class FixEngine:
         self.last_skipped = np.full(self.n, -1, dtype=np.int64)
         self.active = np.full(self.n, bool(active))
         self.stats = EngineStats()
-        # side streams stepped with the model: the reported velocity's error
-        # (profile velocity), the stated accuracy's fluctuation (reported_accuracy)
-        self.side = {}
-        if velocity is not None:
-            self.side['vel'] = VelocityState(velocity, self.n)
-        self.vel = self.side.get('vel')
-        self.reported, self.ref_cov = reported, None
+        self._side_streams(velocity, reported, reported_bias)
+        # conditional_cov: each fix carries the model's covariance of its error
+        # given the state a step before (None: the node reports the stationary one);
+        # a stated radius that follows the predictive scale needs it
+        self.conditional_cov = conditional_cov or self.ref_cov is not None
+        self.cov_now: FloatArray | None = None
+        self._zones(zones)
+        self._reset_time()
+
+    def _side_streams(self, velocity: Velocity | None, reported: ReportedAccuracy | None,
+                      reported_bias: Numbers | None) -> None:
+        """Set up the side streams stepped with the model (velocity error, stated accuracy)."""
+        self.side: dict[str, SideStream] = {}
+        self.vel = None if velocity is None else VelocityState(velocity, self.n)
+        if self.vel is not None:
+            self.side['vel'] = self.vel
+        self.reported = reported
         self.reported_bias = reported_bias      # about the truth: the mean, added
+        self.ref_cov: FloatArray | None = None
         if reported is not None:
             self.side['rep'] = SideStream(reported, self.n)
             if reported.follow != 0.0:      # the radius follows the predictive scale
-                conditional_cov = True
-                self.ref_cov = reference_cov(model)
-        # conditional_cov: each fix carries the model's covariance of its error
-        # given the state a step before (None: the node reports the stationary one)
-        self.conditional_cov = conditional_cov
-        self.cov_now = None
-        # zones: (ZoneMap, ZonedErrors): errors follow each fix's zone; a street
-        # frame needs each fix's direction of travel: the same path, one zone
-        self.zone_map, self.zoned = zones if zones is not None else (None, None)
-        if self.zoned is None and model.needs_heading:
-            self.zoned = one_zone(model, conditional_cov)
+                self.ref_cov = reference_cov(self.model)
+
+    def _zones(self, zones: ZoneSetup | None) -> None:
+        """
+        Set up the zones: errors follow each fix's zone.
+
+        A street frame needs each fix's direction of travel: the same path, one zone.
+        """
+        self.zone_map: ZoneMap | None = None
+        self.zoned: ZonedErrors | None = None
+        if zones is not None:
+            self.zone_map, self.zoned = zones
+        if self.zoned is None and self.model.needs_heading:
+            self.zoned = one_zone(self.model, self.conditional_cov)
         if self.zoned is not None:
             self.zoned.grow(self.n - self.zoned.n)
-        self._reset_time()
 
-    def _reset_time(self):
-        self.state = None
-        self.began_ns = None        # clock time of the streams' first step
-        self.model_index = None
-        self.start_index = None
-        self.last_step = None
-        self.last_now = None
-        self.pending = deque()
+    def _reset_time(self) -> None:
+        self.state: AgentState | None = None
+        self.began_ns: int | None = None        # clock time of the streams' first step
+        # the model step of the state, and of the streams' first step (0 before it)
+        self.model_index = 0
+        self.start_index = 0
+        self.last_step: int | None = None
+        self.last_now: int | None = None
+        self.pending: deque[PendingStep] = deque()
 
     # --- inputs ----------------------------------------------------------
 
-    def add_truth(self, agent, stamp_ns, lat, lon, alt):
+    def add_truth(self, agent: int, stamp_ns: int, lat: float, lon: float, alt: float) -> bool:
         """Store a truth sample; return False if dropped (order, future)."""
         if self.last_now is not None and \
                 stamp_ns > self.last_now + self.future_tolerance_ns:
@@ -152,14 +174,14 @@ class FixEngine:
         self._note_late(np.array([agent]), np.array([int(stamp_ns)]))
         return True
 
-    def _note_late(self, agents, stamps):
+    def _note_late(self, agents: IntArray, stamps: IntArray) -> None:
         """Count truth that would have served a step already skipped without it."""
         late = (self.last_skipped[agents] >= 0) & (stamps >= self.last_skipped[agents])
         if late.any():
             self.stats.late_truth += int(np.unique(agents[late]).size)
             self.last_skipped[agents[late]] = -1
 
-    def add_truth_batch(self, agents, stamps, coords):
+    def add_truth_batch(self, agents: Numbers, stamps: Numbers, coords: Numbers) -> BoolArray:
         """
         Store many truth samples at once, in arrival order per agent.
 
@@ -167,8 +189,7 @@ class FixEngine:
         (m, 3) lat, lon, alt. Returns a boolean mask of the samples kept (the
         others were at or before their agent's newest stamp).
         """
-        agents = np.asarray(agents, dtype=np.int64)
-        stamps = np.asarray(stamps, dtype=np.int64)
+        agents, stamps = np.asarray(agents, dtype=np.int64), np.asarray(stamps, dtype=np.int64)
         kept = np.zeros(agents.size, dtype=bool)
         if agents.size == 0:
             return kept
@@ -184,7 +205,8 @@ class FixEngine:
                 return kept
         return self._add_batch(agents, stamps, coords, kept)
 
-    def _add_batch(self, agents, stamps, coords, kept):
+    def _add_batch(self, agents: IntArray, stamps: IntArray, coords: Numbers,
+                   kept: BoolArray) -> BoolArray:
         order = np.argsort(agents, kind='stable')
         sorted_agents = agents[order]
         first = np.r_[0, np.flatnonzero(np.diff(sorted_agents)) + 1]
@@ -202,7 +224,7 @@ class FixEngine:
 
     # --- agents that come and go ---------------------------------------
 
-    def grow(self, n):
+    def grow(self, n: int) -> None:
         """Add ``n`` free slots (inactive until attached)."""
         self.keys = np.concatenate([self.keys, np.zeros(n, dtype=np.uint64)])
         self.active = np.concatenate([self.active, np.zeros(n, dtype=bool)])
@@ -226,7 +248,7 @@ class FixEngine:
             self.zoned.grow(n)
         self.n += n
 
-    def attach(self, slots, keys):
+    def attach(self, slots: Numbers, keys: Keys) -> None:
         """
         Give free ``slots`` to agents with stream ``keys``.
 
@@ -256,14 +278,14 @@ class FixEngine:
             step.err[slots] = self.model.errors(state)
             step.fix[slots] = available(self.model, state)
             step.done[slots] = False
-            if cov is not None:
+            if cov is not None and step.cov is not None:     # both: conditional_cov
                 step.cov[slots] = cov
         while m < self.model_index:
             m += 1
             cov = self.model.predictive_cov(state) if cov is not None else None
             self.model.advance(state, keys, m)
         self.state.put(slots, state)
-        if cov is not None:
+        if cov is not None and self.cov_now is not None:   # both: conditional_cov
             self.cov_now[slots] = cov
         for name, side in self.side.items():
             ws = side.history(keys, self.start_index, self.model_index)
@@ -271,7 +293,7 @@ class FixEngine:
                 step.side[name][slots] = ws[step.model_step - self.start_index]
             side.w[slots] = ws[-1]
 
-    def prepare_attach(self):
+    def prepare_attach(self) -> None:
         """
         Run :meth:`attach`'s catch-up once on a throwaway agent, to load what it needs.
 
@@ -287,14 +309,15 @@ class FixEngine:
         for side in self.side.values():
             side.history(keys, 0, span)
 
-    def _caught_up(self, keys, m, start=None):
+    def _caught_up(self, keys: Keys, m: int,
+                   start: int | None = None) -> tuple[AgentState, FloatArray | None]:
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
         start = self.start_index if start is None else start
         if not self.conditional_cov:
             return self.model.state_after(keys, start, m), None
         return state_and_cov(self.model, keys, start, m)
 
-    def detach(self, slots):
+    def detach(self, slots: Numbers) -> None:
         """Free ``slots``: no more fixes for them, their truth forgotten."""
         slots = np.asarray(slots, dtype=np.int64)
         self.active[slots] = False
@@ -305,7 +328,7 @@ class FixEngine:
         for step in self.pending:
             step.done[slots] = True
 
-    def on_clock(self, now_ns):
+    def on_clock(self, now_ns: int) -> list[FixBatch]:
         """
         Advance to clock time ``now_ns``; return the fixes now ready.
 
@@ -341,7 +364,7 @@ class FixEngine:
 
     # --- internals -------------------------------------------------------
 
-    def _enqueue(self, k):
+    def _enqueue(self, k: int) -> None:
         t_ns = k * self.period_ns
         m = t_ns // self.model_period_ns
         if self.state is None:
@@ -368,9 +391,9 @@ class FixEngine:
             available(self.model, self.state), {k: v.w.copy() for k, v in self.side.items()},
             None if self.cov_now is None else self.cov_now.copy()))
 
-    def resolve(self, now_ns):
+    def resolve(self, now_ns: int) -> list[FixBatch]:
         """Return fixes for pending steps whose truth is now known."""
-        out = []
+        out: list[FixBatch] = []
         while len(self.pending) > self.max_pending:
             out.extend(self._resolve_step(self.pending[0], force=True))
             self.pending.popleft()
@@ -388,7 +411,7 @@ class FixEngine:
             self.pending.popleft()
         return out
 
-    def _resolve_step(self, step, force):
+    def _resolve_step(self, step: PendingStep, force: bool) -> list[FixBatch]:
         t_ns, done = step.t_ns, step.done
         newest = self.truth.newest
         ready = ~done & (newest >= t_ns)
@@ -416,7 +439,7 @@ class FixEngine:
                     fixes.append(self._make_fix(step, held, self.truth.newest_coord(held)))
         return [f for f in fixes if f.agents.size]
 
-    def _headings(self, agents, t_ns):
+    def _headings(self, agents: IntArray, t_ns: int) -> FloatArray:
         """Return the direction of travel at ``t_ns`` (rad; NaN: standing; see zoned)."""
         now, ok_now = self.truth.interpolate(agents, t_ns - self.lag_ns, self.max_gap_ns)
         back, ok_back = self.truth.interpolate(agents, t_ns - self.lag_ns - NS,
@@ -424,7 +447,7 @@ class FixEngine:
         return travel_direction(back[:, 0], back[:, 1], now[:, 0], now[:, 1],
                                 ok_now & ok_back)
 
-    def _make_fix(self, step, agents, coords):
+    def _make_fix(self, step: PendingStep, agents: IntArray, coords: FloatArray) -> FixBatch:
         err, fix = step.err[agents], step.fix[agents]
         cov = None if step.cov is None else step.cov[agents]
         if self.zoned is not None:

@@ -55,5 +55,5 @@ class PendingStep:
     err: np.ndarray       # (n, 2) north/east errors of every slot
     done: np.ndarray      # (n,) True once resolved (or free)
     fix: np.ndarray       # (n,) False in an outage (profile availability)
-    side: dict            # name -> (n, d): the side streams' values (velocity, reported)
+    side: dict[str, np.ndarray]   # name -> (n, d): the side streams' values (velocity, reported)
     cov: Optional[np.ndarray] = None       # (n, 2, 2) north/east covariance (conditional_cov)

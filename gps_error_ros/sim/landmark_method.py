@@ -12,12 +12,15 @@ remains is the speed changing between presses (with a landmark at every
 corner, nothing in this walker, whose speed is constant within a block).
 """
 
+from collections.abc import Iterable
+
 import numpy as np
 
+from gps_error_ros.model.state import BoolArray, FloatArray
 from gps_error_ros.sim.walker import manhattan_walk
 
 
-def _turns(east, north):
+def _turns(east: FloatArray, north: FloatArray) -> BoolArray:
     """Return True at the route points where the direction changes (and ends)."""
     d = np.stack([np.diff(east), np.diff(north)], axis=1)
     moving = np.flatnonzero(np.hypot(d[:, 0], d[:, 1]) > 0)
@@ -29,8 +32,8 @@ def _turns(east, north):
     return out
 
 
-def landmark_error(seeds=range(20), duration=3600, press_on_leaving=False,
-                   landmarks='corners'):
+def landmark_error(seeds: Iterable[int] = range(20), duration: float = 3600,
+                   press_on_leaving: bool = False, landmarks: str = 'corners') -> FloatArray:
     """
     Return the distances (m) between the landmark truth and the true path.
 

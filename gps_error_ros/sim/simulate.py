@@ -22,24 +22,29 @@ process of the zone its (lagged) truth is in, step by step
 accuracy columns follow the zone.
 """
 
+from collections.abc import Sequence
 import math
 import os
-import re
 from pathlib import Path
+import re
+from typing import Any
 import zipfile
 
 import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.accuracy import ellipse, radius68
+from gps_error_ros.model.atomic import atomic_output, PathArg
 from gps_error_ros.model.availability import WithAvailability
-from gps_error_ros.model.reported import needs_predictive, reference_cov
-from gps_error_ros.model.zoned import one_zone, TravelDirections
+from gps_error_ros.model.motion_lag import LagBuffer
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.reported import needs_predictive, reference_cov, ReportedAccuracy
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.model.velocity import Velocity
+from gps_error_ros.model.zoned import one_zone, TravelDirections, ZoneSetup
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
                                             StreamTracker)
-from gps_error_ros.model.motion_lag import LagBuffer
-from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (
@@ -47,16 +52,20 @@ from gps_error_ros.traces.trajectories import (
     NetProjection, read_truth_csv, TrajectoryError)
 
 
-def _per_fix(model, zones, conditional=False):
+def _per_fix(model: ErrorModel[Any], zones: ZoneSetup | None,
+             conditional: bool = False) -> ZoneSetup | None:
     """Return ``zones``, or a one-zone set-up for a street-frame model, or None."""
     if zones is None and model.needs_heading:
         return None, one_zone(model, conditional)
     return zones
 
 
-def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                 zones=None, covariance_mode='stationary', reported=None, velocity=None,
-                 reported_bias=None):
+def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+                 net: PathArg | None = None, coordinates: str | None = None,
+                 digits: int | None = None, zones: ZoneSetup | None = None,
+                 covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
+                 velocity: Velocity | None = None,
+                 reported_bias: Numbers | None = None) -> dict[str, int]:
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
@@ -77,8 +86,10 @@ def simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, dig
                              zones, covariance_mode, reported, velocity, reported_bias)
 
 
-def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
-                 zones=None, reported=None, reported_bias=None):
+def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+                 velocity: Velocity | None = None, covariance_mode: str = 'stationary',
+                 zones: ZoneSetup | None = None, reported: ReportedAccuracy | None = None,
+                 reported_bias: Numbers | None = None) -> dict[str, int]:
     """
     Add errors to a CSV of true positions; write a trace CSV; return counts.
 
@@ -96,20 +107,22 @@ def simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode=
                              zones, reported, reported_bias)
 
 
-def simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
-                 prefix='agent', chunk=1024):
+def simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int, n_agents: int,
+                 duration_s: float, start_s: float = 0.0, prefix: str = 'agent',
+                 chunk: int = 1024) -> dict[str, int]:
     """Write raw error series to ``dst`` (.npz); return counts (see module doc)."""
     with atomic_output(dst) as tmp:
         return _simulate_npz(tmp, model, rate_hz, seed, n_agents, duration_s,
                              start_s, prefix, chunk)
 
 
-def model_step(t, rate_hz):
+def model_step(t: float, rate_hz: float) -> int:
     """Return the model step containing time ``t`` (s)."""
     return int(math.floor(t * rate_hz + 1e-9))
 
 
-def _fcd_mode(src, net, coordinates):
+def _fcd_mode(src: PathArg, net: PathArg | None,
+              coordinates: str | None) -> tuple[str, NetProjection | None]:
     """
     Return how to move an FCD file's positions: 'lonlat', 'net' or 'plane'.
 
@@ -134,7 +147,7 @@ def _fcd_mode(src, net, coordinates):
     return ('net' if proj.geo else 'plane'), proj
 
 
-def _check_geo_output(src, net):
+def _check_geo_output(src: PathArg, net: PathArg | None) -> None:
     """
     Refuse lon/lat that SUMO could not write: ``--fcd-output.geo`` from a net with no projection.
 
@@ -152,16 +165,25 @@ def _check_geo_output(src, net):
         f'read the positions as a flat plane with --coordinates xy --net {net}')
 
 
-def _lonlat(mode, proj, x, y):
+def _lonlat(mode: str, proj: NetProjection | None, x: Numbers,
+            y: Numbers) -> tuple[FloatArray, FloatArray]:
     """Return FCD positions as (lon, lat) arrays (mode 'lonlat' or 'net')."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     if mode == 'lonlat':
         return x, y
-    lon, lat = proj.to_lonlat(x, y)
+    lon, lat = _net(proj).to_lonlat(x, y)
     return np.asarray(lon), np.asarray(lat)
 
 
-def _moved(mode, proj, src, t, x, y, err):
+def _net(proj: NetProjection | None) -> NetProjection:
+    """Return the network's projection of modes 'net' and 'plane' (which always have one)."""
+    if proj is None:
+        raise TrajectoryError('FCD x/y metres need the network\'s projection (--net NET.xml)')
+    return proj
+
+
+def _moved(mode: str, proj: NetProjection | None, src: PathArg, t: float, x: Numbers,
+           y: Numbers, err: FloatArray) -> tuple[Any, Any, str]:
     """Return the positions moved by ``err`` and their number format."""
     if mode == 'lonlat':
         if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
@@ -169,14 +191,18 @@ def _moved(mode, proj, src, t, x, y, err):
                                   f'but the file says (or you said) lon/lat')
         return (*add_errors_lonlat(x, y, err), '{:.8f}')
     if mode == 'net':
-        lon, lat = proj.to_lonlat(x, y)
-        return (*proj.to_xy(*add_errors_lonlat(lon, lat, err)), '{:.3f}')
+        net = _net(proj)
+        lon, lat = net.to_lonlat(x, y)
+        return (*net.to_xy(*add_errors_lonlat(lon, lat, err)), '{:.3f}')
     return x + err[:, 1], y + err[:, 0], '{:.3f}'
 
 
-def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, digits=None,
-                  zones=None, covariance_mode='stationary', reported=None, velocity=None,
-                  reported_bias=None):
+def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+                  net: PathArg | None = None, coordinates: str | None = None,
+                  digits: int | None = None, zones: ZoneSetup | None = None,
+                  covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
+                  velocity: Velocity | None = None,
+                  reported_bias: Numbers | None = None) -> dict[str, int]:
     """Add errors to every agent of a SUMO FCD file; return counts."""
     mode, proj = _fcd_mode(src, net, coordinates)
     conditional = needs_predictive(covariance_mode, reported)
@@ -186,7 +212,9 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     _check_georeferenced(src, zones, mode)
     progress = Progress(os.path.getsize(src), f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
-    crowd, rows, steps, seen, no_fix = None, 0, 0, set(), 0
+    crowd: CrowdErrors | None = None
+    rows, steps, no_fix = 0, 0, 0
+    seen: set[str] = set()
     lag = LagBuffer(model.lag_s)
     travel = TravelDirections(model.lag_s)
     vel = None if velocity is None else StreamedVelocity(velocity, seed, mode == 'plane')
@@ -202,8 +230,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
                 continue
             names = [a[0] for a in agents]
             seen.update(names)
-            x, y = lag.lagged(names, t, [a[1] for a in agents],
-                              [a[2] for a in agents])
+            x, y = lag.lagged(names, t, [a[1] for a in agents], [a[2] for a in agents])
             if zones is None:
                 err = crowd.errors(names)
                 cov = crowd.covariance(names) if conditional else \
@@ -223,7 +250,7 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
                 acc.update(_fcd_velocity(vel, mode, proj, names, t, m, agents))
             cols = {k: formatted(*vf) for k, vf in {'x': (nx, fmt), 'y': (ny, fmt), **acc}.items()}
             writer.timestep(elem, [
-                (a[3], {k: c[i] for k, c in cols.items() if c[i] is not None})
+                (a[3], {k: v for k, c in cols.items() if (v := c[i]) is not None})
                 for i, a in enumerate(agents) if fix[i]])
             rows += int(fix.sum())
             no_fix += int((~fix).sum())
@@ -233,7 +260,8 @@ def _simulate_fcd(src, dst, model, rate_hz, seed, net=None, coordinates=None, di
     return _fcd_counts(src, model, steps, rows, len(seen), no_fix)
 
 
-def _fcd_counts(src, model, steps, rows, agents, no_fix):
+def _fcd_counts(src: PathArg, model: ErrorModel[Any], steps: int, rows: int, agents: int,
+                no_fix: int) -> dict[str, int]:
     """Return what simulate_fcd did; refuse a file in which nobody moved."""
     if not agents:
         raise TrajectoryError(f'{src}: {steps} timesteps and no person or vehicle in any: '
@@ -245,7 +273,7 @@ def _fcd_counts(src, model, steps, rows, agents, no_fix):
     return out
 
 
-def formatted(values, fmt):
+def formatted(values: Numbers, fmt: str) -> Sequence[str | None]:
     """
     Return ``values`` as strings in ``fmt`` ('{:.Nf}'), None where not finite.
 
@@ -265,7 +293,9 @@ def formatted(values, fmt):
     return [v if o else None for v, o in zip(text, ok.tolist())]
 
 
-def _fcd_velocity(vel, mode, proj, names, t, step, agents):
+def _fcd_velocity(vel: StreamedVelocity, mode: str, proj: NetProjection | None,
+                  names: Sequence[str], t: float, step: int,
+                  agents: Sequence[Sequence[Any]]) -> dict[str, tuple[FloatArray, str]]:
     """Return the reported_speed and reported_bearing attributes (values, format)."""
     x, y = [a[1] for a in agents], [a[2] for a in agents]
     if mode == 'plane':
@@ -276,7 +306,7 @@ def _fcd_velocity(vel, mode, proj, names, t, step, agents):
     return {'reported_speed': (speed, '{:.3f}'), 'reported_bearing': (course, '{:.2f}')}
 
 
-def _check_georeferenced(src, zones, mode):
+def _check_georeferenced(src: PathArg, zones: ZoneSetup | None, mode: str) -> None:
     """Refuse zones (or a street frame) on FCD metres without a geo-reference."""
     if zones is not None and mode == 'plane':
         raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
@@ -285,8 +315,10 @@ def _check_georeferenced(src, zones, mode):
                               f'direction of travel for street_frame')
 
 
-def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode='stationary',
-                  zones=None, reported=None, reported_bias=None):
+def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+                  velocity: Velocity | None = None, covariance_mode: str = 'stationary',
+                  zones: ZoneSetup | None = None, reported: ReportedAccuracy | None = None,
+                  reported_bias: Numbers | None = None) -> dict[str, int]:
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
@@ -326,7 +358,7 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     radius = None
     if covariance_mode == 'reported':
         stated = _Stated(model, reported, seed, reported_bias)
-        radius, cov = stated.radius(row_values(reported, seed, data['agent'], t,
+        radius, cov = stated.radius(row_values(stated.reported, seed, data['agent'], t,
                                                model_step(t[0], rate_hz), rate_hz), cov)
     extra = accuracy_columns(cov, fix, radius)
     if velocity is not None:
@@ -343,7 +375,8 @@ def _simulate_csv(src, dst, model, rate_hz, seed, velocity=None, covariance_mode
     return out
 
 
-def _stated(covariance_mode, model, reported, seed, bias):
+def _stated(covariance_mode: str, model: ErrorModel[Any], reported: ReportedAccuracy | None,
+            seed: int, bias: Numbers | None) -> '_Stated | None':
     """Return the :class:`_Stated` radius of covariance_mode reported, else None."""
     return _Stated(model, reported, seed, bias) if covariance_mode == 'reported' else None
 
@@ -351,28 +384,31 @@ def _stated(covariance_mode, model, reported, seed, bias):
 class _Stated:
     """The radius a profile's ``reported_accuracy`` states, for covariance_mode reported."""
 
-    def __init__(self, model, reported, seed, bias=None):
+    def __init__(self, model: ErrorModel[Any], reported: ReportedAccuracy | None, seed: int,
+                 bias: Numbers | None = None) -> None:
         if reported is None:
             raise TrajectoryError('covariance mode reported: the profile has no '
                                   'reported_accuracy section (calibrate one from a trace '
                                   'with an accuracy or hdop column)')
         self.reported, self.seed, self.bias = reported, seed, bias
         self.ref_cov = reference_cov(model) if reported.follow != 0.0 else None
-        self.tracker = None
+        self.tracker: StreamTracker | None = None
 
-    def streamed(self, names, step, cov):
+    def streamed(self, names: Sequence[str], step: int,
+                 cov: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Return :meth:`radius` of agents streamed step by step (the first step starts them)."""
         if self.tracker is None:
             self.tracker = StreamTracker(self.reported, self.seed, step)
         return self.radius(self.tracker.values(names, step), cov)
 
-    def radius(self, x, cov):
+    def radius(self, x: Numbers, cov: FloatArray | None) -> tuple[FloatArray, FloatArray]:
         """Return (stated radius, the covariance it implies) for fluctuations ``x``."""
         r = self.reported.radius(x, cov, self.ref_cov)
         return r, self.reported.covariance(r, self.bias)
 
 
-def accuracy_columns(cov, fix, radius=None):
+def accuracy_columns(cov: FloatArray, fix: BoolArray,
+                     radius: Numbers | None = None) -> dict[str, FloatArray]:
     """
     Return the stated-accuracy columns of north/east covariances (NaN without a fix).
 
@@ -388,13 +424,14 @@ def accuracy_columns(cov, fix, radius=None):
     return cols
 
 
-def agent_names(n, prefix='agent'):
+def agent_names(n: int, prefix: str = 'agent') -> list[str]:
     """Return the agent names used by ``--agents N``."""
     return [f'{prefix}{i}' for i in range(n)]
 
 
-def _simulate_npz(dst, model, rate_hz, seed, n_agents, duration_s, start_s=0.0,
-                  prefix='agent', chunk=1024):
+def _simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int, n_agents: int,
+                  duration_s: float, start_s: float = 0.0, prefix: str = 'agent',
+                  chunk: int = 1024) -> dict[str, int]:
     """
     Write raw error series to ``dst`` (.npz), streaming agent chunks to disk.
 

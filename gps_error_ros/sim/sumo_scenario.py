@@ -13,6 +13,7 @@ network): x/y then are UTM metres less the offset, and SUMO's geo outputs and
 Needs the optional extra ``sumo`` (the eclipse-sumo wheel).
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 import os
 from pathlib import Path
@@ -25,7 +26,9 @@ import xml.etree.ElementTree as ET
 import numpy as np
 from pyproj import Proj
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.geodesy import LocalTangentFrame
+from gps_error_ros.model.state import FloatArray, Numbers
 from gps_error_ros.traces.trajectories import NetProjection, TrajectoryError
 
 INSTALL_HINT = ('SUMO is needed: pip install -r requirements-sumo.txt (the extra '
@@ -40,7 +43,7 @@ class ScenarioError(ValueError):
     """A SUMO configuration or network that cannot be used, or a bad datum."""
 
 
-def sumo_home():
+def sumo_home() -> Path:
     """Return SUMO_HOME: the eclipse-sumo wheel's, or the environment's."""
     try:
         import sumo
@@ -52,7 +55,7 @@ def sumo_home():
     raise SumoMissing(INSTALL_HINT)
 
 
-def sumo_tool(name):
+def sumo_tool(name: str) -> str:
     """Return the path of a SUMO executable (``sumo``, ``netgenerate``)."""
     try:
         path = sumo_home() / 'bin' / name
@@ -66,7 +69,7 @@ def sumo_tool(name):
     return found
 
 
-def net_file(sumocfg):
+def net_file(sumocfg: PathArg) -> Path:
     """Return the network file a ``.sumocfg`` names (``<net-file value>``)."""
     try:
         root = ET.parse(sumocfg).getroot()
@@ -83,7 +86,7 @@ def net_file(sumocfg):
 class Georeference:
     """Network x/y to the published frame: ENU about a datum, and lon/lat."""
 
-    def __init__(self, net, datum):
+    def __init__(self, net: PathArg, datum: Sequence[float] | None) -> None:
         try:
             self.proj = NetProjection(net)
         except TrajectoryError as exc:
@@ -103,11 +106,11 @@ class Georeference:
             self.frame = LocalTangentFrame(float(lat), float(lon), 0.0)
 
     @property
-    def datum(self):
+    def datum(self) -> tuple[float, float, float]:
         """Return the ENU frame's datum: latitude, longitude, altitude."""
         return self.frame.datum
 
-    def convert(self, x, y):
+    def convert(self, x: Numbers, y: Numbers) -> tuple[FloatArray, ...]:
         """Return (east, north, up, lat, lon) arrays of network positions."""
         x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
         if self.proj.geo:
@@ -121,9 +124,10 @@ class Georeference:
                 np.asarray(lat), np.asarray(lon))
 
 
-def street_lines(net, geo):
+def street_lines(net: PathArg, geo: Georeference) -> list[tuple[FloatArray, FloatArray]]:
     """Return the network's lanes and crossings as ENU (east, north) arrays."""
-    lines, skip = [], False
+    lines: list[tuple[FloatArray, FloatArray]] = []
+    skip = False
     for _, elem in ET.iterparse(net, events=('start',)):
         if elem.tag == 'edge':
             skip = elem.get('function') in ('internal', 'walkingarea')
@@ -142,12 +146,12 @@ class Scenario:
     sumocfg: Path
     net: Path
     routes: Path
-    persons: list       # person ids, in departure order
+    persons: list[str]       # person ids, in departure order
     begin: float
-    vehicles: list = field(default_factory=list)     # vehicle ids, in departure order
+    vehicles: list[str] = field(default_factory=list)     # vehicle ids, in departure order
 
 
-def _run(cmd, what, cwd):
+def _run(cmd: Sequence[str], what: str, cwd: PathArg) -> None:
     # in the scenario's directory: randomTrips.py leaves a routes.rou.xml in its cwd
     done = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
     if done.returncode != 0:
@@ -155,7 +159,7 @@ def _run(cmd, what, cwd):
                            f'{done.stdout[-1500:]}{done.stderr[-1500:]}')
 
 
-def georeference(net, lat, lon):
+def georeference(net: PathArg, lat: float, lon: float) -> None:
     """Place network ``net``'s x=0, y=0 at (lat, lon): a UTM projection in <location>."""
     zone = int((lon + 180.0) // 6) + 1
     proj = (f'+proj=utm +zone={zone}{" +south" if lat < 0 else ""} +ellps=WGS84 '
@@ -170,8 +174,10 @@ def georeference(net, lat, lon):
     Path(net).write_text(text)
 
 
-def build_grid_scenario(out_dir, grid=3, length=80.0, depart_until=30.0, period=2.0,
-                        seed=7, lat=40.75, lon=-73.99, begin=1.0, vehicle_period=None):
+def build_grid_scenario(out_dir: PathArg, grid: int = 3, length: float = 80.0,
+                        depart_until: float = 30.0, period: float = 2.0, seed: int = 7,
+                        lat: float = 40.75, lon: float = -73.99, begin: float = 1.0,
+                        vehicle_period: float | None = None) -> Scenario:
     """
     Write a grid walking scenario to ``out_dir``; return its :class:`Scenario`.
 
@@ -205,11 +211,11 @@ def build_grid_scenario(out_dir, grid=3, length=80.0, depart_until=30.0, period=
         '</input>\n'
         f'    <time><begin value="{begin:g}"/><step-length value="1"/></time>\n'
         '</configuration>\n')
-    persons = [p.get('id') for p in ET.parse(routes).getroot().iter('person')]
+    persons = [p.get('id', '') for p in ET.parse(routes).getroot().iter('person')]
     if not persons:
         raise RuntimeError(f'{routes}: randomTrips.py made no persons')
-    vehicles = []
+    vehicles: list[str] = []
     if vehicle_period:
-        vehicles = [v.get('id') for v in ET.parse(out / 'vehicles.trips.xml').getroot()
+        vehicles = [v.get('id', '') for v in ET.parse(out / 'vehicles.trips.xml').getroot()
                     if v.tag in ('trip', 'vehicle')]
     return Scenario(cfg, net, routes, persons, begin, vehicles)

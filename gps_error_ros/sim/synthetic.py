@@ -56,12 +56,15 @@ Every walk has the fix stamps jittered by up to 50 ms, 0.5 % of fixes
 dropped at random and one 30 s outage, so segments and gaps are exercised.
 """
 
+from collections.abc import Collection
+
 import numpy as np
 from scipy import signal
 
 from gps_error_ros.model.geodesy import offset
-from gps_error_ros.traces.trace_io import Trace
+from gps_error_ros.model.state import BoolArray, FloatArray
 from gps_error_ros.sim.walker import GRID_BEARING_DEG, MANHATTAN_DATUM, manhattan_walk
+from gps_error_ros.traces.trace_io import Trace
 
 #: scenario -> (effects the diagnosis should find, structure left unexplained)
 SCENARIOS = {
@@ -106,7 +109,8 @@ BIAS = (2.0, -1.0)
 WANDER_M = 1.0
 
 
-def _innovations(parts, n, rng, heading_avenue):
+def _innovations(parts: Collection[str], n: int, rng: np.random.Generator,
+                 heading_avenue: BoolArray) -> FloatArray:
     w = rng.standard_normal((n, 2)) * SIGMA_W
     if 'street_ellipse' in parts:
         b = np.radians(GRID_BEARING_DEG)
@@ -153,7 +157,7 @@ def _innovations(parts, n, rng, heading_avenue):
     return w
 
 
-def _on_avenue(east, north, hold=False):
+def _on_avenue(east: FloatArray, north: FloatArray, hold: bool = False) -> BoolArray:
     """
     Return, per sample, whether the walker heads along an avenue (the grid's bearing).
 
@@ -169,7 +173,8 @@ def _on_avenue(east, north, hold=False):
     return avenue
 
 
-def _add_wave(parts, err, t, duration, rng):
+def _add_wave(parts: Collection[str], err: FloatArray, t: FloatArray, duration: int,
+              rng: np.random.Generator) -> None:
     """Add the sine of ``periodic`` (or ``drifting_wave``) to the reported error, in place."""
     if 'periodic' not in parts and 'drifting_wave' not in parts:
         return
@@ -185,7 +190,8 @@ def _add_wave(parts, err, t, duration, rng):
     err[:, 1] += amp[1] * np.sin(2 * np.pi * cycles + ph[1])
 
 
-def _add_reflections(parts, err, avenue, rng):
+def _add_reflections(parts: Collection[str], err: FloatArray, avenue: BoolArray,
+                     rng: np.random.Generator) -> None:
     """Add the jumps of ``reflections`` to the reported error, in place."""
     if 'reflections' not in parts:
         return
@@ -204,7 +210,9 @@ def _add_reflections(parts, err, avenue, rng):
         k = stop
 
 
-def _reported_track(parts, north, east, t, duration, rng):
+def _reported_track(parts: Collection[str], north: FloatArray, east: FloatArray,
+                    t: FloatArray, duration: int,
+                    rng: np.random.Generator) -> tuple[FloatArray, FloatArray]:
     """Return the (north, east) track the receiver reports before its error."""
     rep_n, rep_e = north.copy(), east.copy()
     if 'receiver_latency' in parts:
@@ -218,7 +226,7 @@ def _reported_track(parts, north, east, t, duration, rng):
     return rep_n, rep_e
 
 
-def synthetic_trace(scenario, seed, duration=3600):
+def synthetic_trace(scenario: str, seed: int, duration: int = 3600) -> Trace:
     """
     Return a :class:`Trace` of a synthetic walk with ``scenario``'s effect.
 

@@ -12,16 +12,21 @@ The velocity error of each agent is its own stream from the run's first step
 reported speed and course do not depend on the other agents.
 """
 
+from collections.abc import Iterable, Mapping, Sequence
 import math
+from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.model.velocity import course_deg
+from gps_error_ros.model.state import FloatArray, Numbers
+from gps_error_ros.model.velocity import course_deg, Velocity
+from gps_error_ros.sim.velocity_state import SideProcess
 
 
-def true_velocity(t, lat, lon, at, now=None):
+def true_velocity(t: FloatArray, lat: FloatArray, lon: FloatArray, at: FloatArray,
+                  now: FloatArray | None = None) -> FloatArray:
     """
     Return east/north m/s at times ``at``: the chord over the second centred there.
 
@@ -39,7 +44,8 @@ def true_velocity(t, lat, lon, at, now=None):
     return v
 
 
-def speed_and_course(velocity, seed, data, start_step, rate_hz):
+def speed_and_course(velocity: Velocity, seed: int, data: Mapping[str, Any], start_step: int,
+                     rate_hz: float) -> tuple[FloatArray, ...]:
     """
     Return (speed, course, truth_speed, truth_course) per row of ``data``.
 
@@ -65,7 +71,8 @@ def speed_and_course(velocity, seed, data, start_step, rate_hz):
     return tuple(out)
 
 
-def row_values(process, seed, agents, t, start_step, rate_hz):
+def row_values(process: SideProcess, seed: int, agents: Numbers, t: Numbers,
+               start_step: int, rate_hz: float) -> FloatArray:
     """
     Return a side stream's value at every row, (rows, d), each agent its own stream.
 
@@ -74,16 +81,18 @@ def row_values(process, seed, agents, t, start_step, rate_hz):
     stream counts from the run's first model step ``start_step``, as in the
     node, so a row's value does not depend on the other agents.
     """
-    agents = np.asarray(agents, dtype=object)
+    names = np.asarray(agents, dtype=object)
     steps = np.floor(np.asarray(t) * rate_hz + 1e-9).astype(np.int64) - start_step
-    out = None
-    for name in dict.fromkeys(agents):
-        rows = np.flatnonzero(agents == name)
+    out: FloatArray | None = None
+    for name in dict.fromkeys(names):
+        rows = np.flatnonzero(names == name)
         key = np.array([streams.agent_key(seed, name)], dtype=np.uint64)
         w = process.errors(key, int(steps[rows].max()) + 1, start=start_step)[steps[rows], 0]
         if out is None:
-            out = np.full((agents.size, w.shape[1]), np.nan)
+            out = np.full((names.size, w.shape[1]), np.nan)
         out[rows] = w
+    if out is None:
+        raise ValueError('row_values: expected at least one row')
     return out
 
 
@@ -96,25 +105,26 @@ class StreamTracker:
     seen again) later is caught up on its own stream.
     """
 
-    def __init__(self, process, seed, start_step):
+    def __init__(self, process: SideProcess, seed: int, start_step: int) -> None:
         self.process, self.seed, self.start = process, seed, int(start_step)
-        self.known = {}                     # name -> (key, step, value (d,))
+        # name -> (key, step, value (d,))
+        self.known: dict[str, tuple[Any, int, FloatArray]] = {}
 
-    def values(self, names, step):
+    def values(self, names: Sequence[str], step: int) -> FloatArray:
         """Return the named agents' values at model step ``step``, (n, d)."""
-        rows = [self.known.get(n) for n in names]
-        out = [None] * len(names)
+        rows: list[Any] = [self.known.get(n) for n in names]      # None: not known
+        out: list[Any] = [None] * len(names)
         nxt = [i for i, r in enumerate(rows) if r is not None and r[1] == step - 1]
         if nxt:                             # the usual case: one step on, all at once
             keys = np.array([rows[i][0] for i in nxt], dtype=np.uint64)
-            w = self.process.step(np.array([rows[i][2] for i in nxt]), keys, step)
+            stepped = self.process.step(np.array([rows[i][2] for i in nxt]), keys, step)
             for j, i in enumerate(nxt):
-                out[i] = w[j]
+                out[i] = stepped[j]
         for i, n in enumerate(names):
             if out[i] is not None:
                 continue
             key, last, w = rows[i] or (streams.agent_key(self.seed, n), None, None)
-            if last is None or last > step:
+            if last is None or w is None or last > step:
                 w = self.process.errors(np.array([key], dtype=np.uint64), step - self.start + 1,
                                         start=self.start)[-1, 0]
             else:
@@ -126,7 +136,7 @@ class StreamTracker:
                              step, out[i])
         return np.array(out).reshape(len(names), -1)
 
-    def forget(self, names):
+    def forget(self, names: Iterable[str]) -> None:
         """Drop agents that left (they are caught up again if they come back)."""
         for n in names:
             self.known.pop(n, None)
@@ -146,18 +156,20 @@ class StreamedVelocity:
     x/y metres (east, north) instead of latitude/longitude.
     """
 
-    def __init__(self, velocity, seed, planar=False):
+    def __init__(self, velocity: Velocity, seed: int, planar: bool = False) -> None:
         self.velocity, self.seed, self.planar = velocity, seed, planar
-        self.errors = None
-        self.hist = {}                  # name -> [first t, [(t, lat, lon), ...]]
+        self.errors: StreamTracker | None = None
+        # name -> [first t, [(t, lat, lon), ...]]
+        self.hist: dict[str, list[Any]] = {}
 
-    def report(self, names, t, step, lat, lon):
+    def report(self, names: Sequence[str], t: float, step: int, lat: Numbers,
+               lon: Numbers) -> tuple[FloatArray, FloatArray]:
         """Store each agent's truth at ``t``; return (speed, course) arrays (NaN: none)."""
         if self.errors is None:
             self.errors = StreamTracker(self.velocity, self.seed, step)
         chords = [min(t - lag + 0.5, t) for lag in self.velocity.lags]   # each chord's end
         earliest = min(chords) - 1.0
-        ends = np.full((len(chords), len(names), 4), np.nan)
+        ends: FloatArray = np.full((len(chords), len(names), 4), np.nan)
         for i, n in enumerate(names):
             first, h = self.hist.setdefault(n, [t, []])
             h.append((t, float(lat[i]), float(lon[i])))
@@ -171,8 +183,10 @@ class StreamedVelocity:
         v_true = self.velocity.truth_reported(*(self._chord(e) for e in ends))
         return self.velocity.report(v_true, self.errors.values(names, step))
 
-    def _chord(self, ends):
+    def _chord(self, ends: FloatArray) -> FloatArray:
         """Return east/north m/s from chord ends (n, 4): lat/lon (or y/x) at its end, start."""
+        north: Numbers
+        east: Numbers
         if self.planar:                     # (y, x) metres
             north, east = ends[:, 0] - ends[:, 2], ends[:, 1] - ends[:, 3]
         else:

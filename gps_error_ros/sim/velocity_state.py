@@ -14,11 +14,29 @@ definition (:mod:`velocity_sim`), so both report the same speed and
 course. No velocity is reported where the truth does not reach back that far.
 """
 
+from typing import Protocol
+
 import numpy as np
 
 from gps_error_ros.model.geodesy import difference
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys
+from gps_error_ros.model.velocity import Velocity
+from gps_error_ros.sim.truth_ring import TruthRing
 
 NS = 1_000_000_000
+
+
+class SideProcess(Protocol):
+    """What a side stream steps: a velocity section's error, a stated accuracy's fluctuation."""
+
+    def initial(self, keys: Keys, index: int) -> FloatArray:
+        """Return each agent's value at model step ``index``, (n, d)."""
+
+    def step(self, w: FloatArray, keys: Keys, index: int) -> FloatArray:
+        """Return the values ``w`` stepped to model step ``index``."""
+
+    def errors(self, keys: Keys, n_steps: int, start: int = 0) -> FloatArray:
+        """Return the values of ``keys`` at ``n_steps`` steps from ``start``, (steps, k, d)."""
 
 
 class SideStream:
@@ -30,24 +48,24 @@ class SideStream:
     (d = 2) or its reported accuracy's fluctuation (d = 1).
     """
 
-    def __init__(self, process, n):
+    def __init__(self, process: SideProcess, n: int) -> None:
         self.process = process
         self.dim = process.initial(np.zeros(1, dtype=np.uint64), 0).shape[1]
-        self.w = np.zeros((n, self.dim))
+        self.w: FloatArray = np.zeros((n, self.dim))
 
-    def start(self, keys, index):
+    def start(self, keys: Keys, index: int) -> None:
         """Draw every agent's value at the run's first model step."""
         self.w = self.process.initial(keys, index)
 
-    def advance(self, keys, index):
+    def advance(self, keys: Keys, index: int) -> None:
         """Step every agent's value to model step ``index``."""
         self.w = self.process.step(self.w, keys, index)
 
-    def grow(self, n):
+    def grow(self, n: int) -> None:
         """Add ``n`` rows (free slots)."""
         self.w = np.concatenate([self.w, np.zeros((n, self.dim))])
 
-    def history(self, keys, start, end):
+    def history(self, keys: Keys, start: int, end: int) -> FloatArray:
         """Return the values of ``keys`` at model steps start..end, (steps, k, d)."""
         return self.process.errors(keys, end - start + 1, start)
 
@@ -55,12 +73,13 @@ class SideStream:
 class VelocityState(SideStream):
     """Velocity errors of the engine's agents (rows), one model step at a time."""
 
-    def __init__(self, velocity, n):
+    def __init__(self, velocity: Velocity, n: int) -> None:
         super().__init__(velocity, n)
         self.velocity = velocity
         self.lags_ns = [int(round(lag * NS)) for lag in velocity.lags]
 
-    def reported(self, truth, agents, t_ns, w, max_gap_ns):
+    def reported(self, truth: TruthRing, agents: IntArray, t_ns: int, w: FloatArray,
+                 max_gap_ns: int) -> tuple[FloatArray, FloatArray, FloatArray | None]:
         """
         Return (velocity (m, 2), its error's SD (m,), mean (m, 2) or None) reported at ``t_ns``.
 
@@ -69,7 +88,8 @@ class VelocityState(SideStream):
         The SD is the section's at each agent's true speed (``sigma_by_speed``),
         the mean its ``speed_bias`` along the travel, east/north (None without one).
         """
-        chords, ok = [], True
+        chords: list[FloatArray] = []
+        ok: BoolArray | bool = True
         for lag_ns in self.lags_ns:                        # the speed's, the course's
             end = min(t_ns - lag_ns + NS // 2, t_ns)       # the chord centred at t - lag
             c1, ok1 = truth.interpolate(agents, end, max_gap_ns)

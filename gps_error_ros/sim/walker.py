@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gps_error_ros.model.state import FloatArray, Numbers
+
 #: WGS84 latitude, longitude, ellipsoidal height (m) of the frame origin:
 #: 7th Avenue & W 34th St, Manhattan (height ~ 10 m above the geoid there,
 #: about -33 m geoid undulation).
@@ -44,15 +46,15 @@ class Walk:
     north: np.ndarray
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         """Return the walk's length in seconds."""
         return float(self.t[-1] - self.t[0])
 
-    def position(self, t):
+    def position(self, t: Numbers) -> tuple[FloatArray, FloatArray]:
         """Return (east, north) at times ``t`` (array or float)."""
         return (np.interp(t, self.t, self.east), np.interp(t, self.t, self.north))
 
-    def speed(self, t):
+    def speed(self, t: Numbers) -> FloatArray:
         """Return the walking speed in m/s at times ``t``."""
         seg = np.clip(np.searchsorted(self.t, t, side='right') - 1, 0,
                       len(self.t) - 2)
@@ -62,7 +64,9 @@ class Walk:
         return np.divide(dist, dt, out=np.zeros_like(dist), where=dt > 0)
 
 
-def _next_heading(ave, st, heading, rng, avenues, streets, turn_probability):
+def _next_heading(ave: int, st: int, heading: tuple[int, int], rng: np.random.Generator,
+                  avenues: tuple[int, int], streets: tuple[int, int],
+                  turn_probability: float) -> tuple[int, int]:
     """Return the heading at corner (ave, st): straight on, or a turn."""
     options = []
     for h in ((0, 1), (0, -1), (1, 0), (-1, 0)):
@@ -80,29 +84,30 @@ def _next_heading(ave, st, heading, rng, avenues, streets, turn_probability):
     return turns[rng.integers(len(turns))]
 
 
-def manhattan_walk(duration, rng, speed=1.4, avenues=(0, 3), streets=(-4, 16),
-                   turn_probability=0.25, red_probability=0.5,
-                   red_wait=(5.0, 45.0)):
+def manhattan_walk(duration: float, rng: np.random.Generator, speed: float = 1.4,
+                   avenues: tuple[int, int] = (0, 3), streets: tuple[int, int] = (-4, 16),
+                   turn_probability: float = 0.25, red_probability: float = 0.5,
+                   red_wait: tuple[float, float] = (5.0, 45.0)) -> Walk:
     """
     Return a random :class:`Walk` of at least ``duration`` seconds.
 
     Parameters
     ----------
-    duration : float
+    duration
         Seconds of walk wanted.
-    rng : numpy.random.Generator
+    rng
         The walk's randomness (route, speeds, waits).
-    speed : float
+    speed
         Mean walking speed (m/s); each block's speed varies by +-15 %.
-    avenues : tuple of int
+    avenues
         Grid bounds, in avenues west of 7th.
-    streets : tuple of int
+    streets
         Grid bounds, in streets north of 34th.
-    turn_probability : float
+    turn_probability
         Chance of turning at a corner (where the grid allows going straight).
-    red_probability : float
+    red_probability
         Chance of waiting at a corner for the light.
-    red_wait : tuple of float
+    red_wait
         Uniform range of a wait (s).
 
     Returns
@@ -121,7 +126,7 @@ def manhattan_walk(duration, rng, speed=1.4, avenues=(0, 3), streets=(-4, 16),
     heading = (0, 1)
     t, pts, times = 0.0, [(0.0, 0.0)], [0.0]
 
-    def xy(a, s):
+    def xy(a: float, s: float) -> tuple[float, float]:
         p = a * STREET_BLOCK_M * west + s * AVENUE_BLOCK_M * uptown
         return float(p[0]), float(p[1])
 
@@ -138,5 +143,5 @@ def manhattan_walk(duration, rng, speed=1.4, avenues=(0, 3), streets=(-4, 16),
             t += rng.uniform(*red_wait)
             pts.append(pts[-1])
             times.append(t)
-    pts = np.array(pts)
-    return Walk(np.array(times), pts[:, 0], pts[:, 1])
+    xy_m = np.array(pts)
+    return Walk(np.array(times), xy_m[:, 0], xy_m[:, 1])
