@@ -8,40 +8,47 @@ them. What no effect explains is reported as ``unexplained``, never forced
 into an effect.
 """
 
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 import math
-from typing import Optional
+from typing import Any, Optional, TYPE_CHECKING
 
 import numpy as np
 
 from gps_error_ros.diagnose.common import EFFECT_ORDER
 from gps_error_ros.diagnose.laws import fit_law, law_logpdf
-from gps_error_ros.diagnose.mean import to_travel_frame
-from gps_error_ros.diagnose.models import fit_model
+from gps_error_ros.diagnose.mean import Design, to_travel_frame
+from gps_error_ros.diagnose.models import fit_model, FittedModel
+from gps_error_ros.diagnose.split import Split
 from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.state import FloatArray
+
+if TYPE_CHECKING:        # the pipeline imports this module
+    from gps_error_ros.diagnose.pipeline import FamilyResult
 
 
 @dataclass
 class Attribution:
     """Effects chosen from the tests, with their evidence, and what is left."""
 
-    effects: list
-    evidence: dict
-    alternatives_rejected: list
-    unexplained: list
+    effects: list[str]
+    evidence: dict[str, Any]
+    alternatives_rejected: list[Any]
+    unexplained: list[Any]
     regimes: int = 2
     lag_s: Optional[float] = None
     period: int = 0             # periodic: the cycle's length, steps
-    orders: tuple = ()          # the base model's AR orders
-    jump_orders: tuple = ()     # with outliers: those of the series without its jumps
-    approximations: list = field(default_factory=list)
+    orders: tuple[int, ...] = ()          # the base model's AR orders
+    # with outliers: those of the series without its jumps
+    jump_orders: tuple[int, ...] = ()
+    approximations: list[Any] = field(default_factory=list)
 
-    def orders_for(self, effects):
+    def orders_for(self, effects: Collection[str]) -> tuple[int, ...]:
         """Return the AR orders of a model with ``effects``."""
         return self.jump_orders if 'outliers' in effects and self.jump_orders else self.orders
 
 
-def travel_axes_win(r, d):
+def travel_axes_win(r: FloatArray, d: Design) -> bool:
     """Return True when a Gaussian law along/across the travel beats fixed axes (BIC)."""
     n = len(r)
     bic = {}
@@ -53,12 +60,13 @@ def travel_axes_win(r, d):
     return bic['travel'] < bic['fixed']
 
 
-def _pick(test):
+def _pick(test: Mapping[str, Any]) -> dict[str, Any]:
     return {k: test[k] for k in ('statistic', 'p_value', 'holm_adjusted_p',
                                  'at_lag_s') if k in test}
 
 
-def _attribute_law(split, base, family, att):
+def _attribute_law(split: Split, base: FittedModel, family: 'FamilyResult',
+                   att: Attribution) -> None:
     """Tails against regimes: add the winner to ``att`` (training BIC)."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
     train, truth, orders = split.train, split.truth, att.orders_for(att.effects)
@@ -72,7 +80,7 @@ def _attribute_law(split, base, family, att):
         bics[label] = fit_model(train, orders, common + extra, truth,
                                 att.lag_s, regimes=k).bic
     if reject['squared_persistence']:
-        pick = min([c for c in cands if c != 'heavy_tails'], key=bics.get)
+        pick = min([c for c in cands if c != 'heavy_tails'], key=lambda k: bics[k])
         extra, att.regimes = cands[pick]
         att.effects.extend(e for e in EFFECT_ORDER if e in extra)
         att.evidence['variance_regimes'] = {
@@ -102,7 +110,8 @@ def _attribute_law(split, base, family, att):
         'bic': bics})
 
 
-def _attribute_cycle(split, base, family, att):
+def _attribute_cycle(split: Split, base: FittedModel, family: 'FamilyResult',
+                     att: Attribution) -> None:
     """
     Add ``periodic`` to ``att``: the test's period, or a divisor (training BIC).
 
@@ -116,14 +125,15 @@ def _attribute_cycle(split, base, family, att):
                          split.truth,
                          att.lag_s, att.regimes, period=p).bic
             for p in range(2, t['at_period'] + 1) if t['at_period'] % p == 0}
-    att.period = min(bics, key=bics.get)
+    att.period = min(bics, key=lambda k: bics[k])
     att.effects.append('periodic')
     att.evidence['periodic'] = {'test': 'periodicity', **_pick(t), 'in': t['in'],
                                 'period_steps': att.period,
                                 'bic_by_period': {str(k): v for k, v in bics.items()}}
 
 
-def _attribute_frame(split, base, family, att):
+def _attribute_frame(split: Split, base: FittedModel, family: 'FamilyResult',
+                     att: Attribution) -> None:
     """
     Axes fixed north/east (coupling) against axes of the travel: training BIC.
 
@@ -137,7 +147,7 @@ def _attribute_frame(split, base, family, att):
     bics = {name: fit_model(split.train, att.orders_for(common), common + (name,), split.truth,
                             att.lag_s).bic
             for name in ('cross_axis_coupling', 'street_frame')}
-    pick = min(bics, key=bics.get)
+    pick = min(bics, key=lambda k: bics[k])
     other = 'street_frame' if pick == 'cross_axis_coupling' else 'cross_axis_coupling'
     t = family.tests['travel_frame']
     att.effects[:] = [e for e in EFFECT_ORDER if e in common + (pick,)]
@@ -152,7 +162,7 @@ def _attribute_frame(split, base, family, att):
               'and across it fit better than fixed north/east axes (lower BIC)')})
 
 
-def attribute(split, base, family):
+def attribute(split: Split, base: FittedModel, family: 'FamilyResult') -> Attribution:
     """Step 4: turn the rejected tests into effects, or ``unexplained``."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
     att = Attribution([], {}, [], [], orders=base.orders, jump_orders=family.jump_orders)

@@ -5,6 +5,7 @@ One place, so that the steps (split, mean, laws, family, fidelity,
 baselines, pipeline) import these and not each other's internals.
 """
 
+from collections.abc import Sequence
 import math
 
 #: Fraction of a trace's time span that trains; the rest is held out.
@@ -22,7 +23,7 @@ N_RETESTS = 5
 FIRST_SHARE = N_TESTS / (N_TESTS + N_RETESTS)
 
 
-def round_levels(alpha):
+def round_levels(alpha: float) -> tuple[float, float]:
     """Return the family-wise levels (first round, retest) of a diagnosis at ``alpha``."""
     return alpha * FIRST_SHARE, alpha * (1.0 - FIRST_SHARE)
 
@@ -54,3 +55,7 @@ LOG2PI = math.log(2.0 * math.pi)
 
 class DiagnosisError(ValueError):
     """A trace that cannot be diagnosed (too short, degenerate)."""
+
+
+#: The AR orders (north, east) of a model.
+Orders = Sequence[int]

@@ -7,13 +7,15 @@ filter, the variance regimes' filter). Each has a numpy form and, in
 which to run (decision record 0008).
 """
 
+from typing import Any
+
 #: Whether the compiled loops run when numba is installed (tests turn it off to
 #: compare the two forms).
 COMPILED = True
 _LOADED: dict[str, object] = {}
 
 
-def kernel(name):
+def kernel(name: str) -> Any:
     """
     Return the compiled function ``name`` of :mod:`.kernels`, or None.
 
@@ -24,10 +26,10 @@ def kernel(name):
     if not COMPILED:
         return None
     if 'kernels' not in _LOADED:
+        loaded: object = None
         try:
-            from gps_error_ros.diagnose import kernels
+            from gps_error_ros.diagnose import kernels as loaded
         except (ImportError, RuntimeError):
-            # no numba, or (RuntimeError) nowhere to write its cache: the numpy forms
-            kernels = None
-        _LOADED['kernels'] = kernels
+            pass            # no numba, or (RuntimeError) nowhere to write its cache: numpy
+        _LOADED['kernels'] = loaded
     return None if _LOADED['kernels'] is None else getattr(_LOADED['kernels'], name)

@@ -21,21 +21,24 @@ to measure:
   training and the held-out part.
 """
 
+from typing import Any
+
 import numpy as np
 
-from gps_error_ros.diagnose.common import TRAIN_FRACTION
+from gps_error_ros.diagnose.common import Orders, TRAIN_FRACTION
 from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, measure_vector,
                                              simulate_part)
 from gps_error_ros.diagnose.mean import condition_count, design, MeanFit
-from gps_error_ros.diagnose.models import fit_model, with_law
-from gps_error_ros.diagnose.pipeline import fit_extended
+from gps_error_ros.diagnose.models import fit_model, FittedModel, with_law
+from gps_error_ros.diagnose.pipeline import fit_extended, FittedModels
 from gps_error_ros.diagnose.selection import (FOLDS, shared_condition_count, subsets,
                                               time_blocks)
-from gps_error_ros.diagnose.split import Split, split_trace
+from gps_error_ros.diagnose.split import Part, Split, split_trace, TruthTrack
 from gps_error_ros.fit.yule_walker import fit_axis
+from gps_error_ros.traces.trace_io import Trace
 
 
-def _part_row(label, part, orders, truth):
+def _part_row(label: str, part: Part, orders: Orders, truth: TruthTrack) -> dict[str, Any]:
     err = np.concatenate(part.err)
     speed = np.concatenate([np.hypot(*np.diff(t, axis=0).T) for t in part.truth
                             if len(t) > 1])
@@ -47,7 +50,7 @@ def _part_row(label, part, orders, truth):
             'median_speed_mps': float(np.median(speed)) if speed.size else 0.0}
 
 
-def block_statistics(fitted, folds=FOLDS):
+def block_statistics(fitted: FittedModels, folds: int = FOLDS) -> list[dict[str, Any]]:
     """Return per training block and for the held-out part the row of statistics."""
     split, orders = fitted.split, fitted.base.orders
     rows = [_part_row(f'training block {i + 1}', b, orders, split.truth)
@@ -56,7 +59,7 @@ def block_statistics(fitted, folds=FOLDS):
     return rows
 
 
-def reversed_split(trace):
+def reversed_split(trace: Trace) -> Split:
     """Return the :class:`Split` that holds out the first 30 % and trains on the rest."""
     s = split_trace(trace, 1.0 - TRAIN_FRACTION)
     return Split(s.test, s.train, s.truth,
@@ -65,7 +68,8 @@ def reversed_split(trace):
                  s.cut_time_s)
 
 
-def _heldout(model, split, m0, sims, seed):
+def _heldout(model: FittedModel, split: Split, m0: int, sims: int,
+             seed: int) -> dict[str, Any]:
     ll = model.score(split.test, split.truth, m0)[0]
     traces = simulate_part(model, split.test, split.truth, sims, seed)
     cal = calibrated_fidelity(split.test, traces)
@@ -77,7 +81,8 @@ def _heldout(model, split, m0, sims, seed):
             'q95_measured': q95['measured'], 'q95_sim_median': q95['sim_median']}
 
 
-def effect_ablation(fitted, sims=100, seed=0):
+def effect_ablation(fitted: FittedModels, sims: int = 100,
+                    seed: int = 0) -> list[dict[str, Any]]:
     """Return, for every subset of the effects found, the held-out measures."""
     split, base, att = fitted.split, fitted.base, fitted.attribution
     subs = subsets(tuple(att.effects))
@@ -87,7 +92,7 @@ def effect_ablation(fitted, sims=100, seed=0):
             for sub in subs]
 
 
-def yule_walker_model(split, orders):
+def yule_walker_model(split: Split, orders: Orders) -> FittedModel:
     """Return the AR(p) with Yule-Walker coefficients, law fitted on its innovations."""
     phis, const = [], np.zeros(2)
     for a in range(2):
@@ -99,7 +104,8 @@ def yule_walker_model(split, orders):
     return with_law((), orders, mean, mean.residuals(d), d, 0)
 
 
-def estimator_check(fitted, sims=100, seed=0):
+def estimator_check(fitted: FittedModels, sims: int = 100,
+                    seed: int = 0) -> dict[str, dict[str, Any]]:
     """Return the held-out measures of AR(p) by least squares and by Yule-Walker."""
     split, base = fitted.split, fitted.base
     m0 = condition_count(base.orders)
@@ -108,7 +114,8 @@ def estimator_check(fitted, sims=100, seed=0):
                                     m0, sims, seed)}
 
 
-def sampling_spread(fitted, sims=100, seed=0):
+def sampling_spread(fitted: FittedModels, sims: int = 100,
+                    seed: int = 0) -> dict[str, dict[str, float]]:
     """
     Return, per measure, training value, held-out value and simulated range.
 

@@ -35,19 +35,26 @@ innovations: serial and cross correlation, persistence, and the calibration
 of the predictive distribution (PIT of the Mahalanobis radius).
 """
 
+from collections.abc import Mapping, Sequence
 import math
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 from scipy import stats
 
-from gps_error_ros.diagnose.common import (FAMILY_ALPHA, MOTION_TEST_LAGS, PERIODS,
+from gps_error_ros.diagnose.common import (FAMILY_ALPHA, MOTION_TEST_LAGS, Orders, PERIODS,
                                            PERSIST_LAGS, SERIAL_LAGS)
 from gps_error_ros.diagnose.laws import mahalanobis, robust_cov
 from gps_error_ros.fit.autocorrelation import segment_acf
 from gps_error_ros.model.ar_model import AXES
+from gps_error_ros.model.state import FloatArray, IntArray, Numbers
+
+if TYPE_CHECKING:        # models imports this module
+    from gps_error_ros.diagnose.models import FittedModel
 
 
-def ljung_box(x, seg, max_lag, dof):
+def ljung_box(x: FloatArray, seg: IntArray, max_lag: int, dof: int
+              ) -> tuple[float, float, FloatArray]:
     """Return (Q, p-value, acf) of the Ljung-Box test."""
     n = len(x)
     acf = segment_acf(x, seg, max_lag)
@@ -55,7 +62,7 @@ def ljung_box(x, seg, max_lag, dof):
     return float(q), float(stats.chi2.sf(q, max(1, dof))), acf
 
 
-def _lag_products(x, y, seg, k):
+def _lag_products(x: FloatArray, y: FloatArray, seg: IntArray, k: int) -> FloatArray:
     """Return x_t * y_{t-k} over pairs within one segment (deviations)."""
     if k == 0:
         return x * y
@@ -63,7 +70,8 @@ def _lag_products(x, y, seg, k):
     return x[k:][same] * y[:-k][same]
 
 
-def robust_portmanteau(x, seg, max_lag, dof):
+def robust_portmanteau(x: FloatArray, seg: IntArray, max_lag: int,
+                       dof: int) -> tuple[float, float, FloatArray]:
     """
     Return Q, its p-value and the ACF: a heteroscedasticity-robust Ljung-Box.
 
@@ -83,7 +91,7 @@ def robust_portmanteau(x, seg, max_lag, dof):
     return q, float(stats.chi2.sf(q, max(1, dof))), acf
 
 
-def robust_correlation_test(x, y):
+def robust_correlation_test(x: Numbers, y: Numbers) -> tuple[float, float]:
     """Return (correlation, p-value) of a heteroscedasticity-robust z test."""
     x = np.asarray(x) - np.mean(x)
     y = np.asarray(y) - np.mean(y)
@@ -94,7 +102,8 @@ def robust_correlation_test(x, y):
     return rho, float(2 * stats.norm.sf(abs(z)))
 
 
-def holm(pvalues, alpha=FAMILY_ALPHA, given=None):
+def holm(pvalues: Mapping[str, float], alpha: float = FAMILY_ALPHA,
+         given: Mapping[str, float] | None = None) -> tuple[dict[str, bool], dict[str, float]]:
     """
     Return Holm's reject decisions and adjusted p-values (dict by name).
 
@@ -120,7 +129,9 @@ def holm(pvalues, alpha=FAMILY_ALPHA, given=None):
     return reject, adjusted
 
 
-def holm_tests(tests, alpha=FAMILY_ALPHA, given=None):
+def holm_tests(tests: Mapping[str, Mapping[str, Any]], alpha: float = FAMILY_ALPHA,
+               given: Mapping[str, float] | None = None
+               ) -> tuple[dict[str, dict[str, Any]], dict[str, bool], dict[str, float]]:
     """
     Return (``tests`` each with its Holm-adjusted p and decision, reject, adjusted).
 
@@ -138,7 +149,8 @@ def holm_tests(tests, alpha=FAMILY_ALPHA, given=None):
 MOTION_DRAWS = 200_000
 
 
-def motion_test(lrs, corr=None, draws=MOTION_DRAWS, seed=0):
+def motion_test(lrs: Numbers, corr: FloatArray | None = None, draws: int = MOTION_DRAWS,
+                seed: int = 0) -> dict[str, Any]:
     """
     Return the motion-dependence test from the likelihood ratios per lag.
 
@@ -171,7 +183,8 @@ def motion_test(lrs, corr=None, draws=MOTION_DRAWS, seed=0):
 TRAVEL_SHIFTS = 1000
 
 
-def travel_frame_test(r, heading, shifts=TRAVEL_SHIFTS):
+def travel_frame_test(r: FloatArray, heading: FloatArray | None,
+                      shifts: int = TRAVEL_SHIFTS) -> dict[str, Any]:
     """
     Return the test that the innovation covariance turns with the travel.
 
@@ -187,6 +200,8 @@ def travel_frame_test(r, heading, shifts=TRAVEL_SHIFTS):
     legs of one direction) and breaks only their link. Rotation invariant;
     no power when the direction does not change.
     """
+    if heading is None:
+        raise ValueError('the travel-frame test needs each sample\'s direction of travel')
     d = r - r.mean(axis=0)
     u, v = 0.5 * (d[:, 0] ** 2 - d[:, 1] ** 2), d[:, 0] * d[:, 1]
     u, v = u - u.mean(), v - v.mean()
@@ -213,7 +228,7 @@ CYCLE_BLOCK = 60
 CYCLE_DRAWS = 400
 
 
-def _phase_spread(series, phase, period):
+def _phase_spread(series: Sequence[FloatArray], phase: IntArray, period: int) -> list[float]:
     """Return the between-phase sum of squares (sum_j n_j mean_j^2) of each series."""
     counts = np.bincount(phase, minlength=period)
     ok = counts > 0
@@ -221,8 +236,9 @@ def _phase_spread(series, phase, period):
                          / counts[ok])) for x in series]
 
 
-def periodicity_test(r, seg, steps, periods=PERIODS, block=CYCLE_BLOCK,
-                     draws=CYCLE_DRAWS, seed=0):
+def periodicity_test(r: FloatArray, seg: IntArray, steps: IntArray | None,
+                     periods: Sequence[int] = PERIODS, block: int = CYCLE_BLOCK,
+                     draws: int = CYCLE_DRAWS, seed: int = 0) -> dict[str, Any]:
     """
     Return the test for a cycle of ``P`` steps in the innovations ``r`` (n, 2).
 
@@ -266,10 +282,10 @@ def periodicity_test(r, seg, steps, periods=PERIODS, block=CYCLE_BLOCK,
             null[k, i] = a + b, c
     mu, sd = null.mean(axis=0), np.maximum(null.std(axis=0), 1e-12)
     zobs, znull = (obs - mu) / sd, ((null - mu) / sd).reshape(draws, -1).max(axis=1)
-    i, j = np.unravel_index(int(np.argmax(zobs)), zobs.shape)
-    p_value = (1 + int(np.sum(znull >= zobs[i, j]))) / (draws + 1)
-    return {**out, 'statistic': float(zobs[i, j]), 'at_period': int(periods[i]),
-            'in': ('mean', 'variance')[j], 'p_value': float(p_value)}
+    bi, bj = (int(v) for v in np.unravel_index(int(np.argmax(zobs)), zobs.shape))
+    p_value = (1 + int(np.sum(znull >= zobs[bi, bj]))) / (draws + 1)
+    return {**out, 'statistic': float(zobs[bi, bj]), 'at_period': int(periods[bi]),
+            'in': ('mean', 'variance')[bj], 'p_value': float(p_value)}
 
 
 #: Large innovations at most this many samples apart pair up (jump_reversal).
@@ -281,13 +297,14 @@ REVERSAL_THRESHOLD = 13.8
 REVERSAL_DRAWS = 2000
 
 
-def robust_whitened(r):
+def robust_whitened(r: FloatArray) -> FloatArray:
     """Return ``r`` centred and whitened by a covariance that gross outliers do not inflate."""
     d = r - np.median(r, axis=0)
     return np.linalg.solve(np.linalg.cholesky(robust_cov(r)), d.T).T
 
 
-def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, seed=0):
+def jump_reversal_test(r: FloatArray, seg: IntArray, window: int = REVERSAL_WINDOW,
+                       draws: int = REVERSAL_DRAWS, seed: int = 0) -> dict[str, Any]:
     """
     Return the test for jumps of the fix that come back (the ``outliers`` effect).
 
@@ -324,7 +341,8 @@ def jump_reversal_test(r, seg, window=REVERSAL_WINDOW, draws=REVERSAL_DRAWS, see
             'p_value': float(p)}
 
 
-def innovation_tests(r, seg, orders, r_axes=None):
+def innovation_tests(r: FloatArray, seg: IntArray, orders: Orders,
+                     r_axes: FloatArray | None = None) -> dict[str, dict[str, Any]]:
     """
     Return the first-round test statistics and p-values (dict by name).
 
@@ -367,7 +385,7 @@ def innovation_tests(r, seg, orders, r_axes=None):
     return out
 
 
-def serial_tests(r, seg, orders):
+def serial_tests(r: FloatArray, seg: IntArray, orders: Orders) -> dict[str, dict[str, Any]]:
     """Return the serial tests of north/east innovations ``r`` (an AR of ``orders`` fitted)."""
     out = {}
     for a, ax in enumerate(AXES):
@@ -382,7 +400,7 @@ def serial_tests(r, seg, orders):
     return out
 
 
-def standardised(model, r, pred):
+def standardised(model: 'FittedModel', r: FloatArray, pred: FloatArray) -> FloatArray:
     """Return innovations whitened by the model's predictive covariance."""
     scale2 = pred @ (model.law.scales ** 2)
     chol = np.linalg.cholesky(model.law.cov)
@@ -390,7 +408,7 @@ def standardised(model, r, pred):
     return z / np.sqrt(scale2)[:, None]
 
 
-def pit_radial(model, r, pred):
+def pit_radial(model: 'FittedModel', r: FloatArray, pred: FloatArray) -> FloatArray:
     """Return the PIT of each innovation's Mahalanobis radius under the model."""
     dm = mahalanobis(r, model.law.cov)
     u = np.zeros(len(r))
@@ -405,7 +423,8 @@ def pit_radial(model, r, pred):
     return u
 
 
-def retest(model, r, seg, pred, r_axes=None, serial=True):
+def retest(model: 'FittedModel', r: FloatArray, seg: IntArray, pred: FloatArray,
+           r_axes: FloatArray | None = None, serial: bool = True) -> dict[str, dict[str, Any]]:
     """
     Test the extended model's own innovations; return the test dict.
 
@@ -414,7 +433,7 @@ def retest(model, r, seg, pred, r_axes=None, serial=True):
     round); ``serial``: whether to run the serial tests at all.
     """
     z = standardised(model, r, pred)
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
     rho, p = robust_correlation_test(z[:, 0], z[:, 1])
     out['cross_axis_correlation'] = {'statistic': rho, 'p_value': p}
     u = pit_radial(model, r, pred)

@@ -9,20 +9,46 @@ and the horizontal-error quantiles. Each measured value is reported with the
 simulated median and central 95 % range beside it.
 """
 
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol, TypedDict
+
 import numpy as np
 from scipy import stats
 
 from gps_error_ros.diagnose.common import FIDELITY_MAX_LAG
 from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
+from gps_error_ros.diagnose.split import Part, TruthTrack
 from gps_error_ros.fit.autocorrelation import about_recording_means, segment_acf
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes
 from gps_error_ros.model import streams
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
 from gps_error_ros.traces.trace_io import RECORDING_GAP_S
 
 QUANTILES = (0.5, 0.95, 0.99)
 
 
-def acf_by_axis(err_segments, max_lag=FIDELITY_MAX_LAG, recording=None):
+class Simulates(Protocol):
+    """What :func:`simulate_part` needs of a class: its simulator and its mean's motion lag."""
+
+    @property
+    def mean(self) -> Any:
+        """Return the class's mean part (its ``lag_s``: the motion lag, s)."""
+
+    def simulator(self) -> Any:
+        """Return the model the class simulates with."""
+
+
+class Difference(TypedDict):
+    """A mean difference of held-out scores, paired on the same samples, with its interval."""
+
+    mean: float
+    #: The 95 % interval (block bootstrap), [low, high].
+    ci95: list[float]
+
+
+def acf_by_axis(err_segments: Sequence[FloatArray], max_lag: int = FIDELITY_MAX_LAG,
+                recording: Sequence[Any] | None = None) -> FloatArray:
     """
     Return the pooled ACF at lags 1..max_lag per axis, (max_lag, 2).
 
@@ -34,7 +60,8 @@ def acf_by_axis(err_segments, max_lag=FIDELITY_MAX_LAG, recording=None):
     return np.stack([segment_acf(x[:, a], seg, max_lag) for a in range(2)], axis=1)
 
 
-def measures(err_segments, max_lag=FIDELITY_MAX_LAG, recording=None):
+def measures(err_segments: Sequence[FloatArray], max_lag: int = FIDELITY_MAX_LAG,
+             recording: Sequence[Any] | None = None) -> dict[str, Any]:
     """Return the fidelity measures of one error trace (list of segments; their recordings)."""
     x = np.concatenate(err_segments)
     h = np.hypot(x[:, 0], x[:, 1])
@@ -43,7 +70,7 @@ def measures(err_segments, max_lag=FIDELITY_MAX_LAG, recording=None):
             'q': np.quantile(h, QUANTILES)}
 
 
-def part_steps(part):
+def part_steps(part: Part) -> list[IntArray]:
     """
     Return each segment's steps on the 1 Hz grid, from the part's first sample.
 
@@ -56,7 +83,8 @@ def part_steps(part):
     return [int(round(t[0] - t0)) + np.arange(len(t)) for t in part.t]
 
 
-def simulate_part(model, part, truth, sims, seed):
+def simulate_part(model: Simulates, part: Part, truth: TruthTrack, sims: int,
+                  seed: int) -> list[list[FloatArray]]:
     """
     Return ``sims`` simulated error traces along ``part``'s truth and grid.
 
@@ -71,7 +99,7 @@ def simulate_part(model, part, truth, sims, seed):
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
     steps = part_steps(part)
     labels = part.recordings()
-    x = {}
+    x: dict[int, tuple[int, FloatArray]] = {}
     for rec in dict.fromkeys(labels):
         own = [s for s, lab in zip(steps, labels) if lab == rec]
         x[rec] = (int(own[0][0]), _run(sim, keys, int(own[0][0]), int(own[-1][-1]) + 1,
@@ -81,7 +109,8 @@ def simulate_part(model, part, truth, sims, seed):
             for i in range(sims)]
 
 
-def _run(sim, keys, start, end, truth, t0, lag_s):
+def _run(sim: ErrorModel[Any], keys: Keys, start: int, end: int, truth: TruthTrack,
+         t0: float, lag_s: float) -> FloatArray:
     """Return one run's errors at model steps ``start .. end - 1``, (end - start, agents, 2)."""
     if not sim.needs_heading:
         return sim.simulate(keys, end - start, start=start)
@@ -96,17 +125,19 @@ def _run(sim, keys, start, end, truth, t0, lag_s):
     return x
 
 
-def fidelity(model, part, truth, sims=100, seed=0, max_lag=FIDELITY_MAX_LAG):
+def fidelity(model: Simulates, part: Part, truth: TruthTrack, sims: int = 100, seed: int = 0,
+             max_lag: int = FIDELITY_MAX_LAG) -> dict[str, Any]:
     """Compare the held-out errors with traces simulated along the truth."""
     return fidelity_of(part, simulate_part(model, part, truth, sims, seed), max_lag)
 
 
-def _spread(v):
+def _spread(v: Numbers) -> dict[str, float]:
     lo, mid, hi = np.quantile(v, [0.025, 0.5, 0.975])
     return {'median': float(mid), 'p2.5': float(lo), 'p97.5': float(hi)}
 
 
-def fidelity_of(part, simulated, max_lag=FIDELITY_MAX_LAG):
+def fidelity_of(part: Part, simulated: Sequence[Sequence[FloatArray]],
+                max_lag: int = FIDELITY_MAX_LAG) -> dict[str, Any]:
     """Return the fidelity measures of ``part`` against simulated traces."""
     sims = len(simulated)
     meas = measures(part.err, max_lag, part.recording)
@@ -114,7 +145,7 @@ def fidelity_of(part, simulated, max_lag=FIDELITY_MAX_LAG):
     acfs = np.stack([m['acf'] for m in sim_m])
     centre = acfs.mean(axis=0)
 
-    def rms(a):
+    def rms(a: FloatArray) -> float:
         return float(np.sqrt(np.mean((a - centre) ** 2)))
 
     corr = np.array([m['corr'] for m in sim_m])
@@ -133,7 +164,8 @@ def fidelity_of(part, simulated, max_lag=FIDELITY_MAX_LAG):
     }
 
 
-def block_bootstrap_mean(x, seed=0, block=30, reps=2000):
+def block_bootstrap_mean(x: Numbers, seed: int = 0, block: int = 30,
+                         reps: int = 2000) -> tuple[float, float, float]:
     """
     Return (mean, 2.5 %, 97.5 %) of ``x`` by a moving-block bootstrap.
 
@@ -155,7 +187,8 @@ def block_bootstrap_mean(x, seed=0, block=30, reps=2000):
     return float(x.mean()), float(lo), float(hi)
 
 
-def score_differences(lls, reference, seed=0):
+def score_differences(lls: Mapping[str, Numbers], reference: str,
+                      seed: int = 0) -> dict[str, Difference]:
     """
     Return each class's held-out NLL minus the reference class's, with a 95 % interval.
 
@@ -167,7 +200,7 @@ def score_differences(lls, reference, seed=0):
     0 says the samples cannot tell the two apart.
     """
     ref = np.asarray(lls[reference], dtype=float)
-    out = {}
+    out: dict[str, Difference] = {}
     for label, ll in lls.items():
         ll = np.asarray(ll, dtype=float)
         if ll.shape != ref.shape:
@@ -178,7 +211,7 @@ def score_differences(lls, reference, seed=0):
     return out
 
 
-def binomial_interval(k, n, level=0.95):
+def binomial_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     """Return the Clopper-Pearson interval (lo, hi) of a share ``k`` of ``n``."""
     if n <= 0:
         raise ValueError(f'a share needs n > 0 trials, got n = {n}')
@@ -192,7 +225,8 @@ def binomial_interval(k, n, level=0.95):
 CALIBRATED_QUANTILES = (0.5, 0.68, 0.95, 0.99)
 
 
-def measure_vector(err_segments, max_lag=FIDELITY_MAX_LAG):
+def measure_vector(err_segments: Sequence[FloatArray], max_lag: int = FIDELITY_MAX_LAG
+                   ) -> dict[str, float]:
     """
     Return the calibrated fidelity measures of one error trace, by name.
 
@@ -214,7 +248,8 @@ def measure_vector(err_segments, max_lag=FIDELITY_MAX_LAG):
     return out
 
 
-def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG, draws=None):
+def calibrated_fidelity(part: Part, simulated: Sequence[Sequence[FloatArray]],
+                        max_lag: int = FIDELITY_MAX_LAG, draws: Any = None) -> dict[str, Any]:
     """
     Return whether the held-out ``part`` is a plausible draw of the simulations.
 
@@ -231,7 +266,8 @@ def calibrated_fidelity(part, simulated, max_lag=FIDELITY_MAX_LAG, draws=None):
             'sims': len(simulated), 'measures': out}
 
 
-def measure_draws(part, simulated, max_lag=FIDELITY_MAX_LAG):
+def measure_draws(part: Part, simulated: Sequence[Sequence[FloatArray]],
+                  max_lag: int = FIDELITY_MAX_LAG) -> tuple[list[str], FloatArray, FloatArray]:
     """
     Return the measures of ``part`` and of every simulated trace, as arrays.
 
@@ -245,19 +281,19 @@ def measure_draws(part, simulated, max_lag=FIDELITY_MAX_LAG):
             np.array([[m[n] for n in names] for m in sims]).reshape(len(sims), len(names)))
 
 
-def part_fix_mask(part):
+def part_fix_mask(part: Part) -> BoolArray:
     """Return the part's fix mask on the 1 Hz grid, first sample to last."""
     return _mask(np.concatenate(part_steps(part)))
 
 
-def _mask(steps):
+def _mask(steps: IntArray) -> BoolArray:
     """Return the fix mask of grid steps from 0: True where a step has a fix."""
     mask = np.zeros(int(steps[-1]) + 1, dtype=bool)
     mask[steps] = True
     return mask
 
 
-def run_masks(part):
+def run_masks(part: Part) -> list[BoolArray]:
     """
     Return the part's fix masks on the 1 Hz grid, one per recording.
 
@@ -270,7 +306,8 @@ def run_masks(part):
     return [_mask(np.round(times - times[0]).astype(np.int64)) for times in np.split(t, joins)]
 
 
-def with_outages(calibrated, part, masks):
+def with_outages(calibrated: Mapping[str, Any], part: Part,
+                 masks: BoolArray | None) -> dict[str, Any]:
     """
     Add the outage measures to a :func:`calibrated_fidelity` result.
 

@@ -62,9 +62,11 @@ best after the mean part and the law are refitted with those jumps aside.
 A local search from one start stays in whichever explanation it started in.
 """
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 import itertools
 import math
+from typing import Any
 
 import numpy as np
 from scipy import special
@@ -72,7 +74,9 @@ from scipy import special
 from gps_error_ros.diagnose.common import LOG2PI
 from gps_error_ros.diagnose.compiled import kernel
 from gps_error_ros.diagnose.mean import Design
+from gps_error_ros.diagnose.split import Part
 from gps_error_ros.model.outliers import Outliers
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
 
 #: Start values of the jump parameters: rate, mean length (steps), sigma in innovation SDs.
 START = (0.01, 2.0, 6.0)
@@ -114,7 +118,7 @@ class JumpFilter:
     post: np.ndarray       # (n, 4) the transitions' posterior weights
     jump_ll: np.ndarray    # (n, 2) log densities: a jump starts, a jump goes on
 
-    def aside(self):
+    def aside(self) -> BoolArray:
         """
         Return, per step, whether the law's tests set it aside.
 
@@ -130,26 +134,27 @@ class JumpFilter:
         return (self.inside >= ASIDE) | (before >= ASIDE)
 
 
-def broken_segments(seg, keep):
+def broken_segments(seg: IntArray, keep: BoolArray) -> IntArray:
     """Return the segment index of the samples ``keep``, a new segment after each dropped run."""
     start = np.r_[True, seg[1:] != seg[:-1]] | np.r_[False, ~keep[:-1]]
     return np.cumsum(start & keep)[keep] - 1
 
 
-def _quad(inv, x0, x1):
+def _quad(inv: Sequence[Any], x0: Any, x1: Any) -> Any:
     return inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1 + inv[2] * x1 * x1
 
 
-def _gauss2(x0, x1, inv, logdet):
+def _gauss2(x0: Any, x1: Any, inv: Sequence[Any], logdet: Any) -> Any:
     return -LOG2PI - 0.5 * logdet - 0.5 * _quad(inv, x0, x1)
 
 
-def _inv(c):
+def _inv(c: FloatArray) -> tuple[tuple[float, float, float], float]:
     det = c[0, 0] * c[1, 1] - c[0, 1] ** 2
     return (c[1, 1] / det, -c[0, 1] / det, c[0, 0] / det), math.log(det)
 
 
-def _inv_plus(c, s2):
+def _inv_plus(c: FloatArray, s2: FloatArray
+              ) -> tuple[tuple[FloatArray, FloatArray, FloatArray], FloatArray]:
     """Return the inverse (three entries, each (K,)) and log det of ``c + s2 I`` per ``s2``."""
     a, b, d = c[0, 0] + s2, c[0, 1], c[1, 1] + s2
     det = a * d - b * b
@@ -159,7 +164,7 @@ def _inv_plus(c, s2):
 class _Tails:
     """The clean innovations' bivariate law per candidate: Gaussian or Student-t (covariance S)."""
 
-    def __init__(self, dofs):
+    def __init__(self, dofs: Numbers) -> None:
         dof = np.asarray(dofs, dtype=float)
         self.heavy = np.isfinite(dof)
         self.dof = np.where(self.heavy, dof, 4.0)
@@ -167,7 +172,7 @@ class _Tails:
         self.const = (special.gammaln(0.5 * (self.dof + 2)) - special.gammaln(0.5 * self.dof)
                       - np.log(self.dof * math.pi) + np.log(self.f))
 
-    def logpdf(self, q, logdet):
+    def logpdf(self, q: FloatArray, logdet: FloatArray) -> FloatArray:
         """Return the log density of squared Mahalanobis radii ``q`` (K,) under S."""
         gauss = -LOG2PI - 0.5 * logdet - 0.5 * q
         if not self.heavy.any():
@@ -176,13 +181,16 @@ class _Tails:
         return np.where(self.heavy, t, gauss)
 
 
-def _t2(x0, x1, inv, logdet, tail):
+def _t2(x0: Any, x1: Any, inv: Sequence[Any], logdet: Any,
+        tail: tuple[float, float, float]) -> Any:
     dof, f, const = tail
     q = inv[0] * x0 * x0 + 2 * inv[1] * x0 * x1 + inv[2] * x1 * x1
     return const - 0.5 * logdet - 0.5 * (dof + 2) * math.log1p(q * f / dof)
 
 
-def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
+def run_filter(r_obs: FloatArray, seg: IntArray, phi: Sequence[FloatArray], cov: FloatArray,
+               params: Outliers, scale2: FloatArray | None = None, dof: float = math.inf
+               ) -> JumpFilter:
     """
     Return the :class:`JumpFilter` of observed residuals ``r_obs`` (n, 2).
 
@@ -216,9 +224,10 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     obs = np.asarray(r_obs, dtype=float).tolist()
     seg = np.asarray(seg).tolist()
 
-    def clean(x, i0, d0):                   # the innovation law's log density
+    def clean(x: Any, i0: Sequence[Any], d0: Any
+              ) -> Any:                   # the innovation law's log density
         return _gauss2(x[0], x[1], i0, d0) if tail is None else _t2(x[0], x[1], i0, d0, tail)
-    rows = []
+    rows: list[tuple[Any, ...]] = []
     for t in range(n):
         if t == 0 or seg[t] != seg[t - 1]:
             wc, wj, cn, ce, pc = 1.0, 0.0, 0.0, 0.0, 1.0
@@ -257,7 +266,7 @@ def run_filter(r_obs, seg, phi, cov, params, scale2=None, dof=math.inf):
     return _collect(rows, n)
 
 
-def _collect(rows, n):
+def _collect(rows: Sequence[tuple[Any, ...]], n: int) -> JumpFilter:
     """Return the :class:`JumpFilter` of :func:`run_filter`'s per-step rows."""
     cols = list(zip(*rows)) if rows else [()] * 8
     rc, rj, prior, post, jll, inside, on, oe = (
@@ -268,7 +277,7 @@ def _collect(rows, n):
                       inside, post, jll)
 
 
-def _given_clean(post, r_from):
+def _given_clean(post: FloatArray, r_from: FloatArray) -> FloatArray:
     """
     Return the residual given clean: ``r_c`` and ``r_j`` weighted by their transitions.
 
@@ -282,7 +291,9 @@ def _given_clean(post, r_from):
                     r_from[..., 0, :])
 
 
-def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
+def run_filters(r_obs: FloatArray, seg: IntArray, phi: Sequence[FloatArray], cov: FloatArray,
+                cands: Sequence[tuple[Outliers, float]], scale2: FloatArray | None = None
+                ) -> list[JumpFilter]:
     """
     Return one :class:`JumpFilter` per candidate ``(Outliers, dof)``, in one pass.
 
@@ -329,7 +340,8 @@ def run_filters(r_obs, seg, phi, cov, cands, scale2=None):
                        post_out[:, j], ll_out[:, j]) for j in range(k)]
 
 
-def _step_candidates(r_obs, seg, coef, inv, which, rate, q, tails, out):
+def _step_candidates(r_obs: FloatArray, seg: IntArray, coef: FloatArray, inv: Any, which: IntArray,
+                     rate: FloatArray, q: FloatArray, tails: _Tails, out: Any) -> None:
     """
     Step the candidates through the filter in numpy; write :func:`run_filters`' ``out``.
 
@@ -373,7 +385,7 @@ def _step_candidates(r_obs, seg, coef, inv, which, rate, q, tails, out):
         off[t] = wj[:, None] * c
 
 
-def mixture_logpdf(jf, clean_ll):
+def mixture_logpdf(jf: JumpFilter, clean_ll: FloatArray) -> FloatArray:
     """
     Return per-sample log densities: the four transitions, weighted by the prior.
 
@@ -386,7 +398,7 @@ def mixture_logpdf(jf, clean_ll):
     return top + np.log(np.exp(parts - top[:, None]).sum(axis=1))
 
 
-def shifted_offsets(offset, seg, lag):
+def shifted_offsets(offset: FloatArray, seg: IntArray, lag: int) -> FloatArray:
     """Return the offset ``lag`` samples back within the segment (0 before its start)."""
     out = np.zeros_like(offset)
     if lag < len(offset):
@@ -395,7 +407,7 @@ def shifted_offsets(offset, seg, lag):
     return out
 
 
-def cleaned_design(d, offset):
+def cleaned_design(d: Design, offset: FloatArray) -> Design:
     """Return design ``d`` with the offsets taken out of its samples and their lags."""
     lags = [np.stack([x[:, i] - shifted_offsets(offset, d.seg, i + 1)[:, a]
                       for i in range(x.shape[1])], axis=1) if x.shape[1] else x
@@ -403,7 +415,7 @@ def cleaned_design(d, offset):
     return Design(d.y - offset, lags, d.seg, d.heading, d.steps)
 
 
-def cleaned_part(part, offset, m0):
+def cleaned_part(part: Part, offset: FloatArray, m0: int) -> Part:
     """
     Return ``part`` with the offsets taken out of its errors.
 
@@ -422,14 +434,14 @@ def cleaned_part(part, offset, m0):
     return replace(part, err=errs)
 
 
-def design_subset(d, keep):
+def design_subset(d: Design, keep: BoolArray) -> Design:
     """Return the samples ``keep`` (boolean) of design ``d``."""
     return Design(d.y[keep], [x[keep] for x in d.lags], d.seg[keep],
                   None if d.heading is None else d.heading[keep],
                   None if d.steps is None else d.steps[keep])
 
 
-def _unpack(x):
+def _unpack(x: Numbers) -> tuple[Outliers, float]:
     """
     Return ``(Outliers, dof)`` of search coordinates.
 
@@ -443,7 +455,7 @@ def _unpack(x):
     return Outliers(rate, steps, math.exp(x[2])), dof
 
 
-def _pack(params, dof=math.inf):
+def _pack(params: Outliers, dof: float = math.inf) -> FloatArray:
     lo, hi = RATE_BOUNDS
     frac = (params.rate - lo) / (hi - lo)
     x = [math.log(frac / (1 - frac)), math.log(max(params.mean_steps - 1.0, 1e-3)),
@@ -451,7 +463,9 @@ def _pack(params, dof=math.inf):
     return np.array(x + ([math.log(dof - 2.0)] if math.isfinite(dof) else []))
 
 
-def search_params(loglik_many, sd, start=None, start_dof=math.inf, tails=False, wide=True):
+def search_params(loglik_many: Callable[[list[tuple[Outliers, float]]], Numbers], sd: Numbers,
+                  start: Outliers | None = None, start_dof: float = math.inf,
+                  tails: bool = False, wide: bool = True) -> tuple[Outliers, float]:
     """
     Return ``(Outliers, dof)`` maximising the likelihood, by a grid refined around its best.
 
@@ -483,13 +497,15 @@ def search_params(loglik_many, sd, start=None, start_dof=math.inf, tails=False, 
         lls = np.where(np.isfinite(lls), lls, -np.inf)
         if lls.size and lls.max() > best_ll:
             best, best_ll = pts[int(np.argmax(lls))], float(lls.max())
+        if best is None:
+            raise ValueError('search_params: no candidate has a finite likelihood')
         pts = [best + step * np.array(o) for o in itertools.product((-1, 0, 1), repeat=len(best))
                if any(o)]
         step = 0.5 * step
     return _unpack(best)
 
 
-def moment_start(jf, cov):
+def moment_start(jf: JumpFilter, cov: FloatArray) -> Outliers | None:
     """Return start values from one pass: the posterior starts, lengths and sizes (of r_c)."""
     w = jf.inside
     starts = np.maximum(w - np.r_[0.0, w[:-1]], 0.0)

@@ -16,23 +16,29 @@ import math
 import numba
 import numpy as np
 
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray
+
 
 @numba.njit(cache=True)
-def _quad(i0, i1, i2, x0, x1):
+def _quad(i0: float, i1: float, i2: float, x0: float, x1: float) -> float:
     return i0 * x0 * x0 + 2 * i1 * x0 * x1 + i2 * x1 * x1
 
 
 @numba.njit(cache=True)
-def _clean_logpdf(q, logdet, heavy, dof, f, const, log2pi):
+def _clean_logpdf(q: float, logdet: float, heavy: bool, dof: float, f: float, const: float,
+                  log2pi: float) -> float:
     if heavy:
         return const - 0.5 * logdet - 0.5 * (dof + 2) * math.log1p(q * f / dof)
     return -log2pi - 0.5 * logdet - 0.5 * q
 
 
 @numba.njit(cache=True)
-def step_candidates(r_obs, seg, coef, inv0, logdet0, inv1, logdet1, which, rate, end_q,
-                    heavy, dof, f_t, const, hold_scale, drift, log2pi,
-                    rf_out, prior_out, post_out, ll_out, off):
+def step_candidates(r_obs: FloatArray, seg: IntArray, coef: FloatArray, inv0: FloatArray,
+                    logdet0: FloatArray, inv1: FloatArray, logdet1: FloatArray,
+                    which: IntArray, rate: FloatArray, end_q: FloatArray, heavy: BoolArray,
+                    dof: FloatArray, f_t: FloatArray, const: FloatArray, hold_scale: float,
+                    drift: float, log2pi: float, rf_out: FloatArray, prior_out: FloatArray,
+                    post_out: FloatArray, ll_out: FloatArray, off: FloatArray) -> None:
     """
     Step ``k`` candidates through the filter; write the numpy loop's outputs in place.
 
@@ -145,7 +151,8 @@ def step_candidates(r_obs, seg, coef, inv0, logdet0, inv1, logdet1, which, rate,
 
 
 @numba.njit(cache=True)
-def hmm_forward(logf, trans, pi, restart, pred_ll, pred, filt):
+def hmm_forward(logf: FloatArray, trans: FloatArray, pi: FloatArray, restart: BoolArray,
+                pred_ll: FloatArray, pred: FloatArray, filt: FloatArray) -> None:
     """
     Run the forward filter of a K-state HMM; write its outputs in place.
 
@@ -177,7 +184,8 @@ def hmm_forward(logf, trans, pi, restart, pred_ll, pred, filt):
 
 
 @numba.njit(cache=True)
-def hmm_backward(logf, trans, filt, gamma, counts):
+def hmm_backward(logf: FloatArray, trans: FloatArray, filt: FloatArray, gamma: FloatArray,
+                 counts: FloatArray) -> None:
     """
     Run the backward pass after :func:`hmm_forward` (one chain, no restarts).
 

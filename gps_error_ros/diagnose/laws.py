@@ -10,6 +10,7 @@ parallel prefix product); their fit is Baum-Welch (EM), refined by direct
 maximisation when tails are present.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 import math
 
@@ -19,14 +20,15 @@ from scipy import optimize, special
 from gps_error_ros.diagnose.common import DiagnosisError, LOG2PI
 from gps_error_ros.diagnose.compiled import kernel
 from gps_error_ros.model.effects import stationary_distribution
+from gps_error_ros.model.state import FloatArray, IntArray, Numbers
 
 
-def mahalanobis(r, cov):
+def mahalanobis(r: FloatArray, cov: FloatArray) -> FloatArray:
     """Return the squared Mahalanobis distances of rows of ``r``."""
     return np.einsum('ni,ij,nj->n', r, np.linalg.inv(cov), r)
 
 
-def robust_cov(r):
+def robust_cov(r: FloatArray) -> FloatArray:
     """Return the covariance of ``r`` without its gross outliers (3 MADs per axis)."""
     dev = np.abs(r - np.median(r, axis=0))
     mad = np.maximum(1.4826 * np.median(dev, axis=0), 1e-9)
@@ -44,7 +46,7 @@ class Law:
     transition: np.ndarray = field(default_factory=lambda: np.ones((1, 1)))
 
     @property
-    def n_params(self):
+    def n_params(self) -> int:
         """Return the number of free parameters of the law."""
         k = self.scales.size
         coupled = self.cov[0, 1] != 0.0
@@ -52,7 +54,7 @@ class Law:
             (k - 1) + k * (k - 1)
 
 
-def component_logpdf(r, cov, dof, scale2):
+def component_logpdf(r: FloatArray, cov: FloatArray, dof: float, scale2: float) -> FloatArray:
     """Log density of innovations ``r`` (n, 2) under one regime."""
     c = cov * scale2
     det = c[0, 0] * c[1, 1] - c[0, 1] ** 2
@@ -67,7 +69,7 @@ def component_logpdf(r, cov, dof, scale2):
             - 0.5 * (dof + 2) * np.log1p(q * f / dof))
 
 
-def _matmul_stack(a, b):
+def _matmul_stack(a: FloatArray, b: FloatArray) -> FloatArray:
     """Return a[t] @ b[t] for stacks laid out (K, K, n): elementwise, fast."""
     k = a.shape[0]
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
@@ -80,7 +82,7 @@ def _matmul_stack(a, b):
     return out
 
 
-def _prefix_products(mats):
+def _prefix_products(mats: FloatArray) -> tuple[FloatArray, FloatArray]:
     """
     Return normalised inclusive prefix products of a (K, K, n) matrix stack.
 
@@ -103,7 +105,8 @@ def _prefix_products(mats):
         d *= 2
 
 
-def scan_loglik(logf, trans, pi, smooth=False, starts=None):
+def scan_loglik(logf: FloatArray, trans: FloatArray, pi: FloatArray, smooth: bool = False,
+                starts: Numbers | None = None) -> tuple[FloatArray, ...]:
     """
     Forward filter of a K-state HMM with emission log densities ``logf`` (n, K).
 
@@ -157,7 +160,9 @@ def scan_loglik(logf, trans, pi, smooth=False, starts=None):
     return pred_ll, pred, gamma, xi.sum(axis=0)
 
 
-def _scan_compiled(forward, backward, logf, trans, pi, smooth, starts):
+def _scan_compiled(forward: Callable[..., None], backward: Callable[..., None], logf: FloatArray,
+                   trans: FloatArray, pi: FloatArray, smooth: bool,
+                   starts: Numbers | None) -> tuple[FloatArray, ...]:
     """Return :func:`scan_loglik`'s outputs from the compiled step-by-step recursions."""
     n, k = logf.shape
     restart = np.zeros(n, dtype=np.bool_) if starts is None else \
@@ -175,7 +180,7 @@ def _scan_compiled(forward, backward, logf, trans, pi, smooth, starts):
     return pred_ll, pred, gamma, counts
 
 
-def law_logpdf(law, r, seg):
+def law_logpdf(law: Law, r: FloatArray, seg: IntArray) -> tuple[FloatArray, FloatArray]:
     """
     Return per-sample one-step predictive log densities of innovations ``r``.
 
@@ -199,7 +204,7 @@ def law_logpdf(law, r, seg):
     return out, pred
 
 
-def law_logpdf_given(law, r, pred):
+def law_logpdf_given(law: Law, r: FloatArray, pred: FloatArray) -> FloatArray:
     """Return the log densities of ``r`` given the predictive regime probabilities ``pred``."""
     if law.scales.size == 1:
         return component_logpdf(r, law.cov, law.dof, 1.0)
@@ -208,7 +213,7 @@ def law_logpdf_given(law, r, pred):
         return special.logsumexp(logf + np.log(pred), axis=1)
 
 
-def law_from_vector(x, coupled, tails, regimes):
+def law_from_vector(x: Numbers, coupled: bool, tails: bool, regimes: int) -> Law:
     """Return the :class:`Law` of a parameter vector (``regimes``: 0 or K)."""
     sn, se = math.exp(x[0]), math.exp(x[1])
     i = 2
@@ -232,7 +237,8 @@ def law_from_vector(x, coupled, tails, regimes):
     return Law(cov, dof, scales, trans)
 
 
-def em_regimes(r, seg, k, coupled, iters=200, tol=1e-8):
+def em_regimes(r: FloatArray, seg: IntArray, k: int, coupled: bool, iters: int = 200,
+               tol: float = 1e-8) -> Law:
     """Baum-Welch for K Gaussian variance regimes of one shared covariance."""
     cov = np.cov(r.T, bias=True)
     if not coupled:
@@ -279,7 +285,7 @@ def em_regimes(r, seg, k, coupled, iters=200, tol=1e-8):
     return law
 
 
-def law_vector(law, coupled, tails, regimes):
+def law_vector(law: Law, coupled: bool, tails: bool, regimes: int) -> FloatArray:
     """Return the parameter vector of ``law`` (inverse of :func:`law_from_vector`)."""
     sd = np.sqrt(np.diag(law.cov))
     x = [math.log(sd[0]), math.log(sd[1])]
@@ -295,7 +301,8 @@ def law_vector(law, coupled, tails, regimes):
     return np.array(x)
 
 
-def fit_law(r, seg, coupled=False, tails=False, regimes=0):
+def fit_law(r: FloatArray, seg: IntArray, coupled: bool = False, tails: bool = False,
+            regimes: int = 0) -> Law:
     """
     Maximum likelihood of the innovation law on innovations ``r``.
 
@@ -308,7 +315,7 @@ def fit_law(r, seg, coupled=False, tails=False, regimes=0):
         return Law(np.diag(np.mean(r * r, axis=0)))
     x0 = [math.log(sd[0]), math.log(sd[1])]
     if coupled:
-        x0.append(math.atanh(np.clip(np.corrcoef(r.T)[0, 1], -0.95, 0.95)))
+        x0.append(math.atanh(np.clip(np.atleast_2d(np.corrcoef(r.T))[0, 1], -0.95, 0.95)))
     if tails:
         x0.append(math.log(6.0 - 2.0))
     starts = [np.array(x0)]
@@ -318,20 +325,18 @@ def fit_law(r, seg, coupled=False, tails=False, regimes=0):
             return em
         starts = [law_vector(em, coupled, tails, regimes)]
 
-    def nll(x):
+    def nll(x: FloatArray) -> float:
         try:
             law = law_from_vector(x, coupled, tails, regimes)
-            v = -np.sum(law_logpdf(law, r, seg)[0])
+            v = float(-np.sum(law_logpdf(law, r, seg)[0]))
         except (FloatingPointError, ValueError, OverflowError,
                 np.linalg.LinAlgError):
             return 1e300
         return v if np.isfinite(v) else 1e300
 
-    best = None
+    fits = []
     for s in starts:
         with np.errstate(all='ignore'):
-            res = optimize.minimize(nll, s, method='L-BFGS-B',
-                                    options={'maxiter': 200})
-        if best is None or res.fun < best.fun:
-            best = res
+            fits.append(optimize.minimize(nll, s, method='L-BFGS-B', options={'maxiter': 200}))
+    best = min(fits, key=lambda res: res.fun)       # the first of the lowest
     return law_from_vector(best.x, coupled, tails, regimes)

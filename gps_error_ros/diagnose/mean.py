@@ -16,6 +16,7 @@ steps, averaging zero) is estimated with the rest; a sample's phase is its
 step from the trace's first fix modulo the period.
 """
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 import math
 from typing import Optional
@@ -23,23 +24,29 @@ from typing import Optional
 import numpy as np
 from scipy import optimize
 
-from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS
+from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS, Orders
+from gps_error_ros.diagnose.split import Part, TruthTrack
 from gps_error_ros.model.ar_model import inverse_root_modulus
 from gps_error_ros.model.effects import MOVING_M
 from gps_error_ros.model.motion_lag import lag_offsets, RUN_GAP_S, truth_at
+from gps_error_ros.model.state import FloatArray, IntArray, Numbers
 
 
-def motion_offsets(part, truth, lag_s, gain=1.0):
+def motion_offsets(part: Part, truth: TruthTrack | None, lag_s: float,
+                   gain: float = 1.0) -> list[FloatArray]:
     """
     Return per segment ``gain * (truth(t - lag_s) - truth(t))``, (n_s, 2).
 
     ``truth`` is the whole trace's :class:`~.split.TruthTrack`, so a lag
     reaches back across the train/test cut, but not across a truth gap over
     :data:`RUN_GAP_S` (recordings joined one after another): there the
-    truth is held at the later run's first sample.
+    truth is held at the later run's first sample. Without a motion term
+    (``lag_s`` or ``gain`` 0) the truth is not needed (None).
     """
     if lag_s == 0.0 or gain == 0.0 or not part.t:
         return [np.zeros_like(e) for e in part.err]
+    if truth is None:
+        raise ValueError(f'a motion lag of {lag_s} s needs the truth: expected a TruthTrack')
     # one interpolation over every segment's times (each costs a pass over the truth)
     whole = lag_offsets(truth.t, truth.north_east[:, 0], truth.north_east[:, 1], lag_s,
                         at=np.concatenate(part.t), gap_s=RUN_GAP_S)
@@ -47,7 +54,7 @@ def motion_offsets(part, truth, lag_s, gain=1.0):
     return out if gain == 1.0 else [gain * o for o in out]
 
 
-def travel_headings(truth, times, lag_s=0.0):
+def travel_headings(truth: TruthTrack, times: Numbers, lag_s: float = 0.0) -> FloatArray:
     """
     Return the direction of travel (rad from north, clockwise) at ``times``.
 
@@ -67,19 +74,19 @@ def travel_headings(truth, times, lag_s=0.0):
     return np.where(held >= 0, theta[np.maximum(held, 0)], 0.0)
 
 
-def to_travel_frame(r, heading):
+def to_travel_frame(r: FloatArray, heading: Numbers) -> FloatArray:
     """Return north/east innovations ``r`` (n, 2) as (along, across) the travel."""
     c, s = np.cos(heading), np.sin(heading)
     return np.stack([r[:, 0] * c + r[:, 1] * s, -r[:, 0] * s + r[:, 1] * c], axis=1)
 
 
-def from_travel_frame(r, heading):
+def from_travel_frame(r: FloatArray, heading: Numbers) -> FloatArray:
     """Return (along, across) innovations ``r`` (n, 2) as north/east."""
     c, s = np.cos(heading), np.sin(heading)
     return np.stack([r[:, 0] * c - r[:, 1] * s, r[:, 0] * s + r[:, 1] * c], axis=1)
 
 
-def condition_count(*orders):
+def condition_count(*orders: Orders) -> int:
     """Return how many samples per segment are conditioned on, not scored (by all ``orders``)."""
     return max(max(max(o) for o in orders), int(math.ceil(MAX_LAG_S)))
 
@@ -89,17 +96,20 @@ class Design:
     """Lagged regressions of one part for given orders and motion term."""
 
     y: np.ndarray          # (n, 2) u at the scored samples
-    lags: list             # per axis (n, p_a) lagged u
+    lags: list[np.ndarray]  # per axis (n, p_a) lagged u
     seg: np.ndarray        # (n,) segment index of each scored sample
     heading: Optional[np.ndarray] = None   # (n,) direction of travel, rad (street_frame)
     steps: Optional[np.ndarray] = None     # (n,) step from the trace's first fix (periodic)
 
-    def phase(self, period):
+    def phase(self, period: int) -> IntArray:
         """Return each scored sample's phase in a cycle of ``period`` steps."""
+        if self.steps is None:
+            raise ValueError('a periodic term needs the design\'s steps')
         return self.steps % period
 
 
-def design(part, orders, truth, lag_s=0.0, gain=1.0, m0=None):
+def design(part: Part, orders: Orders, truth: TruthTrack, lag_s: float = 0.0,
+           gain: float = 1.0, m0: int | None = None) -> Design:
     """Build the regression of u = e - motion term on its own past."""
     m0 = condition_count(orders) if m0 is None else max(m0, max(orders))
     offs = motion_offsets(part, truth, lag_s, gain)
@@ -125,16 +135,16 @@ class MeanFit:
     """The fitted mean part: constants, AR coefficients, motion term, cycle."""
 
     const: np.ndarray      # (2,)
-    phi: list              # per axis array
+    phi: list[np.ndarray]  # per axis array
     lag_s: float = 0.0
     gain: float = 1.0
     period: int = 0                 # periodic: the cycle's length, steps (0: none)
     offsets: Optional[np.ndarray] = None      # periodic: (period, 2) innovation mean by phase
 
-    def residuals(self, d):
+    def residuals(self, d: Design) -> FloatArray:
         """Return the innovations of design ``d``, (n, 2)."""
         r = d.y - self.const
-        if self.period:
+        if self.period and self.offsets is not None:
             r -= self.offsets[d.phase(self.period)]
         for a in range(2):
             r[:, a] -= d.lags[a] @ self.phi[a]
@@ -145,7 +155,7 @@ class MeanFit:
 MAX_RADIUS = 0.999
 
 
-def stationary_phi(phi):
+def stationary_phi(phi: FloatArray) -> FloatArray:
     """
     Return ``phi``, or, when its AR part is not stationary, the nearest of its shape that is.
 
@@ -162,7 +172,8 @@ def stationary_phi(phi):
     return phi * c ** np.arange(1, len(phi) + 1)
 
 
-def least_squares(d, lag_s=0.0, gain=1.0, period=0):
+def least_squares(d: Design, lag_s: float = 0.0, gain: float = 1.0,
+                  period: int = 0) -> tuple[MeanFit, FloatArray]:
     """
     Fit the design per axis by least squares; return (MeanFit, residuals).
 
@@ -172,7 +183,7 @@ def least_squares(d, lag_s=0.0, gain=1.0, period=0):
     constants refitted given it.
     """
     const, phis = np.zeros(2), []
-    offsets = np.zeros((period, 2)) if period else None
+    offsets = np.zeros((period, 2))
     if period:
         ones = (d.phase(period)[:, None] == np.arange(period)).astype(float)
     else:
@@ -189,11 +200,11 @@ def least_squares(d, lag_s=0.0, gain=1.0, period=0):
         if period:
             offsets[:, a] = beta[:k] - const[a]
         phis.append(beta[k:])
-    mf = MeanFit(const, phis, lag_s, gain, period, offsets)
+    mf = MeanFit(const, phis, lag_s, gain, period, offsets if period else None)
     return mf, mf.residuals(d)
 
 
-def _profile_minimum(loss, hi):
+def _profile_minimum(loss: Callable[[float], float], hi: float) -> tuple[float, float]:
     """Return (the minimiser of ``loss`` on [0, hi], the minimum): a grid, then refined."""
     grid = np.linspace(0.0, hi, 26)
     vals = [loss(g) for g in grid]
@@ -208,7 +219,8 @@ def _profile_minimum(loss, hi):
     return best, low
 
 
-def log_det_loss(part, orders, truth, lag_s, gain, period=0, clean=None):
+def log_det_loss(part: Part, orders: Orders, truth: TruthTrack, lag_s: float, gain: float,
+                 period: int = 0, clean: Callable[[Design], Design] | None = None) -> float:
     """
     Return the sum over the axes of the log mean square least-squares residual.
 
@@ -220,18 +232,20 @@ def log_det_loss(part, orders, truth, lag_s, gain, period=0, clean=None):
     return log_det(least_squares(d if clean is None else clean(d), period=period)[1])
 
 
-def log_det(r):
+def log_det(r: FloatArray) -> float:
     """Return the sum over the axes of the log mean square of residuals ``r`` (n, 2)."""
     return float(np.sum(np.log(np.mean(r * r, axis=0))))
 
 
-def fit_mean(part, orders, truth, lag_s=0.0, gain=1.0, period=0):
+def fit_mean(part: Part, orders: Orders, truth: TruthTrack, lag_s: float = 0.0,
+             gain: float = 1.0, period: int = 0) -> tuple[MeanFit, FloatArray, Design]:
     """Fit the mean part with a fixed motion term; return (MeanFit, r, Design)."""
     d = design(part, orders, truth, lag_s, gain)
     return least_squares(d, lag_s, gain, period) + (d,)
 
 
-def fit_lag(part, orders, truth, period=0, clean=None):
+def fit_lag(part: Part, orders: Orders, truth: TruthTrack, period: int = 0,
+            clean: Callable[[Design], Design] | None = None) -> float:
     """
     Return the lag (s, in [0, MAX_LAG_S], gain 1) of least log-det loss.
 
@@ -242,24 +256,29 @@ def fit_lag(part, orders, truth, period=0, clean=None):
         lambda tau: log_det_loss(part, orders, truth, tau, 1.0, period, clean), MAX_LAG_S)[0]
 
 
-def fit_mean_lag(part, orders, truth, period=0):
+def fit_mean_lag(part: Part, orders: Orders, truth: TruthTrack,
+                 period: int = 0) -> tuple[MeanFit, FloatArray, Design]:
     """Fit the mean part with ``lag_s`` in [0, MAX_LAG_S] estimated (gain 1)."""
     return fit_mean(part, orders, truth, fit_lag(part, orders, truth, period), 1.0, period)
 
 
-def gain_loss(part, orders, truth, lag_s, clean=None):
+def gain_loss(part: Part, orders: Orders, truth: TruthTrack, lag_s: float,
+              clean: Callable[[Design], Design] | None = None) -> tuple[float, float]:
     """Return (least log-det loss over the gain in [0, 5] at ``lag_s``, the gain)."""
     best, low = _profile_minimum(
         lambda g: log_det_loss(part, orders, truth, lag_s, g, clean=clean), MAX_LAG_S)
     return low, best
 
 
-def fit_mean_gain(part, orders, truth, lag_s):
+def fit_mean_gain(part: Part, orders: Orders, truth: TruthTrack,
+                  lag_s: float) -> tuple[MeanFit, FloatArray, Design]:
     """Fit the mean part at a fixed ``lag_s`` with the gain in [0, 5] estimated."""
     return fit_mean(part, orders, truth, lag_s, gain_loss(part, orders, truth, lag_s)[1])
 
 
-def motion_correlation(part, orders, truth, phi, weights, clean=None):
+def motion_correlation(part: Part, orders: Orders, truth: TruthTrack, phi: Sequence[FloatArray],
+                       weights: Numbers, clean: Callable[[Design], Design] | None = None
+                       ) -> FloatArray:
     """
     Return the correlation of the motion probes' score statistics across the lags.
 
@@ -270,7 +289,7 @@ def motion_correlation(part, orders, truth, phi, weights, clean=None):
     Under no motion term the scores are asymptotically Gaussian with these
     correlations, whatever the lag. ``clean``: as for :func:`log_det_loss`.
     """
-    def build(lag_s, gain):
+    def build(lag_s: float, gain: float) -> Design:
         d = design(part, orders, truth, lag_s, gain)
         return d if clean is None else clean(d)
 

@@ -14,31 +14,36 @@ the mean part predicts from the past with its jumps set aside, and the
 likelihood is the filter's mixture (:mod:`.jumps`).
 """
 
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, replace
 import math
-from typing import Optional
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.diagnose import jumps
-from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
+from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER, Orders
+from gps_error_ros.diagnose.jumps import JumpFilter
 from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf, law_logpdf_given, robust_cov
-from gps_error_ros.diagnose.mean import (design, fit_mean, fit_mean_gain,
+from gps_error_ros.diagnose.mean import (Design, design, fit_mean, fit_mean_gain,
                                          fit_mean_lag, least_squares, MeanFit,
                                          to_travel_frame)
+from gps_error_ros.diagnose.split import Part, TruthTrack
 from gps_error_ros.fit.calibration import CalibrationError, fit_axis
 from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
 from gps_error_ros.model.effects import build_model, Effects, stationary_distribution
 from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.model.periodic import Periodic
+from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.state import FloatArray, IntArray
 
 
 @dataclass
 class FittedModel:
     """A fitted (base or extended) model on the training part."""
 
-    effects: tuple
-    orders: tuple
+    effects: tuple[str, ...]
+    orders: tuple[int, ...]
     mean: MeanFit
     law: Law
     train_loglik: float
@@ -47,30 +52,30 @@ class FittedModel:
     jumps: Optional[Outliers] = None      # outliers: rate, mean length, size
 
     @property
-    def n_params(self):
+    def n_params(self) -> int:
         """Return the number of free parameters."""
         return sum(p + 1 for p in self.orders) + self.law.n_params + \
             int('motion_lag' in self.effects) + 3 * max(self.mean.period - 1, 0) + \
             3 * (self.jumps is not None)
 
     @property
-    def bic(self):
+    def bic(self) -> float:
         """Return the training BIC."""
         return -2 * self.train_loglik + self.n_params * math.log(self.n_train)
 
-    def axis_params(self):
+    def axis_params(self) -> tuple[AxisParams, AxisParams]:
         """Return per-axis :class:`AxisParams` (sigma_w of the unit regime)."""
         out = []
         for a in range(2):
             phi = tuple(float(v) for v in self.mean.phi[a])
             out.append(AxisParams(float(self.mean.const[a]), phi,
                                   float(math.sqrt(self.law.cov[a, a]))))
-        return out
+        return out[0], out[1]
 
-    def effects_obj(self):
+    def effects_obj(self) -> Effects:
         """Return the model's :class:`Effects`."""
         cov = self.law.cov
-        kw = {}
+        kw: dict[str, Any] = {}
         if 'cross_axis_coupling' in self.effects:
             kw['innovation_corr'] = float(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]))
         if 'motion_lag' in self.effects:
@@ -83,7 +88,8 @@ class FittedModel:
             kw['scales'] = tuple(float(v) for v in self.law.scales)
             kw['transition'] = tuple(tuple(float(v) for v in row)
                                      for row in self.law.transition)
-        if 'periodic' in self.effects:
+        if 'periodic' in self.effects and self.cycle_scales is not None \
+                and self.mean.offsets is not None:
             kw['periodic'] = Periodic(
                 int(self.mean.period), tuple(float(v) for v in self.cycle_scales),
                 tuple((float(a), float(b)) for a, b in self.mean.offsets))
@@ -92,13 +98,13 @@ class FittedModel:
                                       float(self.jumps.sigma_m))
         return Effects(**kw)
 
-    def simulator(self):
+    def simulator(self) -> ErrorModel[Any]:
         """Return the model as a simulator: plain AR, or with its effects."""
         return build_model(*self.axis_params(), self.effects_obj())
 
-    def parameters(self):
+    def parameters(self) -> dict[str, Any]:
         """Return the parameters as plain data (profile ``axes`` and ``effects``)."""
-        out = {}
+        out: dict[str, Any] = {}
         for ax, p in zip(AXES, self.axis_params()):
             out[ax] = {'delta': round(p.delta, 6),
                        'phi': [round(v, 6) for v in p.phi],
@@ -108,7 +114,7 @@ class FittedModel:
             out['effects'] = eff
         return out
 
-    def score(self, part, truth, m0=None):
+    def score(self, part: Part, truth: TruthTrack, m0: int | None = None) -> tuple[Any, ...]:
         """
         Return (per-sample predictive log densities, residuals, design, pred).
 
@@ -116,7 +122,7 @@ class FittedModel:
         direction of travel (the axes of the law). With ``outliers`` the log
         densities are of every scored sample, the residuals, design and
         ``pred`` of the steps the jumps leave clean, with a new segment after
-        each jump (:meth:`~.jumps.JumpFilter.aside`).
+        each jump (:meth:`~.JumpFilter.aside`).
 
         ``m0``: samples per segment conditioned on, not scored (default: the
         model's own :func:`~.mean.condition_count`); ``pred`` holds the
@@ -129,7 +135,8 @@ class FittedModel:
         ll, r, pred = self._law_score(r, d)
         return ll, r, d, pred
 
-    def _law_score(self, r, d, pred=None):
+    def _law_score(self, r: FloatArray, d: Design,
+                   pred: FloatArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
         """
         Return (log densities, residuals in the law's frame and scale, pred).
 
@@ -145,18 +152,20 @@ class FittedModel:
             ll = law_logpdf_given(self.law, r, pred)
         return ll - log_jac, r, pred
 
-    def jump_filter(self, part, truth):
+    def jump_filter(self, part: Part, truth: TruthTrack) -> tuple[JumpFilter, Design]:
         """Return (the jump filter's pass over ``part``, its design); needs ``outliers``."""
         d = design(part, self.orders, truth, self.mean.lag_s, self.mean.gain)
         return self._jump_pass(self.mean.residuals(d), d), d
 
-    def _jump_pass(self, r_obs, d):
+    def _jump_pass(self, r_obs: FloatArray, d: Design) -> JumpFilter:
+        if self.jumps is None:
+            raise DiagnosisError('the jump filter needs a model with outliers')
         cov = average_cov(self.law, self.effects)
         scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
         return jumps.run_filter(r_obs, d.seg, self.mean.phi, cov, self.jumps, scale2,
                                 self.law.dof)
 
-    def _score_jumps(self, r_obs, d, residuals=True):
+    def _score_jumps(self, r_obs: FloatArray, d: Design, residuals: bool = True) -> Any:
         """Score through the jump filter; the residuals returned are the clean steps'."""
         jf = self._jump_pass(r_obs, d)
         ll, pred = self._jump_loglik(jf, d)
@@ -169,7 +178,7 @@ class FittedModel:
         _, r, pred = self._law_score(jf.r[keep], dk)
         return ll, r, replace(dk, seg=jumps.broken_segments(d.seg, keep)), pred
 
-    def _jump_loglik(self, jf, d):
+    def _jump_loglik(self, jf: JumpFilter, d: Design) -> tuple[FloatArray, FloatArray]:
         """
         Return (per-sample log densities, regime probabilities) of one filter pass.
 
@@ -181,7 +190,8 @@ class FittedModel:
         clean_ll = [self._law_score(jf.r_from[:, s], d, pred)[0] for s in (0, 1)]
         return jumps.mixture_logpdf(jf, np.column_stack(clean_ll)), pred
 
-    def jump_logliks(self, r_obs, d, cands):
+    def jump_logliks(self, r_obs: FloatArray, d: Design,
+                     cands: Sequence[tuple[Outliers, float]]) -> list[float]:
         """Return the training log likelihood of each candidate ``(Outliers, dof)``."""
         cov = average_cov(self.law, self.effects)
         scale2 = cycle_scale2(d, self.mean.period, self.cycle_scales)
@@ -191,7 +201,7 @@ class FittedModel:
                 for (p, dof), jf in zip(cands, jfs)]
 
 
-def average_cov(law, effects):
+def average_cov(law: Law, effects: Collection[str]) -> FloatArray:
     """Return the innovations' covariance (north/east) averaged over regimes and directions."""
     cov = law.cov
     if 'street_frame' in effects:           # along/across: averaged over directions
@@ -199,7 +209,7 @@ def average_cov(law, effects):
     return cov * float(stationary_distribution(law.transition) @ law.scales ** 2)
 
 
-def phase_scales(r, phase, period):
+def phase_scales(r: FloatArray, phase: IntArray, period: int) -> FloatArray:
     """Return the innovations' SD by phase (standardised per axis; mean square 1)."""
     q = np.mean(r * r / np.mean(r * r, axis=0), axis=1)
     ms = np.bincount(phase, weights=q, minlength=period) / \
@@ -208,7 +218,7 @@ def phase_scales(r, phase, period):
     return np.sqrt(ms / ms.mean())
 
 
-def robust_phase_scales(r, phase, period):
+def robust_phase_scales(r: FloatArray, phase: IntArray, period: int) -> FloatArray:
     """
     Return the innovations' SD by phase as :func:`phase_scales`, from medians of squares.
 
@@ -223,20 +233,22 @@ def robust_phase_scales(r, phase, period):
     return np.sqrt(med / med.mean())
 
 
-def cycle_scale2(d, period, scales):
+def cycle_scale2(d: Design, period: int, scales: FloatArray | None) -> FloatArray | None:
     """Return each sample's squared phase scale (None without a cycle)."""
-    return scales[d.phase(period)] ** 2 if period else None
+    return scales[d.phase(period)] ** 2 if period and scales is not None else None
 
 
-def cycle_scaled(r, d, period, scales):
+def cycle_scaled(r: FloatArray, d: Design, period: int,
+                 scales: FloatArray | None) -> tuple[FloatArray, FloatArray | float]:
     """Return (``r`` divided by its phase's scale, the log Jacobian per sample)."""
-    if not period:
+    if not period or scales is None:
         return r, 0.0
     s = scales[d.phase(period)]
     return r / s[:, None], 2.0 * np.log(s)
 
 
-def with_law(effects, orders, mean, r, d, regimes):
+def with_law(effects: Collection[str], orders: Orders, mean: MeanFit, r: FloatArray, d: Design,
+             regimes: int) -> FittedModel:
     """Return the :class:`FittedModel` of a mean part with its law fitted on ``r``."""
     if 'street_frame' in effects:
         r = to_travel_frame(r, d.heading)
@@ -256,7 +268,8 @@ SEARCH_SAMPLES = 4000
 SEARCH_BLOCKS = 6
 
 
-def search_sample(r, d, limit=SEARCH_SAMPLES, blocks=SEARCH_BLOCKS):
+def search_sample(r: FloatArray, d: Design, limit: int = SEARCH_SAMPLES,
+                  blocks: int = SEARCH_BLOCKS) -> tuple[FloatArray, Design]:
     """
     Return the residuals and design (``r``, ``d``) the parameter search scores.
 
@@ -279,7 +292,8 @@ def search_sample(r, d, limit=SEARCH_SAMPLES, blocks=SEARCH_BLOCKS):
     return np.asarray(r)[keep], sub
 
 
-def with_jumps(effects, orders, mean, r, d, regimes):
+def with_jumps(effects: Collection[str], orders: Orders, mean: MeanFit, r: FloatArray, d: Design,
+               regimes: int) -> FittedModel:
     """
     Return the :class:`FittedModel` with ``outliers`` (see :mod:`.jumps`).
 
@@ -289,7 +303,8 @@ def with_jumps(effects, orders, mean, r, d, regimes):
     searched over a wide grid; with them the jumps are set aside again, the
     mean part and the law refitted, and the search refined around the best.
     """
-    cov, scale2, dof = robust_cov(r), None, math.inf
+    cov, dof = robust_cov(r), math.inf
+    scale2: FloatArray | None = None
     sd = math.sqrt(0.5 * np.trace(cov))
     params = Outliers(jumps.START[0], jumps.START[1], jumps.START[2] * sd)
     others = tuple(e for e in effects if e != 'outliers')
@@ -320,7 +335,8 @@ def with_jumps(effects, orders, mean, r, d, regimes):
                    n_train=len(r))
 
 
-def fit_model(train, orders, effects, truth, lag_s=None, regimes=2, period=0):
+def fit_model(train: Part, orders: Orders, effects: Collection[str], truth: TruthTrack,
+              lag_s: float | None = None, regimes: int = 2, period: int = 0) -> FittedModel:
     """
     Fit a model with ``effects`` (names) on the training part.
 
@@ -342,18 +358,20 @@ def fit_model(train, orders, effects, truth, lag_s=None, regimes=2, period=0):
     return with_law(effects, orders, mean, r, d, regimes)
 
 
-def fit_motion_probe(train, orders, truth, lag_s):
+def fit_motion_probe(train: Part, orders: Orders, truth: TruthTrack,
+                     lag_s: float) -> FittedModel:
     """Fit the motion test's model at lag ``lag_s``: gain >= 0 estimated."""
     mean, r, d = fit_mean_gain(train, orders, truth, lag_s)
     return with_law(('motion_lag',), orders, mean, r, d, 0)
 
 
-def score(model, part, truth, m0=None):
+def score(model: FittedModel, part: Part, truth: TruthTrack,
+          m0: int | None = None) -> tuple[Any, ...]:
     """Return :meth:`FittedModel.score` (a function, for baselines' symmetry)."""
     return model.score(part, truth, m0)
 
 
-def select_orders(train):
+def select_orders(train: Part) -> tuple[int, int]:
     """Return the PACF-rule orders of the training part (as calibration)."""
     orders = []
     for a, ax in enumerate(AXES):
@@ -362,4 +380,4 @@ def select_orders(train):
                           .params.order)
         except (CalibrationError, ModelError) as exc:
             raise DiagnosisError(f'training part: {exc}') from None
-    return tuple(orders)
+    return orders[0], orders[1]

@@ -46,9 +46,10 @@ Estimation is conditional quasi-maximum likelihood in two stages (mean part
 by least squares, innovation law by maximum likelihood; :mod:`.models`).
 """
 
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 import math
-from typing import Optional
+from typing import Any, Optional, TypeVar
 
 import numpy as np
 
@@ -57,28 +58,29 @@ from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_E
                                                 RETEST_LABEL, travel_axes_win)
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, FIRST_SHARE,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS, N_TESTS,
-                                           RETEST_ALPHA, round_levels, TRAIN_FRACTION)
+                                           Orders, RETEST_ALPHA, round_levels, TRAIN_FRACTION)
 from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_reversal_test,
                                            motion_test, periodicity_test, retest,
                                            travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
-from gps_error_ros.diagnose.mean import (condition_count, design, fit_lag, from_travel_frame,
-                                         gain_loss, least_squares, log_det,
+from gps_error_ros.diagnose.mean import (condition_count, Design, design, fit_lag,
+                                         from_travel_frame, gain_loss, least_squares, log_det,
                                          motion_correlation, to_travel_frame)
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe, robust_phase_scales,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
 from gps_error_ros.diagnose.split import Split, split_trace
-from gps_error_ros.fit.gross_failures import failures_doc, without_gross_failures
+from gps_error_ros.fit.gross_failures import failures_doc, GrossFailures, without_gross_failures
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.profiles import profile_mapping
-from gps_error_ros.traces.trace_io import join_recordings
+from gps_error_ros.model.state import FloatArray
+from gps_error_ros.traces.trace_io import join_recordings, Trace
 
 ESTIMATION = ('conditional quasi-ML: mean part (delta, phi, lag) by least '
               'squares, innovation law by maximum likelihood')
 
 
-def rounded(obj):
+def rounded(obj: Any) -> Any:
     """Return ``obj`` with floats to 6 significant digits, numpy scalars plain."""
     if isinstance(obj, dict):
         return {k: rounded(v) for k, v in obj.items()}
@@ -104,26 +106,26 @@ class Diagnosis:
     extended).
     """
 
-    summary: dict
+    summary: dict[str, Any]
     fitted: 'FittedModels'
-    train_residuals: dict = field(default_factory=dict)
+    train_residuals: dict[str, tuple[Any, ...]] = field(default_factory=dict)
 
     @property
-    def split(self):
+    def split(self) -> Split:
         """Return the :class:`Split` of the diagnosis."""
         return self.fitted.split
 
     @property
-    def base(self):
+    def base(self) -> FittedModel:
         """Return the base model."""
         return self.fitted.base
 
     @property
-    def extended(self):
+    def extended(self) -> FittedModel:
         """Return the extended model (the base when no effect is kept)."""
         return self.fitted.extended
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the findings as plain data (floats to 6 significant digits)."""
         return rounded(self.summary)
 
@@ -136,15 +138,15 @@ MEAN_EFFECTS = ('motion_lag', 'periodic', 'outliers')
 class FamilyResult:
     """The first-round tests, their Holm decisions, and what they ran on."""
 
-    tests: dict            # name -> statistic, p_value, holm_adjusted_p, rejected
-    reject: dict
-    adjusted: dict
+    tests: dict[str, dict[str, Any]]   # name -> statistic, p_value, holm_adjusted_p, rejected
+    reject: dict[str, bool]
+    adjusted: dict[str, float]
     lag_s: Optional[float] = None    # the lag removed before the law's tests, if any
-    jump_orders: tuple = ()     # with jumps: the AR orders without them (see run_family)
-    base_residuals: tuple = ()      # (r, seg) of the base model on the training part
+    jump_orders: tuple[int, ...] = ()   # with jumps: the AR orders without them (run_family)
+    base_residuals: tuple[Any, ...] = ()      # (r, seg) of the base model on the training part
 
 
-def split_step(trace):
+def split_step(trace: Trace) -> Split:
     """Step 1: split ``trace``; refuse parts too short to fit or to score."""
     split = split_trace(trace, TRAIN_FRACTION)
     if split.train.n < MIN_TRAIN or split.test.n < MIN_TEST:
@@ -160,12 +162,12 @@ def split_step(trace):
     return split
 
 
-def fit_base(split):
+def fit_base(split: Split) -> FittedModel:
     """Step 2: the paper's model with the PACF orders of the training part."""
     return fit_model(split.train, select_orders(split.train), (), split.truth)
 
 
-def _motion_family(split, base, r):
+def _motion_family(split: Split, base: FittedModel, r: FloatArray) -> dict[str, Any]:
     """Return the motion test from the probes at 1..5 s (``r``: the base's innovations)."""
     if not _moving(split):
         return motion_test([0.0] * len(MOTION_TEST_LAGS))
@@ -175,18 +177,20 @@ def _motion_family(split, base, r):
                                                base.mean.phi, 1.0 / np.var(r, axis=0)))
 
 
-def _moving(split):
+def _moving(split: Split) -> bool:
     """Return whether the truth of the training part moves at all."""
     return any(np.any(np.abs(np.diff(tr, axis=0)) > 0.05) for tr in split.train.truth)
 
 
-def _orders_without_jumps(split, jumpy, jf):
+def _orders_without_jumps(split: Split, jumpy: FittedModel,
+                          jf: jumps.JumpFilter) -> tuple[int, int]:
     """Return the PACF-rule orders of the training part with the jumps of pass ``jf`` out."""
     return select_orders(jumps.cleaned_part(split.train, jf.offset,
                                             condition_count(jumpy.orders)))
 
 
-def _motion_without_jumps(split, jumpy, jf, alpha):
+def _motion_without_jumps(split: Split, jumpy: FittedModel, jf: jumps.JumpFilter,
+                          alpha: float) -> tuple[dict[str, Any], float | None]:
     """
     Return the motion test on the training part with the jumps set aside, and its lag.
 
@@ -198,10 +202,10 @@ def _motion_without_jumps(split, jumpy, jf, alpha):
     """
     keep = ~jf.aside()
 
-    def clean(d):
+    def clean(d: Design) -> Design:
         return jumps.design_subset(jumps.cleaned_design(d, jf.offset), keep)
 
-    def loss(lag_s):
+    def loss(lag_s: float) -> float:
         return gain_loss(split.train, jumpy.orders, split.truth, lag_s, clean)[0]
 
     if _moving(split):
@@ -218,7 +222,9 @@ def _motion_without_jumps(split, jumpy, jf, alpha):
     return test, fit_lag(split.train, jumpy.orders, split.truth, clean=clean)
 
 
-def _set_jumps_aside(split, base, effects, lag_s, period, alpha):
+def _set_jumps_aside(split: Split, base: FittedModel, effects: tuple[str, ...],
+                     lag_s: float | None, period: int,
+                     alpha: float) -> tuple[FittedModel, dict[str, Any], float | None]:
     """
     Return (the model the law's tests see, the motion test, the lag) with the jumps aside.
 
@@ -244,7 +250,7 @@ def _set_jumps_aside(split, base, effects, lag_s, period, alpha):
     return jumpy, motion, clean_lag
 
 
-def _robust_cycle(r, d, period, cyc):
+def _robust_cycle(r: FloatArray, d: Design, period: int, cyc: FittedModel) -> FloatArray:
     """
     Return ``r`` (scaled by ``cyc``'s phase scales) scaled by robust ones instead.
 
@@ -254,11 +260,13 @@ def _robust_cycle(r, d, period, cyc):
     cycle-and-reflections walks); medians of squares are not moved.
     """
     ph = d.phase(period)
+    if cyc.cycle_scales is None:
+        raise DiagnosisError('the robust cycle needs the periodic model\'s phase scales')
     raw = r * cyc.cycle_scales[ph][:, None]
     return raw / robust_phase_scales(raw, ph, period)[ph][:, None]
 
 
-def run_family(split, base, alpha=FAMILY_ALPHA):
+def run_family(split: Split, base: FittedModel, alpha: float = FAMILY_ALPHA) -> FamilyResult:
     """
     Step 3: run the first-round family on the base model's innovations.
 
@@ -310,7 +318,9 @@ def run_family(split, base, alpha=FAMILY_ALPHA):
     return replace(jumps_in, base_residuals=base_residuals)
 
 
-def _family(motion, law_input, cycle, reversal, alpha, lag_s):
+def _family(motion: dict[str, Any], law_input: tuple[FloatArray, Design, Orders],
+            cycle: dict[str, Any], reversal: dict[str, Any], alpha: float, lag_s: float | None
+            ) -> FamilyResult:
     """
     Return the :class:`FamilyResult` of the tests on the innovations ``law_input``.
 
@@ -331,13 +341,15 @@ def _family(motion, law_input, cycle, reversal, alpha, lag_s):
     return _holm_family(tests, alpha, lag_s)
 
 
-def _holm_family(tests, alpha, lag_s, given=None):
+def _holm_family(tests: Mapping[str, dict[str, Any]], alpha: float, lag_s: float | None,
+                 given: Mapping[str, float] | None = None) -> FamilyResult:
     """Return the :class:`FamilyResult` of Holm's procedure over ``tests``."""
     decided, reject, adjusted = holm_tests(tests, alpha, given)
     return FamilyResult(tests=decided, reject=reject, adjusted=adjusted, lag_s=lag_s)
 
 
-def fit_extended(split, base, att, kept=None):
+def fit_extended(split: Split, base: FittedModel, att: Attribution,
+                 kept: Iterable[str] | None = None) -> FittedModel:
     """
     Step 5: the model with the effects kept (the base when none).
 
@@ -352,7 +364,9 @@ def fit_extended(split, base, att, kept=None):
                      regimes=att.regimes, period=att.period)
 
 
-def retest_extended(split, extended, att, alpha=RETEST_ALPHA):
+def retest_extended(split: Split, extended: FittedModel, att: Attribution,
+                    alpha: float = RETEST_ALPHA
+                    ) -> tuple[dict[str, dict[str, Any]], tuple[Any, ...]]:
     """
     Step 6: test the extended model's innovations; record what is left.
 
@@ -392,7 +406,8 @@ def retest_extended(split, extended, att, alpha=RETEST_ALPHA):
     return tests, (r, d.seg, pred)
 
 
-def heldout_measures(split, base, extended, sims, seed, name):
+def heldout_measures(split: Split, base: FittedModel, extended: FittedModel, sims: int, seed: int,
+                     name: str) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], int]:
     """
     Step 7: held-out NLL before and after, and the fidelity of simulations.
 
@@ -433,14 +448,15 @@ class FittedModels:
     selection: Selection
     extended: FittedModel
     #: each recording's gross failures, left out before the split (:func:`fit_models`)
-    failures: list = field(default_factory=list)
+    failures: list[GrossFailures] = field(default_factory=list)
 
 
 #: The stages of :func:`diagnose`, for a progress report (``done``, one call each).
 STAGES = 7
 
 
-def fit_models(recordings, alpha=ALPHA, seed=0, done=None):
+def fit_models(recordings: Trace | Sequence[Trace], alpha: float = ALPHA, seed: int = 0,
+               done: Callable[[], object] | None = None) -> 'FittedModels':
     """
     Run steps 1-5, ``done()`` after each of 5 stages (no held-out simulation).
 
@@ -455,14 +471,19 @@ def fit_models(recordings, alpha=ALPHA, seed=0, done=None):
                    failures=failures)
 
 
-def _tick(done, value):
+#: Any value passed through :func:`_tick`.
+V = TypeVar('V')
+
+
+def _tick(done: Callable[[], object] | None, value: V) -> V:
     """Return ``value`` after calling ``done`` (a stage finished), if given."""
     if done is not None:
         done()
     return value
 
 
-def fit_split(name, split, alpha=ALPHA, seed=0, done=None):
+def fit_split(name: str, split: Split, alpha: float = ALPHA, seed: int = 0,
+              done: Callable[[], object] | None = None) -> 'FittedModels':
     """Run steps 2-5 on a given :class:`Split`; return :class:`FittedModels`."""
     base = _tick(done, fit_base(split))
     family = _tick(done, run_family(split, base, round_levels(alpha)[0]))
@@ -473,7 +494,8 @@ def fit_split(name, split, alpha=ALPHA, seed=0, done=None):
     return FittedModels(name, split, base, family, att, sel, extended)
 
 
-def diagnose(recordings, sims=100, seed=0, alpha=ALPHA, done=None):
+def diagnose(recordings: Trace | Sequence[Trace], sims: int = 100, seed: int = 0,
+             alpha: float = ALPHA, done: Callable[[], object] | None = None) -> Diagnosis:
     """
     Run the whole procedure (``done``: after each of :data:`STAGES`); a :class:`Diagnosis`.
 
@@ -516,7 +538,7 @@ def diagnose(recordings, sims=100, seed=0, alpha=ALPHA, done=None):
                      {'base': family.base_residuals, 'extended': ext_residuals})
 
 
-def extended_profile(diag, name, source):
+def extended_profile(diag: Diagnosis, name: str, source: str) -> dict[str, Any]:
     """Return the extended model as a profile mapping (schema 1, ``effects``)."""
     s = diag.summary
     return profile_mapping(

@@ -41,17 +41,20 @@ and is not vetoed, the lowest mean NLL among such; if the effects found are
 vetoed, the lowest mean NLL among the subsets not vetoed is kept.
 """
 
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 import itertools
+from typing import Any
 
 import numpy as np
 
-from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER
+from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER, Orders
 from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, measure_draws,
                                              simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.diagnose.split import Part, Split
+from gps_error_ros.model.state import FloatArray
 
 #: Contiguous blocks of the training part.
 FOLDS = 3
@@ -74,12 +77,12 @@ RULE = (f'blocked cross-validation over the training part ({FOLDS} contiguous '
         f'vetoed (then the lowest mean NLL of the rest)')
 
 
-def time_blocks(part, k=FOLDS):
+def time_blocks(part: Part, k: int = FOLDS) -> list[Part]:
     """Return ``part`` cut into ``k`` contiguous blocks of equal time span."""
     t0, t1 = part.t[0][0], part.t[-1][-1]
     edges = t0 + (t1 - t0) * np.arange(k + 1) / k
     edges[-1] = np.inf
-    blocks = []
+    blocks: list[Part] = []
     for b in range(k):
         block = Part([], [], [])
         for err, truth, t in zip(part.err, part.truth, part.t):
@@ -92,7 +95,7 @@ def time_blocks(part, k=FOLDS):
     return blocks
 
 
-def join_parts(parts):
+def join_parts(parts: Iterable[Part]) -> Part:
     """Return one :class:`Part` holding the segments of ``parts``."""
     out = Part([], [], [])
     for p in parts:
@@ -106,36 +109,38 @@ def join_parts(parts):
 class Candidate:
     """One subset of the effects and its cross-validated measures."""
 
-    effects: tuple
-    nll: list = field(default_factory=list)          # per block
-    inside_95: list = field(default_factory=list)    # per block
-    draws: list = field(default_factory=list)        # per block: (measured, simulated) measures
-    fidelity_score: list = field(default_factory=list)   # per block, set by choose
+    effects: tuple[str, ...]
+    nll: list[float] = field(default_factory=list)          # per block
+    inside_95: list[float] = field(default_factory=list)    # per block
+    # per block: (measured, simulated) measures
+    draws: list[tuple[FloatArray, FloatArray]] = field(default_factory=list)
+    fidelity_score: list[float] = field(default_factory=list)   # per block, set by choose
     failed: str = ''
 
     @property
-    def mean_nll(self):
+    def mean_nll(self) -> float:
         """Return the mean NLL per sample over the blocks."""
         return float(np.mean(self.nll)) if self.nll else float('inf')
 
     @property
-    def mean_inside_95(self):
+    def mean_inside_95(self) -> float:
         """Return the mean ``inside_95`` over the blocks."""
         return float(np.mean(self.inside_95)) if self.inside_95 else 0.0
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the candidate as plain data."""
-        out = {'effects': list(self.effects), 'cv_nll_per_sample': self.mean_nll,
-               'cv_inside_95': self.mean_inside_95, 'nll_by_block': self.nll,
-               'inside_95_by_block': self.inside_95,
-               'crps_by_block': self.fidelity_score}
+        out: dict[str, Any] = {
+            'effects': list(self.effects), 'cv_nll_per_sample': self.mean_nll,
+            'cv_inside_95': self.mean_inside_95, 'nll_by_block': self.nll,
+            'inside_95_by_block': self.inside_95, 'crps_by_block': self.fidelity_score}
         if self.failed:
             out['failed'] = self.failed
         return out
 
 
-def cross_validate(split, orders, effects, regimes, seed=0, folds=FOLDS,
-                   sims=CV_SIMS, period=0, m0=None):
+def cross_validate(split: Split, orders: Orders, effects: Collection[str], regimes: int,
+                   seed: int = 0, folds: int = FOLDS, sims: int = CV_SIMS, period: int = 0,
+                   m0: int | None = None) -> Candidate:
     """
     Return the :class:`Candidate` of ``effects`` scored over the blocks.
 
@@ -168,21 +173,21 @@ def cross_validate(split, orders, effects, regimes, seed=0, folds=FOLDS,
 class Selection:
     """The effects kept for the extended model, with every candidate's record."""
 
-    kept: tuple
-    candidates: list
+    kept: tuple[str, ...]
+    candidates: list[Candidate]
     rule: str = RULE
     note: str = ''
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """Return the selection as plain data."""
-        out = {'rule': self.rule, 'kept': list(self.kept),
-               'candidates': [c.to_dict() for c in self.candidates]}
+        out: dict[str, Any] = {'rule': self.rule, 'kept': list(self.kept),
+                               'candidates': [c.to_dict() for c in self.candidates]}
         if self.note:
             out['note'] = self.note
         return out
 
 
-def crps_scores(draws):
+def crps_scores(draws: Sequence[tuple[FloatArray, FloatArray]]) -> FloatArray:
     """
     Return the scaled CRPS of each candidate's simulated measures in one block.
 
@@ -195,7 +200,8 @@ def crps_scores(draws):
     alike) are left out.
     """
     y = np.asarray(draws[0][0], dtype=float)
-    crps, spread = [], []
+    crps: list[FloatArray] = []
+    spread: list[FloatArray] = []
     for _, x in draws:
         x = np.sort(np.asarray(x, dtype=float), axis=0)
         s = len(x)
@@ -210,7 +216,7 @@ def crps_scores(draws):
     return (np.array(crps)[:, use] / scale[use]).mean(axis=1)
 
 
-def score_candidates(ok):
+def score_candidates(ok: Sequence[Candidate]) -> None:
     """Set every candidate's :func:`crps_scores` per block, scaled in common."""
     for c in ok:
         c.fidelity_score = []
@@ -219,7 +225,7 @@ def score_candidates(ok):
             c.fidelity_score.append(float(v))
 
 
-def _vetoed(c, ok, tolerance):
+def _vetoed(c: Candidate, ok: Sequence[Candidate], tolerance: float) -> bool:
     """Return whether another candidate simulates better than ``c`` in every block."""
     return any(other.fidelity_score and
                all(o <= v * (1.0 - tolerance) for o, v in
@@ -227,12 +233,13 @@ def _vetoed(c, ok, tolerance):
                for other in ok if other is not c)
 
 
-def _beats(c, ref):
+def _beats(c: Candidate, ref: Candidate) -> bool:
     """Return whether ``c`` has the lower NLL than ``ref`` in every block."""
     return all(a < b for a, b in zip(c.nll, ref.nll))
 
 
-def choose(candidates, found=None, tolerance=FIDELITY_TOLERANCE):
+def choose(candidates: Sequence[Candidate], found: Collection[str] | None = None,
+           tolerance: float = FIDELITY_TOLERANCE) -> Candidate:
     """
     Return the kept :class:`Candidate` by the module's rule.
 
@@ -254,18 +261,21 @@ def choose(candidates, found=None, tolerance=FIDELITY_TOLERANCE):
     return min(allowed, key=lambda c: (round(c.mean_nll, 9), len(c.effects)))
 
 
-def subsets(effects):
+def subsets(effects: Sequence[str]) -> list[tuple[str, ...]]:
     """Return every subset of ``effects`` (tuples, in order), the empty one first."""
     return [sub for k in range(len(effects) + 1)
             for sub in itertools.combinations(effects, k)]
 
 
-def shared_condition_count(orders_for, subs):
+def shared_condition_count(orders_for: Callable[[tuple[str, ...]], Orders],
+                           subs: Iterable[tuple[str, ...]]) -> int:
     """Return the samples per segment left unscored so that every subset scores the same."""
     return condition_count(*(orders_for(sub) for sub in subs))
 
 
-def select_effects(split, orders_for, effects, regimes, seed=0, period=0):
+def select_effects(split: Split, orders_for: Callable[[tuple[str, ...]], Orders],
+                   effects: Collection[str], regimes: int, seed: int = 0, period: int = 0
+                   ) -> Selection:
     """
     Return the :class:`Selection` among all subsets of ``effects``.
 

@@ -15,30 +15,31 @@ import numpy as np
 from gps_error_ros.diagnose.common import TRAIN_FRACTION
 from gps_error_ros.fit.calibration import errors_on_grid
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.traces.trace_io import recording_labels
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.traces.trace_io import recording_labels, Trace
 
 
 @dataclass
 class Part:
     """Errors, truth and timing of one part (train or test), by segment."""
 
-    err: list            # per segment (n_s, 2) north/east error, m
-    truth: list          # per segment (n_s, 2) truth north/east, local m
-    t: list              # per segment (n_s,) fix times, s
+    err: list[FloatArray]            # per segment (n_s, 2) north/east error, m
+    truth: list[FloatArray]          # per segment (n_s, 2) truth north/east, local m
+    t: list[FloatArray]              # per segment (n_s,) fix times, s
     #: per segment, the recording it belongs to (None: all one recording); what
     #: judges a part restarts at a recording's start and never pools across one
-    recording: Optional[list] = None
+    recording: Optional[list[int]] = None
 
     @property
-    def n(self):
+    def n(self) -> int:
         """Return the number of samples."""
         return int(sum(len(e) for e in self.err))
 
-    def recordings(self):
+    def recordings(self) -> list[int]:
         """Return each segment's recording label (all 0 for one recording)."""
         return [0] * len(self.err) if self.recording is None else list(self.recording)
 
-    def recording_starts(self):
+    def recording_starts(self) -> list[bool]:
         """Return, per segment, whether it is the first of its recording in the part."""
         labels = self.recordings()
         return [i == 0 or labels[i] != labels[i - 1] for i in range(len(labels))]
@@ -68,13 +69,14 @@ class Split:
     cut_time_s: float
     #: each training segment's weight in a population fit (None: 1 each;
     #: see :func:`~gps_error_ros.fit.population_fit.segment_weights`)
-    train_weights: Optional[tuple] = None
+    train_weights: Optional[tuple[float, ...]] = None
     #: (training rows, held-out rows) as traces, where the trace has speed and
     #: course columns (:mod:`~gps_error_ros.diagnose.velocity_check`); else None
-    velocity: Optional[tuple] = None
+    velocity: Optional[tuple[Trace, Trace]] = None
 
 
-def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):
+def cut_trace(trace: Trace, cut_t: float | None = None, end_t: float = np.inf,
+              train_fraction: float = TRAIN_FRACTION) -> tuple[Part, Part, TruthTrack, float]:
     """
     Return (train, test, truth, cut_s) of ``trace`` on the 1 Hz grid.
 
@@ -86,6 +88,8 @@ def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):
     time from the first grid sample.
     """
     grid = errors_on_grid(trace)
+    if grid.rows is None:
+        raise ValueError('errors_on_grid gave no trace rows: expected a row per grid sample')
     rows = grid.rows
     labels = recording_labels(trace)
     lat0, lon0 = float(trace.truth_lat[0]), float(trace.truth_lon[0])
@@ -96,21 +100,17 @@ def cut_trace(trace, cut_t=None, end_t=np.inf, train_fraction=TRAIN_FRACTION):
     t = trace.t[rows]
     if cut_t is None:
         cut_t = t[0] + train_fraction * (t[-1] - t[0])
-    parts = []
+    parts: list[Part] = []
     for sel in (t < cut_t, (t >= cut_t) & (t < end_t)):
         idx = np.flatnonzero(sel)
-        part = Part([], [], [], [])
         brk = np.flatnonzero(np.diff(seg_id[idx]) != 0) + 1
-        for chunk in (np.split(idx, brk) if idx.size else []):
-            part.err.append(err[chunk])
-            part.truth.append(truth_all[rows[chunk]])
-            part.t.append(t[chunk])
-            part.recording.append(int(labels[rows[chunk[0]]]))
-        parts.append(part)
+        chunks = np.split(idx, brk) if idx.size else []
+        parts.append(Part([err[c] for c in chunks], [truth_all[rows[c]] for c in chunks],
+                          [t[c] for c in chunks], [int(labels[rows[c[0]]]) for c in chunks]))
     return parts[0], parts[1], TruthTrack(trace.t, truth_all), float(cut_t - t[0])
 
 
-def split_trace(trace, train_fraction=TRAIN_FRACTION):
+def split_trace(trace: Trace, train_fraction: float = TRAIN_FRACTION) -> Split:
     """Return the :class:`Split` of a trace on the 1 Hz grid."""
     train, test, truth, cut_s = cut_trace(trace, train_fraction=train_fraction)
     return Split(train, test, truth,
@@ -118,7 +118,8 @@ def split_trace(trace, train_fraction=TRAIN_FRACTION):
                  f'the rest is held out', cut_s)
 
 
-def like_windows(t, span, gap_s=60.0, least=0.8):
+def like_windows(t: Numbers, span: float, gap_s: float = 60.0,
+                 least: float = 0.8) -> list[BoolArray]:
     """
     Return boolean masks over ``t``: its stretches like a held-out part ``span`` s long.
 

@@ -14,14 +14,19 @@ not. The velocity error is independent of the position error, so the
 section, and this group, is the same for every class that carries it.
 """
 
+from collections.abc import Mapping, Sequence
+from typing import Any
+
 import numpy as np
 
 from gps_error_ros.diagnose.split import like_windows
-from gps_error_ros.fit.envelope import envelope, inside
+from gps_error_ros.fit.envelope import envelope, Envelope, inside
 from gps_error_ros.fit.velocity_fit import estimate_velocity, NEEDED, SLOW_TRUTH, vectors
 from gps_error_ros.model import streams
 from gps_error_ros.model.motion_lag import RUN_GAP_S, truth_at
+from gps_error_ros.model.state import FloatArray, Numbers
 from gps_error_ros.model.velocity import velocity_from_dict
+from gps_error_ros.traces.trace_io import Trace
 
 #: Bands of the true speed, m/s: walking and slow traffic, town, open road.
 BANDS = ((1.0, 5.0), (5.0, 15.0), (15.0, np.inf))
@@ -29,23 +34,24 @@ BANDS = ((1.0, 5.0), (5.0, 15.0), (15.0, np.inf))
 MIN_ROWS = 30
 
 
-def has_velocity(trace):
+def has_velocity(trace: Trace) -> bool:
     """Return whether ``trace`` has the speed and course columns the group needs."""
     return all(k in trace.extra for k in NEEDED)
 
 
-def band_name(band):
+def band_name(band: tuple[float, float]) -> str:
     """Return a band's label, e.g. ``5-15 m/s``."""
     lo, hi = band
     return f'{lo:g}+ m/s' if not np.isfinite(hi) else f'{lo:g}-{hi:g} m/s'
 
 
-def _course_error(course, truth_course):
+def _course_error(course: Numbers, truth_course: Numbers) -> FloatArray:
     """Return course errors wrapped into [-180, 180) degrees."""
     return (np.asarray(course) - np.asarray(truth_course) + 180.0) % 360.0 - 180.0
 
 
-def band_measures(speed, course, truth_speed, truth_course):
+def band_measures(speed: Numbers, course: Numbers, truth_speed: Numbers,
+                  truth_course: Numbers) -> dict[str, float]:
     """
     Return {measure name: value} of reported speeds and courses against the truth, by band.
 
@@ -53,7 +59,8 @@ def band_measures(speed, course, truth_speed, truth_course):
     ``speed_mean``, ``speed_sd`` (the speed error's, m/s) and ``course_p50``
     (the median absolute course error, degrees, over rows with both courses).
     """
-    out = {}
+    out: dict[str, float] = {}
+    truth_speed = np.asarray(truth_speed, dtype=float)
     err = np.asarray(speed, dtype=float) - np.asarray(truth_speed, dtype=float)
     cerr = np.abs(_course_error(course, truth_course))
     for band in BANDS:
@@ -69,13 +76,14 @@ def band_measures(speed, course, truth_speed, truth_course):
     return out
 
 
-def _truth_vectors(trace):
+def _truth_vectors(trace: Trace) -> FloatArray:
     """Return the reference's east/north velocity rows (NaN where unknown)."""
     ex = trace.extra
     return vectors(ex['truth_speed'], ex['truth_bearing'], zero_below=SLOW_TRUTH)
 
 
-def velocity_group(train, test, sims=100, seed=0):
+def velocity_group(train: Trace, test: Trace, sims: int = 100,
+                   seed: int = 0) -> dict[str, Any] | None:
     """
     Return the group on one fold, or None where the traces cannot give it.
 
@@ -107,7 +115,7 @@ def velocity_group(train, test, sims=100, seed=0):
     speed, course = vel.report(lagged[:, None, :], w)
     simulated = [band_measures(speed[:, k], course[:, k], ex['truth_speed'],
                                ex['truth_bearing']) for k in range(sims)]
-    rows = {}
+    rows: dict[str, Envelope] = {}
     for name, value in real.items():
         values = np.array([s.get(name, np.nan) for s in simulated])
         rows[name] = envelope(value, values[np.isfinite(values)])
@@ -116,7 +124,7 @@ def velocity_group(train, test, sims=100, seed=0):
             'train_windows': training_windows(train, float(t[-1] - t[0]), list(real))}
 
 
-def training_windows(train, span, names):
+def training_windows(train: Trace, span: float, names: Sequence[str]) -> dict[str, Any]:
     """
     Return the range of each measure in ``names`` over the training rows' stretches of ``span`` s.
 
@@ -131,7 +139,7 @@ def training_windows(train, span, names):
     values = [band_measures(*(np.asarray(ex[k])[m] for k in
                               ('speed', 'bearing', 'truth_speed', 'truth_bearing')))
               for m in like_windows(train.t, span, RUN_GAP_S)]
-    rng = {}
+    rng: dict[str, list[float]] = {}
     for name in names:
         got = [v[name] for v in values if name in v]
         if got:
@@ -139,7 +147,7 @@ def training_windows(train, span, names):
     return {'span_s': float(span), 'windows': len(values), 'range': rng}
 
 
-def precedent(group):
+def precedent(group: Mapping[str, Any]) -> tuple[list[str], list[str], list[str]]:
     """
     Return the group's measures outside their range: (all, without precedent, unmeasured).
 
@@ -154,7 +162,7 @@ def precedent(group):
     return miss, new, [k for k in miss if k not in rng]
 
 
-def velocity_line(folds):
+def velocity_line(folds: Sequence[Mapping[str, Any]]) -> str | None:
     """
     Return a line on the group over ``folds`` (each with its ``velocity``), or None.
 

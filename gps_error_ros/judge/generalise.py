@@ -210,10 +210,10 @@ def grouped_measures(part: Part, train: Part, simulated: Sequence[Sequence[Float
     if smoother_sims:
         from gps_error_ros.judge.smoother import head, run_smoother, SMOOTHER_MEASURES
         short = head(part, SMOOTHER_SAMPLES)
-        n = short.n
+        k = short.n
         fix_var = np.mean(np.concatenate(train.err) ** 2, axis=0)
-        errors = np.stack([np.concatenate(part.err)[:n]] +
-                          [np.concatenate(s)[:n] for s in simulated[:smoother_sims]])
+        errors = np.stack([np.concatenate(part.err)[:k]] +
+                          [np.concatenate(s)[:k] for s in simulated[:smoother_sims]])
         values = run_smoother(short, errors, fix_var, seed)
         for j, name in enumerate(SMOOTHER_MEASURES):
             rows[measure_key('smoother', name)] = envelope(values[0, j], values[1:, j])

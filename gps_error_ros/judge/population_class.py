@@ -117,12 +117,12 @@ class PopulationClass:
         the within model's of ``(error - grand mean - bias) / f`` (less
         ``2 log f``), so every lag of a prediction sees one bias and scale.
         """
-        pop, within = self.fit.population, self.within
-        if within is None:
-            raise AssertionError('the mixture scores a class with a model within')
+        pop, within, truth = self.fit.population, self.within, self.truth
+        if within is None or truth is None:
+            raise AssertionError('the mixture scores a class with a model within, and truth')
         if pop is None:
             return within.score(Part([e - self.fit.mean for e in part.err],
-                                     part.truth, part.t), self.truth, m0)[0]
+                                     part.truth, part.t), truth, m0)[0]
         nodes, log_bias = bias_grid(pop)
         scales, log_scale = scale_nodes(pop.scale_sd_log)
         t = np.concatenate([tt[m0:] for tt in part.t])
@@ -130,7 +130,7 @@ class PopulationClass:
         for f in scales:            # one scale at a time: (nodes, scored) in memory
             lls = np.array([within.score(Part([(e - self.fit.mean - b) / f
                                                for e in part.err], part.truth, part.t),
-                                         self.truth, m0)[0] for b in nodes])
+                                         truth, m0)[0] for b in nodes])
             if t.size != lls.shape[1]:
                 raise AssertionError(f'scored {lls.shape[1]} samples, expected {t.size}')
             per_scale.append(bias_forward(lls - 2.0 * np.log(f), log_bias, t,

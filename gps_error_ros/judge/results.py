@@ -20,6 +20,7 @@ of comparison return: ``summary()`` is the text the terminal shows,
 from dataclasses import dataclass, field
 from typing import Any, NotRequired, TypedDict
 
+from gps_error_ros.diagnose.fidelity import Difference
 from gps_error_ros.fit.envelope import Envelope
 from gps_error_ros.fit.population_evidence import PopulationEvidence
 
@@ -40,14 +41,6 @@ def group_of(key: str) -> str:
 def name_of(key: str) -> str:
     """Return a measure's name without its group (``'sd_north'`` of ``'scale:sd_north'``)."""
     return key.split(SEP, 1)[1]
-
-
-class Difference(TypedDict):
-    """A mean difference of held-out scores, paired on the same samples, with its interval."""
-
-    mean: float
-    #: The 95 % interval (block bootstrap), [low, high].
-    ci95: list[float]
 
 
 class ClassJudgement(TypedDict):

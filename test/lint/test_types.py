@@ -16,7 +16,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 PKG = ROOT / 'gps_error_ros'
 #: The wings mypy holds strictly (setup.cfg: [mypy-gps_error_ros.<wing>.*]).
-STRICT = ('model', 'fit', 'traces', 'sim', 'judge', 'reports', 'cli')
+STRICT = ('model', 'fit', 'traces', 'sim', 'diagnose', 'judge', 'reports', 'cli')
 
 
 def _annotated(fn):
