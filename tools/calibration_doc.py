@@ -48,7 +48,7 @@ def _val(result, trace, name, fig, title):
     res = validate(model, trace, sims=SIMS)
     if fig is not None:
         validation_figure(res, fig, title)
-    s = res.summary()
+    s = res.to_dict()
     return {ax: {k: s[ax][k] for k in ('acf_lags_inside_envelope',
                                        'quantiles_inside_envelope',
                                        'acf_offset_rms_lags_1_10')}

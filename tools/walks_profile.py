@@ -78,7 +78,7 @@ def _left_out_rows(traces, seed=1):
         model = profile_from_dict(prof).model(gross_failures=False)
         found = find_gross_failures(tr)
         v = validate(model, without_rows(tr, found.mask), sims=LEFT_OUT_SIMS,
-                     seed=seed).summary()
+                     seed=seed).to_dict()
         section = prof.get('gross_failures')
         rate = section['rate'] if section else 0.0
         own = (failures_from_dict(section).count_tail(found.count, len(tr))

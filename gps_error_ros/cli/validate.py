@@ -12,7 +12,8 @@ from typing import Any
 
 from gps_error_ros.cli import _failure_check, _load_clean, _part, clean_recordings
 from gps_error_ros.fit.population_fit import occasions
-from gps_error_ros.fit.validation import FAILURE_COLUMN, family_verdict, slice_trace, validate
+from gps_error_ros.fit.validation import (FAILURE_COLUMN, family_verdict, slice_trace,
+                                          summary_lines, validate)
 from gps_error_ros.model.profiles import load_profile, Profile
 from gps_error_ros.reports.jsonfile import write_json
 from gps_error_ros.reports.validation_figure import validation_figure
@@ -26,7 +27,7 @@ def _validate_one(args: argparse.Namespace, profile: Profile, model: Any, zones:
     res = validate(model, trace, sims=args.sims, max_lag=args.max_lag,
                    seed=args.seed, zones=zones, reported=profile.reported_accuracy)
     out.mkdir(parents=True, exist_ok=True)
-    summary = res.summary()
+    summary = res.to_dict()
     summary.update({'profile': args.profile, 'part': [lo, hi]})
     write_json(out / 'validation.json', summary)
     validation_figure(res, out / 'validation.png',
@@ -89,35 +90,7 @@ def run_validate(args: argparse.Namespace) -> int:
     trace = slice_trace(whole, lo, hi)
     out = Path(args.out)
     summary = _validate_one(args, profile, model, zones, trace, out, (lo, hi))
-    for ax in ('north', 'east'):
-        d = summary[ax]
-        print(f'  {ax}: autocorrelation inside the envelope at '
-              f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-'
-              f'{summary["max_lag"]} (percentile {d["acf_share_percentile"]:.0f} among '
-              f'the simulated traces\' own shares); quantiles inside at '
-              f'{100 * d["quantiles_inside_envelope"]:.0f} % (percentile '
-              f'{d["quantiles_share_percentile"]:.0f})')
-    print(f'  the four shares together: percentile {summary["shares_joint_percentile"]:.0f} '
-          'among the simulated traces (below 5: the trace is unlike the model\'s own '
-          'at the 5 % level)')
-    for name, d in summary.get('reported_accuracy', {}).items():
-        print(f'  stated accuracy {name}: measured {d["measured"]:.4g}, simulated '
-              f'{d["sim_median"]:.4g} (95 % {d["sim_lo"]:.4g} to {d["sim_hi"]:.4g}), '
-              f'percentile {d["percentile"]:g}')
-    for name, d in summary.get('zones', {}).items():
-        if 'north' not in d:
-            print(f'  zone {name}: {d["samples"]} samples, too few to check on their own')
-            continue
-        print(f'  zone {name}: {d["samples"]} samples; ' + '; '.join(
-            f'{ax} ACF inside at {100 * d[ax]["acf_lags_inside_envelope"]:.0f} % of lags '
-            f'1-{d[ax]["max_lag"]}, quantiles at '
-            f'{100 * d[ax]["quantiles_inside_envelope"]:.0f} %, SD {d[ax]["sd_m"]:.2f} m '
-            f'(simulated {d[ax]["sd_simulated_m"][0]:.2f}-{d[ax]["sd_simulated_m"][2]:.2f})'
-            for ax in ('north', 'east')))
-    for name, d in summary['availability'].items():
-        print(f'  {name.replace("_", " ")}: measured {d["measured"]:g}, simulated median '
-              f'{d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), percentile '
-              f'{d["percentile"]:.0f}')
+    print('\n'.join(summary_lines(summary)))
     print(_failure_check(profile, found))
     print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
     return 0

@@ -22,7 +22,7 @@ the simulated values):
 """
 
 from dataclasses import dataclass
-from typing import Any, Hashable, Optional, Sequence
+from typing import Any, Hashable, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -82,9 +82,9 @@ class ValidationResult:
     share_pct: Optional[dict[str, Any]] = None
     joint_pct: Optional[float] = None     # the four shares together: see joint_share_percentile
 
-    def summary(self) -> dict[str, Any]:
-        """Return the numbers behind the figures as plain data."""
-        out = {'input': self.name, 'samples': self.samples,
+    def to_dict(self) -> dict[str, Any]:
+        """Return the numbers behind the figures as plain data (``validation.json``)."""
+        out: dict[str, Any] = {'input': self.name, 'samples': self.samples,
                'segments': self.segments, 'simulations': self.sims,
                'max_lag': int(self.lags[-1]), 'qq_probabilities': QQ_PROBS.tolist()}
         for ax in AXES:
@@ -118,6 +118,46 @@ class ValidationResult:
             out['reported_accuracy'] = self.reported
         return out
 
+
+    def summary(self) -> str:
+        """Return what the terminal shows: each check in a line, from :meth:`to_dict`."""
+        return '\n'.join(summary_lines(self.to_dict()))
+
+
+def summary_lines(doc: Mapping[str, Any]) -> list[str]:
+    """Return a :meth:`ValidationResult.to_dict` document's checks, a line each."""
+    lines = []
+    for ax in AXES:
+        d = doc[ax]
+        lines.append(
+            f'  {ax}: autocorrelation inside the envelope at '
+            f'{100 * d["acf_lags_inside_envelope"]:.0f} % of lags 1-{doc["max_lag"]} '
+            f'(percentile {d["acf_share_percentile"]:.0f} among the simulated traces\' own '
+            f'shares); quantiles inside at {100 * d["quantiles_inside_envelope"]:.0f} % '
+            f'(percentile {d["quantiles_share_percentile"]:.0f})')
+    lines.append(f'  the four shares together: percentile {doc["shares_joint_percentile"]:.0f} '
+                 'among the simulated traces (below 5: the trace is unlike the model\'s own '
+                 'at the 5 % level)')
+    for name, d in doc.get('reported_accuracy', {}).items():
+        lines.append(f'  stated accuracy {name}: measured {d["measured"]:.4g}, simulated '
+                     f'{d["sim_median"]:.4g} (95 % {d["sim_lo"]:.4g} to {d["sim_hi"]:.4g}), '
+                     f'percentile {d["percentile"]:g}')
+    for name, d in doc.get('zones', {}).items():
+        if 'north' not in d:
+            lines.append(f'  zone {name}: {d["samples"]} samples, too few to check on their '
+                         f'own')
+            continue
+        lines.append(f'  zone {name}: {d["samples"]} samples; ' + '; '.join(
+            f'{ax} ACF inside at {100 * d[ax]["acf_lags_inside_envelope"]:.0f} % of lags '
+            f'1-{d[ax]["max_lag"]}, quantiles at '
+            f'{100 * d[ax]["quantiles_inside_envelope"]:.0f} %, SD {d[ax]["sd_m"]:.2f} m '
+            f'(simulated {d[ax]["sd_simulated_m"][0]:.2f}-{d[ax]["sd_simulated_m"][2]:.2f})'
+            for ax in AXES))
+    for name, d in doc['availability'].items():
+        lines.append(f'  {name.replace("_", " ")}: measured {d["measured"]:g}, simulated '
+                     f'median {d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), '
+                     f'percentile {d["percentile"]:.0f}')
+    return lines
 
 def validate(model: ErrorModel[Any], trace: Trace, sims: int = 200, max_lag: int = 60,
              seed: int = 0, zones: Any = None,

@@ -9,13 +9,23 @@ stream exactly as an entry of ``agents`` would, and its fixes go on the
 matched topic with the last segment replaced by ``fix``.
 """
 
+from collections.abc import Callable, Collection, Mapping, Sequence
 import re
+from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
+from gps_error_ros.model.state import IntArray
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.ros import conversions
 from gps_error_ros.ros.parameters import ConfigError
+
+if TYPE_CHECKING:       # the error node imports this module; the mixin's super() is a Node's
+    from rclpy.node import Node as _NodeBase
+
+    from gps_error_ros.ros.error_node import GpsErrorNode, ProfileGroup
+else:
+    _NodeBase = object
 
 TOKEN = r'[A-Za-z_][A-Za-z0-9_]*'
 
@@ -26,11 +36,11 @@ class AgentPattern:
 
     Parameters
     ----------
-    pattern : str
+    pattern
         The pattern; a relative one is taken in ``namespace``.
-    namespace : str
+    namespace
         The node's namespace.
-    msg_type : str
+    msg_type
         The truth message's ROS type name (``geometry_msgs/msg/PoseStamped``);
         topics of other types are not agents.
 
@@ -41,7 +51,7 @@ class AgentPattern:
 
     """
 
-    def __init__(self, pattern, namespace, msg_type):
+    def __init__(self, pattern: str, namespace: str, msg_type: str) -> None:
         text = pattern.strip()
         if not text.startswith('/'):
             text = namespace.rstrip('/') + '/' + text
@@ -63,15 +73,16 @@ class AgentPattern:
         self.regex = re.compile('/' + '/'.join(parts) + '$')
         self.fix_segments = segments[:-1] + ['fix']
         self.star = star
-        self.misses = set()         # topic names seen not to match
+        self.misses: set[str] = set()         # topic names seen not to match
 
-    def fix_topic(self, name):
+    def fix_topic(self, name: str) -> str:
         """Return the fix topic of agent ``name``."""
         segments = list(self.fix_segments)
         segments[self.star] = name
         return '/' + '/'.join(segments)
 
-    def scan(self, names_and_types, skip=()):
+    def scan(self, names_and_types: Sequence[tuple[str, Sequence[str]]],
+             skip: Collection[str] = ()) -> tuple[dict[str, str], list[str]]:
         """
         Return ({agent: truth topic}, [topics of the wrong type]) in the graph.
 
@@ -79,7 +90,8 @@ class AgentPattern:
         topics in ``skip`` (those already known) are passed over, and so are
         topics that did not match before (remembered in ``misses``).
         """
-        agents, wrong = {}, []
+        agents: dict[str, str] = {}
+        wrong: list[str] = []
         if len(self.misses) > 2 * len(names_and_types) + 1000:
             self.misses.clear()     # bounded over hours of topics that come and go
         for topic, types in names_and_types:
@@ -109,20 +121,20 @@ class AgentWatcher:
     imports the catch-up needs.
     """
 
-    def __init__(self, node, pattern, timeout_s):
+    def __init__(self, node: 'GpsErrorNode', pattern: AgentPattern, timeout_s: float) -> None:
         self.node = node
         self.pattern = pattern
         self.timeout_ns = int(round(timeout_s * 1e9))
-        self.index = {}             # agent name -> slot
-        self.topics = {}            # agent name -> its truth topic
+        self.index: dict[str, int] = {}             # agent name -> slot
+        self.topics: dict[str, str] = {}            # agent name -> its truth topic
         self.attached = np.zeros(0, dtype=np.int64)   # slot -> ROS time (ns) served from
-        self._served = None         # frozenset of self.topics' values, when current
-        self.warned = set()
+        self._served: frozenset[str] | None = None  # self.topics' values, when current
+        self.warned: set[str] = set()
         self.stale = 0
         self.released = 0
         node.prepare_attach()
 
-    def scan(self):
+    def scan(self) -> None:
         """Serve new agents and release departed ones."""
         node = self.node
         # the served agents' topics are skipped: a pass costs little beyond the
@@ -158,19 +170,19 @@ class AgentWatcher:
             shown = ', '.join(gone[:5]) + (' ...' if len(gone) > 5 else '')
             node.get_logger().info(f'released {len(gone)} departed agent(s): {shown}')
 
-    def _served_topics(self):
+    def _served_topics(self) -> frozenset[str]:
         """Return the set of served agents' truth topics (rebuilt after a change)."""
         if self._served is None:
             self._served = frozenset(self.topics.values())
         return self._served
 
-    def _grow(self, size):
+    def _grow(self, size: int) -> None:
         """Make room for slot indices below ``size``."""
         if size > self.attached.size:
             self.attached = np.r_[self.attached,
                                   np.zeros(size - self.attached.size, dtype=np.int64)]
 
-    def _departed(self, now):
+    def _departed(self, now: int) -> list[str]:
         """Return the names of stale agents with no publisher left; count stale ones."""
         if now <= 0 or not self.index:
             self.stale = 0
@@ -183,7 +195,8 @@ class AgentWatcher:
         reset = (since <= 0) | (since > now)       # no clock yet, or it went back
         self.attached[slots[reset]] = now
         last = np.maximum(newest[slots], since)
-        gone, stale = [], 0
+        gone: list[str] = []
+        stale = 0
         for i in np.flatnonzero(~reset & (now - last > self.timeout_ns)):
             slot = int(slots[i])
             if self.node.truth_publishers(slot):
@@ -195,7 +208,7 @@ class AgentWatcher:
         return gone
 
 
-class PatternAgents:
+class PatternAgents(_NodeBase):
     """
     The error node's side of ``agent_pattern`` (a mixin of ``GpsErrorNode``).
 
@@ -204,7 +217,21 @@ class PatternAgents:
     these to open and close agents.
     """
 
-    def _agent_pattern(self, cfg):
+    # what the node that mixes this in holds (GpsErrorNode), per slot where a list
+    groups: list['ProfileGroup']
+    agents: list[str | None]
+    subs: list[Any]
+    pubs: list[Any]
+    vel_pubs: list[Any]
+    sub_handles: list[Any]
+    pub_handles: list[Any]
+    seed: int
+    input_type: str
+    slot_group: IntArray
+    slot_local: IntArray
+    _open: Callable[[int, str, str], None]
+
+    def _agent_pattern(self, cfg: Mapping[str, Any]) -> AgentPattern | None:
         """Return the parsed agent_pattern, or None when it is off."""
         if not cfg['agent_pattern']:
             return None
@@ -217,11 +244,12 @@ class PatternAgents:
         type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
         return AgentPattern(cfg['agent_pattern'], self.get_namespace(), type_name)
 
-    def prepare_attach(self):
+    def prepare_attach(self) -> None:
         """Load what attaching an agent needs, before the first one comes."""
         self.groups[0].engine.prepare_attach()
 
-    def open_agents(self, new, fix_topics):
+    def open_agents(self, new: Sequence[tuple[str, str]],
+                    fix_topics: Sequence[str]) -> list[int]:
         """Serve ``new`` [(name, truth topic)] on ``fix_topics``; return their slots."""
         free = [i for i, a in enumerate(self.agents) if a is None]
         if len(free) < len(new):
@@ -234,7 +262,7 @@ class PatternAgents:
         self.groups[0].engine.attach(slots, [agent_key(self.seed, n) for n, _ in new])
         return slots
 
-    def close_agents(self, slots):
+    def close_agents(self, slots: Sequence[int]) -> None:
         """Release ``slots``: subscription, publisher and model state."""
         for slot in slots:
             self.destroy_subscription(self.subs[slot])
@@ -246,7 +274,7 @@ class PatternAgents:
             self.sub_handles[slot] = self.pub_handles[slot] = None
         self.groups[0].engine.detach(slots)
 
-    def _grow(self, n):
+    def _grow(self, n: int) -> None:
         """Add ``n`` free slots (pattern mode: one profile group)."""
         self.groups[0].engine.grow(n)
         for lst in (self.agents, self.subs, self.pubs, self.sub_handles, self.pub_handles,
@@ -257,10 +285,10 @@ class PatternAgents:
         self.slot_group = np.zeros(size, dtype=np.int64)
         self.slot_local = np.arange(size)
 
-    def newest_truth_ns(self):
+    def newest_truth_ns(self) -> IntArray:
         """Return each slot's newest truth stamp (ns; -1 for none)."""
         return self.groups[0].engine.truth.newest
 
-    def truth_publishers(self, slot):
+    def truth_publishers(self, slot: int) -> int:
         """Return how many publishers the truth topic of ``slot`` has."""
         return self.subs[slot].get_publisher_count()

@@ -8,26 +8,30 @@ reliably, in bag order, each after the ``/clock`` tick of its timestamp.
 """
 
 import argparse
+from collections.abc import Collection, Sequence
 import importlib
 import sys
 import time
+from typing import Any
 
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
+from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.ros.conversions import to_stamp
 from gps_error_ros.traces.bag_io import opened
 
 
-def message_class(msgtype):
+def message_class(msgtype: str) -> Any:
     """Return the rclpy class of ``pkg/msg/Name``."""
     pkg, kind, name = msgtype.split('/')
     return getattr(importlib.import_module(f'{pkg}.{kind}'), name)
 
 
-def play(bag, topics=None, rate=1.0, wait_for_subscribers=0, node=None):
+def play(bag: PathArg, topics: Collection[str] | None = None, rate: float = 1.0,
+         wait_for_subscribers: int = 0, node: Node | None = None) -> int:
     """Replay ``bag``; return the number of messages published."""
     own = node is None
     node = node or Node('gps_error_play')
@@ -42,10 +46,11 @@ def play(bag, topics=None, rate=1.0, wait_for_subscribers=0, node=None):
                   for p in pubs.values()) and time.monotonic() < deadline:
             rclpy.spin_once(node, timeout_sec=0.05)
         time.sleep(0.3)
-        count, wall0, bag0 = 0, None, None
+        count, wall0, bag0 = 0, 0.0, 0
+        first = True
         for conn, ts, raw in reader.messages(connections=conns):
-            if wall0 is None:
-                wall0, bag0 = time.monotonic(), ts
+            if first:
+                first, wall0, bag0 = False, time.monotonic(), ts
             lag = (ts - bag0) / 1e9 / rate - (time.monotonic() - wall0)
             if lag > 0:
                 time.sleep(lag)
@@ -57,7 +62,7 @@ def play(bag, topics=None, rate=1.0, wait_for_subscribers=0, node=None):
     return count
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point."""
     p = argparse.ArgumentParser(prog='gps_error_play', description=__doc__.split('\n\n')[1])
     p.add_argument('bag', help='rosbag2 directory (MCAP or SQLite3)')

@@ -9,8 +9,10 @@ the profile at every fit and at shutdown, so nothing received is lost even
 when the fit is refused.
 """
 
+from collections.abc import Sequence
 import csv
 from pathlib import Path
+from typing import Any
 
 from geometry_msgs.msg import PoseStamped
 import numpy as np
@@ -19,23 +21,24 @@ from sensor_msgs.msg import NavSatFix
 from std_srvs.srv import Trigger
 
 from gps_error_ros.fit import calibration
+from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import write_profile
-from gps_error_ros.traces.pairing import pair, PairingError
-from gps_error_ros.traces.trace_io import Trace, write_trace_csv
-from gps_error_ros.traces.validity import fix_problem, STATUS_NO_FIX
 from gps_error_ros.ros import conversions
-from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.diagnostics import DiagnosticsPublisher, OK, Report, WARN
+from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.parameters import (
     CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, help_text, WARN_PERIOD_S)
 from gps_error_ros.ros.rclpy_adapter import take_message
 from gps_error_ros.ros.topics import CALIBRATION_INPUT_QOS, help_rows
+from gps_error_ros.traces.pairing import pair, PairingError
+from gps_error_ros.traces.trace_io import Trace, write_trace_csv
+from gps_error_ros.traces.validity import fix_problem, STATUS_NO_FIX
 
 
 class GpsCalibrationNode(Node):
     """The calibration node (see the module docstring)."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('gps_calibration_node', **kwargs,
                          automatically_declare_parameters_from_overrides=True)
         cfg = declare(self, CALIBRATION_NODE_PARAMS)
@@ -45,14 +48,14 @@ class GpsCalibrationNode(Node):
             raise ConfigError(f'parameter \'output\': invalid value '
                               f'{cfg["output"]!r}: directory '
                               f'{self.output.parent} does not exist')
-        self.frame = None
+        self.frame: LocalTangentFrame | None = None
         if cfg['input_type'] != 'navsatfix':
             self.frame = datum_frame(cfg['datum'], cfg['input_type'])
-        self.fixes = []      # (t, lat, lon, status)
-        self.truth = []      # (t, lat, lon)
+        self.fixes: list[tuple[float, float, float, int]] = []      # (t, lat, lon, status)
+        self.truth: list[tuple[float, float, float]] = []      # (t, lat, lon)
         self.skipped = {'no_fix': 0, 'invalid': 0, 'out_of_order': 0}
         self.truth_dropped = 0
-        self.last_fit = None        # (success, message) of the latest fit
+        self.last_fit: tuple[bool, str] | None = None   # (success, message) of the latest fit
         topic, msg_type = conversions.TRUTH_INPUTS[cfg['input_type']]
         qos = CALIBRATION_INPUT_QOS[cfg['input_reliability']]
         self.inputs = [self.create_subscription(NavSatFix, 'fix', self._on_fix, qos),
@@ -65,7 +68,7 @@ class GpsCalibrationNode(Node):
 
     # --- inputs ----------------------------------------------------------
 
-    def _on_fix(self, msg):
+    def _on_fix(self, msg: NavSatFix) -> None:
         t = conversions.stamp_ns(msg.header.stamp) / 1e9
         problem = fix_problem(msg.status.status, msg.latitude, msg.longitude)
         if problem is not None:
@@ -83,7 +86,7 @@ class GpsCalibrationNode(Node):
             return
         self.fixes.append((t, msg.latitude, msg.longitude, msg.status.status))
 
-    def _on_truth(self, msg):
+    def _on_truth(self, msg: Any) -> None:
         t = conversions.stamp_ns(msg.header.stamp) / 1e9
         try:
             if self.frame is None:
@@ -105,7 +108,7 @@ class GpsCalibrationNode(Node):
             return
         self.truth.append((t, lat, lon))
 
-    def take_pending(self):
+    def take_pending(self) -> int:
         """
         Take every message already in the inputs' queues; return how many.
 
@@ -131,14 +134,15 @@ class GpsCalibrationNode(Node):
 
     # --- fitting ---------------------------------------------------------
 
-    def _on_calibrate(self, request, response):
+    def _on_calibrate(self, request: Any, response: Any) -> Any:
         response.success, response.message = self.calibrate()
         return response
 
-    def _report(self):
+    def _report(self) -> Report:
         """Return the /diagnostics status: what was received, the latest fit."""
-        values = {'fixes received': len(self.fixes), 'truth received': len(self.truth),
-                  'truth dropped': self.truth_dropped, 'output': str(self.output)}
+        values: dict[str, Any] = {
+            'fixes received': len(self.fixes), 'truth received': len(self.truth),
+            'truth dropped': self.truth_dropped, 'output': str(self.output)}
         values.update({f'fixes skipped ({k.replace("_", " ")})': v
                        for k, v in self.skipped.items()})
         if self.last_fit is not None:
@@ -152,10 +156,10 @@ class GpsCalibrationNode(Node):
             return Report(WARN, message + '; the latest fit was refused', values)
         return Report(OK, message, values)
 
-    def _sibling(self, suffix):
+    def _sibling(self, suffix: str) -> Path:
         return self.output.with_name(self.output.stem + suffix)
 
-    def save_raw(self):
+    def save_raw(self) -> None:
         """Write everything received: <stem>.fixes.csv and <stem>.truth.csv."""
         with open(self._sibling('.fixes.csv'), 'w', newline='') as f:
             w = csv.writer(f)
@@ -166,13 +170,13 @@ class GpsCalibrationNode(Node):
             w.writerow(['t', 'lat', 'lon'])
             w.writerows((repr(t), repr(a), repr(o)) for t, a, o in self.truth)
 
-    def calibrate(self):
+    def calibrate(self) -> tuple[bool, str]:
         """Pair, fit and write all received; return (success, message), kept for /diagnostics."""
         self.take_pending()
         self.last_fit = self._calibrate()
         return self.last_fit
 
-    def _calibrate(self):
+    def _calibrate(self) -> tuple[bool, str]:
         """
         Pair, fit and write; return (success, message).
 
@@ -223,16 +227,16 @@ class GpsCalibrationNode(Node):
                       f'{len(result.grid.segments)} segment(s); '
                       + '; '.join(parts) + f' ({stats.describe()}{skipped}){note or ""}')
 
-    def _write_trace(self, trace):
+    def _write_trace(self, trace: Trace) -> None:
         write_trace_csv(trace, self._sibling('.trace.csv'))
 
 
-def _fit_at_shutdown(node):
+def _fit_at_shutdown(node: GpsCalibrationNode) -> str:
     ok, message = node.calibrate()
     return f'at shutdown: {message}' if ok else f'at shutdown (no profile): {message}'
 
 
-def main(args=None):
+def main(args: Sequence[str] | None = None) -> int:
     """Run the calibration node; fit and write at shutdown."""
     return run_node(GpsCalibrationNode, 'gps_calibration_node', args,
                     _fit_at_shutdown, HELP)

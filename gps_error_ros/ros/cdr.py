@@ -11,37 +11,41 @@ aligned to their size relative to the start of the payload, after the
 (de)serialization.
 """
 
+from collections.abc import Sequence
 import struct
+from typing import Any
 
 import numpy as np
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import NavSatFix
 
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
+
 HEADER = 4   # encapsulation: 2 bytes representation id, 2 bytes options
 
 
-def _align(off, n):
+def _align(off: int, n: int) -> int:
     return (off + n - 1) // n * n
 
 
-def _endian(raw):
+def _endian(raw: bytes) -> str:
     return '<' if raw[1] & 1 else '>'
 
 
-def _after_header(raw, e):
+def _after_header(raw: bytes, e: str) -> tuple[int, int]:
     """Return (stamp_ns, payload offset just after header.frame_id)."""
     sec, nsec, slen = struct.unpack_from(e + 'iII', raw, HEADER)
     return sec * 1_000_000_000 + nsec, 12 + slen
 
 
-def pose_stamped(raw):
+def pose_stamped(raw: bytes) -> tuple[Any, ...]:
     """Return (stamp_ns, x, y, z, qx, qy, qz, qw) of a serialized PoseStamped."""
     e = _endian(raw)
     stamp, off = _after_header(raw, e)
     return (stamp,) + struct.unpack_from(e + '7d', raw, HEADER + _align(off, 8))
 
 
-def odometry(raw):
+def odometry(raw: bytes) -> tuple[Any, ...]:
     """Return (stamp_ns, x, y, z, qx, qy, qz, qw) of a serialized Odometry."""
     e = _endian(raw)
     stamp, off = _after_header(raw, e)
@@ -51,7 +55,7 @@ def odometry(raw):
     return (stamp,) + struct.unpack_from(e + '7d', raw, HEADER + off)
 
 
-def navsatfix(raw):
+def navsatfix(raw: bytes) -> tuple[Any, ...]:
     """Return (stamp_ns, status, lat, lon, alt) of a serialized NavSatFix."""
     e = _endian(raw)
     stamp, off = _after_header(raw, e)
@@ -60,13 +64,14 @@ def navsatfix(raw):
     return (stamp, status) + struct.unpack_from(e + '3d', raw, HEADER + off)
 
 
-def _read(buf, at, dtype, count=1):
+def _read(buf: Any, at: IntArray, dtype: Any, count: int = 1) -> Any:
     """Read ``count`` little-endian ``dtype`` values at each offset ``at``: (m, count)."""
     size = np.dtype(dtype).itemsize * count
     return buf[at[:, None] + np.arange(size)].view(dtype)
 
 
-def parse_batch(kind, raws):
+def parse_batch(kind: str,
+                raws: Sequence[bytes]) -> tuple[IntArray, FloatArray, BoolArray]:
     """
     Parse many serialized messages of one kind at once.
 
@@ -99,7 +104,7 @@ def parse_batch(kind, raws):
     buf = np.frombuffer(b''.join([*raws, bytes(64)]), dtype=np.uint8)
     limit = starts + lens
 
-    def inside(at, n):
+    def inside(at: IntArray, n: int) -> tuple[BoolArray, IntArray]:
         good = (at >= starts) & (at + n <= limit)
         return good, np.where(good, at, 0)
 
@@ -136,7 +141,7 @@ def parse_batch(kind, raws):
     ok[good] = True
     for i in np.flatnonzero(~little):          # big-endian or too short
         try:
-            row = one(raws[i])
+            row = one(raws[int(i)])
         except (struct.error, IndexError):
             continue
         stamps[i], values[i], ok[i] = row[0], row[1:], True
@@ -151,7 +156,8 @@ class FixTemplate:
     returns one ``bytes`` per fix, ready for ``Publisher.publish``.
     """
 
-    def __init__(self, frame_id, covariance, covariance_type, status, service):
+    def __init__(self, frame_id: str, covariance: Sequence[float], covariance_type: int,
+                 status: int, service: int) -> None:
         msg = NavSatFix()
         msg.header.frame_id = frame_id
         msg.status.status = status
@@ -165,7 +171,8 @@ class FixTemplate:
         off = _align(_align(12 + slen + 1, 2) + 2, 8)
         self.pos_off = HEADER + off
 
-    def render(self, stamp_ns, lat, lon, alt, cov=None):
+    def render(self, stamp_ns: int, lat: Numbers, lon: Numbers, alt: Numbers,
+               cov: Numbers | None = None) -> list[bytes]:
         """
         Return a list of serialized fixes (one per row of lat/lon/alt).
 

@@ -1,14 +1,16 @@
 """Conversions between ROS messages and the core's plain numbers."""
 
+from collections.abc import Sequence
 import math
-
-import numpy as np
+from typing import Any
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
+from gps_error_ros.model.state import FloatArray
 from gps_error_ros.traces.validity import fix_problem, pose_problem
 
 #: input_type -> (truth topic, message type): the one map both nodes use.
@@ -21,17 +23,17 @@ TRUTH_INPUTS = {
 NS = 1_000_000_000
 
 
-def stamp_ns(stamp):
+def stamp_ns(stamp: Time) -> int:
     """Return a builtin_interfaces/Time as integer nanoseconds."""
     return stamp.sec * NS + stamp.nanosec
 
 
-def to_stamp(ns):
+def to_stamp(ns: int) -> Time:
     """Return integer nanoseconds as builtin_interfaces/Time."""
     return Time(sec=int(ns // NS), nanosec=int(ns % NS))
 
 
-def pose_position(pose):
+def pose_position(pose: Any) -> tuple[float, float, float]:
     """
     Return (east, north, up) of a geometry_msgs/Pose, or raise ValueError.
 
@@ -44,7 +46,7 @@ def pose_position(pose):
     return p.x, p.y, p.z
 
 
-def navsatfix_position(msg):
+def navsatfix_position(msg: NavSatFix) -> tuple[float, float, float]:
     """Return (lat, lon, alt) of a noise-free NavSatFix, or raise ValueError."""
     problem = fix_problem(msg.status.status, msg.latitude, msg.longitude)
     if problem:
@@ -57,7 +59,7 @@ def navsatfix_position(msg):
 DIAGONAL_TOLERANCE = 1e-9
 
 
-def enu_covariance(cov_ne, vertical_var):
+def enu_covariance(cov_ne: FloatArray, vertical_var: float) -> tuple[list[float], int]:
     """
     Return the row-major ENU 3x3 covariance (9 floats) and its type.
 
@@ -75,7 +77,7 @@ def enu_covariance(cov_ne, vertical_var):
     return [float(v) for v in cov], kind
 
 
-def enu_covariances(cov_ne, vertical_var):
+def enu_covariances(cov_ne: FloatArray, vertical_var: float) -> FloatArray:
     """Return row-major ENU 3x3 covariances (m, 9) of north/east 2x2 ones (m, 2, 2)."""
     out = np.zeros((cov_ne.shape[0], 9))
     out[:, 0], out[:, 1] = cov_ne[:, 1, 1], cov_ne[:, 1, 0]
@@ -84,7 +86,8 @@ def enu_covariances(cov_ne, vertical_var):
     return out
 
 
-def make_fix(stamp, frame_id, lat, lon, alt, covariance, covariance_type):
+def make_fix(stamp: int, frame_id: str, lat: float, lon: float, alt: float,
+             covariance: Sequence[float], covariance_type: int) -> NavSatFix:
     """Return a NavSatFix with a GPS fix at (lat, lon, alt)."""
     msg = NavSatFix()
     msg.header.stamp = to_stamp(stamp)
@@ -99,7 +102,7 @@ def make_fix(stamp, frame_id, lat, lon, alt, covariance, covariance_type):
     return msg
 
 
-def make_no_fix(stamp, frame_id):
+def make_no_fix(stamp: int, frame_id: str) -> NavSatFix:
     """Return a NavSatFix saying "no fix": STATUS_NO_FIX, position NaN, covariance unknown."""
     msg = NavSatFix()
     msg.header.stamp = to_stamp(stamp)
@@ -115,7 +118,8 @@ def make_no_fix(stamp, frame_id):
 UNKNOWN_VARIANCE = 1e6
 
 
-def make_twist(stamp, frame_id, east, north, variance, mean=None):
+def make_twist(stamp: int, frame_id: str, east: float, north: float, variance: float,
+               mean: Sequence[float] | None = None) -> TwistWithCovarianceStamped:
     """
     Return a TwistWithCovarianceStamped: a phone's velocity in ENU (m/s).
 

@@ -11,6 +11,7 @@ figure and a summary are written.
 """
 
 import argparse
+from collections.abc import Mapping, Sequence
 import os
 from pathlib import Path
 import random
@@ -19,17 +20,20 @@ import signal
 import subprocess
 import sys
 import time
+from typing import Any
 
 import numpy as np
 
+from gps_error_ros.sim.walker import Walk
 
-def _ros_env():
+
+def _ros_env() -> None:
     """Keep DDS on loopback, in a per-run domain unless one is given."""
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 100)))
 
 
-def parse_args(argv):
+def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     """Return the demo's command-line options."""
     p = argparse.ArgumentParser(
         prog='gps_error_demo',
@@ -48,7 +52,7 @@ def parse_args(argv):
 class _Driver:
     """The demo's ROS side: the error node's process, /clock, poses, the bag."""
 
-    def __init__(self, args, bag_path):
+    def __init__(self, args: argparse.Namespace, bag_path: Path) -> None:
         import rclpy
         from geometry_msgs.msg import PoseStamped
         from rclpy.node import Node
@@ -75,11 +79,12 @@ class _Driver:
         self.c_pose = bag_io.add_topic(self.writer, '/pose',
                                        'geometry_msgs/msg/PoseStamped')
         self.c_fix = bag_io.add_topic(self.writer, '/fix', 'sensor_msgs/msg/NavSatFix')
-        self.last, self.count, self.node_rc = -1, 0, None
+        self.last, self.count = -1, 0
+        self.node_rc: int | str | None = None
         self.node.create_subscription(NavSatFix, '/fix', self._on_fix, reliable,
                                       raw=True)
 
-    def _on_fix(self, raw):
+    def _on_fix(self, raw: bytes) -> None:
         from rclpy.serialization import deserialize_message
         from sensor_msgs.msg import NavSatFix
         msg = deserialize_message(raw, NavSatFix)
@@ -88,7 +93,7 @@ class _Driver:
         self.last = max(self.last, ns)
         self.count += 1
 
-    def wait_for_node(self, timeout=30.0):
+    def wait_for_node(self, timeout: float = 30.0) -> None:
         """Wait until the error node subscribes to /pose and publishes /fix."""
         deadline = time.monotonic() + timeout
         while (self.pose_pub.get_subscription_count() == 0
@@ -99,7 +104,7 @@ class _Driver:
             self.rclpy.spin_once(self.node, timeout_sec=0.1)
         time.sleep(0.5)
 
-    def walk(self, walk, t0, duration, pose_rate, wall0):
+    def walk(self, walk: Walk, t0: int, duration: int, pose_rate: int, wall0: float) -> int:
         """Publish poses and /clock for every step; return steps with no fix."""
         from geometry_msgs.msg import PoseStamped
         from rclpy.serialization import serialize_message
@@ -126,13 +131,13 @@ class _Driver:
         self._wait_for_fix(None, 1.0)
         return missed
 
-    def _wait_for_fix(self, ns, timeout):
+    def _wait_for_fix(self, ns: int | None, timeout: float) -> bool:
         end = time.monotonic() + timeout
         while (ns is None or self.last < ns) and time.monotonic() < end:
             self.rclpy.spin_once(self.node, timeout_sec=0.01)
         return ns is not None and self.last >= ns
 
-    def close(self):
+    def close(self) -> None:
         """Close the bag, stop ROS and the node (SIGINT, then kill)."""
         self.writer.close()
         self.node.destroy_node()
@@ -146,7 +151,7 @@ class _Driver:
             self.node_rc = 'killed'
 
 
-def run(args):
+def run(args: argparse.Namespace) -> dict[str, Any]:
     """Run the demo; return the summary dict."""
     _ros_env()
     from gps_error_ros.model.profiles import load_profile
@@ -192,7 +197,7 @@ def run(args):
     return summary
 
 
-def print_summary(s):
+def print_summary(s: Mapping[str, Any]) -> None:
     """Print the demo summary for a person."""
     print(f'\nfixes received: {s["fixes"]} of {s["fixes_expected"]} steps '
           f'({s["simulated_seconds"] / 3600:g} h simulated in '
@@ -210,7 +215,7 @@ def print_summary(s):
           f'summary: {Path(s["figure"]).with_name("summary.json")}')
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo from the command line."""
     args = parse_args(sys.argv[1:] if argv is None else argv)
     summary = run(args)

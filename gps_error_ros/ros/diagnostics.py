@@ -12,10 +12,13 @@ and the hardware id the node's fully qualified name, so that several error
 nodes (shards of a crowd) show as separate rows.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
 
 from gps_error_ros.ros.topics import DIAGNOSTICS_QOS, DIAGNOSTICS_TOPIC
 
@@ -31,10 +34,10 @@ class Report:
 
     level: bytes       # OK, WARN or ERROR (DiagnosticStatus's byte constants)
     message: str
-    values: dict = field(default_factory=dict)
+    values: dict[str, Any] = field(default_factory=dict)
 
 
-def _text(value):
+def _text(value: object) -> str:
     if isinstance(value, float):
         return f'{value:.6g}'
     return str(value)
@@ -49,7 +52,8 @@ class DiagnosticsPublisher:
     brings it down).
     """
 
-    def __init__(self, node, what, report, period_s=PERIOD_S):
+    def __init__(self, node: Node, what: str, report: Callable[[], Report],
+                 period_s: float = PERIOD_S) -> None:
         self.node = node
         self.name = f'{node.get_name()}: {what}'
         self.hardware_id = node.get_fully_qualified_name()
@@ -59,7 +63,7 @@ class DiagnosticsPublisher:
         self.timer = node.create_timer(period_s, self.publish,
                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
 
-    def publish(self):
+    def publish(self) -> None:
         """Build the status now and publish it."""
         try:
             rep = self.report()
@@ -77,10 +81,10 @@ class DiagnosticsPublisher:
 class Counters:
     """Totals at the previous report, to say what changed since."""
 
-    def __init__(self):
-        self.previous = {}
+    def __init__(self) -> None:
+        self.previous: dict[str, float] = {}
 
-    def delta(self, key, total):
+    def delta(self, key: str, total: float) -> float:
         """Return ``total`` minus its value at the previous call for ``key``."""
         change = total - self.previous.get(key, 0)
         self.previous[key] = total

@@ -11,40 +11,42 @@ message. All arithmetic lives in :mod:`gps_error_ros.sim.engine`; this module
 converts messages and parameters.
 """
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 import math
 import re
 import secrets
 import time
+from typing import Any
 
+from geometry_msgs.msg import TwistWithCovarianceStamped
 import numpy as np
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rcl_interfaces.msg import SetParametersResult
-from geometry_msgs.msg import TwistWithCovarianceStamped
 from sensor_msgs.msg import NavSatFix
 
-from gps_error_ros.sim.engine import FixEngine, NS
+from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.model.zoned import zoned_errors
-from gps_error_ros.model.zones import load_zone_map, ZoneMapError
-from gps_error_ros.ros import cdr
-from gps_error_ros.ros import conversions
+from gps_error_ros.model.zones import load_zone_map, ZoneMap, ZoneMapError
+from gps_error_ros.ros import cdr, conversions
 from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
 from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR, OK,
                                            Report, WARN)
 from gps_error_ros.ros.fix_output import FixOutput, start_summary
 from gps_error_ros.ros.lifecycle import run_node
-from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
-from gps_error_ros.traces.validity import usable_fix, usable_pose
-from gps_error_ros.ros.rclpy_adapter import (DrainedByTheNode, handles, take_raw,
-                                             WaitsOnUndrained)
 from gps_error_ros.ros.parameters import (
     ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
     WARN_PERIOD_S)
+from gps_error_ros.ros.rclpy_adapter import (DrainedByTheNode, handles, take_raw,
+                                             WaitsOnUndrained)
+from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
+from gps_error_ros.sim.engine import FixEngine, NS
+from gps_error_ros.traces.validity import usable_fix, usable_pose
 
 #: /diagnostics counters that are the node working as it should (an outage is
 #: the profile's availability model, not a fault).
@@ -62,7 +64,7 @@ class ProfileGroup:
 
     engine: FixEngine
     members: np.ndarray        # node-wide agent indices, in engine order
-    covariance: list           # row-major ENU m^2 of the published fixes
+    covariance: list[float]    # row-major ENU m^2 of the published fixes
     covariance_type: int
     profile: str               # the profile parameter's value for these agents
 
@@ -75,7 +77,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
 
     polled = False
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__('gps_error_node', **kwargs,
                          automatically_declare_parameters_from_overrides=True)
         cfg = declare(self, ERROR_NODE_PARAMS)
@@ -84,7 +86,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.max_pose_age = cfg['max_pose_age']
         self.start_time = cfg['start_time']
         self.late_reported, self.late_reported_start = 0, False
-        self.began_ns = None        # the streams' first step, once logged
+        self.began_ns: int | None = None        # the streams' first step, once logged
         self.input_type = cfg['input_type']
         self.fix_reliability = cfg['fix_reliability']
         self.truth_qos = TRUTH_QOS[cfg['input_reliability']]
@@ -102,12 +104,12 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.seed = seed
         self._build_groups(cfg, profiles, active=pattern is None)
         # the datum is checked after the profiles: a bad profile is named first
-        self.frame = None
+        self.frame: LocalTangentFrame | None = None
         if self.input_type != 'navsatfix':
             self.frame = datum_frame(cfg['datum'], self.input_type)
         self.polled = pattern is not None or len(self.agents) > 1 or self.agents != ['']
         self._create_topics()
-        self.tick_time = [0, 0.0, 0.0]      # ticks, total s, max s
+        self.tick_time: list[float] = [0, 0.0, 0.0]      # ticks, total s, max s
         self.invalid_truth = 0              # truth messages that could not be used
         self.fix_output = FixOutput(self, cfg['outage_output'],
                                     self.fix_reliability == 'best_effort',
@@ -116,7 +118,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.fix_output.templates(self.frame_id)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.watcher = None
+        self.watcher: AgentWatcher | None = None
         if pattern is not None:
             self.watcher = AgentWatcher(self, pattern, cfg['agent_timeout'])
             self.watch_timer = self.create_timer(WATCH_PERIOD_S, self.watcher.scan,
@@ -127,10 +129,12 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.add_post_set_parameters_callback(self._apply_new_parameters)
         self._log_start(cfg, profiles)
 
-    def _build_groups(self, cfg, profiles, active=True):
+    def _build_groups(self, cfg: Mapping[str, Any], profiles: Sequence[str], active: bool = True
+                      ) -> None:
         """Make one engine per distinct profile, each over its own agents."""
         self.groups = []
-        self.slot = [None] * len(self.agents)     # agent -> (group, local index)
+        # agent -> (group, local index)
+        self.slot: list[tuple[int, int]] = [(0, 0)] * len(self.agents)
         zone_map = self._zone_map(cfg)
         for spec in dict.fromkeys(profiles):
             zones = None
@@ -157,8 +161,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                     f'reported_accuracy section; calibrate one from a trace with an '
                     f'accuracy or hdop column, or choose stationary or conditional')
             members = [i for i, p in enumerate(profiles) if p == spec]
-            keys = [agent_key(self.seed, self.agents[i]) if active else 0
-                    for i in members]
+            keys = [agent_key(self.seed, agent) if active and (agent := self.agents[i]) is not None
+                    else 0 for i in members]
             engine = FixEngine(model, keys, rate=cfg['rate'],
                                model_rate=profile.rate_hz,
                                max_pose_age=cfg['max_pose_age'], active=active,
@@ -179,7 +183,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.slot_group = np.array([g for g, _ in self.slot])
         self.slot_local = np.array([local for _, local in self.slot])
 
-    def _zone_map(self, cfg):
+    def _zone_map(self, cfg: Mapping[str, Any]) -> ZoneMap | None:
         """Return the zone map of parameter ``zones``, or None."""
         if not cfg['zones'].strip():
             return None
@@ -188,7 +192,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         except ZoneMapError as exc:
             raise ConfigError(f'parameter \'zones\': {exc}') from None
 
-    def _create_topics(self):
+    def _create_topics(self) -> None:
         """Create each agent's truth subscription and fix publisher."""
         topic = conversions.TRUTH_INPUTS[self.input_type][0]
         # rclpy gives every publisher and subscription QoS-event handlers (to
@@ -207,7 +211,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 prefix = f'{name}/' if name else ''
                 self._open(i, prefix + topic, prefix + 'fix')
 
-    def _open(self, i, truth_topic, fix_topic):
+    def _open(self, i: int, truth_topic: str, fix_topic: str) -> None:
         """Create agent ``i``'s truth subscription and fix publisher."""
         msg_type = conversions.TRUTH_INPUTS[self.input_type][1]
         # A crowd's truth subscriptions are in a callback group that executors
@@ -227,14 +231,14 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 TwistWithCovarianceStamped, fix_topic[:-len('fix')] + 'vel',
                 FIX_QOS[self.fix_reliability], event_callbacks=self.pub_events)
 
-    def _log_start(self, cfg, profiles):
+    def _log_start(self, cfg: Mapping[str, Any], profiles: Sequence[str]) -> None:
         """Log what the node serves: each profile, its agents and its SD."""
         topic = conversions.TRUTH_INPUTS[self.input_type][0]
         who = (f'{len(self.agents)} agents' if self.polled else
                f'input {self.input_type} on {self.resolve_topic_name(topic)}')
         self.get_logger().info(start_summary(self.groups, cfg, who, self.polled, self.seed))
 
-    def _agent_names(self, names):
+    def _agent_names(self, names: Sequence[str]) -> list[str | None]:
         if not names:
             return ['']
         for n in names:
@@ -248,7 +252,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             raise ConfigError(f'parameter \'agents\': duplicate names {dup}')
         return list(names)
 
-    def _agent_profile_specs(self, cfg):
+    def _agent_profile_specs(self, cfg: Mapping[str, Any]) -> list[str]:
         per_agent = cfg['agent_profiles']
         if not per_agent:
             return [cfg['profile']] * len(self.agents)
@@ -260,11 +264,17 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
 
     # --- callbacks -------------------------------------------------------
 
-    def now_ns(self):
+    def _datum(self) -> LocalTangentFrame:
+        """Return the frame poses are about (every input_type but navsatfix has one)."""
+        if self.frame is None:
+            raise ValueError('poses need the datum frame; input_type navsatfix has none')
+        return self.frame
+
+    def now_ns(self) -> int:
         """Return the ROS clock's time in ns."""
         return self.get_clock().now().nanoseconds
 
-    def _on_truth(self, agent, msg):
+    def _on_truth(self, agent: int, msg: Any) -> bool:
         """Store one truth message of ``agent``; True if it was kept."""
         try:
             if self.input_type == 'navsatfix':
@@ -272,7 +282,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             else:
                 pose = msg.pose if self.input_type == 'pose' else msg.pose.pose
                 east, north, up = conversions.pose_position(pose)
-                lat, lon, alt = self.frame.to_geodetic(east, north, up)
+                lat, lon, alt = self._datum().to_geodetic(east, north, up)
                 if not all(map(math.isfinite, (lat, lon, alt))):
                     raise ValueError('position outside the datum frame\'s range')
         except ValueError as exc:
@@ -292,14 +302,15 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             self.fix_output.publish(g, self.groups[g].engine.resolve(self.now_ns()))
         return True
 
-    def _drain(self):
+    def _drain(self) -> None:
         """
         Take every waiting truth message of every agent (polled mode).
 
         Messages are taken serialized and parsed in place (:mod:`.cdr`), and
         converted and stored for all agents at once.
         """
-        agents, raws = [], []
+        slots: list[int] = []
+        raws: list[bytes] = []
         # The handles are taken from directly (the rclpy adapter): this node
         # owns the subscriptions and never destroys them while draining.
         for i, held in enumerate(self.sub_handles):
@@ -308,7 +319,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             raw = take_raw(*held)
             while raw is not None:
                 raws.append(raw)
-                agents.append(i)
+                slots.append(i)
                 raw = take_raw(*held)
         if not raws:
             return
@@ -318,7 +329,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             self.get_logger().warning(
                 f'dropped {int((~parsed).sum())} truth message(s) that could not be '
                 f'parsed', throttle_duration_sec=WARN_PERIOD_S)
-        agents = np.array(agents)
+        agents = np.array(slots)
         now = self.now_ns()
         stamps[stamps == 0] = now
         if self.input_type == 'navsatfix':
@@ -327,7 +338,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             coords[~np.isfinite(coords[:, 2]), 2] = 0.0
         else:
             ok = parsed & usable_pose(values[:, 0:3], values[:, 3:7])
-            lat, lon, alt = self.frame.to_geodetic(values[:, 0], values[:, 1], values[:, 2])
+            lat, lon, alt = self._datum().to_geodetic(values[:, 0], values[:, 1], values[:, 2])
             coords = np.stack([lat, lon, alt], axis=1)
             ok &= np.isfinite(coords).all(axis=1)
         if not ok[parsed].all():
@@ -347,7 +358,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                         'one of their agent, or more than 60 s ahead of the clock',
                         throttle_duration_sec=WARN_PERIOD_S)
 
-    def _on_timer(self):
+    def _on_timer(self) -> None:
         t0 = time.perf_counter()
         if self.polled:
             self._drain()
@@ -386,11 +397,11 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.tick_time[1] += dt
         self.tick_time[2] = max(self.tick_time[2], dt)
 
-    def _total(self, counter):
+    def _total(self, counter: str) -> int:
         """Return an EngineStats counter summed over the profile groups."""
         return sum(getattr(g.engine.stats, counter) for g in self.groups)
 
-    def summary(self):
+    def summary(self) -> str:
         """Return a one-line account of the run (logged at shutdown)."""
         ticks, total, worst = self.tick_time
         mean_ms = 1e3 * total / ticks if ticks else 0.0
@@ -409,7 +420,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 f'wall time per '
                 f'tick {mean_ms:.3f} ms mean, {1e3 * worst:.3f} ms max')
 
-    def _report(self):
+    def _report(self) -> Report:
         """Return the /diagnostics status: what was published and skipped."""
         t = self._total
         total = {
@@ -426,8 +437,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         }
         recent = {k: self.counters.delta(k, v) for k, v in total.items()}
         served = sum(a is not None for a in self.agents)
-        values = {'profile': ', '.join(g.profile for g in self.groups), 'seed': self.seed,
-                  'agents served': served}
+        values: dict[str, Any] = {'profile': ', '.join(g.profile for g in self.groups),
+                                  'seed': self.seed, 'agents served': served}
         zmap = self.groups[0].engine.zone_map
         if zmap is not None:
             values['zones'] = f'{zmap.path} ({len(zmap)})'
@@ -452,7 +463,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             message += '; ' + ', '.join(trouble)
         return Report(level, message, values)
 
-    def _check_new_parameters(self, params):
+    def _check_new_parameters(self, params: Sequence[Any]) -> SetParametersResult:
         """
         Reject a runtime change that the descriptors cannot express.
 
@@ -467,7 +478,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                     successful=False, reason=f'{p.name}={p.value!r}: {reason}')
         return SetParametersResult(successful=True)
 
-    def _apply_new_parameters(self, params):
+    def _apply_new_parameters(self, params: Sequence[Any]) -> None:
         """Apply accepted changes (frame_id: the fix template is rebuilt)."""
         for p in params:
             if p.name == 'frame_id':
@@ -475,7 +486,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 self.fix_output.templates(self.frame_id)
 
 
-def main(args=None):
+def main(args: Sequence[str] | None = None) -> int:
     """Run the error node until shutdown; exit 2 on a bad parameter."""
     return run_node(GpsErrorNode, 'gps_error_node', args,
                     lambda node: f'at shutdown: {node.summary()}', HELP)

@@ -12,15 +12,18 @@ not at all (``silent``). A non-finite position where a fix was due is never
 published: it is counted and logged as an error.
 """
 
+from collections.abc import Mapping, Sequence
 import time
+from typing import Any
 
 import numpy as np
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
-from gps_error_ros.ros import cdr
-from gps_error_ros.ros import conversions
+from gps_error_ros.model.state import BoolArray, FloatArray, IntArray
+from gps_error_ros.ros import cdr, conversions
 from gps_error_ros.ros.parameters import WARN_PERIOD_S
 from gps_error_ros.ros.rclpy_adapter import publish_raw
+from gps_error_ros.sim.engine_types import FixBatch
 
 # A crowd's best-effort fixes go out in bursts this size, this far apart: Fast
 # DDS's shared-memory queue of a subscribing process holds 512 messages, and
@@ -30,7 +33,7 @@ FIX_BURST_PAUSE_S = 0.001
 NO_COVARIANCE = [0.0] * 9
 
 
-def send_paced(handles, raws, burst=None):
+def send_paced(handles: Sequence[Any], raws: Sequence[bytes], burst: int | None = None) -> None:
     """Publish ``raws[i]`` on ``handles[i]``, ``burst`` at a time ``FIX_BURST_PAUSE_S`` apart."""
     burst = burst or max(len(raws), 1)
     for start in range(0, len(raws), burst):
@@ -43,8 +46,9 @@ def send_paced(handles, raws, burst=None):
 class FixOutput:
     """Publish the engine's fix batches on the node's per-agent publishers."""
 
-    def __init__(self, node, outage_output, best_effort, covariance_mode='stationary',
-                 per_fix=False, about_truth=True):
+    def __init__(self, node: Any, outage_output: str, best_effort: bool,
+                 covariance_mode: str = 'stationary', per_fix: bool = False,
+                 about_truth: bool = True) -> None:
         self.node = node
         self.about_truth = about_truth      # vel: its covariance about the truth (with the bias)
         self.outage_output = outage_output
@@ -54,9 +58,10 @@ class FixOutput:
         self.refused = 0            # non-finite positions not published
         self.fixes = 0              # NavSatFix messages published with a position
         self.no_fix = 0             # NO_FIX messages published
-        self.fix_templates, self.no_fix_template = [], None
+        self.fix_templates: list[cdr.FixTemplate] = []
+        self.no_fix_template: cdr.FixTemplate | None = None
 
-    def templates(self, frame_id):
+    def templates(self, frame_id: str) -> None:
         """Build the serialized messages again (at start, and for a new frame_id)."""
         self.frame_id = frame_id
         self.fix_templates = [
@@ -67,19 +72,20 @@ class FixOutput:
             frame_id, NO_COVARIANCE, NavSatFix.COVARIANCE_TYPE_UNKNOWN,
             NavSatStatus.STATUS_NO_FIX, NavSatStatus.SERVICE_GPS)
 
-    def _cov_type(self, group):
+    def _cov_type(self, group: Any) -> int:
         return {'conditional': NavSatFix.COVARIANCE_TYPE_KNOWN,
                 'reported': NavSatFix.COVARIANCE_TYPE_APPROXIMATED}.get(
                     self.mode, group.covariance_type)
 
-    def _covs(self, g, fix, rows):
+    def _covs(self, g: int, fix: FixBatch,
+              rows: IntArray | BoolArray | slice) -> FloatArray | None:
         """Return the per-fix ENU covariances (m, 9) of ``rows``, or None (the group's)."""
         if not self.per_fix or fix.cov is None:
             return None
         vertical = self.node.groups[g].covariance[8]
         return conversions.enu_covariances(fix.cov[rows], vertical)
 
-    def _split(self, fix):
+    def _split(self, fix: FixBatch) -> tuple[BoolArray, BoolArray]:
         """Return (rows to publish with a position, rows without a fix)."""
         has = np.ones(fix.agents.size, dtype=bool) if fix.fix is None else fix.fix
         finite = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
@@ -91,7 +97,7 @@ class FixOutput:
         none = ~has if self.outage_output == 'no_fix' else np.zeros_like(has)
         return has & finite, none
 
-    def publish(self, g, fixes):
+    def publish(self, g: int, fixes: Sequence[FixBatch]) -> None:
         """Publish the fix batches of profile group ``g`` (and their velocities)."""
         node = self.node
         members = node.groups[g].members
@@ -105,7 +111,7 @@ class FixOutput:
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good],
                     self._covs(g, fix, good))
                 handles = [node.pub_handles[i] for i in members[fix.agents[good]]]
-                if none.any():
+                if none.any() and self.no_fix_template is not None:
                     n = int(none.sum())
                     nan = np.full(n, np.nan)
                     raws += self.no_fix_template.render(fix.stamp_ns, nan, nan, nan)
@@ -126,8 +132,10 @@ class FixOutput:
                     pub.publish(conversions.make_no_fix(fix.stamp_ns, self.frame_id))
                     self.no_fix += 1
 
-    def _velocities(self, g, fix, good):
+    def _velocities(self, g: int, fix: FixBatch, good: BoolArray) -> None:
         """Publish ``vel`` for the rows with a fix and a velocity."""
+        if fix.velocity is None or fix.velocity_sd is None:
+            return
         node = self.node
         members = node.groups[g].members
         rows = np.flatnonzero(good & np.isfinite(fix.velocity).all(axis=1))
@@ -139,11 +147,12 @@ class FixOutput:
                     fix.stamp_ns, self.frame_id, fix.velocity[row, 0], fix.velocity[row, 1],
                     float(fix.velocity_sd[row]) ** 2, None if mean is None else mean[row]))
 
-    def _send(self, handles, raws):
+    def _send(self, handles: Sequence[Any], raws: Sequence[bytes]) -> None:
         send_paced(handles, raws, self.burst)
 
 
-def start_summary(groups, cfg, who, polled, seed):
+def start_summary(groups: Sequence[Any], cfg: Mapping[str, Any], who: str, polled: bool,
+                  seed: int) -> str:
     """
     Return the node's start-up line: what serves each group, its error's size, the zones.
 

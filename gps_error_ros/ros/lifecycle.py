@@ -10,11 +10,13 @@ them one by one: Fast DDS takes some 5-10 ms per publisher, minutes for
 thousands of agents (see docs/decisions/0011-a-crowd-exits-at-once.md).
 """
 
+from collections.abc import Callable, Sequence
 import ctypes
 import os
 import re
 import signal
 import sys
+from typing import Any, NoReturn
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -22,7 +24,7 @@ from rclpy.executors import ExternalShutdownException
 from gps_error_ros.ros.parameters import ConfigError
 
 
-def command_line_problem(exc):
+def command_line_problem(exc: BaseException) -> str:
     """Return rcl's complaint about the command line as one readable line."""
     text = str(exc).replace('failed to initialize rcl: ', '')
     text = re.sub(r', at /\S+:\d+', '', text).strip()
@@ -32,7 +34,7 @@ def command_line_problem(exc):
     return text
 
 
-def wants_help(args=None):
+def wants_help(args: Sequence[str] | None = None) -> bool:
     """Return True when ``--help`` or ``-h`` comes before any ROS arguments."""
     argv = sys.argv[1:] if args is None else list(args)
     if '--ros-args' in argv:
@@ -40,7 +42,9 @@ def wants_help(args=None):
     return '--help' in argv or '-h' in argv
 
 
-def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
+def run_node(make_node: Callable[[], Any], name: str, args: Sequence[str] | None = None,
+             at_shutdown: Callable[[Any], str | None] | None = None,
+             help_text: str | None = None) -> int:
     """
     Run the node that ``make_node()`` builds until shutdown; return the exit code.
 
@@ -56,7 +60,7 @@ def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
         return 0
     asked = _quiet_stop_signals()
     try:
-        rclpy.init(args=args)
+        rclpy.init(args=None if args is None else list(args))
     except RuntimeError as exc:          # rcl's parser refused the arguments
         print(f'{name}: cannot parse the command line: '
               f'{command_line_problem(exc)}', file=sys.stderr)
@@ -101,7 +105,7 @@ def run_node(make_node, name, args=None, at_shutdown=None, help_text=None):
     return code
 
 
-def exit_at_once(code):
+def exit_at_once(code: int) -> NoReturn:
     """
     End the process now with ``code``, its output flushed, no entity destroyed.
 
@@ -122,7 +126,7 @@ QUICK_EXIT_PUBLISHERS = 200
 UNTAKEABLE = 'Unable to convert call argument'
 
 
-def _spin(node, logger):
+def _spin(node: Any, logger: Any) -> None:
     """
     Spin ``node`` until its context shuts down, past a message rclpy cannot take.
 
@@ -158,7 +162,7 @@ def _spin(node, logger):
         executor.remove_node(node)
 
 
-def _quiet_stop_signals():
+def _quiet_stop_signals() -> list[int]:
     """
     Make Ctrl-C and SIGTERM raise nothing in Python; return the list they are noted in.
 
@@ -168,13 +172,13 @@ def _quiet_stop_signals():
     Task's constructor (a "Future.__del__" traceback), inside the conversion
     of a message taken from the middleware, or inside the shutdown work.
     """
-    asked = []
+    asked: list[int] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda signum, frame: asked.append(signum))
     return asked
 
 
-def _shutdown_context():
+def _shutdown_context() -> None:
     """Shut the context down unless a signal handler already did (a race)."""
     try:
         rclpy.try_shutdown()

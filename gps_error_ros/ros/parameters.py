@@ -1,14 +1,16 @@
 """Parameter tables: every node parameter declared once, with a descriptor."""
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 import math
-from typing import Optional
+from typing import Any, Optional
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange,
                                 ParameterDescriptor, ParameterType)
 from rclpy.exceptions import (InvalidParameterTypeException,
                               InvalidParameterValueException,
                               ParameterException)
+from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from gps_error_ros.model.ar_model import MAX_ORDER
@@ -28,15 +30,15 @@ class ParamSpec:
     """One parameter: name, default, type, description and bounds."""
 
     name: str
-    default: object
+    default: Any
     type: int
     description: str
     read_only: bool = True
     low: Optional[float] = None
     high: Optional[float] = None
-    choices: tuple = ()
+    choices: tuple[str, ...] = ()
 
-    def descriptor(self):
+    def descriptor(self) -> ParameterDescriptor:
         """Return the rcl_interfaces ParameterDescriptor of this parameter."""
         extra = ''
         if self.choices:
@@ -44,19 +46,21 @@ class ParamSpec:
         d = ParameterDescriptor(
             name=self.name, type=self.type,
             description=self.description + extra, read_only=self.read_only)
-        if self.low is not None and self.type == ParameterType.PARAMETER_DOUBLE:
+        if self.low is not None and self.high is not None and \
+                self.type == ParameterType.PARAMETER_DOUBLE:
             d.floating_point_range = [FloatingPointRange(
                 from_value=float(self.low), to_value=float(self.high), step=0.0)]
-        if self.low is not None and self.type == ParameterType.PARAMETER_INTEGER:
+        if self.low is not None and self.high is not None and \
+                self.type == ParameterType.PARAMETER_INTEGER:
             d.integer_range = [IntegerRange(
                 from_value=int(self.low), to_value=int(self.high), step=0)]
         return d
 
-    def check(self, value):
+    def check(self, value: Any) -> str | None:
         """Return None if ``value`` is acceptable, else the reason."""
         if self.choices and value not in self.choices:
             return f'expected one of {list(self.choices)}'
-        if self.low is not None and isinstance(value, (int, float)):
+        if self.low is not None and self.high is not None and isinstance(value, (int, float)):
             if not (math.isfinite(value) and self.low <= value <= self.high):
                 return f'expected a value in [{self.low}, {self.high}]'
         if self.type == ParameterType.PARAMETER_STRING and self.name in (
@@ -178,11 +182,11 @@ ERROR_NODE_PARAMS = (
 )
 
 
-def _is_number(v):
+def _is_number(v: object) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
-def _coerce(spec, given):
+def _coerce(spec: ParamSpec, given: Any) -> Any:
     """
     Return ``given`` as the spec's type, or raise ConfigError naming it.
 
@@ -218,7 +222,7 @@ def _coerce(spec, given):
     return given
 
 
-def _declare_one(node, spec):
+def _declare_one(node: Node, spec: ParamSpec) -> Any:
     """Declare one parameter from the table; return its (checked) value."""
     # What the user gave (command line or parameters file) is read first, as
     # the node declared it from the overrides (or through a dynamically typed
@@ -258,7 +262,7 @@ def _declare_one(node, spec):
 BUILTIN_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 
 
-def declare(node, specs):
+def declare(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]:
     """
     Declare ``specs`` on ``node`` and return {name: value}.
 
@@ -269,9 +273,9 @@ def declare(node, specs):
 
     Parameters
     ----------
-    node : rclpy.node.Node
+    node
         The node, built with ``automatically_declare_parameters_from_overrides``.
-    specs : sequence of ParamSpec
+    specs
         The node's parameter table.
 
     Returns
@@ -297,7 +301,7 @@ def declare(node, specs):
     return values
 
 
-def _range_text(spec):
+def _range_text(spec: ParamSpec) -> str:
     if spec.choices:
         return f' (one of {list(spec.choices)})'
     if spec.low is not None:
@@ -305,7 +309,7 @@ def _range_text(spec):
     return ''
 
 
-def spec_by_name(specs):
+def spec_by_name(specs: Sequence[ParamSpec]) -> dict[str, ParamSpec]:
     """Return {name: ParamSpec}."""
     return {s.name: s for s in specs}
 
@@ -385,15 +389,15 @@ SUMO_NODE_PARAMS = (
 )
 
 
-def datum_frame(datum, input_type):
+def datum_frame(datum: Sequence[float] | None, input_type: str) -> LocalTangentFrame:
     """
     Return the :class:`LocalTangentFrame` of the ``datum`` parameter.
 
     Parameters
     ----------
-    datum : sequence of float
+    datum
         ``[lat_deg, lon_deg]`` or ``[lat_deg, lon_deg, alt_m]``.
-    input_type : str
+    input_type
         The node's ``input_type`` (for the message when ``datum`` is missing).
 
     Returns
@@ -422,7 +426,7 @@ def datum_frame(datum, input_type):
                           f'{exc}') from None
 
 
-def _default_text(spec):
+def _default_text(spec: ParamSpec) -> str:
     if spec.default is None:
         return '`[]`' if spec.type == ParameterType.PARAMETER_STRING_ARRAY else '(none)'
     if isinstance(spec.default, str):
@@ -430,7 +434,7 @@ def _default_text(spec):
     return f'`{spec.default!r}`'
 
 
-def _bounds_text(spec):
+def _bounds_text(spec: ParamSpec) -> str:
     if spec.choices:
         return ', '.join(f'`{c}`' for c in spec.choices)
     if spec.low is not None:
@@ -439,7 +443,7 @@ def _bounds_text(spec):
     return ''
 
 
-def markdown_table(specs):
+def markdown_table(specs: Sequence[ParamSpec]) -> str:
     """
     Return the Markdown table of a parameter table, for the README.
 
@@ -465,7 +469,8 @@ README_TABLES = {'gps_error_node': ERROR_NODE_PARAMS,
                  'gps_error_sumo': SUMO_NODE_PARAMS}
 
 
-def help_text(node, summary, specs, topics, example):
+def help_text(node: str, summary: str, specs: Sequence[ParamSpec],
+              topics: Sequence[tuple[str, str, str, str]], example: str) -> str:
     """
     Return what ``NODE --help`` prints: the node, its parameters, topics, an example.
 
@@ -490,7 +495,7 @@ def help_text(node, summary, specs, topics, example):
     return '\n'.join(lines)
 
 
-def _yaml_value(spec):
+def _yaml_value(spec: ParamSpec) -> str:
     v = spec.default
     if isinstance(v, str):
         plain = v and all(c.isalnum() or c in '_./-' for c in v)
@@ -498,7 +503,7 @@ def _yaml_value(spec):
     return repr(v)
 
 
-def params_file(node, specs):
+def params_file(node: str, specs: Sequence[ParamSpec]) -> str:
     """
     Return a ROS 2 parameters file of ``node``: every parameter at its default.
 

@@ -20,7 +20,15 @@ installed rclpy (:data:`RCLPY_TESTED`), so that a change underneath fails
 there, by name, rather than as a silent slowdown or lost messages.
 """
 
+from collections.abc import Iterator
+from typing import Any, TYPE_CHECKING
+
 from rclpy.callback_groups import CallbackGroup
+
+if TYPE_CHECKING:       # the mixin's super() is a Node's
+    from rclpy.node import Node as _NodeBase
+else:
+    _NodeBase = object
 
 #: The rclpy release the adapter was written and tested against (ros-jazzy-rclpy).
 RCLPY_TESTED = '7.1.6'
@@ -37,19 +45,19 @@ class DrainedByTheNode(CallbackGroup):
     at 5,000).
     """
 
-    def can_execute(self, entity):
+    def can_execute(self, entity: Any) -> bool:
         """Return False: an executor never runs the entity."""
         return False
 
-    def beginning_execution(self, entity):
+    def beginning_execution(self, entity: Any) -> bool:
         """Return False: an executor never begins to run the entity."""
         return False
 
-    def ending_execution(self, entity):
+    def ending_execution(self, entity: Any) -> None:
         """Do nothing: an executor never ran the entity."""
 
 
-class WaitsOnUndrained:
+class WaitsOnUndrained(_NodeBase):
     """
     A node mixin: executors wait on its subscriptions except those in ``self.drained``.
 
@@ -58,14 +66,14 @@ class WaitsOnUndrained:
     leaves them out.
     """
 
-    def create_subscription(self, *args, **kwargs):
+    def create_subscription(self, *args: Any, **kwargs: Any) -> Any:
         """Create a subscription (rclpy's); executors wait on it unless it is drained."""
         sub = super().create_subscription(*args, **kwargs)
         if sub.callback_group is not getattr(self, 'drained', None):
             self.__dict__.setdefault('waited_on', []).append(sub)
         return sub
 
-    def destroy_subscription(self, subscription):
+    def destroy_subscription(self, subscription: Any) -> bool:
         """Destroy a subscription created by the node (rclpy's); True if it was."""
         waited = self.__dict__.get('waited_on', [])
         if subscription in waited:
@@ -73,17 +81,17 @@ class WaitsOnUndrained:
         return super().destroy_subscription(subscription)
 
     @property
-    def subscriptions(self):
+    def subscriptions(self) -> Iterator[Any]:
         """Yield the subscriptions executors wait on: not the drained ones."""
         yield from list(self.__dict__.get('waited_on', ()))
 
 
-def handles(subscription):
+def handles(subscription: Any) -> tuple[Any, Any]:
     """Return what :func:`take_raw` needs of a subscription: (its handle, its type)."""
     return subscription.handle, subscription.msg_type
 
 
-def take_raw(handle, msg_type):
+def take_raw(handle: Any, msg_type: Any) -> bytes | None:
     """
     Return the next serialized message waiting on a subscription's ``handle``, or None.
 
@@ -94,7 +102,7 @@ def take_raw(handle, msg_type):
     return None if taken is None else taken[0]
 
 
-def take_message(subscription):
+def take_message(subscription: Any) -> Any:
     """
     Return the next message waiting on ``subscription`` (serialized if it is raw), or None.
 
@@ -107,6 +115,6 @@ def take_message(subscription):
     return None if taken is None else taken[0]
 
 
-def publish_raw(handle, data):
+def publish_raw(handle: Any, data: bytes) -> None:
     """Publish serialized ``data`` on a publisher's ``handle`` (``Publisher.handle``)."""
     handle.publish_raw(data)

@@ -31,6 +31,7 @@ keys its streams by the topic's name, use ids that are valid tokens (e.g.
 ``gps_error simulate`` on the FCD, which keys them by SUMO's id.
 """
 
+from collections.abc import Sequence
 import math
 import os
 from pathlib import Path
@@ -38,14 +39,15 @@ import re
 import signal
 import sys
 import time
+from typing import Any
 
+from geometry_msgs.msg import PoseStamped
 import numpy as np
 import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rosgraph_msgs.msg import Clock
-from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from gps_error_ros.model.geodesy import GeodesyError
@@ -65,7 +67,7 @@ RETIRE_TIMEOUT_S = 2.0
 _TOKEN = re.compile(r'[A-Za-z_][A-Za-z0-9_]*\Z')
 
 
-def ros_name(sumo_id):
+def ros_name(sumo_id: str) -> str:
     """
     Return the ROS name token for a SUMO id: the id itself when it is one.
 
@@ -80,17 +82,17 @@ def ros_name(sumo_id):
 class Kind:
     """One kind of SUMO agent (persons or vehicles): its TraCI domain and topics."""
 
-    def __init__(self, domain, prefix, msg_type, leaf):
+    def __init__(self, domain: Any, prefix: str, msg_type: Any, leaf: str) -> None:
         self.domain, self.prefix = domain, prefix.rstrip('/')
         self.msg_type, self.leaf = msg_type, leaf
-        self.pubs = {}          # SUMO id -> publisher
-        self.names = {}         # ROS name -> SUMO id (to refuse a clash)
+        self.pubs: dict[str, Any] = {}          # SUMO id -> publisher
+        self.names: dict[str, str] = {}         # ROS name -> SUMO id (to refuse a clash)
 
 
 class SumoBridge(Node):
     """Steps SUMO and publishes its agents' truth and its clock."""
 
-    def __init__(self, stop=()):
+    def __init__(self, stop: Sequence[object] = ()) -> None:
         super().__init__('gps_error_sumo')
         self.stop = stop            # non-empty once a signal asked to stop
         cfg = declare(self, SUMO_NODE_PARAMS)
@@ -117,14 +119,14 @@ class SumoBridge(Node):
             self.kinds.append(Kind(traci.vehicle, cfg['vehicle_prefix'], msg_type, leaf))
         self.clock = self.create_publisher(Clock, '/clock', CLOCK_PUB_QOS)
         self.steps = self.published = 0
-        self.retiring = []          # (wall deadline, publisher) of departed agents
+        self.retiring: list[tuple[float, Any]] = []   # (wall deadline, publisher) departed
         lat, lon, alt = self.geo.datum
         self.get_logger().info(f'datum of the poses: [{lat:.9f}, {lon:.9f}, {alt:.3f}] '
                                f'(give the error node the same)')
 
     # --- SUMO ------------------------------------------------------------
 
-    def start_sumo(self):
+    def start_sumo(self) -> None:
         """Start SUMO on the scenario through TraCI."""
         try:
             binary = self.cfg['sumo_binary'] or sumo_tool('sumo')
@@ -138,7 +140,7 @@ class SumoBridge(Node):
                 OSError) as exc:
             raise ConfigError(f'SUMO did not start ({" ".join(cmd)}): {exc}') from None
 
-    def run(self):
+    def run(self) -> int:
         """Step SUMO to its end; return the number of steps."""
         sim = self.traci.simulation
         self._wait_for_clock()
@@ -168,7 +170,7 @@ class SumoBridge(Node):
                     time.sleep(lag)
         return self.steps
 
-    def close(self):
+    def close(self) -> None:
         """Close TraCI (SUMO ends) and destroy the agents' publishers."""
         try:
             self.traci.close()
@@ -180,14 +182,14 @@ class SumoBridge(Node):
 
     # --- internals -------------------------------------------------------
 
-    def _wait_for_clock(self):
+    def _wait_for_clock(self) -> None:
         want = self.cfg['wait_for_clock']
         if want:
             self.get_logger().info(f'waiting for {want} /clock subscriber(s)')
             while self.clock.get_subscription_count() < want and not self.stop:
                 time.sleep(0.05)
 
-    def _publish_kind(self, kind, stamp):
+    def _publish_kind(self, kind: Kind, stamp: Any) -> None:
         ids = list(kind.domain.getIDList())
         present = set(ids)
         gone = [i for i in kind.pubs if i not in present]
@@ -212,7 +214,7 @@ class SumoBridge(Node):
                                                lat[j], lon[j], angle[j]))
         self.published += len(ids)
 
-    def _retire(self, pubs, wait=False):
+    def _retire(self, pubs: Sequence[Any], wait: bool = False) -> None:
         """
         Destroy departed agents' publishers once their last poses are acknowledged.
 
@@ -236,7 +238,7 @@ class SumoBridge(Node):
                 keep.append((deadline, pub))
         self.retiring = keep
 
-    def _create_agent(self, kind, sumo_id):
+    def _create_agent(self, kind: Kind, sumo_id: str) -> Any:
         name = ros_name(sumo_id)
         if name in kind.names:
             raise RuntimeError(f'SUMO ids {kind.names[name]!r} and {sumo_id!r} share the '
@@ -249,7 +251,7 @@ class SumoBridge(Node):
         return self.create_publisher(kind.msg_type, f'{kind.prefix}/{name}/{kind.leaf}',
                                      SUMO_TRUTH_QOS)
 
-    def _wait_for_match(self, pubs):
+    def _wait_for_match(self, pubs: Sequence[Any]) -> None:
         """
         Wait until ``match_node`` subscribes to the topic of every one of ``pubs``.
 
@@ -275,12 +277,13 @@ class SumoBridge(Node):
             # before they match is lost to them (seen under load in CI)
             time.sleep(MATCH_SETTLE_S)
 
-    def _matched(self, pub, who):
+    def _matched(self, pub: Any, who: str) -> bool:
         subs = self.get_subscriptions_info_by_topic(pub.topic_name)
         return (any(s.node_name == who for s in subs)
                 and pub.get_subscription_count() >= len(subs))
 
-    def _message(self, kind, stamp, east, north, up, lat, lon, angle_deg):
+    def _message(self, kind: Kind, stamp: Any, east: float, north: float, up: float,
+                 lat: float, lon: float, angle_deg: float) -> Any:
         if kind.msg_type is NavSatFix:
             msg = NavSatFix()
             msg.header.stamp, msg.header.frame_id = stamp, self.cfg['frame_id']
@@ -309,7 +312,7 @@ HELP = help_text(
     '-p match_timeout:=5.0')
 
 
-def main(args=None):
+def main(args: Sequence[str] | None = None) -> int:
     """
     Run SUMO to its end, publishing as it goes; return the exit code.
 
@@ -320,16 +323,18 @@ def main(args=None):
         print(HELP)
         return 0
     try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        rclpy.init(args=None if args is None else list(args),
+                   signal_handler_options=SignalHandlerOptions.NO)
     except RuntimeError as exc:
         print(f'gps_error_sumo: cannot parse the command line: '
               f'{command_line_problem(exc)}', file=sys.stderr)
         return 2
     logger = rclpy.logging.get_logger('gps_error_sumo')
-    stop = []
+    stop: list[bool] = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.append(True))
-    node, code = None, 0
+    node: SumoBridge | None = None
+    code = 0
     try:
         node = SumoBridge(stop)
         node.start_sumo()

@@ -11,7 +11,9 @@ walks and noisy fixes; the errors over time) and a summary.
 """
 
 import argparse
+from collections.abc import Sequence
 import csv
+from functools import partial
 import os
 from pathlib import Path
 import random
@@ -19,11 +21,14 @@ import signal
 import subprocess
 import sys
 import time
+from typing import Any, IO
+
+from gps_error_ros.model.geodesy import LocalTangentFrame
 
 NS = 1_000_000_000
 
 
-def parse_args(argv):
+def parse_args(argv: Sequence[str]) -> argparse.Namespace:
     """Return the demo's command-line options."""
     p = argparse.ArgumentParser(
         prog='gps_error_sumo_demo',
@@ -39,15 +44,15 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
-def _spawn(argv, log):
+def _spawn(argv: Sequence[str], log: IO[Any]) -> subprocess.Popen[bytes]:
     exe = Path(sys.executable).with_name(argv[0])
-    return subprocess.Popen([str(exe)] + argv[1:], stdout=log, stderr=subprocess.STDOUT)
+    return subprocess.Popen([str(exe), *argv[1:]], stdout=log, stderr=subprocess.STDOUT)
 
 
 class _Recorder:
     """Truth and fixes of every person, keyed (person, stamp ns)."""
 
-    def __init__(self, persons, frame):
+    def __init__(self, persons: Sequence[str], frame: LocalTangentFrame) -> None:
         import rclpy
         from geometry_msgs.msg import PoseStamped
         from rclpy.node import Node
@@ -57,22 +62,27 @@ class _Recorder:
         from gps_error_ros.ros.sumo_bridge import ros_name
         self.rclpy, self.frame = rclpy, frame
         self.node = Node('sumo_demo_recorder')
-        self.truth, self.fixes = {}, {}
+        self.truth: dict[tuple[str, int], Any] = {}
+        self.fixes: dict[tuple[str, int], Any] = {}
         qos = QoSProfile(depth=1000)
         for p in persons:
             name = ros_name(p)
-            self.node.create_subscription(
-                PoseStamped, f'/peds/{name}/pose',
-                lambda m, p=p: self._store(self.truth, p, m.header.stamp,
-                                           m.pose.position), qos)
-            self.node.create_subscription(
-                NavSatFix, f'/peds/{name}/fix',
-                lambda m, p=p: self._store(self.fixes, p, m.header.stamp, m), qos)
+            self.node.create_subscription(PoseStamped, f'/peds/{name}/pose',
+                                          partial(self._on_pose, p), qos)
+            self.node.create_subscription(NavSatFix, f'/peds/{name}/fix',
+                                          partial(self._on_fix, p), qos)
 
-    def _store(self, box, person, stamp, value):
+    def _on_pose(self, person: str, msg: Any) -> None:
+        self._store(self.truth, person, msg.header.stamp, msg.pose.position)
+
+    def _on_fix(self, person: str, msg: Any) -> None:
+        self._store(self.fixes, person, msg.header.stamp, msg)
+
+    def _store(self, box: dict[tuple[str, int], Any], person: str, stamp: Any,
+               value: Any) -> None:
         box[(person, stamp.sec * NS + stamp.nanosec)] = value
 
-    def wait_for_node(self, proc, timeout=30.0):
+    def wait_for_node(self, proc: subprocess.Popen[bytes], timeout: float = 30.0) -> None:
         """
         Wait until the error node is seen (its /diagnostics), then a second more.
 
@@ -89,7 +99,7 @@ class _Recorder:
         while time.monotonic() < end:
             self.rclpy.spin_once(self.node, timeout_sec=0.1)
 
-    def spin_while(self, proc, timeout):
+    def spin_while(self, proc: subprocess.Popen[bytes], timeout: float) -> bool:
         """Record until ``proc`` exits (or ``timeout`` s); return whether it did."""
         end = time.monotonic() + timeout
         while proc.poll() is None and time.monotonic() < end:
@@ -99,9 +109,9 @@ class _Recorder:
             self.rclpy.spin_once(self.node, timeout_sec=0.05)
         return proc.poll() is not None
 
-    def rows(self):
+    def rows(self) -> list[tuple[float, str, float, float, float, float]]:
         """Return every fix with its truth (time, agent, both lat/lon), sorted."""
-        out = []
+        out: list[tuple[float, str, float, float, float, float]] = []
         for (p, ns), fix in sorted(self.fixes.items()):
             pos = self.truth.get((p, ns))
             if pos is None:
@@ -111,7 +121,7 @@ class _Recorder:
         return out
 
 
-def _write_trace(path, rows):
+def _write_trace(path: Path, rows: Sequence[Sequence[Any]]) -> None:
     with open(path, 'w', newline='') as f:
         w = csv.writer(f)
         w.writerow(['t', 'agent', 'lat', 'lon', 'truth_lat', 'truth_lon'])
@@ -120,7 +130,7 @@ def _write_trace(path, rows):
                         f'{tlon:.9f}'])
 
 
-def _stop(proc):
+def _stop(proc: subprocess.Popen[bytes]) -> int | str:
     if proc.poll() is None:
         proc.send_signal(signal.SIGINT)
     try:
@@ -130,7 +140,7 @@ def _stop(proc):
         return 'killed'
 
 
-def run(args):
+def run(args: argparse.Namespace) -> dict[str, Any]:
     """Run the demo; return the summary dict."""
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 100)))
@@ -138,7 +148,7 @@ def run(args):
 
     from gps_error_ros.reports import sumo_figure
     from gps_error_ros.reports.jsonfile import write_json
-    from gps_error_ros.ros.sumo_bridge import Georeference
+    from gps_error_ros.sim.sumo_scenario import Georeference
     from gps_error_ros.sim.sumo_scenario import build_grid_scenario
 
     out = Path(args.out)
@@ -192,7 +202,7 @@ def run(args):
     return summary
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo from the command line; 0 when every person-step got a fix."""
     s = run(parse_args(sys.argv[1:] if argv is None else argv))
     print(f'{s["people_with_fixes"]} of {s["people"]} people got fixes: {s["fixes"]} fixes '

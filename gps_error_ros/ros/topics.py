@@ -56,7 +56,7 @@ CLOCK_PUB_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                            reliability=ReliabilityPolicy.RELIABLE)
 
 
-def qos_text(qos):
+def qos_text(qos: QoSProfile | None) -> str:
     """Return a QoS profile as the README writes it (``best effort, keep last 100``)."""
     if qos is None:
         return 'rcl default'
@@ -76,10 +76,10 @@ class Endpoint:
     direction: str      # 'in', 'out' or 'srv'
     name: str
     type: str           # package/Type
-    qos: object         # a QoSProfile, a {choice: QoSProfile} map, or None
+    qos: QoSProfile | dict[str, QoSProfile] | None
     note: str
 
-    def qos_cell(self):
+    def qos_cell(self) -> str:
         """Return the QoS as table text (each choice named for a parameter)."""
         if isinstance(self.qos, dict):
             return '; '.join(f'{qos_text(q)} ({k})' for k, q in self.qos.items())
@@ -146,7 +146,7 @@ NODE_TOPICS = {
 }
 
 
-def markdown_topics(node):
+def markdown_topics(node: str) -> str:
     """Return the README's Markdown table of ``node``'s topics and services."""
     lines = ['| direction | topic | type | QoS | note |', '|---|---|---|---|---|']
     for e in NODE_TOPICS[node]:
@@ -154,6 +154,6 @@ def markdown_topics(node):
     return '\n'.join(lines) + '\n'
 
 
-def help_rows(node):
+def help_rows(node: str) -> list[tuple[str, str, str, str]]:
     """Return (direction, topic, type, note) rows for ``--help``."""
     return [(e.direction, e.name, e.type, e.note) for e in NODE_TOPICS[node]]

@@ -55,9 +55,9 @@ def test_validate_sets_measured_outages_beside_the_simulated(tmp_path):
         f'{t},40.75,-73.99\n' for t in range(3000)))
     simulate_csv(src, tmp_path / 'noisy.csv', model, 1.0, 21)
     trace = read_trace_csv(tmp_path / 'noisy.csv')
-    same = validate(model, trace, sims=60, max_lag=10).summary()['availability']
+    same = validate(model, trace, sims=60, max_lag=10).to_dict()['availability']
     assert same['outages']['measured'] > 10
     for d in same.values():          # a draw of the model lies inside its own spread
         assert d['sim_lo'] <= d['measured'] <= d['sim_hi'], same
-    plain = validate(base, trace, sims=20, max_lag=10).summary()['availability']
+    plain = validate(base, trace, sims=20, max_lag=10).to_dict()['availability']
     assert plain['outages']['sim_hi'] == 0 and plain['outages']['percentile'] == 100.0

@@ -16,8 +16,16 @@ WRONG = ARErrorModel(AxisParams(0.0, (0.2,), 3.0), AxisParams(0.0, (0.2,), 3.0))
 
 def test_true_model_fits_its_envelopes_better_than_a_wrong_one():
     trace, _ = synthetic_trace(1500, seed=31)
-    good = validate(TRUE, trace, sims=200).summary()
-    bad = validate(WRONG, trace, sims=200).summary()
+    result = validate(TRUE, trace, sims=200)
+    good = result.to_dict()
+    bad = validate(WRONG, trace, sims=200).to_dict()
+    # summary() is the terminal's text of the same figures, a line per check
+    text = result.summary().splitlines()
+    assert text[0].startswith('  north: autocorrelation inside the envelope at '
+                              f'{100 * good["north"]["acf_lags_inside_envelope"]:.0f} %')
+    assert text[2].startswith('  the four shares together: percentile '
+                              f'{good["shares_joint_percentile"]:.0f} ')
+    assert len(text) == 3 + len(good['availability'])
     for ax in ('north', 'east'):
         # Past ~20 lags both autocorrelations are near 0 and inside either
         # envelope; the short lags tell the models apart.
@@ -102,11 +110,11 @@ def test_the_share_percentile_is_what_the_models_own_traces_give():
     low = {'acf': 0, 'quantiles': 0}
     for seed in range(40):
         trace, _ = synthetic_trace(300, seed=100 + seed)
-        s = validate(TRUE, trace, sims=100, seed=seed).summary()
+        s = validate(TRUE, trace, sims=100, seed=seed).to_dict()
         for k in low:
             low[k] += s['east'][f'{k}_share_percentile'] < 5
     assert low['acf'] <= 6 and low['quantiles'] <= 6, low      # about 2 expected
-    bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).summary()
+    bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).to_dict()
     assert bad['north']['acf_share_percentile'] < 5
 
 
@@ -117,13 +125,13 @@ def test_the_four_shares_together_reject_the_models_own_traces_at_their_level():
     worst, joint = 0, 0
     for seed in range(60):
         s = validate(TRUE, synthetic_trace(300, seed=200 + seed)[0], sims=100,
-                     seed=seed).summary()
+                     seed=seed).to_dict()
         worst += min(s[ax][f'{k}_share_percentile'] for ax in ('north', 'east')
                      for k in ('acf', 'quantiles')) < 5
         joint += s['shares_joint_percentile'] < 5
     assert joint <= 8, joint                     # about 3 expected
     assert worst > joint, (worst, joint)
-    bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).summary()
+    bad = validate(WRONG, synthetic_trace(1500, seed=31)[0], sims=200).to_dict()
     assert bad['shares_joint_percentile'] < 5
 
 
