@@ -35,7 +35,7 @@ from gps_error_ros.sim.synthetic import EFFECT_FREE, SCENARIOS, synthetic_trace
 
 def one(job):
     scenario, seed, duration = job
-    s = diagnose(synthetic_trace(scenario, seed, duration), sims=10).summary
+    s = diagnose(synthetic_trace(scenario, seed, duration), sims=10).findings
     return {'scenario': scenario, 'seed': seed,
             'effects': [e['name'] for e in s['effects']],
             'kept': s['selection'].get('kept', []),

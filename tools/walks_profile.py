@@ -116,7 +116,7 @@ def _diagnosis_rows(traces, seed=1):
         found = find_gross_failures(tr)
         acf1 = [float(np.corrcoef(v[:-1], v[1:])[0, 1]) for v in _errors(tr, found.mask)]
         try:
-            s = diagnose(tr, sims=SIMS // 2, seed=seed).summary     # failures left out
+            s = diagnose(tr, sims=SIMS // 2, seed=seed).findings     # failures left out
         except DiagnosisError as exc:
             rows.append(f'| {tr.name} | {acf1[0]:.2f} / {acf1[1]:.2f} | - | too short to '
                         f'diagnose alone ({str(exc).split(": ", 1)[1]}) | | |')

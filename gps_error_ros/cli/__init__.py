@@ -11,12 +11,12 @@ held-out data; ``gps_error synth SCENARIO -o WALK.csv`` writes a synthetic
 walk; ``gps_error scenario DIR`` builds a georeferenced SUMO walking scenario.
 """
 
-from typing import Any, TYPE_CHECKING
-from collections.abc import Callable, Mapping, Sequence
 import argparse
-import secrets
+from collections.abc import Callable, Sequence
 from pathlib import Path
+import secrets
 import sys
+from typing import Any, TYPE_CHECKING
 
 from gps_error_ros.cli.parser import build_parser
 from gps_error_ros.fit.calibration import (calibrate, CalibrationError, check_sampling,
@@ -237,19 +237,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return 0
 
 
-def improvement_note(summary: Mapping[str, Any]) -> str | None:
-    """Return the remark diagnose prints under the held-out improvement, or None."""
-    if not summary['effects']:
-        return None
-    if not summary['selection']['kept']:
-        return 'no effect kept: the extended model is the base model'
-    lo, hi = summary['improvement']['ci95']
-    if lo <= 0.0 <= hi:
-        return ('the 95 % interval of the improvement spans zero: the held-out '
-                'part does not show that the extended model predicts better')
-    return None
-
-
 def cmd_diagnose(args: argparse.Namespace) -> int:
     """Run ``gps_error diagnose``; return the exit code."""
     from gps_error_ros.diagnose import diagnose
@@ -271,32 +258,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         progress.close()
     for found in diag.fitted.failures:
         print(found.describe())
-    s = diag.summary
-    print(f'{s["input"]}: {s["samples"]} samples, {s["train_samples"]} train / '
-          f'{s["test_samples"]} held out ({s["split"]["rule"]})')
-    print(f'  base: AR orders north {s["base"]["order"]["north"]}, east '
-          f'{s["base"]["order"]["east"]}')
-    for name, t in s['tests'].items():
-        flag = ('REJECTED' if t['rejected'] else 'ok') + \
-            (' (by the family with the jumps in)' if t.get('given') else '')
-        print(f'  test {name:24s} p={t["p_value"]:.3g} (Holm {t["holm_adjusted_p"]:.3g}) '
-              f'{flag}')
-    print('  effects found: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
-    if s['effects']:
-        print('  kept for simulation (cross-validated over the training part): '
-              + (', '.join(s['selection']['kept']) or 'none'))
-    print('  unexplained: ' + ('; '.join(u['structure'] for u in s['unexplained'])
-                               or 'none'))
-    imp = s['improvement']
-    print(f'  held-out NLL per sample: before {s["error_before"]["heldout_nll_per_sample"]:.4f}, '
-          f'after {s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
-          f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
-          f'{imp["ci95"][1]:.4f})')
-    note = improvement_note(s)
-    if note:
-        print('  note: ' + note)
+    print(diag.summary())
     _write_results(args, diag.to_dict(), 'diagnosis.png',
-                   lambda path: diagnosis_figure(diag, path, s['input']))
+                   lambda path: diagnosis_figure(diag, path, diag.findings['input']))
     if args.profile_out:
         _write_diagnosed_profile(args, diag)
     return 0
@@ -305,7 +269,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 def _write_diagnosed_profile(args: argparse.Namespace, diag: 'Diagnosis') -> None:
     """Write ``diagnose --profile-out``: the extended profile, or with ``--population`` that."""
     from gps_error_ros.diagnose import extended_profile
-    out, source = Path(args.profile_out), diag.summary['input']
+    out, source = Path(args.profile_out), diag.findings['input']
     prof = extended_profile(diag, out.stem, source)
     if args.population:
         from gps_error_ros.judge.generalise import population_profile

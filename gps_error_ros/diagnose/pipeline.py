@@ -101,12 +101,12 @@ class Diagnosis:
     """
     Everything ``diagnose`` found, with the data needed for figures.
 
-    ``summary`` holds the raw values; :meth:`to_dict` rounds them for JSON;
-    ``fitted`` holds steps 1-5 (split, base, attribution, selection,
-    extended).
+    ``findings`` holds the raw values; :meth:`to_dict` rounds them for JSON
+    and :meth:`summary` says them for the terminal; ``fitted`` holds steps
+    1-5 (split, base, attribution, selection, extended).
     """
 
-    summary: dict[str, Any]
+    findings: dict[str, Any]
     fitted: 'FittedModels'
     train_residuals: dict[str, tuple[Any, ...]] = field(default_factory=dict)
 
@@ -127,7 +127,49 @@ class Diagnosis:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the findings as plain data (floats to 6 significant digits)."""
-        return rounded(self.summary)
+        return rounded(self.findings)
+
+    def summary(self) -> str:
+        """Return what the terminal shows: the split, the tests, the effects, the held-out gain."""
+        s = self.findings
+        out = [f'{s["input"]}: {s["samples"]} samples, {s["train_samples"]} train / '
+               f'{s["test_samples"]} held out ({s["split"]["rule"]})',
+               f'  base: AR orders north {s["base"]["order"]["north"]}, east '
+               f'{s["base"]["order"]["east"]}']
+        for name, t in s['tests'].items():
+            flag = ('REJECTED' if t['rejected'] else 'ok') + \
+                (' (by the family with the jumps in)' if t.get('given') else '')
+            out.append(f'  test {name:24s} p={t["p_value"]:.3g} '
+                       f'(Holm {t["holm_adjusted_p"]:.3g}) {flag}')
+        out.append('  effects found: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
+        if s['effects']:
+            out.append('  kept for simulation (cross-validated over the training part): '
+                       + (', '.join(s['selection']['kept']) or 'none'))
+        unexplained = '; '.join(u['structure'] for u in s['unexplained'])
+        out.append('  unexplained: ' + (unexplained or 'none'))
+        imp = s['improvement']
+        out.append(f'  held-out NLL per sample: before '
+                   f'{s["error_before"]["heldout_nll_per_sample"]:.4f}, after '
+                   f'{s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
+                   f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
+                   f'{imp["ci95"][1]:.4f})')
+        note = improvement_note(s)
+        if note:
+            out.append('  note: ' + note)
+        return '\n'.join(out)
+
+
+def improvement_note(summary: Mapping[str, Any]) -> str | None:
+    """Return the remark diagnose prints under the held-out improvement, or None."""
+    if not summary['effects']:
+        return None
+    if not summary['selection']['kept']:
+        return 'no effect kept: the extended model is the base model'
+    lo, hi = summary['improvement']['ci95']
+    if lo <= 0.0 <= hi:
+        return ('the 95 % interval of the improvement spans zero: the held-out '
+                'part does not show that the extended model predicts better')
+    return None
 
 
 #: The effects that change the mean part (the AR residuals north/east); the others change the law.
@@ -540,7 +582,7 @@ def diagnose(recordings: Trace | Sequence[Trace], sims: int = 100, seed: int = 0
 
 def extended_profile(diag: Diagnosis, name: str, source: str) -> dict[str, Any]:
     """Return the extended model as a profile mapping (schema 1, ``effects``)."""
-    s = diag.summary
+    s = diag.findings
     return profile_mapping(
         name, f'extended model diagnosed from {source}',
         f'gps_error diagnose {source}', diag.extended.axis_params(),

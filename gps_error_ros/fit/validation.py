@@ -84,9 +84,10 @@ class ValidationResult:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the numbers behind the figures as plain data (``validation.json``)."""
-        out: dict[str, Any] = {'input': self.name, 'samples': self.samples,
-               'segments': self.segments, 'simulations': self.sims,
-               'max_lag': int(self.lags[-1]), 'qq_probabilities': QQ_PROBS.tolist()}
+        out: dict[str, Any] = {
+            'input': self.name, 'samples': self.samples, 'segments': self.segments,
+            'simulations': self.sims, 'max_lag': int(self.lags[-1]),
+            'qq_probabilities': QQ_PROBS.tolist()}
         for ax in AXES:
             acf, env = self.acf[ax], self.acf_env[ax]
             q, qenv = self.quant[ax], self.quant_env[ax]
@@ -117,7 +118,6 @@ class ValidationResult:
         if self.reported is not None:
             out['reported_accuracy'] = self.reported
         return out
-
 
     def summary(self) -> str:
         """Return what the terminal shows: each check in a line, from :meth:`to_dict`."""
@@ -158,6 +158,7 @@ def summary_lines(doc: Mapping[str, Any]) -> list[str]:
                      f'median {d["sim_median"]:g} (95 % {d["sim_lo"]:g}-{d["sim_hi"]:g}), '
                      f'percentile {d["percentile"]:.0f}')
     return lines
+
 
 def validate(model: ErrorModel[Any], trace: Trace, sims: int = 200, max_lag: int = 60,
              seed: int = 0, zones: Any = None,

@@ -4,7 +4,8 @@ import re
 
 import pytest
 
-from gps_error_ros.cli import improvement_note, main as cli
+from gps_error_ros.cli import main as cli
+from gps_error_ros.diagnose.pipeline import improvement_note
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, TraceError, write_trace_csv
 

@@ -28,7 +28,7 @@ SEED = 1
 @pytest.mark.parametrize('scenario', [s for s in SCENARIOS if s not in PAIRS])
 def test_blind_attribution(scenario):
     expected, unexplained = SCENARIOS[scenario]
-    s = diagnose(synthetic_trace(scenario, SEED, 3600), sims=30).summary
+    s = diagnose(synthetic_trace(scenario, SEED, 3600), sims=30).findings
     found = [e['name'] for e in s['effects']]
     assert sorted(found) == sorted(expected), (found, s['tests'])
     assert bool(s['unexplained']) == unexplained, s['unexplained']

@@ -84,11 +84,11 @@ def straight_avenue_trace(seed, n=3600):
 
 def test_one_avenue_cannot_tell_a_walk_that_turns_can():
     from gps_error_ros.sim.synthetic import synthetic_trace
-    s = diagnose(straight_avenue_trace(2), sims=20).summary
+    s = diagnose(straight_avenue_trace(2), sims=20).findings
     found = [e['name'] for e in s['effects']]
     assert found == ['cross_axis_coupling'], found
     assert s['tests']['travel_frame']['p_value'] == 1.0       # one direction: no power
-    s = diagnose(synthetic_trace('street_canyon', 2), sims=20).summary
+    s = diagnose(synthetic_trace('street_canyon', 2), sims=20).findings
     found = {e['name']: e for e in s['effects']}
     assert 'street_frame' in found and 'cross_axis_coupling' not in found, list(found)
     ev = found['street_frame']['evidence']
