@@ -223,6 +223,7 @@ class PatternAgents(_NodeBase):
     subs: list[Any]
     pubs: list[Any]
     vel_pubs: list[Any]
+    pose_pubs: list[Any]
     sub_handles: list[Any]
     pub_handles: list[Any]
     seed: int
@@ -267,9 +268,10 @@ class PatternAgents(_NodeBase):
         for slot in slots:
             self.destroy_subscription(self.subs[slot])
             self.destroy_publisher(self.pubs[slot])
-            if self.vel_pubs[slot] is not None:
-                self.destroy_publisher(self.vel_pubs[slot])
-                self.vel_pubs[slot] = None
+            for extra in (self.vel_pubs, self.pose_pubs):
+                if extra[slot] is not None:
+                    self.destroy_publisher(extra[slot])
+                    extra[slot] = None
             self.agents[slot] = self.subs[slot] = self.pubs[slot] = None
             self.sub_handles[slot] = self.pub_handles[slot] = None
         self.groups[0].engine.detach(slots)
@@ -278,7 +280,7 @@ class PatternAgents(_NodeBase):
         """Add ``n`` free slots (pattern mode: one profile group)."""
         self.groups[0].engine.grow(n)
         for lst in (self.agents, self.subs, self.pubs, self.sub_handles, self.pub_handles,
-                    self.vel_pubs):
+                    self.vel_pubs, self.pose_pubs):
             lst.extend([None] * n)
         size = len(self.agents)
         self.groups[0].members = np.arange(size)

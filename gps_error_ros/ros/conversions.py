@@ -5,7 +5,7 @@ import math
 from typing import Any
 
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PoseStamped, TwistWithCovarianceStamped
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, TwistWithCovarianceStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from sensor_msgs.msg import NavSatFix, NavSatStatus
@@ -142,4 +142,28 @@ def make_twist(stamp: int, frame_id: str, east: float, north: float, variance: f
             for j in range(2):
                 cov[6 * i + j] += float(mean[i]) * float(mean[j])
     msg.twist.covariance = cov
+    return msg
+
+
+def make_pose(stamp: int, frame_id: str, east: float, north: float, up: float,
+              covariance: Sequence[float]) -> PoseWithCovarianceStamped:
+    """
+    Return a fix as a PoseWithCovarianceStamped: its position in the map frame (ENU m).
+
+    ``covariance``: the fix's row-major ENU 3x3 (9 floats, m^2), which fills the
+    position block (x east, y north, z up); the orientation is not measured:
+    identity, with a variance of :data:`UNKNOWN_VARIANCE` on each axis.
+    """
+    msg = PoseWithCovarianceStamped()
+    msg.header.stamp = to_stamp(stamp)
+    msg.header.frame_id = frame_id
+    p = msg.pose.pose.position
+    p.x, p.y, p.z = float(east), float(north), float(up)
+    msg.pose.pose.orientation.w = 1.0
+    cov = [0.0] * 36
+    for i in range(3):
+        for j in range(3):
+            cov[6 * i + j] = float(covariance[3 * i + j])
+        cov[7 * (i + 3)] = UNKNOWN_VARIANCE
+    msg.pose.covariance = cov
     return msg

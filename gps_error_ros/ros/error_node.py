@@ -20,7 +20,7 @@ import secrets
 import time
 from typing import Any
 
-from geometry_msgs.msg import TwistWithCovarianceStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped, TwistWithCovarianceStamped
 import numpy as np
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -107,6 +107,10 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.frame: LocalTangentFrame | None = None
         if self.input_type != 'navsatfix':
             self.frame = datum_frame(cfg['datum'], self.input_type)
+        self.pose_frame_id = cfg['pose_frame_id'].strip()
+        if self.pose_frame_id and self.frame is None:
+            self.frame = datum_frame(cfg['datum'], self.input_type,
+                                     'pose_frame_id (the pose output is about the datum)')
         self.polled = pattern is not None or len(self.agents) > 1 or self.agents != ['']
         self._create_topics()
         self.tick_time: list[float] = [0, 0.0, 0.0]      # ticks, total s, max s
@@ -206,6 +210,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.subs, self.pubs = [None] * n, [None] * n
         self.sub_handles, self.pub_handles = [None] * n, [None] * n
         self.vel_pubs = [None] * n      # with a profile velocity section
+        self.pose_pubs = [None] * n     # with pose_frame_id
         for i, name in enumerate(self.agents):
             if name is not None:
                 prefix = f'{name}/' if name else ''
@@ -229,6 +234,10 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         if self.groups[self.slot_group[i]].engine.vel is not None:
             self.vel_pubs[i] = self.create_publisher(
                 TwistWithCovarianceStamped, fix_topic[:-len('fix')] + 'vel',
+                FIX_QOS[self.fix_reliability], event_callbacks=self.pub_events)
+        if self.pose_frame_id:
+            self.pose_pubs[i] = self.create_publisher(
+                PoseWithCovarianceStamped, fix_topic + '_pose',
                 FIX_QOS[self.fix_reliability], event_callbacks=self.pub_events)
 
     def _log_start(self, cfg: Mapping[str, Any], profiles: Sequence[str]) -> None:

@@ -58,6 +58,7 @@ class FixOutput:
         self.refused = 0            # non-finite positions not published
         self.fixes = 0              # NavSatFix messages published with a position
         self.no_fix = 0             # NO_FIX messages published
+        self.poses = 0              # PoseWithCovarianceStamped messages published
         self.fix_templates: list[cdr.FixTemplate] = []
         self.no_fix_template: cdr.FixTemplate | None = None
 
@@ -106,6 +107,8 @@ class FixOutput:
             self.fixes += int(good.sum())
             if fix.velocity is not None:
                 self._velocities(g, fix, good)
+            if node.pose_frame_id:
+                self._poses(g, fix, good)
             if node.polled:
                 raws = self.fix_templates[g].render(
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good],
@@ -146,6 +149,23 @@ class FixOutput:
                 pub.publish(conversions.make_twist(
                     fix.stamp_ns, self.frame_id, fix.velocity[row, 0], fix.velocity[row, 1],
                     float(fix.velocity_sd[row]) ** 2, None if mean is None else mean[row]))
+
+    def _poses(self, g: int, fix: FixBatch, good: BoolArray) -> None:
+        """Publish ``fix_pose``: the rows with a fix, in the map frame about the datum."""
+        node = self.node
+        rows = np.flatnonzero(good)
+        if not rows.size:
+            return
+        members = node.groups[g].members
+        east, north, up = node.frame.to_enu(fix.lat[rows], fix.lon[rows], fix.alt[rows])
+        covs = self._covs(g, fix, rows)
+        for j, row in enumerate(rows):
+            pub = node.pose_pubs[members[fix.agents[row]]]
+            if pub is not None:
+                pub.publish(conversions.make_pose(
+                    fix.stamp_ns, node.pose_frame_id, east[j], north[j], up[j],
+                    node.groups[g].covariance if covs is None else covs[j]))
+        self.poses += int(rows.size)
 
     def _send(self, handles: Sequence[Any], raws: Sequence[bytes]) -> None:
         send_paced(handles, raws, self.burst)

@@ -152,6 +152,14 @@ ERROR_NODE_PARAMS = (
               'NavSatFix with status NO_FIX, position NaN and covariance unknown '
               '(as robot_localization expects to drop); silent: nothing.',
               choices=('no_fix', 'silent')),
+    ParamSpec('pose_frame_id', '', ParameterType.PARAMETER_STRING,
+              'Also publish each fix as a geometry_msgs/PoseWithCovarianceStamped on '
+              'fix_pose (A/fix_pose per agent), for estimators that take a pose '
+              '(robot_localization\'s EKF): the fix\'s position in the local ENU frame '
+              'of datum (x east, y north, z up), header.frame_id this value (the map '
+              'frame, e.g. map), the fix\'s covariance in the position block and the '
+              'orientation unknown (identity, variance 1e6 rad^2). No fix, no pose. '
+              'Needs datum (also with input_type navsatfix). Empty: off.'),
     ParamSpec('agents', None, ParameterType.PARAMETER_STRING_ARRAY,
               'Agent names: for each agent A the node reads A/pose (A/odom, '
               'A/fix_truth) and publishes A/fix. Empty: one agent on the '
@@ -389,7 +397,8 @@ SUMO_NODE_PARAMS = (
 )
 
 
-def datum_frame(datum: Sequence[float] | None, input_type: str) -> LocalTangentFrame:
+def datum_frame(datum: Sequence[float] | None, input_type: str,
+                why: str | None = None) -> LocalTangentFrame:
     """
     Return the :class:`LocalTangentFrame` of the ``datum`` parameter.
 
@@ -399,6 +408,8 @@ def datum_frame(datum: Sequence[float] | None, input_type: str) -> LocalTangentF
         ``[lat_deg, lon_deg]`` or ``[lat_deg, lon_deg, alt_m]``.
     input_type
         The node's ``input_type`` (for the message when ``datum`` is missing).
+    why
+        What needs the datum, for that message (default: the ``input_type``).
 
     Returns
     -------
@@ -414,7 +425,7 @@ def datum_frame(datum: Sequence[float] | None, input_type: str) -> LocalTangentF
     """
     if not datum:
         raise ConfigError(
-            f'parameter \'datum\' is required for input_type {input_type!r}: '
+            f'parameter \'datum\' is required for {why or f"input_type {input_type!r}"}: '
             f'expected [lat_deg, lon_deg, alt_m] of the map frame origin')
     if len(datum) not in (2, 3):
         raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
