@@ -16,7 +16,8 @@ import subprocess
 import sys
 
 PAGES = ('index', 'node', 'calibrating', 'sumo', 'profiles', 'reference/api',
-         'reference/commands', 'walks', 'decisions/index')
+         'reference/commands', 'walks', 'architecture', 'performance', 'decisions/index',
+         'decisions/0032-results-as-declared-records', 'decisions/0033-a-fix-as-a-pose')
 
 
 def main(argv=None):
