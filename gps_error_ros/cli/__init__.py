@@ -12,6 +12,7 @@ walk; ``gps_error scenario DIR`` builds a georeferenced SUMO walking scenario.
 """
 
 import argparse
+import datetime as dt
 from collections.abc import Callable, Sequence
 from pathlib import Path
 import secrets
@@ -155,7 +156,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         print(f'no seed given: using seed {args.seed}')
     if args.trajectories:
         src = Path(args.trajectories)
-        if src.suffix.lower() == '.csv':
+        if Path(args.out).suffix.lower() == '.nmea':
+            if src.suffix.lower() != '.csv':
+                raise ValueError(f'--out {args.out}: NMEA output takes a trajectories '
+                                 f'CSV of one agent, got {src.name}')
+            utc0 = args.utc_start or dt.datetime(1970, 1, 1, tzinfo=dt.timezone.utc)
+            res = batch.simulate_nmea(src, args.out, model, profile.rate_hz, args.seed, utc0,
+                                      profile.velocity, args.covariance_mode, zones,
+                                      profile.reported_accuracy, bias)
+        elif src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
                                      profile.velocity, args.covariance_mode, zones,
                                      profile.reported_accuracy, bias)

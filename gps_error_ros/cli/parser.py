@@ -50,6 +50,15 @@ def _date(text: str) -> datetime.date:
         raise argparse.ArgumentTypeError(f'{text!r}: expected YYYY-MM-DD') from None
 
 
+def _utc(text: str) -> datetime.datetime:
+    """Return a UTC ``datetime`` of 'YYYY-MM-DDTHH:MM:SS' (an argparse type)."""
+    try:
+        t = datetime.datetime.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r}: expected YYYY-MM-DDTHH:MM:SS') from None
+    return t.replace(tzinfo=datetime.timezone.utc) if t.tzinfo is None else t
+
+
 #: Simulated traces an envelope needs: its 2.5 and 97.5 % points must be
 #: estimable (with fewer, the central 95 % range is the sample's extremes).
 MIN_SIMS = 20
@@ -168,7 +177,9 @@ def _add_simulate(sub: 'Subparsers') -> None:
                     '--trajectories INPUT (SUMO FCD output, or a CSV with t, '
                     'truth_lat, truth_lon and optional agent) --out OUTPUT in '
                     'the same format with noisy positions (a CSV also keeps the '
-                    'true ones), or --agents N --duration S --out ERRORS.npz.')
+                    'true ones; a CSV of one agent can go to --out FIXES.nmea: NMEA '
+                    '0183 GGA, GSA, GST and RMC, as a receiver streams them), or '
+                    '--agents N --duration S --out ERRORS.npz.')
     s.add_argument('--profile', default='DS5', help='profile name or YAML (default DS5)')
     s.add_argument('--seed', type=number(int, -1, 2 ** 64 - 1), required=True,
                    help='seed of the error streams (as the node\'s; -1: draw one '
@@ -200,6 +211,10 @@ def _add_simulate(sub: 'Subparsers') -> None:
                         'agent gets the error process of the zone its truth is in, '
                         'step by step; --profile applies outside every zone unless the '
                         'map names a default_profile (needs the extra "zones": shapely)')
+    s.add_argument('--utc-start', type=_utc, default=None,
+                   help='NMEA output: the UTC time of t = 0 in the trajectories, '
+                        'YYYY-MM-DDTHH:MM:SS (default 1970-01-01T00:00:00: t is Unix '
+                        'time)')
     s.add_argument('--agents', type=number(int, 1),
                    help='raw mode: number of agents, named agent0, agent1, ...')
     s.add_argument('--duration', type=number(float, 0.0, lo_open=True),

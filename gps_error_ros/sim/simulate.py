@@ -22,7 +22,8 @@ process of the zone its (lagged) truth is in, step by step
 accuracy columns follow the zone.
 """
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+import datetime as dt
 import math
 import os
 from pathlib import Path
@@ -46,6 +47,7 @@ from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
                                             StreamTracker)
 from gps_error_ros.traces.progress import Progress
+from gps_error_ros.traces.nmea_write import epoch_sentences
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (
     add_errors_lonlat, check_fcd_root, fcd_coordinates, fcd_net_file, FcdWriter, iter_fcd,
@@ -105,6 +107,66 @@ def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
     with atomic_output(dst) as tmp:
         return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode,
                              zones, reported, reported_bias)
+
+
+def simulate_nmea(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float,
+                  seed: int, utc0: dt.datetime, velocity: Velocity | None = None,
+                  covariance_mode: str = 'stationary', zones: ZoneSetup | None = None,
+                  reported: ReportedAccuracy | None = None,
+                  reported_bias: Numbers | None = None) -> dict[str, int]:
+    """
+    Add errors to one agent's CSV of true positions; write its fixes as NMEA 0183.
+
+    The same fixes as :func:`simulate_csv` (same seed, profile and options),
+    an epoch each (:func:`~gps_error_ros.traces.nmea_write.epoch_sentences`):
+    a step in an outage as fix quality 0, and each fix's stated accuracy
+    (the covariance of ``covariance_mode``) in GST and HDOP. ``utc0`` is the
+    UTC instant of ``t = 0`` (the Unix epoch when ``t`` is Unix time). A file
+    is one receiver's stream: more than one agent is refused.
+    """
+    agents = sorted(set(read_truth_csv(src)['agent']))
+    if len(agents) != 1:
+        raise TrajectoryError(f'{src}: {len(agents)} agents ({", ".join(agents[:5])}'
+                              f'{" ..." if len(agents) > 5 else ""}): an NMEA file is one '
+                              f'receiver\'s stream; write a .csv, or give one agent\'s rows')
+    with atomic_output(dst) as tmp:
+        csv_tmp = Path(str(tmp) + '.csv')
+        try:
+            res = _simulate_csv(src, csv_tmp, model, rate_hz, seed, velocity, covariance_mode,
+                                zones, reported, reported_bias)
+            epochs = _nmea_epochs(csv_tmp, utc0)
+        finally:
+            csv_tmp.unlink(missing_ok=True)
+        with open(tmp, 'w', newline='') as f:
+            for sentences in epochs:
+                f.write('\r\n'.join(sentences) + '\r\n')
+    return res
+
+
+def _nmea_epochs(path: Path, utc0: dt.datetime) -> list[list[str]]:
+    """Return the NMEA sentences of each row of a trace CSV ``simulate`` wrote (one agent)."""
+    import csv
+    with open(path, newline='') as f:
+        rows = list(csv.DictReader(f))
+
+    def num(row: Mapping[str, str], key: str) -> float:
+        text = row.get(key) or ''
+        return float(text) if text else math.nan
+
+    out = []
+    for r in rows:
+        major, minor = num(r, 'accuracy_major'), num(r, 'accuracy_minor')
+        theta = math.radians(num(r, 'accuracy_orientation'))
+        u, v = (math.cos(theta), math.sin(theta)), (-math.sin(theta), math.cos(theta))
+        cov = [[major ** 2 * u[i] * u[j] + minor ** 2 * v[i] * v[j] for j in (0, 1)]
+               for i in (0, 1)]
+        fix = r.get('status', 'fix') != 'no_fix' and r['lat'] != ''
+        alt = num(r, 'alt')
+        out.append(epoch_sentences(
+            utc0 + dt.timedelta(seconds=float(r['t'])), num(r, 'lat'), num(r, 'lon'),
+            0.0 if math.isnan(alt) else alt, fix, cov if math.isfinite(major) else None,
+            speed=num(r, 'speed'), course=num(r, 'bearing')))
+    return out
 
 
 def simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int, n_agents: int,

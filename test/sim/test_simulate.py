@@ -460,3 +460,54 @@ def test_an_fcd_without_positions_is_an_error(tmp_path, capsys):
                           'lonlat', '--trajectories', str(src), '--out', str(out)]) == 2
         assert 'no person or vehicle in any' in capsys.readouterr().err
         assert not out.exists()
+
+
+def test_one_agent_to_nmea_gives_the_csv_fixes_as_a_receiver_streams_them(tmp_path):
+    """The NMEA output holds the CSV's fixes, outages as quality 0, the accuracy in GST."""
+    import datetime as dt
+
+    import pynmea2
+    import yaml
+
+    from gps_error_ros.model.profiles import builtin_dir
+    from gps_error_ros.traces.nmea import read_nmea
+    from gps_error_ros.traces.nmea_write import HDOP_SCALE_M
+    raw = yaml.safe_load((builtin_dir() / 'DS2.yaml').read_text())
+    raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [5, 0.5]]}
+    profile = tmp_path / 'outages.yaml'
+    profile.write_text(yaml.safe_dump(raw))
+    src = tmp_path / 'truth.csv'
+    src.write_text('t,agent,truth_lat,truth_lon\n' + ''.join(
+        f'{t},w,{LAT0 + 1e-5 * t!r},{LON0!r}\n' for t in range(200)))
+    common = ['simulate', '--profile', str(profile), '--seed', '6', '--trajectories', str(src),
+              '--covariance-mode', 'conditional']
+    assert cli(common + ['--out', str(tmp_path / 'o.csv')]) == 0
+    assert cli(common + ['--out', str(tmp_path / 'o.nmea'),
+                         '--utc-start', '2026-11-28T23:58:00']) == 0
+    csv_fixes = read_trace_csv(tmp_path / 'o.csv')
+    nmea = read_nmea(tmp_path / 'o.nmea')
+    start = dt.datetime(2026, 11, 28, 23, 58, tzinfo=dt.timezone.utc).timestamp()
+    np.testing.assert_allclose(nmea.t - start, csv_fixes.t, atol=1e-6)    # past midnight too
+    np.testing.assert_allclose(nmea.lat, csv_fixes.lat, atol=1e-9)
+    np.testing.assert_allclose(nmea.lon, csv_fixes.lon, atol=1e-9)
+    assert nmea.skipped['no fix'] == 200 - len(csv_fixes.t) > 0 and \
+        nmea.skipped['bad checksum'] == 0
+    # the stated accuracy: GST's axes' SDs from the CSV's ellipse, HDOP its scale of them
+    ellipse = np.stack([csv_fixes.extra['accuracy_major'], csv_fixes.extra['accuracy_minor']])
+    gst = [pynmea2.parse(line) for line in (tmp_path / 'o.nmea').read_text().split()
+           if line.startswith('$GPGST')]
+    assert len(gst) == len(csv_fixes.t)
+    sds = np.array([[g.std_dev_latitude, g.std_dev_longitude] for g in gst])
+    np.testing.assert_allclose(np.hypot(*sds.T), np.hypot(*ellipse), atol=2e-3)
+    assert len({round(g.std_dev_major, 3) for g in gst}) > 1       # conditional: per fix
+    np.testing.assert_allclose(nmea.extra['hdop'] * HDOP_SCALE_M, np.hypot(*ellipse), atol=0.03)
+
+
+def test_nmea_output_takes_one_agent(tmp_path, capsys):
+    src = tmp_path / 'two.csv'
+    src.write_text('t,agent,truth_lat,truth_lon\n0,a,48.85,2.35\n0,b,48.85,2.35\n')
+    assert cli(['simulate', '--seed', '1', '--trajectories', str(src),
+                '--out', str(tmp_path / 'o.nmea')]) == 2
+    err = capsys.readouterr().err
+    assert '2 agents (a, b): an NMEA file is one receiver\'s stream' in err, err
+    assert not (tmp_path / 'o.nmea').exists()
