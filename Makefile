@@ -18,7 +18,7 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
-	walks-profile generalisation docs input-sweep site-screenshots
+	walks-profile generalisation docs input-sweep site-screenshots gpsd-check
 
 # The measured recordings the evidence targets read: the repository's data/
 # (see data/README.md); DATA=folder for another set (held-out recordings, UrbanNav).
@@ -76,6 +76,14 @@ site-screenshots: docs
 # and receivers of data/, GTSAM's smoother among the consumers (about 20 minutes).
 generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
+
+# gpsd (Debian's gpsd and gpsd-clients, installed here if missing) reads the NMEA
+# that gps_error simulate writes, streamed on loopback, and states the same fixes
+# (test/traces/test_gpsd.py; make test runs it where gpsd is installed).
+gpsd-check: setup
+	command -v gpsd >/dev/null && command -v gpspipe >/dev/null || \
+		(apt-get update -qq && apt-get install -y -qq --no-install-recommends gpsd gpsd-clients)
+	$(PY) -m pytest -p no:cacheprovider test/traces/test_gpsd.py
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
 # 35 to 70 minutes on a 2-core machine of the kind (its CPU decides); see docs/performance.md.

@@ -15,19 +15,24 @@ epoch writes, in this order and with checksums:
   north) of the fix's covariance;
 * ``RMC``: status A (or V without a fix), date, speed (knots) and course.
 
-The HDOP is the stated horizontal accuracy over :data:`HDOP_SCALE_M`: a
-reader that turns HDOP into metres with that scale (``gps_error calibrate``
-fits ``scale_m`` from ``hdop`` the same way) gets the GST's accuracy back.
-Without a fix the position fields are empty and no GST is written.
+The HDOP is the fix's 95 % horizontal radius (of its covariance) over
+:data:`GPSD_UERE_M`: gpsd states ``eph`` (its 95 % horizontal error) as
+19 m times the HDOP, so gpsd reading the stream states each fix's own 95 %
+radius (checked with gpsd 3.22). ``gps_error calibrate`` fits its own metres
+per HDOP from a recording, so any constant reads back. Without a fix the
+position fields are empty and no GST is written.
 """
 
 from collections.abc import Sequence
 import datetime as dt
 import math
 
-#: Metres of 1-sigma horizontal accuracy (root sum of the axes' variances) per
-#: unit of HDOP.
-HDOP_SCALE_M = 5.0
+import numpy as np
+
+from gps_error_ros.model.accuracy import radius68
+
+#: Metres of 95 % horizontal error per unit of HDOP in gpsd (its ``eph`` = 19 m x HDOP).
+GPSD_UERE_M = 19.0
 #: Satellites GGA and GSA report (the model has none: a plausible constant).
 SATELLITES = 10
 #: A knot in m/s.
@@ -96,7 +101,8 @@ def epoch_sentences(t: dt.datetime, lat: float, lon: float, alt: float, fix: boo
         sd_n, sd_e = math.sqrt(max(float(cov_ne[0][0]), 0.0)), \
             math.sqrt(max(float(cov_ne[1][1]), 0.0))
         sds = (sd_n, sd_e)
-        hdop = f'{math.hypot(sd_n, sd_e) / HDOP_SCALE_M:.2f}'
+        r95 = float(radius68(np.asarray(cov_ne, dtype=float), 0.95))
+        hdop = f'{r95 / GPSD_UERE_M:.2f}'
     quality, sats = ('1', f'{SATELLITES:02d}') if fix else ('0', '00')
     height = f'{alt:.3f}' if fix else ''
     out = [sentence(f'{TALKER}GGA,{hms},{lat_s},{ns},{lon_s},{ew},{quality},{sats},{hdop},'

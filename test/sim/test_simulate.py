@@ -471,7 +471,8 @@ def test_one_agent_to_nmea_gives_the_csv_fixes_as_a_receiver_streams_them(tmp_pa
 
     from gps_error_ros.model.profiles import builtin_dir
     from gps_error_ros.traces.nmea import read_nmea
-    from gps_error_ros.traces.nmea_write import HDOP_SCALE_M
+    from gps_error_ros.model.accuracy import radius68
+    from gps_error_ros.traces.nmea_write import GPSD_UERE_M
     raw = yaml.safe_load((builtin_dir() / 'DS2.yaml').read_text())
     raw['availability'] = {'outage_rate': 0.1, 'durations': [[2, 0.5], [5, 0.5]]}
     profile = tmp_path / 'outages.yaml'
@@ -500,7 +501,13 @@ def test_one_agent_to_nmea_gives_the_csv_fixes_as_a_receiver_streams_them(tmp_pa
     sds = np.array([[g.std_dev_latitude, g.std_dev_longitude] for g in gst])
     np.testing.assert_allclose(np.hypot(*sds.T), np.hypot(*ellipse), atol=2e-3)
     assert len({round(g.std_dev_major, 3) for g in gst}) > 1       # conditional: per fix
-    np.testing.assert_allclose(nmea.extra['hdop'] * HDOP_SCALE_M, np.hypot(*ellipse), atol=0.03)
+    cov = np.array([[[g.std_dev_latitude ** 2, 0.0], [0.0, g.std_dev_longitude ** 2]]
+                    for g in gst])
+    major = np.array([g.std_dev_major for g in gst])
+    # HDOP x gpsd's 19 m: the 95 % radius (of the ellipse; the axes' SDs alone drop its tilt)
+    r95 = radius68(np.array([[[a * a, 0.0], [0.0, b * b]] for a, b in ellipse.T]), 0.95)
+    np.testing.assert_allclose(nmea.extra['hdop'] * GPSD_UERE_M, r95, atol=0.005 * GPSD_UERE_M)
+    assert np.all(major >= np.sqrt(cov[:, 0, 0]) - 1e-3)
 
 
 def test_nmea_output_takes_one_agent(tmp_path, capsys):

@@ -8,7 +8,8 @@ import pynmea2
 import pytest
 
 from gps_error_ros.traces.nmea import read_nmea
-from gps_error_ros.traces.nmea_write import (checksum, ellipse, epoch_sentences, HDOP_SCALE_M,
+from gps_error_ros.model.accuracy import radius68
+from gps_error_ros.traces.nmea_write import (checksum, ellipse, epoch_sentences, GPSD_UERE_M,
                                              KNOT)
 
 T0 = dt.datetime(2026, 11, 28, 23, 59, 50, tzinfo=dt.timezone.utc)
@@ -57,9 +58,10 @@ def test_fixes_written_and_read_back(tmp_path):
     np.testing.assert_allclose(rec.alt, alt[fix], atol=1e-3)
     np.testing.assert_allclose(rec.extra['speed'], speed[fix], rtol=1e-4)
     np.testing.assert_allclose(rec.extra['bearing'], course[fix], atol=0.01)
-    # HDOP x its scale is the stated accuracy (to the HDOP's 2 decimals)
-    np.testing.assert_allclose(rec.extra['hdop'] * HDOP_SCALE_M,
-                               np.hypot(sd[fix, 0], sd[fix, 1]), atol=0.03)
+    # HDOP x gpsd's 19 m is the fix's 95 % radius (to the HDOP's 2 decimals)
+    cov = np.array([[[a * a, 0.3], [0.3, b * b]] for a, b in sd[fix]])
+    np.testing.assert_allclose(rec.extra['hdop'] * GPSD_UERE_M, radius68(cov, 0.95),
+                               atol=0.005 * GPSD_UERE_M)
 
 
 def test_gst_states_the_covariance_and_no_fix_has_no_position():
