@@ -12,7 +12,9 @@ epoch writes, in this order and with checksums:
   as the HDOP: the model has no vertical geometry);
 * ``GST``: the stated accuracy: the SDs of latitude, longitude and height
   (m) and the error ellipse's semi-axes and orientation (deg from true
-  north) of the fix's covariance;
+  north) of the fix's covariance; its first field, the RMS of the range
+  residuals a receiver would give, is written as the horizontal SD (the
+  model has no ranges);
 * ``RMC``: status A (or V without a fix), date, speed (knots) and course.
 
 The HDOP is the fix's 95 % horizontal radius (of its covariance) over
