@@ -35,9 +35,10 @@ from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.judge.beaten import gain_text, ORDER_GAIN
 from gps_error_ros.judge.consumers import FILTER_PARTS
+from gps_error_ros.judge.fold_summary import precedent, summarise
 from gps_error_ros.judge.generalise import (EXTRA_GROUPS, GROUPS, HORIZON, judge_folds,
-                                            ORIGINS, precedent, recording_splits,
-                                            rolling_splits, split_between, summarise)
+                                            ORIGINS, recording_splits, rolling_splits,
+                                            split_between)
 from gps_error_ros.diagnose.velocity_check import precedent as velocity_precedent
 from gps_error_ros.judge.window_persistence import spread_above
 from gps_error_ros.fit.envelope import inside
@@ -282,7 +283,7 @@ def _precedent_counts(folds):
 
 
 def _precedent_rows(folds):
-    """Return table rows: each fold's misses of the population (``generalise.precedent``)."""
+    """Return table rows: each fold's misses of the population (``fold_summary.precedent``)."""
     rows = []
     for f in folds:
         miss, new = precedent(f)

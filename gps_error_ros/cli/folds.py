@@ -8,8 +8,8 @@ from pathlib import Path
 from gps_error_ros.diagnose.split import Split
 from gps_error_ros.fit.gross_failures import GrossFailures
 from gps_error_ros.fit.population_fit import segment_weights
-from gps_error_ros.judge.generalise import (compare_on_folds, recording_splits, rolling_splits,
-                                            split_between)
+from gps_error_ros.judge.fold_summary import compare_on_folds
+from gps_error_ros.judge.generalise import recording_splits, rolling_splits, split_between
 from gps_error_ros.traces.trace_io import join_recordings, Trace
 
 #: The CLI's loader: ``recordings(args, paths=None)``, the traces without their gross

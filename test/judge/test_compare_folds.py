@@ -8,7 +8,8 @@ import pytest
 from gps_error_ros.cli import main as cli
 from gps_error_ros.fit.envelope import Envelope
 from gps_error_ros.fit.population_evidence import PopulationEvidence
-from gps_error_ros.judge.generalise import GROUPS, precedent
+from gps_error_ros.judge.fold_summary import precedent
+from gps_error_ros.judge.generalise import GROUPS
 from gps_error_ros.judge.results import (ClassJudgement, ClassSummary, Fold, group_of,
                                          measure_key, name_of, OwnVerdict, TrainingWindows)
 from gps_error_ros.fit.calibration import errors_on_grid

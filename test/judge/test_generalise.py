@@ -7,10 +7,9 @@ from scipy import stats
 from gps_error_ros.judge.consumers import CONFLICT_M, run_filter, v2p_warnings
 from gps_error_ros.diagnose.fidelity import run_masks, score_differences
 from gps_error_ros.judge.beaten import block_orders, FAR_SD, part_pacf, where_beaten
-from gps_error_ros.judge.generalise import (_outage_masks, own_shares, own_verdict,
-                                            precedent_line, recording_splits,
-                                            rolling_splits, split_between,
-                                            training_windows)
+from gps_error_ros.judge.fold_summary import own_verdict, precedent_line
+from gps_error_ros.judge.generalise import (_outage_masks, own_shares, recording_splits,
+                                            rolling_splits, split_between, training_windows)
 from gps_error_ros.judge.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                   scale_nodes, within_part)
 from gps_error_ros.diagnose.split import Part
