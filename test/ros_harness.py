@@ -245,6 +245,26 @@ def drive(peer, pose_pub, fixes, seconds, start_s=T0, batch=1, position=None):
             assert ok, f'no fix for step {k}'
 
 
+def drive_agents(peer, pubs, seconds, ready=None, start_s=T0):
+    """
+    Publish every agent's pose (standing at the datum), then /clock, each simulated second.
+
+    ``pubs``: {agent: pose publisher}, published in that order. After each
+    clock step, wait up to 5 s for ``ready(k)`` (the step's fixes in, say),
+    or without it spin 0.05 s. Returns the steps whose ``ready`` never came.
+    """
+    missed = []
+    for k in range(start_s, start_s + seconds):
+        for pub in pubs.values():
+            pub.publish(pose_msg(k * NS))
+        peer.set_clock(k * NS)
+        if ready is None:
+            peer.spin_for(0.05)
+        elif not peer.spin_until(lambda: ready(k), 5.0):
+            missed.append(k)
+    return missed
+
+
 def errors(fixes, truth_lat, truth_lon):
     """Return the north/east error (m) of each fix against the truth."""
     lat = np.array([f.latitude for f in fixes])

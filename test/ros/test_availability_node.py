@@ -8,7 +8,7 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from gps_error_ros.model.profiles import builtin_dir, load_profile_file
 from gps_error_ros.model.streams import agent_key
-from ros_harness import (DATUM, DATUM_ARG, drive, errors, NS, pose_msg, stamp_ns, start,
+from ros_harness import (DATUM, DATUM_ARG, drive, drive_agents, errors, NS, stamp_ns, start,
                          T0, unique_ns)
 
 pytestmark = pytest.mark.integration
@@ -69,11 +69,7 @@ def test_a_silent_crowd_sends_nothing_in_an_outage(tmp_path, peer):
     boxes = {n: peer.collect(NavSatFix, f'{ns}/{n}/fix') for n in names}
     for n in names:
         peer.wait_connected(pubs[n], f'{ns}/{n}/fix', node)
-    for k in range(T0, T0 + STEPS):
-        for n in names:
-            pubs[n].publish(pose_msg(k * NS))
-        peer.set_clock(k * NS)
-        peer.spin_for(0.05)
+    drive_agents(peer, pubs, STEPS)
     peer.set_clock((T0 + STEPS) * NS)
     peer.spin_for(1.0)
     rc, out = node.stop()

@@ -9,9 +9,8 @@ from sensor_msgs.msg import NavSatFix
 from gps_error_ros.model.profiles import builtin_dir, load_profile_file
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.model.reported import reference_cov
-from ros_harness import (covariances_ne, DATUM_ARG, drive, NodeProcess, NS, pose_msg,
-                         standing_fixes, stamp_ns, start, T0,
-                         unique_ns)
+from ros_harness import (covariances_ne, DATUM_ARG, drive, drive_agents, NodeProcess, NS,
+                         standing_fixes, stamp_ns, start, T0, unique_ns)
 
 pytestmark = pytest.mark.integration
 SEED = 4
@@ -96,12 +95,8 @@ def test_each_fix_carries_the_models_prediction(tmp_path, peer, mode, crowd, cyc
     for n in names:
         peer.wait_connected(pubs[n], prefix[n] + 'fix', node)
     if crowd:
-        for k in range(T0, T0 + STEPS):
-            for n in names:
-                pubs[n].publish(pose_msg(k * NS))
-            peer.set_clock(k * NS)
-            peer.spin_until(lambda: all(b and stamp_ns(b[-1].header.stamp) >= (k - 1) * NS
-                                        for b in boxes.values()), 5)
+        drive_agents(peer, pubs, STEPS, lambda k: all(
+            b and stamp_ns(b[-1].header.stamp) >= (k - 1) * NS for b in boxes.values()))
         peer.set_clock((T0 + STEPS) * NS)
         peer.spin_for(1.0)
     else:
