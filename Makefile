@@ -78,12 +78,13 @@ generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
 
 # gpsd (Debian's gpsd and gpsd-clients, installed here if missing) reads the NMEA
-# that gps_error simulate writes, streamed on loopback, and states the same fixes
-# (test/traces/test_gpsd.py; make test runs it where gpsd is installed).
+# that gps_error simulate writes, streamed on loopback, and the error node's own
+# NMEA stream (nmea_port), and states the same fixes (test/traces/test_gpsd.py,
+# test/ros/test_nmea_node.py; make test runs them where gpsd is installed).
 gpsd-check: setup
 	command -v gpsd >/dev/null && command -v gpspipe >/dev/null || \
 		(apt-get update -qq && apt-get install -y -qq --no-install-recommends gpsd gpsd-clients)
-	$(PY) -m pytest -p no:cacheprovider test/traces/test_gpsd.py
+	$(PY) -m pytest -p no:cacheprovider test/traces/test_gpsd.py test/ros/test_nmea_node.py
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
 # 35 to 70 minutes on a 2-core machine of the kind (its CPU decides); see docs/performance.md.

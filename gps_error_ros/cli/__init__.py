@@ -154,6 +154,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.seed == -1:
         args.seed = secrets.randbits(63)
         print(f'no seed given: using seed {args.seed}')
+    faults = _faults(args)
     if args.trajectories:
         src = Path(args.trajectories)
         if Path(args.out).suffix.lower() == '.nmea':
@@ -163,11 +164,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             utc0 = args.utc_start or dt.datetime(1970, 1, 1, tzinfo=dt.timezone.utc)
             res = batch.simulate_nmea(src, args.out, model, profile.rate_hz, args.seed, utc0,
                                       profile.velocity, args.covariance_mode, zones,
-                                      profile.reported_accuracy, bias)
+                                      profile.reported_accuracy, bias, faults)
         elif src.suffix.lower() == '.csv':
             res = batch.simulate_csv(src, args.out, model, profile.rate_hz, args.seed,
                                      profile.velocity, args.covariance_mode, zones,
-                                     profile.reported_accuracy, bias)
+                                     profile.reported_accuracy, bias, faults)
         else:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits,
@@ -178,6 +179,19 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                                  args.agents, args.duration, args.start)
     print(', '.join(f'{v} {k}' for k, v in res.items()) + f'; wrote {args.out}')
     return 0
+
+
+def _faults(args: argparse.Namespace) -> list[Any]:
+    """Return the faults of ``--faults`` (none without it); refuse the modes without them."""
+    if args.faults is None:
+        return []
+    from gps_error_ros.sim.faults import load_schedule
+    csv_in = bool(args.trajectories) and Path(args.trajectories).suffix.lower() == '.csv'
+    if not csv_in:
+        raise ValueError(f'--faults {args.faults}: faults are laid over fixes of a '
+                         f'trajectories CSV (--out .csv or .nmea); the FCD and raw (.npz) '
+                         f'modes do not take them')
+    return load_schedule(args.faults)
 
 
 def _check_output_dir(path: str, option: str) -> None:

@@ -211,6 +211,11 @@ def _add_simulate(sub: 'Subparsers') -> None:
                         'agent gets the error process of the zone its truth is in, '
                         'step by step; --profile applies outside every zone unless the '
                         'map names a default_profile (needs the extra "zones": shapely)')
+    s.add_argument('--faults', default=None, metavar='SCHEDULE.yaml',
+                   help='fault schedule (YAML; as the node\'s fault_schedule, times on the '
+                        'trajectories\' t): outages, frozen fixes, offsets, degraded '
+                        'stretches and gross failures on chosen agents at chosen times; '
+                        'CSV and NMEA output')
     s.add_argument('--utc-start', type=_utc, default=None,
                    help='NMEA output: the UTC time of t = 0 in the trajectories, '
                         'YYYY-MM-DDTHH:MM:SS (default 1970-01-01T00:00:00: t is Unix '

@@ -33,12 +33,13 @@ from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
 from gps_error_ros.model.zoned import zoned_errors
 from gps_error_ros.model.zones import load_zone_map, ZoneMap, ZoneMapError
-from gps_error_ros.ros import cdr, conversions
+from gps_error_ros.ros import cdr, conversions, nmea_stream
 from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
 from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR, OK,
                                            Report, WARN)
 from gps_error_ros.ros.fix_output import FixOutput, start_summary
 from gps_error_ros.ros.lifecycle import run_node
+from gps_error_ros.ros.node_faults import NodeFaults
 from gps_error_ros.ros.parameters import (
     ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
     WARN_PERIOD_S)
@@ -46,12 +47,13 @@ from gps_error_ros.ros.rclpy_adapter import (DrainedByTheNode, handles, take_raw
                                              WaitsOnUndrained)
 from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
 from gps_error_ros.sim.engine import FixEngine, NS
+from gps_error_ros.sim.faults import FaultOverlay
 from gps_error_ros.traces.validity import usable_fix, usable_pose
 
 #: /diagnostics counters that are the node working as it should (an outage is
 #: the profile's availability model, not a fault).
 NOT_TROUBLE = ('fixes published', 'no-fix messages published (outages)',
-               'steps in an outage')
+               'steps in an outage', 'fixes touched by injected faults')
 #: Wall seconds between two looks at the graph for agent_pattern.
 WATCH_PERIOD_S = 1.0
 #: Slots an agent_pattern node starts with (doubled whenever they run out).
@@ -102,6 +104,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             seed = secrets.randbits(63)
             self.get_logger().info(f'no seed given: using seed {seed}')
         self.seed = seed
+        self.faults = NodeFaults(self, cfg['fault_schedule'], cfg['faults'])
         self._build_groups(cfg, profiles, active=pattern is None)
         # the datum is checked after the profiles: a bad profile is named first
         self.frame: LocalTangentFrame | None = None
@@ -120,6 +123,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                                     cfg['covariance_mode'], per_fix=bool(cfg['zones']),
                                     about_truth=cfg['covariance_about'] == 'truth')
         self.fix_output.templates(self.frame_id)
+        self.nmea = nmea_stream.open_for(self, cfg['nmea_port'], pattern is not None)
         self.timer = self.create_timer(1.0 / cfg['rate'], self._on_timer)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.watcher: AgentWatcher | None = None
@@ -176,7 +180,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                                conditional_cov=cfg['covariance_mode'] == 'conditional',
                                zones=zones, reported=reported,
                                reported_bias=model.mean if reported is not None and
-                               cfg['covariance_about'] == 'truth' else None)
+                               cfg['covariance_about'] == 'truth' else None,
+                               faults=FaultOverlay(self.faults.faults, self.seed))
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
@@ -443,6 +448,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             'truth came after its step was skipped': t('late_truth'),
             'clock resets': t('resets'),
             'non-finite fixes refused': self.fix_output.refused,
+            'fixes touched by injected faults': NodeFaults.touched(self.groups),
         }
         recent = {k: self.counters.delta(k, v) for k, v in total.items()}
         served = sum(a is not None for a in self.agents)
@@ -482,6 +488,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         for p in params:
             spec = self._specs.get(p.name)
             reason = spec.check(p.value) if spec is not None else None
+            if p.name == 'faults' and not reason:
+                reason = self.faults.check(str(p.value), self.now_ns())
             if reason:
                 return SetParametersResult(
                     successful=False, reason=f'{p.name}={p.value!r}: {reason}')
@@ -493,6 +501,14 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             if p.name == 'frame_id':
                 self.frame_id = p.value
                 self.fix_output.templates(self.frame_id)
+            if p.name == 'faults':
+                self.faults.apply(self.groups)
+
+    def destroy_node(self) -> None:
+        """Close the NMEA stream's sockets, then the node."""
+        if self.nmea is not None:
+            self.nmea.close()
+        super().destroy_node()
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -20,7 +20,7 @@ import numpy as np
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray
-from gps_error_ros.ros import cdr, conversions
+from gps_error_ros.ros import cdr, conversions, nmea_stream
 from gps_error_ros.ros.parameters import WARN_PERIOD_S
 from gps_error_ros.ros.rclpy_adapter import publish_raw
 from gps_error_ros.sim.engine_types import FixBatch
@@ -81,7 +81,7 @@ class FixOutput:
     def _covs(self, g: int, fix: FixBatch,
               rows: IntArray | BoolArray | slice) -> FloatArray | None:
         """Return the per-fix ENU covariances (m, 9) of ``rows``, or None (the group's)."""
-        if not self.per_fix or fix.cov is None:
+        if not (self.per_fix or fix.cov_per_fix) or fix.cov is None:
             return None
         vertical = self.node.groups[g].covariance[8]
         return conversions.enu_covariances(fix.cov[rows], vertical)
@@ -109,6 +109,8 @@ class FixOutput:
                 self._velocities(g, fix, good)
             if node.pose_frame_id:
                 self._poses(g, fix, good)
+            if node.nmea is not None:
+                self._nmea(g, fix, good, ~good & ~self._bad(fix))
             if node.polled:
                 raws = self.fix_templates[g].render(
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good],
@@ -166,6 +168,25 @@ class FixOutput:
                     fix.stamp_ns, node.pose_frame_id, east[j], north[j], up[j],
                     node.groups[g].covariance if covs is None else covs[j]))
         self.poses += int(rows.size)
+
+    def _bad(self, fix: FixBatch) -> BoolArray:
+        """Return the rows with a fix due but a non-finite position (never sent)."""
+        has = np.ones(fix.agents.size, dtype=bool) if fix.fix is None else fix.fix
+        return has & ~(np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt))
+
+    def _nmea(self, g: int, fix: FixBatch, good: BoolArray, none: BoolArray) -> None:
+        """Stream the rows as NMEA: a fix for ``good``, quality 0 for ``none``."""
+        node = self.node
+        group = node.groups[g]
+        c = group.covariance            # ENU row-major: north/east from it
+        stationary = [[c[4], c[3]], [c[1], c[0]]]
+        per_fix = fix.cov is not None and (self.per_fix or fix.cov_per_fix)
+        for row in np.flatnonzero(good | none):
+            cov = fix.cov[row].tolist() if per_fix and fix.cov is not None else stationary
+            vel = None if fix.velocity is None else fix.velocity[row]
+            node.nmea.send(int(group.members[fix.agents[row]]), nmea_stream.epoch_bytes(
+                fix.stamp_ns, float(fix.lat[row]), float(fix.lon[row]), float(fix.alt[row]),
+                bool(good[row]), cov, c[8], vel))
 
     def _send(self, handles: Sequence[Any], raws: Sequence[bytes]) -> None:
         send_paced(handles, raws, self.burst)

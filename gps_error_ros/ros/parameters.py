@@ -160,6 +160,21 @@ ERROR_NODE_PARAMS = (
               'frame, e.g. map), the fix\'s covariance in the position block and the '
               'orientation unknown (identity, variance 1e6 rad^2). No fix, no pose. '
               'Needs datum (also with input_type navsatfix). Empty: off.'),
+    ParamSpec('nmea_port', -1, ParameterType.PARAMETER_INTEGER,
+              'Also stream each agent\'s fixes as NMEA 0183 (GGA, GSA, GST, RMC; no fix: '
+              'quality 0) on TCP 127.0.0.1, agent i of agents on nmea_port + i, for gpsd '
+              '(gpsd -N tcp://127.0.0.1:PORT) and other NMEA readers. 0: a free port each, '
+              'logged. -1: off.', low=-1, high=65535),
+    ParamSpec('fault_schedule', '', ParameterType.PARAMETER_STRING,
+              'A fault schedule (YAML) read at start: faults put on chosen agents at '
+              'chosen times of the ROS clock (outage, frozen, offset, degraded, '
+              'gross_failure; see docs/faults.md). Empty: none.'),
+    ParamSpec('faults', '', ParameterType.PARAMETER_STRING,
+              'Set at run time to add faults: one YAML entry or a list, e.g. '
+              '"{kind: outage, agent: a1, at: 120, duration: 10}" (without at: from the '
+              'next step). A bad entry is refused with the reason; accepted ones are '
+              'added to the schedule. Reads back the last value set.',
+              read_only=False),
     ParamSpec('agents', None, ParameterType.PARAMETER_STRING_ARRAY,
               'Agent names: for each agent A the node reads A/pose (A/odom, '
               'A/fix_truth) and publishes A/fix. Empty: one agent on the '

@@ -25,6 +25,7 @@ from gps_error_ros.model.velocity import Velocity
 from gps_error_ros.model.zoned import one_zone, travel_direction, ZonedErrors, ZoneSetup
 from gps_error_ros.model.zones import OUTSIDE, ZoneMap
 from gps_error_ros.sim.engine_types import EngineStats, FixBatch, PendingStep
+from gps_error_ros.sim.faults import FaultOverlay, FixRows
 from gps_error_ros.sim.truth_ring import TruthRing
 from gps_error_ros.sim.velocity_state import SideStream, VelocityState
 
@@ -72,6 +73,9 @@ class FixEngine:
     reported_bias
         With ``reported``: the error's mean, added to the stated covariance
         as ``m m^T`` (covariance about the truth).
+    faults
+        Faults on demand (:mod:`~gps_error_ros.sim.faults`) laid over the
+        fixes; the engine's slots are their row ids.
 
     """
 
@@ -81,7 +85,8 @@ class FixEngine:
                  velocity: Velocity | None = None, conditional_cov: bool = False,
                  zones: ZoneSetup | None = None,
                  reported: ReportedAccuracy | None = None,
-                 reported_bias: Numbers | None = None) -> None:
+                 reported_bias: Numbers | None = None,
+                 faults: FaultOverlay | None = None) -> None:
         if not rate > 0 or not model_rate > 0:
             raise ValueError(f'rates must be > 0, got rate={rate}, '
                              f'model_rate={model_rate}')
@@ -115,6 +120,7 @@ class FixEngine:
         # a stated radius that follows the predictive scale needs it
         self.conditional_cov = conditional_cov or self.ref_cov is not None
         self.cov_now: FloatArray | None = None
+        self.faults = faults
         self._zones(zones)
         self._reset_time()
 
@@ -266,6 +272,8 @@ class FixEngine:
         self.last_skipped[slots] = -1
         if self.zoned is not None:
             self.zoned.forget(slots)
+        if self.faults is not None:
+            self.faults.forget(slots.tolist())
         if self.state is None or not slots.size:
             return
         m = self.pending[0].model_step if self.pending else self.model_index
@@ -459,8 +467,6 @@ class FixEngine:
         lat, lon = offset(coords[:, 0], coords[:, 1], err[:, 0], err[:, 1])
         lat, lon = np.asarray(lat), np.asarray(lon)
         lat[~fix] = lon[~fix] = np.nan          # no fix: no position
-        self.stats.fixes += int(fix.sum())
-        self.stats.no_fix += int((~fix).sum())
         velocity = velocity_sd = velocity_mean = accuracy = None
         if self.vel is not None:
             velocity, velocity_sd, velocity_mean = self.vel.reported(
@@ -468,7 +474,40 @@ class FixEngine:
         if self.reported is not None:       # the phone's stated radius, and its covariance
             accuracy = self.reported.radius(step.side['rep'][agents], cov, self.ref_cov)
             cov = self.reported.covariance(accuracy, self.reported_bias)
-        return FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
-                        alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
-                        velocity_sd=velocity_sd, velocity_mean=velocity_mean, cov=cov,
-                        accuracy=accuracy)
+        batch = FixBatch(stamp_ns=step.t_ns, agents=agents, lat=lat, lon=lon,
+                         alt=coords[:, 2].copy(), error=err, fix=fix, velocity=velocity,
+                         velocity_sd=velocity_sd, velocity_mean=velocity_mean, cov=cov,
+                         accuracy=accuracy)
+        if self.faults is not None and self.faults.faults:
+            batch = self._with_faults(batch, coords)
+        shown = fix if batch.fix is None else batch.fix
+        self.stats.fixes += int(shown.sum())
+        self.stats.no_fix += int((~shown).sum())
+        return batch
+
+    def _with_faults(self, batch: FixBatch, coords: FloatArray) -> FixBatch:
+        """
+        Return ``batch`` with the faults on demand that cover it (see :mod:`.faults`).
+
+        A batch a fault touched carries a covariance per fix (``cov_per_fix``).
+        """
+        if self.faults is None or not self.faults.active_at(batch.stamp_ns):
+            return batch
+        extra = {k: np.array(v, copy=True) for k, v in (
+            ('velocity', batch.velocity), ('velocity_sd', batch.velocity_sd),
+            ('velocity_mean', batch.velocity_mean)) if v is not None}
+        cov = np.repeat(np.asarray(self.model.stationary_cov)[None], batch.agents.size,
+                        axis=0) if batch.cov is None else batch.cov.copy()
+        rows = FixRows(batch.stamp_ns, batch.agents, self.keys[batch.agents], coords[:, 0],
+                       coords[:, 1], batch.lat.copy(), batch.lon.copy(), batch.alt.copy(),
+                       batch.error.copy(),
+                       np.ones(batch.agents.size, dtype=bool) if batch.fix is None
+                       else batch.fix.copy(), cov, extra)
+        if not self.faults.apply(rows).any():
+            return batch
+        return FixBatch(stamp_ns=batch.stamp_ns, agents=batch.agents, lat=rows.lat,
+                        lon=rows.lon, alt=rows.alt, error=rows.error, fix=rows.fix,
+                        velocity=rows.extra.get('velocity'),
+                        velocity_sd=rows.extra.get('velocity_sd'),
+                        velocity_mean=rows.extra.get('velocity_mean'), cov=rows.cov,
+                        accuracy=batch.accuracy, cov_per_fix=True)

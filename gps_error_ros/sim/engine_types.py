@@ -44,6 +44,8 @@ class FixBatch:
     velocity_mean: Optional[np.ndarray] = field(default=None, repr=False)
     cov: Optional[np.ndarray] = field(default=None, repr=False)       # (m, 2, 2) north/east m^2
     accuracy: Optional[np.ndarray] = field(default=None, repr=False)  # (m,) stated 68 % radius, m
+    # True: ``cov`` is each fix's own even where the node states one for all (a fault touched it)
+    cov_per_fix: bool = field(default=False, repr=False)
 
 
 @dataclass

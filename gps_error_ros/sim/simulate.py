@@ -44,6 +44,7 @@ from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import Velocity
 from gps_error_ros.model.zoned import one_zone, TravelDirections, ZoneSetup
 from gps_error_ros.sim.crowd import CrowdErrors
+from gps_error_ros.sim.faults import Fault, FaultOverlay, FixRows
 from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
                                             StreamTracker)
 from gps_error_ros.traces.progress import Progress
@@ -91,7 +92,8 @@ def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
 def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
                  velocity: Velocity | None = None, covariance_mode: str = 'stationary',
                  zones: ZoneSetup | None = None, reported: ReportedAccuracy | None = None,
-                 reported_bias: Numbers | None = None) -> dict[str, int]:
+                 reported_bias: Numbers | None = None,
+                 faults: Sequence[Fault] = ()) -> dict[str, int]:
     """
     Add errors to a CSV of true positions; write a trace CSV; return counts.
 
@@ -103,17 +105,21 @@ def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
     ``reported`` (the radius ``reported``, a profile's
     :class:`ReportedAccuracy`, states, and the circular covariance it implies,
     plus ``reported_bias`` (the error's mean) as ``m m^T`` when given).
+    ``faults`` (:mod:`~gps_error_ros.sim.faults`, times on ``t``) are laid
+    over the fixes as the error node lays them; a row a fault touched states
+    the accuracy of the fault's covariance.
     """
     with atomic_output(dst) as tmp:
         return _simulate_csv(src, tmp, model, rate_hz, seed, velocity, covariance_mode,
-                             zones, reported, reported_bias)
+                             zones, reported, reported_bias, faults)
 
 
 def simulate_nmea(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float,
                   seed: int, utc0: dt.datetime, velocity: Velocity | None = None,
                   covariance_mode: str = 'stationary', zones: ZoneSetup | None = None,
                   reported: ReportedAccuracy | None = None,
-                  reported_bias: Numbers | None = None) -> dict[str, int]:
+                  reported_bias: Numbers | None = None,
+                  faults: Sequence[Fault] = ()) -> dict[str, int]:
     """
     Add errors to one agent's CSV of true positions; write its fixes as NMEA 0183.
 
@@ -133,7 +139,7 @@ def simulate_nmea(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
         csv_tmp = Path(str(tmp) + '.csv')
         try:
             res = _simulate_csv(src, csv_tmp, model, rate_hz, seed, velocity, covariance_mode,
-                                zones, reported, reported_bias)
+                                zones, reported, reported_bias, faults)
             epochs = _nmea_epochs(csv_tmp, utc0)
         finally:
             csv_tmp.unlink(missing_ok=True)
@@ -380,22 +386,62 @@ def _check_georeferenced(src: PathArg, zones: ZoneSetup | None, mode: str) -> No
 def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
                   velocity: Velocity | None = None, covariance_mode: str = 'stationary',
                   zones: ZoneSetup | None = None, reported: ReportedAccuracy | None = None,
-                  reported_bias: Numbers | None = None) -> dict[str, int]:
+                  reported_bias: Numbers | None = None,
+                  faults: Sequence[Fault] = ()) -> dict[str, int]:
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
     t = data['t']
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
     conditional = needs_predictive(covariance_mode, reported)
-    zones = _per_fix(model, zones, conditional)
+    rows = _csv_rows(src, data, model, rate_hz, seed, conditional, _per_fix(model, zones,
+                                                                            conditional))
+    radius = None
+    if covariance_mode == 'reported':
+        stated = _Stated(model, reported, seed, reported_bias)
+        radius, rows.cov = stated.radius(row_values(stated.reported, seed, data['agent'], t,
+                                                    model_step(t[0], rate_hz), rate_hz),
+                                         rows.cov)
+    if velocity is not None:
+        cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
+        rows.extra.update(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
+    if faults:
+        touched = _csv_faults(FaultOverlay(faults, seed), t, data['agent'], rows)
+        if radius is not None:
+            radius[touched] = radius68(rows.cov[touched])
+    fix = rows.fix
+    extra = accuracy_columns(rows.cov, fix, radius)
+    if velocity is not None:
+        for k in ('speed', 'bearing'):
+            rows.extra[k][~fix] = np.nan             # no fix: nothing reported
+        extra.update(rows.extra)
+    outages = isinstance(model, WithAvailability) or bool(faults)
+    write_trace_csv(Trace(Path(dst).name, t, rows.lat, rows.lon, data['truth_lat'],
+                          data['truth_lon'], extra), dst, agent=data['agent'],
+                    fix=fix if outages else None)
+    out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
+    if outages:
+        out['positions_without_fix'] = int((~fix).sum())
+    return out
+
+
+def _csv_rows(src: PathArg, data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: float,
+              seed: int, conditional: bool, zones: ZoneSetup | None) -> FixRows:
+    """
+    Return the fixes of every row of a truth CSV (``stamp_ns`` unused: rows of many times).
+
+    ``truth_lat``/``truth_lon`` are the positions the errors were added to
+    (the truth ``lag_s`` earlier with a motion lag).
+    """
+    t = data['t']
     crowd = CrowdErrors(model, seed, model_step(t[0], rate_hz), conditional_cov=conditional,
                         zoned=zones)
     lag = LagBuffer(model.lag_s)
     travel = TravelDirections(model.lag_s)
-    cov = np.repeat(np.asarray(model.stationary_cov)[None], t.size, axis=0)
-    lat_out = np.empty_like(t)
-    lon_out = np.empty_like(t)
-    fix = np.ones(t.size, dtype=bool)
+    rows = FixRows(0, np.zeros(t.size, dtype=np.int64), np.zeros(t.size, dtype=np.uint64),
+                   np.empty_like(t), np.empty_like(t), np.empty_like(t), np.empty_like(t),
+                   np.zeros_like(t), np.empty((t.size, 2)), np.ones(t.size, dtype=bool),
+                   np.repeat(np.asarray(model.stationary_cov)[None], t.size, axis=0))
     bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
     for b0, b1 in zip(bounds[:-1], bounds[1:]):
         crowd.advance_to(model_step(t[b0], rate_hz))
@@ -407,34 +453,38 @@ def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
         if zones is not None:
             heading = travel.directions(names, t[b0], data['truth_lat'][b0:b1],
                                         data['truth_lon'][b0:b1])
-            err, cov[b0:b1] = crowd.zoned_errors(names, lat, lon, heading)
+            err, rows.cov[b0:b1] = crowd.zoned_errors(names, lat, lon, heading)
         else:
             err = crowd.errors(names)
             if conditional:
-                cov[b0:b1] = crowd.covariance(names)
-        fix[b0:b1] = crowd.available(names)
-        lon_out[b0:b1], lat_out[b0:b1] = add_errors_lonlat(lon, lat, err)
-    outages = isinstance(model, WithAvailability)
+                rows.cov[b0:b1] = crowd.covariance(names)
+        rows.fix[b0:b1] = crowd.available(names)
+        rows.error[b0:b1] = err
+        rows.truth_lat[b0:b1], rows.truth_lon[b0:b1] = lat, lon
+        rows.lon[b0:b1], rows.lat[b0:b1] = add_errors_lonlat(lon, lat, err)
     # a row in an outage: status no_fix and no position (read back as a gap)
-    lat_out[~fix] = lon_out[~fix] = np.nan
-    radius = None
-    if covariance_mode == 'reported':
-        stated = _Stated(model, reported, seed, reported_bias)
-        radius, cov = stated.radius(row_values(stated.reported, seed, data['agent'], t,
-                                               model_step(t[0], rate_hz), rate_hz), cov)
-    extra = accuracy_columns(cov, fix, radius)
-    if velocity is not None:
-        cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
-        extra.update(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
-        for k in ('speed', 'bearing'):
-            extra[k][~fix] = np.nan             # no fix: nothing reported
-    write_trace_csv(Trace(Path(dst).name, t, lat_out, lon_out, data['truth_lat'],
-                          data['truth_lon'], extra), dst, agent=data['agent'],
-                    fix=fix if outages else None)
-    out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
-    if outages:
-        out['positions_without_fix'] = int((~fix).sum())
-    return out
+    rows.lat[~rows.fix] = rows.lon[~rows.fix] = np.nan
+    return rows
+
+
+def _csv_faults(overlay: FaultOverlay, t: FloatArray, agents: Sequence[str],
+                rows: FixRows) -> BoolArray:
+    """Lay ``overlay``'s faults over ``rows``, time by time as the node; return rows touched."""
+    ids: dict[str, int] = {}
+    touched = np.zeros(t.size, dtype=bool)
+    keep = {'speed', 'bearing'} & set(rows.extra)       # what a frozen receiver repeats
+    bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
+    for b0, b1 in zip(bounds[:-1], bounds[1:]):
+        names = agents[b0:b1]
+        sel = slice(b0, b1)
+        block = FixRows(int(round(t[b0] * 1e9)),
+                        np.array([ids.setdefault(n, len(ids)) for n in names], dtype=np.int64),
+                        streams.agent_keys(overlay.seed, names), rows.truth_lat[sel],
+                        rows.truth_lon[sel], rows.lat[sel], rows.lon[sel], rows.alt[sel],
+                        rows.error[sel], rows.fix[sel], rows.cov[sel],
+                        {k: rows.extra[k][sel] for k in keep})
+        touched[sel] = overlay.apply(block)         # the block's arrays are views: in place
+    return touched
 
 
 def _stated(covariance_mode: str, model: ErrorModel[Any], reported: ReportedAccuracy | None,

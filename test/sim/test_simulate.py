@@ -518,3 +518,32 @@ def test_nmea_output_takes_one_agent(tmp_path, capsys):
     err = capsys.readouterr().err
     assert '2 agents (a, b): an NMEA file is one receiver\'s stream' in err, err
     assert not (tmp_path / 'o.nmea').exists()
+
+
+def test_faults_from_the_command_line_reach_csv_and_nmea(tmp_path, capsys):
+    from gps_error_ros.traces.nmea import read_nmea
+    src = tmp_path / 'truth.csv'
+    src.write_text('t,agent,truth_lat,truth_lon\n' + ''.join(
+        f'{t},w,{LAT0 + 1e-5 * t!r},{LON0!r}\n' for t in range(60)))
+    schedule = tmp_path / 'faults.yaml'
+    schedule.write_text('faults:\n  - {kind: outage, at: 10, duration: 5, agent: w}\n'
+                        '  - {kind: gross_failure, at: 30, size_m: 4000}\n')
+    common = ['simulate', '--seed', '3', '--trajectories', str(src), '--faults', str(schedule)]
+    assert cli(common + ['--out', str(tmp_path / 'o.csv')]) == 0
+    assert '55 positions, 1 agents, 5 positions_without_fix' in capsys.readouterr().out
+    assert cli(common + ['--out', str(tmp_path / 'o.nmea')]) == 0
+    nmea = read_nmea(tmp_path / 'o.nmea')
+    fixes = read_trace_csv(tmp_path / 'o.csv')
+    assert nmea.skipped['no fix'] == 5 and not np.isin(np.arange(10, 15), fixes.t).any()
+    far = np.hypot(*difference(fixes.lat, fixes.lon, fixes.truth_lat, fixes.truth_lon))
+    assert fixes.t[far > 3000].tolist() == [30.0]
+    np.testing.assert_allclose(nmea.lat, fixes.lat, atol=1e-9)
+    # the FCD and raw modes do not take faults, and say so before any work
+    assert cli(['simulate', '--seed', '3', '--agents', '2', '--duration', '5',
+                '--faults', str(schedule), '--out', str(tmp_path / 'o.npz')]) == 2
+    assert 'the FCD and raw (.npz) modes do not take them' in capsys.readouterr().err
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('- {kind: frozen, at: 3}\n')
+    assert cli(common[:-1] + [str(bad), '--out', str(tmp_path / 'b.csv')]) == 2
+    assert f'fault schedule {bad}: fault 1: frozen needs duration' in capsys.readouterr().err
+    assert not (tmp_path / 'b.csv').exists()
