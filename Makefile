@@ -18,7 +18,7 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
-	walks-profile generalisation docs input-sweep site-screenshots gpsd-check
+	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets
 
 # The measured recordings the evidence targets read: the repository's data/
 # (see data/README.md); DATA=folder for another set (held-out recordings, UrbanNav).
@@ -57,6 +57,11 @@ calibration-doc: setup
 
 # The built-in profile snapshot-receiver-on-foot and docs/walks.md, from the
 # SnapperGPS walks of data/ (about two minutes).
+# The built-in preset phone-suburban-drive, its held-out checks (docs/presets/)
+# and docs/presets.md, from the GSDC drives of data/ (about a minute).
+presets: setup
+	$(PY) tools/presets.py --data $(DATA) --out .
+
 walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
 

@@ -141,8 +141,9 @@ def _add_validate(sub: 'Subparsers') -> None:
                     'lag against the Monte-Carlo 95 % envelope, quantiles per '
                     'axis (QQ) with envelopes, and a map. Writes '
                     'DIR/validation.png and DIR/validation.json.')
-    v.add_argument('profile', help='profile: DS1, DS2, DS5, DS7 (the published '
-                                   'fits) or a profile YAML path')
+    v.add_argument('profile', help='profile: a built-in name (DS1, DS2, DS5, DS7, '
+                                   'phone-suburban-drive, snapshot-receiver-on-foot) or a '
+                                   'profile YAML path')
     v.add_argument('input', nargs='+',
                    help='trace CSV or rosbag2 directory; several, or a folder of them, '
                         'are recordings of one receiver')

@@ -30,7 +30,9 @@ class NodeFaults:
             raise ConfigError(f'parameter \'fault_schedule\': {exc}') from None
         try:
             if given.strip():
-                self.faults += faults_from_yaml(given, 'faults', now_s=0.0)
+                extra = faults_from_yaml(given, 'faults', now_s=0.0)
+                self.faults += extra
+                node.get_logger().info(f'faults given at start: {len(extra)} fault(s)')
         except FaultError as exc:
             raise ConfigError(f'parameter \'faults\': {exc}') from None
 

@@ -79,8 +79,9 @@ _TYPE_NAMES = {
 
 ERROR_NODE_PARAMS = (
     ParamSpec('profile', 'DS5', ParameterType.PARAMETER_STRING,
-              'Error-model profile: a built-in name (DS1, DS2, DS5, DS7 have '
-              'fits; case-insensitive) or the path of a profile YAML.'),
+              'Error-model profile: a built-in name (the paper\'s DS1, DS2, DS5, DS7; '
+              'the presets phone-suburban-drive and snapshot-receiver-on-foot, see '
+              'docs/presets.md; case-insensitive) or the path of a profile YAML.'),
     ParamSpec('input_type', 'pose', ParameterType.PARAMETER_STRING,
               'Ground truth input: pose (geometry_msgs/PoseStamped on "pose"), '
               'odometry (nav_msgs/Odometry on "odom"), navsatfix '

@@ -15,7 +15,8 @@ TABLE_II = {
 
 
 def test_builtin_names():
-    assert builtin_names() == [f'DS{i}' for i in range(1, 8)] + ['snapshot-receiver-on-foot']
+    assert builtin_names() == [f'DS{i}' for i in range(1, 8)] + ['phone-suburban-drive',
+                                                                 'snapshot-receiver-on-foot']
 
 
 def test_the_receiver_profile_loads_by_name_and_carries_its_failures():
