@@ -173,7 +173,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits,
                                      zones, args.covariance_mode,
-                                     profile.reported_accuracy, profile.velocity, bias)
+                                     profile.reported_accuracy, profile.velocity, bias, faults)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)
@@ -186,11 +186,9 @@ def _faults(args: argparse.Namespace) -> list[Any]:
     if args.faults is None:
         return []
     from gps_error_ros.sim.faults import load_schedule
-    csv_in = bool(args.trajectories) and Path(args.trajectories).suffix.lower() == '.csv'
-    if not csv_in:
-        raise ValueError(f'--faults {args.faults}: faults are laid over fixes of a '
-                         f'trajectories CSV (--out .csv or .nmea); the FCD and raw (.npz) '
-                         f'modes do not take them')
+    if not args.trajectories:
+        raise ValueError(f'--faults {args.faults}: faults are laid over the fixes of '
+                         f'trajectories (--trajectories); the raw mode (.npz) has none')
     return load_schedule(args.faults)
 
 

@@ -216,7 +216,7 @@ def _add_simulate(sub: 'Subparsers') -> None:
                    help='fault schedule (YAML; as the node\'s fault_schedule, times on the '
                         'trajectories\' t): outages, frozen fixes, offsets, degraded '
                         'stretches and gross failures on chosen agents at chosen times; '
-                        'CSV and NMEA output')
+                        'every trajectory mode (FCD: with lon/lat or a georeferenced net)')
     s.add_argument('--utc-start', type=_utc, default=None,
                    help='NMEA output: the UTC time of t = 0 in the trajectories, '
                         'YYYY-MM-DDTHH:MM:SS (default 1970-01-01T00:00:00: t is Unix '

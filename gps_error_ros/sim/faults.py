@@ -52,7 +52,7 @@ import yaml
 
 from gps_error_ros.model.geodesy import difference, offset
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray
-from gps_error_ros.model.streams import agent_key
+from gps_error_ros.model.streams import agent_key, agent_keys
 
 NS = 1_000_000_000
 #: The kinds of fault, in the order they apply to one fix.
@@ -265,6 +265,7 @@ class FaultOverlay:
         self._held: list[dict[int, _Held]] = []
         self._fired: list[set[int]] = []
         self.applied = dict.fromkeys(FAULT_KINDS, 0)     # fixes touched, per kind
+        self._names: dict[str, int] = {}                 # ids_of: agent name -> row id
         self.add(faults)
 
     def add(self, faults: Iterable[Fault]) -> None:
@@ -274,6 +275,11 @@ class FaultOverlay:
             self._keys.append(None if f.agent is None else agent_key(self.seed, f.agent))
             self._held.append({})
             self._fired.append(set())
+
+    def ids_of(self, names: Sequence[str]) -> IntArray:
+        """Return stable row ids of the agents ``names``, for callers that name their agents."""
+        return np.array([self._names.setdefault(n, len(self._names)) for n in names],
+                        dtype=np.int64)
 
     def forget(self, ids: Iterable[int]) -> None:
         """Drop what is held for ``ids`` (their agents left; the ids may be reused)."""
@@ -356,6 +362,31 @@ class FaultOverlay:
         north, east = difference(rows.lat[ok], rows.lon[ok], rows.truth_lat[ok],
                                  rows.truth_lon[ok])
         rows.error[ok, 0], rows.error[ok, 1] = north, east
+
+
+def lay_over_rows(overlay: FaultOverlay, t: FloatArray, agents: Sequence[str],
+                  rows: FixRows) -> BoolArray:
+    """
+    Lay ``overlay``'s faults over ``rows`` of many times, one time after another, as the node.
+
+    ``t`` (s, non-decreasing) and ``agents`` name each row; a frozen
+    receiver repeats the columns ``speed`` and ``bearing`` of ``rows.extra``.
+    Returns the rows touched.
+    """
+    touched = np.zeros(t.size, dtype=bool)
+    keep = {'speed', 'bearing'} & set(rows.extra)       # what a frozen receiver repeats
+    bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
+    for b0, b1 in zip(bounds[:-1], bounds[1:]):
+        names = agents[b0:b1]
+        sel = slice(b0, b1)
+        block = FixRows(int(round(t[b0] * 1e9)),
+                        overlay.ids_of(names),
+                        agent_keys(overlay.seed, names), rows.truth_lat[sel],
+                        rows.truth_lon[sel], rows.lat[sel], rows.lon[sel], rows.alt[sel],
+                        rows.error[sel], rows.fix[sel], rows.cov[sel],
+                        {k: rows.extra[k][sel] for k in keep})
+        touched[sel] = overlay.apply(block)         # the block's arrays are views: in place
+    return touched
 
 
 def schedule_text(faults: Sequence[Fault]) -> str:

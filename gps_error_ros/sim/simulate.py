@@ -44,7 +44,7 @@ from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import Velocity
 from gps_error_ros.model.zoned import one_zone, TravelDirections, ZoneSetup
 from gps_error_ros.sim.crowd import CrowdErrors
-from gps_error_ros.sim.faults import Fault, FaultOverlay, FixRows
+from gps_error_ros.sim.faults import Fault, FaultOverlay, FixRows, lay_over_rows
 from gps_error_ros.sim.velocity_sim import (row_values, speed_and_course, StreamedVelocity,
                                             StreamTracker)
 from gps_error_ros.traces.progress import Progress
@@ -68,7 +68,8 @@ def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
                  digits: int | None = None, zones: ZoneSetup | None = None,
                  covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
                  velocity: Velocity | None = None,
-                 reported_bias: Numbers | None = None) -> dict[str, int]:
+                 reported_bias: Numbers | None = None,
+                 faults: Sequence[Fault] = ()) -> dict[str, int]:
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
@@ -86,7 +87,7 @@ def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
     """
     with atomic_output(dst) as tmp:
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits,
-                             zones, covariance_mode, reported, velocity, reported_bias)
+                             zones, covariance_mode, reported, velocity, reported_bias, faults)
 
 
 def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
@@ -270,8 +271,14 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
                   digits: int | None = None, zones: ZoneSetup | None = None,
                   covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
                   velocity: Velocity | None = None,
-                  reported_bias: Numbers | None = None) -> dict[str, int]:
-    """Add errors to every agent of a SUMO FCD file; return counts."""
+                  reported_bias: Numbers | None = None,
+                  faults: Sequence[Fault] = ()) -> dict[str, int]:
+    """
+    Add errors to every agent of a SUMO FCD file; return counts.
+
+    Long because it is one streaming pass over the file's timesteps, each
+    step's columns made in the order they depend on each other.
+    """
     mode, proj = _fcd_mode(src, net, coordinates)
     conditional = needs_predictive(covariance_mode, reported)
     stated = _stated(covariance_mode, model, reported, seed, reported_bias)
@@ -286,6 +293,7 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
     lag = LagBuffer(model.lag_s)
     travel = TravelDirections(model.lag_s)
     vel = None if velocity is None else StreamedVelocity(velocity, seed, mode == 'plane')
+    overlay = _fcd_overlay(src, faults, mode, seed)
     try:
         for t, elem, agents in iter_fcd(src, progress):
             m = model_step(t, rate_hz)
@@ -313,9 +321,12 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
             fmt = fmt if digits is None else f'{{:.{digits}f}}'
             fix = crowd.available(names)        # in an outage: no position written
             radius, cov = stated.streamed(names, m, cov) if stated else (None, cov)
+            speeds = {} if vel is None else _fcd_velocity(vel, mode, proj, names, t, m, agents)
+            if overlay is not None:
+                nx, ny, fix, cov, radius = _fcd_faults(overlay, mode, proj, t, names, x, y,
+                                                       err, fix, cov, radius, speeds, (nx, ny))
             acc = {k: (v, '{:.3f}') for k, v in accuracy_columns(cov, fix, radius).items()}
-            if vel is not None:
-                acc.update(_fcd_velocity(vel, mode, proj, names, t, m, agents))
+            acc.update(speeds)
             cols = {k: formatted(*vf) for k, vf in {'x': (nx, fmt), 'y': (ny, fmt), **acc}.items()}
             writer.timestep(elem, [
                 (a[3], {k: v for k, c in cols.items() if (v := c[i]) is not None})
@@ -326,6 +337,45 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
         writer.close()
         progress.close()
     return _fcd_counts(src, model, steps, rows, len(seen), no_fix)
+
+
+def _fcd_overlay(src: PathArg, faults: Sequence[Fault], mode: str,
+                 seed: int) -> FaultOverlay | None:
+    """Return the faults' overlay (None without faults); refuse them on a flat plane."""
+    if not faults:
+        return None
+    if mode == 'plane':
+        raise TrajectoryError(f'{src}: faults need longitude and latitude, and the network '
+                              f'has no geo-reference (no projection in its <location>)')
+    return FaultOverlay(faults, seed)
+
+
+def _fcd_faults(overlay: FaultOverlay, mode: str, proj: NetProjection | None, t: float,
+                names: Sequence[str], x: Numbers, y: Numbers, err: FloatArray, fix: BoolArray,
+                cov: FloatArray, radius: FloatArray | None,
+                speeds: dict[str, tuple[FloatArray, str]], moved: tuple[Any, Any]
+                ) -> tuple[Any, Any, BoolArray, FloatArray, FloatArray | None]:
+    """
+    Lay the faults over one FCD timestep; return its x, y, fix, covariance and radius.
+
+    ``x``, ``y``: the (lagged) truth the errors were added to; ``moved``
+    the positions with the errors; ``speeds`` (the reported velocity's
+    columns) are changed in place for a frozen receiver.
+    """
+    lon, lat = _lonlat(mode, proj, x, y)
+    mlon, mlat = add_errors_lonlat(lon, lat, err)
+    rows = FixRows(int(round(t * 1e9)), overlay.ids_of(names),
+                   streams.agent_keys(overlay.seed, names), lat, lon, mlat, mlon,
+                   np.zeros(len(names)), err.copy(), fix.copy(), cov.copy(),
+                   {k: v[0] for k, v in speeds.items()})
+    touched = overlay.apply(rows)
+    if not touched.any():
+        return (*moved, fix, cov, radius)
+    if radius is not None:
+        radius = np.array(radius, dtype=float)
+        radius[touched] = radius68(rows.cov[touched])
+    nx, ny = (rows.lon, rows.lat) if mode == 'lonlat' else _net(proj).to_xy(rows.lon, rows.lat)
+    return nx, ny, rows.fix, rows.cov, radius
 
 
 def _fcd_counts(src: PathArg, model: ErrorModel[Any], steps: int, rows: int, agents: int,
@@ -406,7 +456,7 @@ def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
         cols = speed_and_course(velocity, seed, data, model_step(t[0], rate_hz), rate_hz)
         rows.extra.update(zip(('speed', 'bearing', 'truth_speed', 'truth_bearing'), cols))
     if faults:
-        touched = _csv_faults(FaultOverlay(faults, seed), t, data['agent'], rows)
+        touched = lay_over_rows(FaultOverlay(faults, seed), t, data['agent'], rows)
         if radius is not None:
             radius[touched] = radius68(rows.cov[touched])
     fix = rows.fix
@@ -465,26 +515,6 @@ def _csv_rows(src: PathArg, data: Mapping[str, Any], model: ErrorModel[Any], rat
     # a row in an outage: status no_fix and no position (read back as a gap)
     rows.lat[~rows.fix] = rows.lon[~rows.fix] = np.nan
     return rows
-
-
-def _csv_faults(overlay: FaultOverlay, t: FloatArray, agents: Sequence[str],
-                rows: FixRows) -> BoolArray:
-    """Lay ``overlay``'s faults over ``rows``, time by time as the node; return rows touched."""
-    ids: dict[str, int] = {}
-    touched = np.zeros(t.size, dtype=bool)
-    keep = {'speed', 'bearing'} & set(rows.extra)       # what a frozen receiver repeats
-    bounds = np.flatnonzero(np.r_[True, np.diff(t) > 0, True])
-    for b0, b1 in zip(bounds[:-1], bounds[1:]):
-        names = agents[b0:b1]
-        sel = slice(b0, b1)
-        block = FixRows(int(round(t[b0] * 1e9)),
-                        np.array([ids.setdefault(n, len(ids)) for n in names], dtype=np.int64),
-                        streams.agent_keys(overlay.seed, names), rows.truth_lat[sel],
-                        rows.truth_lon[sel], rows.lat[sel], rows.lon[sel], rows.alt[sel],
-                        rows.error[sel], rows.fix[sel], rows.cov[sel],
-                        {k: rows.extra[k][sel] for k in keep})
-        touched[sel] = overlay.apply(block)         # the block's arrays are views: in place
-    return touched
 
 
 def _stated(covariance_mode: str, model: ErrorModel[Any], reported: ReportedAccuracy | None,

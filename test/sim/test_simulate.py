@@ -538,12 +538,53 @@ def test_faults_from_the_command_line_reach_csv_and_nmea(tmp_path, capsys):
     far = np.hypot(*difference(fixes.lat, fixes.lon, fixes.truth_lat, fixes.truth_lon))
     assert fixes.t[far > 3000].tolist() == [30.0]
     np.testing.assert_allclose(nmea.lat, fixes.lat, atol=1e-9)
-    # the FCD and raw modes do not take faults, and say so before any work
+    # the raw mode takes no faults, and says so before any work
     assert cli(['simulate', '--seed', '3', '--agents', '2', '--duration', '5',
                 '--faults', str(schedule), '--out', str(tmp_path / 'o.npz')]) == 2
-    assert 'the FCD and raw (.npz) modes do not take them' in capsys.readouterr().err
+    assert 'the raw mode (.npz) has none' in capsys.readouterr().err
     bad = tmp_path / 'bad.yaml'
     bad.write_text('- {kind: frozen, at: 3}\n')
     assert cli(common[:-1] + [str(bad), '--out', str(tmp_path / 'b.csv')]) == 2
     assert f'fault schedule {bad}: fault 1: frozen needs duration' in capsys.readouterr().err
     assert not (tmp_path / 'b.csv').exists()
+
+
+def test_faults_in_fcd_are_those_of_the_csv_mode(tmp_path):
+    from gps_error_ros.sim.faults import faults_from_yaml
+    from gps_error_ros.sim.simulate import simulate_csv
+
+    def walk(i, t):
+        return LON0 + 1e-5 * (t + i), LAT0 + 2e-5 * i
+
+    src = tmp_path / 'fcd.xml'
+    write_fcd(src, walk, sumo_comment(geo=True))
+    truth = tmp_path / 'truth.csv'
+    truth.write_text('t,agent,truth_lat,truth_lon\n' + ''.join(
+        f'{t},{a},{walk(int(a[3:]) if a != "veh0" else 99, t)[1]!r},'
+        f'{walk(int(a[3:]) if a != "veh0" else 99, t)[0]!r}\n'
+        for t in range(10, 71) for a in ['veh0'] + [f'ped{i}' for i in range(6)]
+        if a == 'veh0' or presence(int(a[3:]), t - 10)))
+    faults = faults_from_yaml('''
+- {kind: outage, at: 20, duration: 3, agent: ped1}
+- {kind: frozen, at: 30, duration: 6, agent: ped2}
+- {kind: offset, at: 40, duration: 4, size_m: 50, bearing_deg: 30}
+- {kind: degraded, at: 50, duration: 4, scale: 5, agent: veh0}
+- {kind: gross_failure, at: 60, size_m: 3000, agent: ped5}
+''')
+    simulate_fcd(src, tmp_path / 'out.xml', MODEL, 1.0, 9, faults=faults)
+    simulate_csv(truth, tmp_path / 'out.csv', MODEL, 1.0, 9, faults=faults)
+    import csv
+    fcd = read_fcd(tmp_path / 'out.xml')
+    with open(tmp_path / 'out.csv', newline='') as f:
+        rows = [r for r in csv.DictReader(f) if r['lat']]
+    assert len(rows) == len(fcd)            # the same fixes: none where an outage is
+    for r in rows:
+        x, y = fcd[r['agent'], float(r['t'])][:2]
+        north, east = difference(y, x, float(r['lat']), float(r['lon']))
+        assert np.hypot(north, east) < 1e-3, r          # FCD writes 8 digits: ~1 mm
+        acc = fcd[r['agent'], float(r['t'])][3]['accuracy']
+        assert float(acc) == pytest.approx(float(r['accuracy']), abs=1e-3), r
+    assert ('ped1', 20.0) not in fcd and ('ped1', 22.0) not in fcd and ('ped1', 23.0) in fcd
+    assert len({fcd['ped2', float(t)][:2] for t in range(30, 36)}) == 1
+    x, y = fcd['ped5', 60.0][:2]
+    assert np.hypot(*difference(y, x, *walk(5, 60)[::-1])) > 2900
