@@ -9,6 +9,8 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test']),
+    # py.typed: the package's annotations are for its users' type checkers too (PEP 561)
+    package_data={package_name: ['py.typed']},
     data_files=[
         ('share/ament_index/resource_index/packages',
             ['resource/' + package_name]),

@@ -440,6 +440,36 @@ def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
                   faults: Sequence[Fault] = ()) -> dict[str, int]:
     """Add errors to a CSV of true positions; write a trace CSV."""
     data = read_truth_csv(src)
+    rows, radius = trajectory_fixes(data, model, rate_hz, seed, velocity, covariance_mode,
+                                    zones, reported, reported_bias, faults, str(src))
+    fix = rows.fix
+    extra = accuracy_columns(rows.cov, fix, radius)
+    extra.update(rows.extra)
+    outages = isinstance(model, WithAvailability) or bool(faults)
+    write_trace_csv(Trace(Path(dst).name, data['t'], rows.lat, rows.lon, data['truth_lat'],
+                          data['truth_lon'], extra), dst, agent=data['agent'],
+                    fix=fix if outages else None)
+    out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
+    if outages:
+        out['positions_without_fix'] = int((~fix).sum())
+    return out
+
+
+def trajectory_fixes(data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: float,
+                     seed: int, velocity: Velocity | None = None,
+                     covariance_mode: str = 'stationary', zones: ZoneSetup | None = None,
+                     reported: ReportedAccuracy | None = None,
+                     reported_bias: Numbers | None = None, faults: Sequence[Fault] = (),
+                     src: str = 'trajectories') -> tuple[FixRows, FloatArray | None]:
+    """
+    Return the fixes of true positions ``data`` (``t``, ``agent``, ``truth_lat``, ``truth_lon``).
+
+    The rows of :func:`simulate_csv` before they are written: the
+    :class:`~gps_error_ros.sim.faults.FixRows` (``extra`` holds ``speed``,
+    ``bearing``, ``truth_speed`` and ``truth_bearing`` with ``velocity``, NaN
+    without a fix) and the stated 68 % radius in covariance mode
+    ``reported`` (else None: the covariance's own).
+    """
     t = data['t']
     if np.any(np.diff(t) < 0):
         raise TrajectoryError(f'{src}: t must be non-decreasing')
@@ -459,20 +489,10 @@ def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
         touched = lay_over_rows(FaultOverlay(faults, seed), t, data['agent'], rows)
         if radius is not None:
             radius[touched] = radius68(rows.cov[touched])
-    fix = rows.fix
-    extra = accuracy_columns(rows.cov, fix, radius)
     if velocity is not None:
         for k in ('speed', 'bearing'):
-            rows.extra[k][~fix] = np.nan             # no fix: nothing reported
-        extra.update(rows.extra)
-    outages = isinstance(model, WithAvailability) or bool(faults)
-    write_trace_csv(Trace(Path(dst).name, t, rows.lat, rows.lon, data['truth_lat'],
-                          data['truth_lon'], extra), dst, agent=data['agent'],
-                    fix=fix if outages else None)
-    out = {'positions': int(fix.sum()), 'agents': len(set(data['agent']))}
-    if outages:
-        out['positions_without_fix'] = int((~fix).sum())
-    return out
+            rows.extra[k][~rows.fix] = np.nan             # no fix: nothing reported
+    return rows, radius
 
 
 def _csv_rows(src: PathArg, data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: float,

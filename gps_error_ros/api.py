@@ -1,0 +1,271 @@
+"""
+The package in a few names: smartphone GPS errors in Python, without ROS.
+
+Everything here is also what the node and ``gps_error simulate`` do: the
+same seed, agent names and profile give the same errors (every draw is a
+pure function of seed, agent and step). The examples run in ``make test``
+from the repository's root (they read its ``data/``).
+
+>>> import gps_error_ros as ge
+>>> profile = ge.load_profile('DS5')
+>>> errors = ge.simulate_errors(profile, agents=3, duration_s=60, seed=42)
+>>> errors.north_east.shape
+(3, 60, 2)
+"""
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+import os
+from typing import Any
+
+import numpy as np
+
+from gps_error_ros.fit.calibration import calibrate as _calibrate
+from gps_error_ros.fit.gross_failures import find_gross_failures
+from gps_error_ros.fit.validation import FAILURE_COLUMN, validate, ValidationResult
+from gps_error_ros.model import profiles
+from gps_error_ros.model.availability import available
+from gps_error_ros.model.geodesy import LocalTangentFrame
+from gps_error_ros.model.profiles import Profile
+from gps_error_ros.model.reported import needs_predictive
+from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.model.streams import agent_keys
+from gps_error_ros.sim.faults import Fault
+from gps_error_ros.sim.simulate import _Stated, agent_names, model_step, trajectory_fixes
+from gps_error_ros.sim.velocity_sim import row_values
+from gps_error_ros.traces.loading import load_trace
+
+__all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'judge', 'load_profile',
+           'simulate_errors']
+
+PathLike = str | os.PathLike[str]
+MODES = ('stationary', 'conditional', 'reported')
+
+
+def load_profile(spec: PathLike) -> Profile:
+    """
+    Return a profile: a built-in name (case-insensitive) or a profile YAML's path.
+
+    Built-in: the paper's ``DS1``, ``DS2``, ``DS5``, ``DS7`` and the presets
+    (``phone-suburban-drive``, ``snapshot-receiver-on-foot``; see the
+    documentation's presets page).
+
+    >>> profile = load_profile('phone-suburban-drive')
+    >>> profile.velocity is not None, profile.availability is None
+    (True, True)
+    """
+    return profiles.load_profile(spec)
+
+
+@dataclass(frozen=True)
+class Errors:
+    """
+    Errors of agents over time, from :func:`simulate_errors`.
+
+    ``north_east`` is the error about the truth (m, north then east) of every
+    agent and step, ``(agents, steps, 2)``; it runs on through outages.
+    ``fix`` is False where the agent has no fix (an outage: the node
+    publishes NO_FIX there); ``failed`` marks a gross failure (a fix far
+    off); ``covariance`` ``(agents, steps, 2, 2)`` is what the node states
+    in its ``covariance_mode``; ``velocity`` ``(agents, steps, 2)`` is the
+    reported velocity's error (east, north m/s) where the profile has a
+    ``velocity`` section, else None.
+    """
+
+    t: FloatArray
+    names: list[str]
+    north_east: FloatArray
+    fix: BoolArray
+    failed: BoolArray
+    covariance: FloatArray
+    velocity: FloatArray | None
+
+
+def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: float,
+                    seed: int, start_s: float = 0.0,
+                    covariance_mode: str = 'stationary') -> Errors:
+    """
+    Return the errors of ``agents`` (a number, or names) over ``duration_s`` seconds.
+
+    Agents given by number are named ``agent0``, ``agent1``, ... as in
+    ``gps_error simulate --agents``. ``covariance_mode``: ``stationary`` (the
+    profile's covariance about the truth), ``conditional`` (each step's, given
+    the step before) or ``reported`` (what the phone states; needs a
+    ``reported_accuracy`` section).
+
+    >>> profile = load_profile('snapshot-receiver-on-foot')
+    >>> e = simulate_errors(profile, ['ann', 'bob'], duration_s=600, seed=1,
+    ...                     covariance_mode='conditional')
+    >>> e.north_east.shape, e.covariance.shape
+    ((2, 600, 2), (2, 600, 2, 2))
+    >>> int(e.failed.sum()) > 0          # this receiver fails now and then
+    True
+    >>> bool(e.fix.all())                # no outages in this profile
+    True
+    """
+    if covariance_mode not in MODES:
+        raise ValueError(f'covariance_mode {covariance_mode!r}: expected one of {MODES}')
+    names = agent_names(agents) if isinstance(agents, int) else list(agents)
+    steps = int(round(duration_s * profile.rate_hz))
+    start = model_step(start_s, profile.rate_hz)
+    keys = agent_keys(seed, names)
+    about = covariance_mode != 'reported'
+    model = profile.model(about_truth=about)
+    plain = profile.model(gross_failures=False, about_truth=about)
+    conditional = needs_predictive(covariance_mode, profile.reported_accuracy)
+    state, clean = model.initial_state(keys, start), plain.initial_state(keys, start)
+    err = np.empty((len(names), steps, 2))
+    fix = np.empty((len(names), steps), dtype=bool)
+    failed = np.empty((len(names), steps), dtype=bool)
+    cov = np.repeat(np.asarray(model.stationary_cov)[None, None], len(names), axis=0)
+    cov = np.repeat(cov, steps, axis=1)
+    for i in range(steps):
+        if i:
+            if conditional:
+                cov[:, i] = model.predictive_cov(state)
+            model.advance(state, keys, start + i)
+            plain.advance(clean, keys, start + i)
+        elif conditional:
+            cov[:, 0] = model.predictive_cov(state, first=True)
+        err[:, i] = model.errors(state)
+        failed[:, i] = np.any(err[:, i] != plain.errors(clean), axis=1)
+        fix[:, i] = available(model, state)
+    t = (start + np.arange(steps)) / profile.rate_hz
+    if covariance_mode == 'reported':
+        cov = _stated_cov(profile, model, seed, names, t, start, cov)
+    velocity = None if profile.velocity is None else \
+        profile.velocity.errors(keys, steps, start).transpose(1, 0, 2)
+    return Errors(t, names, err, fix, failed, cov, velocity)
+
+
+def _stated_cov(profile: Profile, model: Any, seed: int, names: Sequence[str],
+                t: FloatArray, start: int, cov: FloatArray) -> FloatArray:
+    """Return the covariance the phone states at every (agent, step): mode ``reported``."""
+    stated = _Stated(model, profile.reported_accuracy, seed, model.mean)
+    n, steps = cov.shape[:2]
+    rows_agent = np.repeat(np.asarray(names, dtype=object), steps)
+    rows_t = np.tile(t, n)
+    x = row_values(stated.reported, seed, rows_agent, rows_t, start, profile.rate_hz)
+    _, out = stated.radius(x, cov.reshape(n * steps, 2, 2))
+    return out.reshape(n, steps, 2, 2)
+
+
+@dataclass(frozen=True)
+class Fixes:
+    """
+    A trajectory's fixes, from :func:`add_errors`: one row per input row.
+
+    ``lat``, ``lon`` are NaN where ``fix`` is False (an outage);
+    ``covariance`` ``(rows, 2, 2)`` north/east m^2 is what the node states;
+    ``accuracy`` the 68 % radius stated (m). With a datum, ``east`` and
+    ``north`` are the fixes in its ENU frame (m), else None.
+    """
+
+    t: FloatArray
+    agent: list[str]
+    lat: FloatArray
+    lon: FloatArray
+    fix: BoolArray
+    covariance: FloatArray
+    accuracy: FloatArray
+    east: FloatArray | None = None
+    north: FloatArray | None = None
+
+
+def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = None,
+               lon: Numbers | None = None, *, east: Numbers | None = None,
+               north: Numbers | None = None, datum: Sequence[float] | None = None,
+               agents: Sequence[str] | None = None, covariance_mode: str = 'stationary',
+               faults: Sequence[Fault] = ()) -> Fixes:
+    """
+    Return the fixes a phone would give along true positions.
+
+    Give ``lat`` and ``lon`` (degrees), or ``east`` and ``north`` (m) in the
+    ENU frame of ``datum`` (``[lat, lon]`` or ``[lat, lon, alt]``). Rows are
+    in time order (``t``, s); ``agents`` names each row's agent (default:
+    one agent, ``''``, as the single-agent node). ``faults``: faults on
+    demand (:func:`gps_error_ros.sim.faults.faults_from_yaml`).
+
+    >>> import numpy as np
+    >>> t = np.arange(1000.0, 1060.0)
+    >>> fixes = add_errors(load_profile('DS5'), t, seed=7, east=1.3 * (t - 1000),
+    ...                    north=np.zeros(60), datum=[40.75057, -73.99065])
+    >>> fixes.east.shape, bool(fixes.fix.all())
+    ((60,), True)
+    >>> from gps_error_ros.sim.faults import faults_from_yaml
+    >>> outage = faults_from_yaml('{kind: outage, at: 1010, duration: 5}')
+    >>> fixes = add_errors(load_profile('DS5'), t, seed=7, east=1.3 * (t - 1000),
+    ...                    north=np.zeros(60), datum=[40.75057, -73.99065], faults=outage)
+    >>> int((~fixes.fix).sum())
+    5
+    """
+    t = np.asarray(t, dtype=float)
+    frame = None
+    if datum is not None:
+        frame = LocalTangentFrame(*datum)
+        if east is None or north is None:
+            raise ValueError('with datum, give east and north (m in its ENU frame)')
+        lat, lon, _ = frame.to_geodetic(np.asarray(east, float), np.asarray(north, float),
+                                        np.zeros(t.size))
+    if lat is None or lon is None:
+        raise ValueError('give lat and lon (degrees), or east, north and datum')
+    names = [''] * t.size if agents is None else list(agents)
+    data = {'t': t, 'agent': names, 'truth_lat': np.asarray(lat, float),
+            'truth_lon': np.asarray(lon, float)}
+    about = covariance_mode != 'reported'
+    model = profile.model(about_truth=about)
+    rows, radius = trajectory_fixes(data, model, profile.rate_hz, seed,
+                                    covariance_mode=covariance_mode,
+                                    reported=profile.reported_accuracy,
+                                    reported_bias=model.mean, faults=faults)
+    from gps_error_ros.model.accuracy import radius68
+    accuracy = radius68(rows.cov) if radius is None else np.asarray(radius, float)
+    accuracy = np.where(rows.fix, accuracy, np.nan)
+    out_east = out_north = None
+    if frame is not None:
+        out_east, out_north, _ = frame.to_enu(rows.lat, rows.lon, np.zeros(t.size))
+    return Fixes(t, names, rows.lat, rows.lon, rows.fix, rows.cov, accuracy,
+                 out_east, out_north)
+
+
+def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = False,
+              order: int | None = None, name: str = 'calibrated') -> Profile:
+    """
+    Return a profile fitted to recordings of one receiver (trace CSVs or bags).
+
+    As ``gps_error calibrate``; ``population``: also each agent's own bias
+    and scale, as recordings and stretches differ (the best-predicting
+    class on held-out days). Write it with
+    :func:`gps_error_ros.model.profiles.write_profile` and ``to_dict``.
+
+    >>> profile = calibrate('data/gsdc2020-mtv1-pixel4.csv', order=3)
+    >>> profile.axes['north'].order, profile.velocity is not None
+    (3, True)
+    """
+    paths = [recordings] if isinstance(recordings, (str, os.PathLike)) else list(recordings)
+    traces = [load_trace(p)[0] for p in paths]
+    result = _calibrate(traces, order=order, population=population)
+    return profiles.profile_from_dict(result.profile_dict(name))
+
+
+def judge(profile: Profile, recording: PathLike, sims: int = 200,
+          seed: int = 0) -> ValidationResult:
+    """
+    Return how a recording compares with traces the profile simulates.
+
+    As ``gps_error validate``: autocorrelation and quantiles against the
+    simulated 95 % envelopes, the stated accuracy and the outages; the
+    recording's gross failures are left out on both sides.
+    ``summary()`` is the text ``validate`` prints, ``to_dict()`` its JSON.
+
+    >>> result = judge(load_profile('phone-suburban-drive'),
+    ...                'data/gsdc2020-mtv1-pixel4xlmodded.csv', sims=50)
+    >>> result.samples
+    1743
+    >>> result.joint_pct > 5        # not unlike the model's own traces
+    True
+    """
+    trace = load_trace(recording)[0]
+    trace.extra[FAILURE_COLUMN] = find_gross_failures(trace).mask.astype(float)
+    return validate(profile.model(gross_failures=False), trace, sims=sims, seed=seed,
+                    reported=profile.reported_accuracy)

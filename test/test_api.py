@@ -1,0 +1,83 @@
+"""
+The public API: ``gps_error_ros.__all__``, typed, each name with an example that runs.
+
+The examples in the docstrings are executed here as written (doctest, from
+the repository's root: they read its ``data/``), and the API's fixes and
+errors are checked against what ``simulate`` and the model give.
+"""
+
+import doctest
+import inspect
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gps_error_ros
+from gps_error_ros import api
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_all_is_the_api_and_every_name_has_an_example():
+    assert gps_error_ros.__all__ == api.__all__
+    for name in gps_error_ros.__all__:
+        obj = getattr(gps_error_ros, name)
+        assert obj is getattr(api, name)
+        if name in ('Profile', 'Errors', 'Fixes'):      # records: their makers show them
+            continue
+        assert '>>>' in (inspect.getdoc(obj) or ''), f'{name} has no example'
+    assert (ROOT / 'gps_error_ros' / 'py.typed').exists()
+    with pytest.raises(AttributeError, match='no attribute'):
+        gps_error_ros.simulate_everything
+
+
+def test_the_examples_run_as_written(monkeypatch):
+    monkeypatch.chdir(ROOT)
+    result = doctest.testmod(api, optionflags=doctest.ELLIPSIS)
+    assert result.attempted >= 15
+    assert result.failed == 0
+
+
+def test_simulated_errors_are_the_models_streams():
+    from gps_error_ros.model.streams import agent_keys
+    profile = api.load_profile('DS2')
+    e = api.simulate_errors(profile, ['a', 'b'], 100, seed=3, start_s=50)
+    want = profile.model(about_truth=True).simulate(agent_keys(3, ['a', 'b']), 100, start=50)
+    np.testing.assert_allclose(e.north_east, want.transpose(1, 0, 2), rtol=0, atol=1e-9)
+    assert e.t[0] == 50.0 and e.velocity is None and not e.failed.any()
+    np.testing.assert_allclose(e.covariance[0, 0], profile.model(
+        about_truth=True).stationary_cov)
+
+
+def test_added_errors_are_what_simulate_writes(tmp_path):
+    import csv
+    from gps_error_ros.sim.simulate import simulate_csv
+    t = np.repeat(np.arange(10.0, 70.0), 2)
+    agents = ['x', 'y'] * 60
+    lat = 48.85 + 1e-5 * t
+    lon = np.full(t.size, 2.35)
+    src = tmp_path / 'truth.csv'
+    src.write_text('t,agent,truth_lat,truth_lon\n' + ''.join(
+        f'{float(a)!r},{b},{float(c)!r},{float(d)!r}\n'
+        for a, b, c, d in zip(t, agents, lat, lon)))
+    profile = api.load_profile('snapshot-receiver-on-foot')
+    model = profile.model(about_truth=True)
+    simulate_csv(src, tmp_path / 'o.csv', model, 1.0, 5, covariance_mode='conditional')
+    with open(tmp_path / 'o.csv', newline='') as f:
+        rows = list(csv.DictReader(f))
+    fixes = api.add_errors(profile, t, 5, lat, lon, agents=agents,
+                           covariance_mode='conditional')
+    np.testing.assert_allclose(fixes.lat, [float(r['lat']) for r in rows], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fixes.accuracy, [float(r['accuracy']) for r in rows], rtol=1e-12)
+
+
+@pytest.mark.parametrize('call, says', [
+    (lambda p: api.simulate_errors(p, 2, 10, 1, covariance_mode='stated'),
+     "covariance_mode 'stated'"),
+    (lambda p: api.add_errors(p, [0.0], 1), 'give lat and lon'),
+    (lambda p: api.add_errors(p, [0.0], 1, datum=[48.0, 2.0]), 'with datum, give east'),
+])
+def test_a_wrong_call_says_what_was_expected(call, says):
+    with pytest.raises(ValueError, match=says):
+        call(api.load_profile('DS5'))
