@@ -21,6 +21,7 @@ import tempfile
 import yaml
 
 from gps_error_ros.fit.validation import slice_trace
+from gps_error_ros.model.profiles import builtin_dir
 from gps_error_ros.traces.trace_io import read_trace_csv, write_trace_csv
 
 NAME = 'phone-suburban-drive'
@@ -32,11 +33,11 @@ TEMPLATE = Path(__file__).with_name('presets_page.md')
 SIMS = '300'
 
 
-def gps_error(*args):
-    """Run ``gps_error ARGS`` in this interpreter; stop on failure."""
+def gps_error(*args, cwd=None):
+    """Run ``gps_error ARGS`` in this interpreter (in folder ``cwd``); stop on failure."""
     cmd = [sys.executable, '-m', 'gps_error_ros.cli', *map(str, args)]
     print('$ gps_error ' + ' '.join(map(str, args)), flush=True)
-    subprocess.run(cmd, check=True)
+    subprocess.run(cmd, check=True, cwd=cwd)
 
 
 def build(data, root):
@@ -58,25 +59,29 @@ def held_out(data, root, preset):
     The preset's own order (the PACF's) and the paper's AR(3) fitted the same
     way side by side: {(check, label): validation JSON}.
     """
-    out = root / 'docs' / 'presets'
+    out = (root / 'docs' / 'presets').resolve()
     out.mkdir(parents=True, exist_ok=True)
+    data, preset = data.resolve(), preset.resolve()
     checks = {}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         trace = read_trace_csv(data / TRAIN)
         write_trace_csv(slice_trace(trace, 0.0, 0.7), tmp / 'first70.csv')
         write_trace_csv(slice_trace(trace, 0.7, 1.0), tmp / 'last30.csv')
+        # the temporary files by their names alone (run in tmp): the JSON names them
         for label, order in (('pacf', ()), ('ar3', ('--order', '3'))):
-            whole = preset if not order else tmp / 'ar3.yaml'
+            whole = 'ar3.yaml' if order else (
+                NAME if preset == (builtin_dir() / f'{NAME}.yaml').resolve() else preset)
             if order:
-                gps_error('calibrate', data / TRAIN, '--population', *order, '-o', whole)
-            first = tmp / f'first70-{label}.yaml'
-            gps_error('calibrate', tmp / 'first70.csv', '--population', *order, '-o', first)
+                gps_error('calibrate', data / TRAIN, '--population', *order, '-o', whole,
+                          cwd=tmp)
+            first = f'first70-{label}.yaml'
+            gps_error('calibrate', 'first70.csv', '--population', *order, '-o', first, cwd=tmp)
             for check, profile, target in (('other-phone', whole, data / OTHER_PHONE),
-                                           ('last-30', first, tmp / 'last30.csv')):
+                                           ('last-30', first, 'last30.csv')):
                 where = out / f'{check}-{label}'
                 gps_error('validate', profile, target, '--out', where, '--sims', SIMS,
-                          '--seed', '1')
+                          '--seed', '1', cwd=tmp)
                 checks[check, label] = json.loads((where / 'validation.json').read_text())
     return checks
 
