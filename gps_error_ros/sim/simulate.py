@@ -336,7 +336,7 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
     finally:
         writer.close()
         progress.close()
-    return _fcd_counts(src, model, steps, rows, len(seen), no_fix)
+    return _fcd_counts(src, model, steps, rows, len(seen), no_fix, overlay is not None)
 
 
 def _fcd_overlay(src: PathArg, faults: Sequence[Fault], mode: str,
@@ -379,14 +379,14 @@ def _fcd_faults(overlay: FaultOverlay, mode: str, proj: NetProjection | None, t:
 
 
 def _fcd_counts(src: PathArg, model: ErrorModel[Any], steps: int, rows: int, agents: int,
-                no_fix: int) -> dict[str, int]:
+                no_fix: int, faults: bool = False) -> dict[str, int]:
     """Return what simulate_fcd did; refuse a file in which nobody moved."""
     if not agents:
         raise TrajectoryError(f'{src}: {steps} timesteps and no person or vehicle in any: '
                               f'expected positions to add errors to (did SUMO fail or end '
                               f'before anyone departed?)')
     out = {'timesteps': steps, 'positions': rows, 'agents': agents}
-    if isinstance(model, WithAvailability):
+    if isinstance(model, WithAvailability) or faults:
         out['positions_without_fix'] = no_fix
     return out
 
