@@ -51,3 +51,14 @@ def test_no_page_shows_raw_docstring_markup(site):
     for page in sorted(site.rglob('*.html')):
         text = page.read_text()
         assert not ROLE.search(text), (page.relative_to(site), ROLE.search(text).group(0))
+
+
+def test_decision_records_sit_behind_their_index(site):
+    """Every record is built and linked from the index, and no other page's navigation lists it."""
+    records = sorted((ROOT / 'docs' / 'decisions').glob('0*.md'))
+    index = (site / 'decisions' / 'index.html').read_text()   # README.md becomes index.html
+    for record in records:
+        assert (site / 'decisions' / f'{record.stem}.html').exists(), record.name
+        assert f'{record.stem}.html' in index, record.name
+    for page in ('node.html', 'tutorials/python.html', 'presets.html'):
+        assert records[0].stem not in (site / page).read_text(), page
