@@ -1,5 +1,5 @@
 """
-The tutorials run as written: every code block, in order, and its output as shown.
+The tutorials (and the how-tos that run alone) run as written: every block, and its output.
 
 A page's ``python`` blocks run in one namespace (a block that starts
 ``# file: NAME`` is saved as that file instead), its ``bash`` blocks in
@@ -22,7 +22,8 @@ import sys
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PAGES = ['python.md', 'calibrate.md', 'node.md', 'sumo.md']
+PAGES = ['tutorials/python.md', 'tutorials/calibrate.md', 'tutorials/node.md',
+         'tutorials/sumo.md', 'gross-failures.md', 'bags.md']
 BLOCK = re.compile(r'```(\w+)\n(.*?)```', re.S)
 
 
@@ -71,7 +72,7 @@ def test_the_matcher_takes_ellipses_and_order():
 
 @pytest.mark.parametrize('name', PAGES)
 def test_a_tutorial_runs_as_written(name, tmp_path, monkeypatch):
-    page = (ROOT / 'docs' / 'tutorials' / name).read_text()
+    page = (ROOT / 'docs' / name).read_text()
     (tmp_path / 'data').symlink_to(ROOT / 'data')
     monkeypatch.chdir(tmp_path)
     env = dict(os.environ, PATH=f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}')
@@ -98,4 +99,4 @@ def test_a_tutorial_runs_as_written(name, tmp_path, monkeypatch):
         ran += 1
         if expected is not None:
             assert matches(expected, got), f'{name}: {code}\nexpected:\n{expected}\ngot:\n{got}'
-    assert ran >= 3, f'{name}: only {ran} steps'
+    assert ran >= 2, f'{name}: only {ran} steps'
