@@ -30,7 +30,7 @@ from gps_error_ros.model.profiles import Profile
 from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.streams import agent_keys
-from gps_error_ros.sim.faults import Fault
+from gps_error_ros.sim.faults import Fault, faults_from_yaml
 from gps_error_ros.sim.simulate import _Stated, agent_names, model_step, trajectory_fixes
 from gps_error_ros.sim.velocity_sim import row_values
 from gps_error_ros.traces.loading import load_trace
@@ -65,7 +65,9 @@ class Errors:
     ``north_east`` is the error about the truth (m, north then east) of every
     agent and step, ``(agents, steps, 2)``; it runs on through outages.
     ``fix`` is False where the agent has no fix (an outage: the node
-    publishes NO_FIX there); ``failed`` marks a gross failure (a fix far
+    publishes NO_FIX there); it is True throughout for a profile without an
+    ``availability`` section (no built-in one has one: put outages where you
+    want them with :func:`add_errors`' faults); ``failed`` marks a gross failure (a fix far
     off); ``covariance`` ``(agents, steps, 2, 2)`` is what the node states
     in its ``covariance_mode``; ``velocity`` ``(agents, steps, 2)`` is the
     reported velocity's error (east, north m/s) where the profile has a
@@ -176,15 +178,17 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
                lon: Numbers | None = None, *, east: Numbers | None = None,
                north: Numbers | None = None, datum: Sequence[float] | None = None,
                agents: Sequence[str] | None = None, covariance_mode: str = 'stationary',
-               faults: Sequence[Fault] = ()) -> Fixes:
+               faults: Sequence[Fault] | str = ()) -> Fixes:
     """
     Return the fixes a phone would give along true positions.
 
     Give ``lat`` and ``lon`` (degrees), or ``east`` and ``north`` (m) in the
     ENU frame of ``datum`` (``[lat, lon]`` or ``[lat, lon, alt]``). Rows are
-    in time order (``t``, s); ``agents`` names each row's agent (default:
-    one agent, ``''``, as the single-agent node). ``faults``: faults on
-    demand (:func:`gps_error_ros.sim.faults.faults_from_yaml`).
+    in time order (``t``, s), the rows of all agents sorted together;
+    ``agents`` names each row's agent (default: one agent, ``''``, as the
+    single-agent node). ``faults``: faults on demand, as YAML text or
+    :func:`gps_error_ros.sim.faults.faults_from_yaml`'s list. A row without
+    a fix (an outage) has NaN position, covariance and accuracy.
 
     >>> import numpy as np
     >>> t = np.arange(1000.0, 1060.0)
@@ -192,14 +196,23 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     ...                    north=np.zeros(60), datum=[40.75057, -73.99065])
     >>> fixes.east.shape, bool(fixes.fix.all())
     ((60,), True)
-    >>> from gps_error_ros.sim.faults import faults_from_yaml
-    >>> outage = faults_from_yaml('{kind: outage, at: 1010, duration: 5}')
+    >>> outage = '{kind: outage, at: 1010, duration: 5}'
     >>> fixes = add_errors(load_profile('DS5'), t, seed=7, east=1.3 * (t - 1000),
     ...                    north=np.zeros(60), datum=[40.75057, -73.99065], faults=outage)
     >>> int((~fixes.fix).sum())
     5
+
+    In latitude and longitude, two agents, their rows sorted together by time:
+
+    >>> t2 = np.repeat(np.arange(0.0, 30.0), 2)
+    >>> fixes = add_errors(load_profile('DS5'), t2, seed=7, lat=40.75 + 1e-5 * t2,
+    ...                    lon=np.full(60, -73.99), agents=['ann', 'bob'] * 30)
+    >>> fixes.lat.shape, fixes.east is None
+    ((60,), True)
     """
     t = np.asarray(t, dtype=float)
+    if isinstance(faults, str):
+        faults = faults_from_yaml(faults, 'faults')
     frame = None
     if datum is not None:
         frame = LocalTangentFrame(*datum)
@@ -221,6 +234,7 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     from gps_error_ros.model.accuracy import radius68
     accuracy = radius68(rows.cov) if radius is None else np.asarray(radius, float)
     accuracy = np.where(rows.fix, accuracy, np.nan)
+    rows.cov[~rows.fix] = np.nan            # no fix: no stated covariance
     out_east = out_north = None
     if frame is not None:
         out_east, out_north, _ = frame.to_enu(rows.lat, rows.lon, np.zeros(t.size))

@@ -22,6 +22,7 @@ class NodeFaults:
         self.node = node
         self.faults: list[Fault] = []
         self._pending: list[Fault] = []
+        self._now_ns = 0
         try:
             if path.strip():
                 self.faults = load_schedule(path)
@@ -35,15 +36,44 @@ class NodeFaults:
                 node.get_logger().info(f'faults given at start: {len(extra)} fault(s)')
         except FaultError as exc:
             raise ConfigError(f'parameter \'faults\': {exc}') from None
+        unknown = self._unknown(self.faults)
+        if unknown:
+            node.get_logger().warning(f'faults name agents this node does not serve: '
+                                      f'{unknown} ({self._served()}); they do nothing here')
+
+    def _served(self) -> str:
+        """Return the node's agents, as a message names them."""
+        names = self.node.agents
+        if names == ['']:
+            return 'a single-agent node: leave agent out'
+        return 'its agents: ' + ', '.join(names)
+
+    def _unknown(self, faults: Sequence[Fault]) -> list[str]:
+        """Return the agent names of ``faults`` that the node does not serve."""
+        served = self.node.agents
+        if any(a is None for a in served):      # agents that come and go: any may come
+            return []
+        return sorted({f.agent for f in faults if f.agent is not None and f.agent not in served})
 
     def check(self, text: str, now_ns: int) -> str | None:
         """Parse a runtime value of ``faults``; return why it is refused, or None."""
         if not text.strip():
             return None
         try:
-            self._pending = faults_from_yaml(text, 'faults', now_s=now_ns / NS)
+            pending = faults_from_yaml(text, 'faults', now_s=now_ns / NS)
         except FaultError as exc:
             return str(exc)
+        unknown = self._unknown(pending)
+        if unknown:
+            return f'faults: agent(s) {unknown} not served by this node ({self._served()})'
+        over = [f for f in pending if f.end_ns <= now_ns]
+        if over:
+            return (f'faults: {over[0].kind} from {over[0].at_ns / NS:g} s for '
+                    f'{over[0].duration_ns / NS:g} s ends before the node\'s clock '
+                    f'({now_ns / NS:.3f} s): nothing left to fault; give a later at, or none '
+                    f'(from the next step)')
+        self._pending = pending
+        self._now_ns = now_ns
         return None
 
     def apply(self, groups: Sequence[Any]) -> None:
@@ -57,6 +87,12 @@ class NodeFaults:
         self.node.get_logger().info('faults added: ' + '; '.join(
             f'{f.kind} on {f.agent or "every agent"} from {f.at_ns / NS:.3f} s '
             f'for {f.duration_ns / NS:g} s' for f in self._pending))
+        late = [f for f in self._pending if f.at_ns < self._now_ns]
+        if late:
+            self.node.get_logger().warning(
+                f'{len(late)} fault(s) began before the node\'s clock '
+                f'({self._now_ns / NS:.3f} s) when set: only the steps from then on, and '
+                f'those still waiting for truth, get them')
         self._pending = []
 
     @staticmethod

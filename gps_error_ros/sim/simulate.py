@@ -472,7 +472,11 @@ def trajectory_fixes(data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: f
     """
     t = data['t']
     if np.any(np.diff(t) < 0):
-        raise TrajectoryError(f'{src}: t must be non-decreasing')
+        back = int(np.flatnonzero(np.diff(t) < 0)[0]) + 1
+        raise TrajectoryError(
+            f'{src}: t must be non-decreasing, row {back} goes back from {t[back - 1]:g} s '
+            f'to {t[back]:g} s: sort the rows of all agents together by time (the agent '
+            f'column says whose row it is), not agent by agent')
     conditional = needs_predictive(covariance_mode, reported)
     rows = _csv_rows(src, data, model, rate_hz, seed, conditional, _per_fix(model, zones,
                                                                             conditional))

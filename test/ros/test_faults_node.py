@@ -131,6 +131,12 @@ def test_faults_set_at_run_time_land_on_the_chosen_agent(tmp_path, peer):
     assert drive_agents(peer, pubs, 3, ready) == []
     bad = _set_faults(peer, ns, '{kind: jam, at: 1, duration: 2}')
     assert not bad.successful and 'kind must be one of' in bad.reason
+    stranger = _set_faults(peer, ns, f'{{kind: outage, agent: carol, at: {T0 + 30}, '
+                                     f'duration: 2}}')
+    assert not stranger.successful and "['carol'] not served by this node" in stranger.reason
+    assert 'its agents: ann, bob' in stranger.reason
+    over = _set_faults(peer, ns, f'{{kind: outage, at: {T0 - 10}, duration: 2}}')
+    assert not over.successful and "ends before the node's clock" in over.reason
     # every kind on ann, from step 4 on (set at step 2: the node has not reached them)
     schedule = SCHEDULE.replace('{kind', '{agent: ann, kind')
     ok = _set_faults(peer, ns, schedule.split('faults:', 1)[1])
