@@ -22,7 +22,8 @@ import numpy as np
 
 from gps_error_ros.fit.calibration import calibrate as _calibrate
 from gps_error_ros.fit.gross_failures import find_gross_failures
-from gps_error_ros.fit.validation import FAILURE_COLUMN, validate, ValidationResult
+from gps_error_ros.fit.validation import FAILURE_COLUMN, ValidationResult
+from gps_error_ros.fit.validation import validate as _validate
 from gps_error_ros.model import profiles
 from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import LocalTangentFrame
@@ -35,8 +36,8 @@ from gps_error_ros.sim.simulate import _Stated, agent_names, model_step, traject
 from gps_error_ros.sim.velocity_sim import row_values
 from gps_error_ros.traces.loading import load_trace
 
-__all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'judge', 'load_profile',
-           'simulate_errors']
+__all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'load_profile',
+           'simulate_errors', 'validate']
 
 PathLike = str | os.PathLike[str]
 MODES = ('stationary', 'conditional', 'reported')
@@ -262,8 +263,8 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
     return profiles.profile_from_dict(result.profile_dict(name))
 
 
-def judge(profile: Profile, recording: PathLike, sims: int = 200,
-          seed: int = 0) -> ValidationResult:
+def validate(profile: Profile, recording: PathLike, sims: int = 200,
+             seed: int = 0) -> ValidationResult:
     """
     Return how a recording compares with traces the profile simulates.
 
@@ -272,8 +273,8 @@ def judge(profile: Profile, recording: PathLike, sims: int = 200,
     recording's gross failures are left out on both sides.
     ``summary()`` is the text ``validate`` prints, ``to_dict()`` its JSON.
 
-    >>> result = judge(load_profile('phone-suburban-drive'),
-    ...                'data/gsdc2020-mtv1-pixel4xlmodded.csv', sims=50)
+    >>> result = validate(load_profile('phone-suburban-drive'),
+    ...                   'data/gsdc2020-mtv1-pixel4xlmodded.csv', sims=50)
     >>> result.samples
     1743
     >>> result.joint_pct > 5        # not unlike the model's own traces
@@ -281,5 +282,5 @@ def judge(profile: Profile, recording: PathLike, sims: int = 200,
     """
     trace = load_trace(recording)[0]
     trace.extra[FAILURE_COLUMN] = find_gross_failures(trace).mask.astype(float)
-    return validate(profile.model(gross_failures=False), trace, sims=sims, seed=seed,
-                    reported=profile.reported_accuracy)
+    return _validate(profile.model(gross_failures=False), trace, sims=sims, seed=seed,
+                     reported=profile.reported_accuracy)

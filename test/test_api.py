@@ -20,6 +20,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_all_is_the_api_and_every_name_has_an_example():
+    import pkgutil
+    # every subpackage imported first: a public name that is also a subpackage's
+    # would then be the module, not the function
+    for sub in pkgutil.iter_modules(gps_error_ros.__path__):
+        assert sub.name not in api.__all__, sub.name
+        if sub.ispkg:
+            __import__(f'gps_error_ros.{sub.name}')
     assert gps_error_ros.__all__ == api.__all__
     for name in gps_error_ros.__all__:
         obj = getattr(gps_error_ros, name)

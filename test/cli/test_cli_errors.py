@@ -124,7 +124,8 @@ def test_messages_show_plain_numbers_and_the_profiles_that_have_fits(tmp_path, c
     assert 'duplicate time t=1.0 after 1.0' in err and 'np.float64' not in err
     assert cli(['validate', 'DS9', str(bad), '--out', str(tmp_path / 'v')]) == 2
     err = capsys.readouterr().err
-    assert 'expected one of DS1, DS2, DS5, DS7, snapshot-receiver-on-foot (or DS3, DS4, ' \
+    assert 'expected one of DS1, DS2, DS5, DS7, phone-suburban-drive, ' \
+        'snapshot-receiver-on-foot (or DS3, DS4, ' \
         'DS6, which have no published fit)' in err
 
 
