@@ -15,9 +15,11 @@ import shutil
 import subprocess
 import sys
 
-PAGES = ('index', 'node', 'calibrating', 'sumo', 'profiles', 'reference/api',
+PAGES = ('index', 'tutorials/python', 'tutorials/node', 'tutorials/sumo', 'tutorials/calibrate',
+         'presets', 'faults', 'gross-failures', 'bags', 'robot-localization', 'glossary',
+         'node', 'calibrating', 'sumo', 'profiles', 'reference/api',
          'reference/commands', 'walks', 'architecture', 'performance', 'decisions/index',
-         'decisions/0032-results-as-declared-records', 'decisions/0033-a-fix-as-a-pose')
+         'decisions/0034-faults-on-demand', 'decisions/0035-a-few-public-names')
 
 
 def main(argv=None):

@@ -30,6 +30,8 @@ def site(tmp_path_factory):
 def test_mkdocs_builds_the_site_strictly(site):
     home = (site / 'index.html').read_text()
     assert 'gps_error_ros' in home
+    # the home page shows what the package makes: the demo's figure
+    assert 'src="images/demo.png"' in home and (site / 'images' / 'demo.png').stat().st_size
     api = (site / 'reference' / 'api.html').read_text()
     assert 'load_profile' in api and 'WithPopulation' in api
 
