@@ -73,6 +73,29 @@ def _validate_each(args: argparse.Namespace, profile: Profile, model: Any, zones
     return 0
 
 
+def profile_class(profile: Profile) -> str:
+    """
+    Return a line: which class of model the profile is, and the best one on held-out days.
+
+    On held-out days and walks the population with the extended model within
+    predicted best (docs/generalisation.md); a user should know whether the
+    profile at hand is that class, and how to get it if not.
+    """
+    effects = profile.effects.names
+    if profile.population is not None and effects:
+        return ('  profile class: a population (each agent its own bias and scale) with the '
+                'extended model within (' + ', '.join(effects) + '): the class that predicted '
+                'best on held-out days and walks')
+    if profile.population is not None:
+        return ('  profile class: a population with a Gaussian AR within; the population with '
+                'the extended model within predicted better on held-out days and walks: '
+                'gps_error diagnose RECORDINGS --profile-out BEST.yaml --population')
+    within = 'the extended model (' + ', '.join(effects) + ')' if effects else 'one AR process'
+    return (f'  profile class: {within} for every agent, no population; a population '
+            f'(gps_error calibrate --population, or diagnose --profile-out ... --population) '
+            f'predicted better on held-out days and walks')
+
+
 def run_validate(args: argparse.Namespace) -> int:
     """Run ``gps_error validate``; return the exit code."""
     lo, hi = _part(args.part)
@@ -92,5 +115,6 @@ def run_validate(args: argparse.Namespace) -> int:
     summary = _validate_one(args, profile, model, zones, trace, out, (lo, hi))
     print('\n'.join(summary_lines(summary)))
     print(_failure_check(profile, found))
+    print(profile_class(profile))
     print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
     return 0

@@ -179,3 +179,17 @@ def test_a_recording_long_enough_but_gappy_is_told_apart_from_a_short_one(tmp_pa
     assert cli(['diagnose', str(short)]) == 2
     err = capsys.readouterr().err
     assert '(a trace of about 267 s or more; the first 70 % of the time trains)' in err, err
+
+
+def test_validate_says_which_class_of_profile_it_checked(tmp_path, capsys):
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[2]
+    data = root / 'data' / 'gsdc2020-mtv1-pixel4.csv'
+    for profile, says in (
+            ('DS5', 'profile class: one AR process for every agent, no population'),
+            ('phone-suburban-drive', 'profile class: a population with a Gaussian AR within'),
+            (str(root / 'docs/close-the-loop/gsdc2020-mtv1-pixel4.extended.yaml'),
+             'profile class: the extended model (')):
+        assert cli(['validate', profile, str(data), '--out', str(tmp_path / 'v'),
+                    '--sims', '20']) == 0
+        assert says in capsys.readouterr().out, profile
