@@ -13,7 +13,7 @@ import sys
 
 PAGE = Path(__file__).resolve().parents[1] / 'docs' / 'reference' / 'commands.md'
 #: The width the help is wrapped to, whatever the terminal.
-COLUMNS = '88'
+COLUMNS = '80'
 
 
 def render():
