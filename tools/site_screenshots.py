@@ -18,7 +18,8 @@ import sys
 PAGES = ('index', 'tutorials/python', 'tutorials/node', 'tutorials/sumo', 'tutorials/calibrate',
          'presets', 'faults', 'gross-failures', 'bags', 'robot-localization', 'glossary',
          'node', 'calibrating', 'sumo', 'profiles', 'reference/api',
-         'reference/commands', 'walks', 'architecture', 'performance', 'decisions/index',
+         'reference/commands', 'reference/commands-simulate', 'walks', 'architecture',
+         'performance', 'decisions/index',
          'decisions/0034-faults-on-demand', 'decisions/0035-a-few-public-names')
 
 
