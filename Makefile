@@ -81,6 +81,7 @@ site-screenshots: docs
 # and receivers of data/, GTSAM's smoother among the consumers (about 20 minutes).
 generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
+	$(PY) tools/evidence_summary.py
 
 # gpsd (Debian's gpsd and gpsd-clients, installed here if missing) reads the NMEA
 # that gps_error simulate writes, streamed on loopback, and the error node's own
