@@ -54,6 +54,7 @@ test: setup
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup
 	$(PY) tools/calibration_doc.py --data $(DATA) --out docs
+	$(PY) tools/evidence_summary.py calibration.md
 
 # The built-in profile snapshot-receiver-on-foot and docs/walks.md, from the
 # SnapperGPS walks of data/ (about two minutes).
@@ -81,7 +82,7 @@ site-screenshots: docs
 # and receivers of data/, GTSAM's smoother among the consumers (about 20 minutes).
 generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
-	$(PY) tools/evidence_summary.py
+	$(PY) tools/evidence_summary.py generalisation.md
 
 # gpsd (Debian's gpsd and gpsd-clients, installed here if missing) reads the NMEA
 # that gps_error simulate writes, streamed on loopback, and the error node's own
@@ -132,6 +133,7 @@ input-sweep: setup
 # Regenerate docs/close-the-loop.md and docs/close-the-loop/ from the traces.
 close-the-loop-doc: setup
 	$(PY) tools/close_loop_doc.py --data $(DATA) --out docs
+	$(PY) tools/evidence_summary.py close-the-loop.md
 
 lint: setup
 	$(PY) -m pytest -m linter

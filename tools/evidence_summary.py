@@ -1,12 +1,13 @@
 """
-Open an evidence page with a short table of what holds and what does not.
+Open the evidence pages with a short table of what holds and what does not.
 
-The table's figures come from the JSON the page's generator wrote beside it
-(``docs/generalisation/*.json``); its words from the template
-``tools/templates/generalisation_summary.md``, which a writer edits. The
-block sits between ``<!-- summary -->`` and ``<!-- /summary -->`` under the
-page's title; ``make generalisation`` runs this after writing the page, and
-``test/lint/test_evidence_summary.py`` fails while the block is stale.
+Each table's figures come from the JSON the page's generator wrote beside
+it (``docs/generalisation/``, ``docs/calibration/``,
+``docs/close-the-loop/``); its words from a template in
+``tools/templates/``, which a writer edits. The block sits between
+``<!-- summary -->`` and ``<!-- /summary -->`` under the page's title; the
+``make`` target of each page runs this after writing it, and
+``test/lint/test_evidence_summary.py`` fails while a block is stale.
 """
 
 import argparse
@@ -18,10 +19,13 @@ import sys
 from generalisation_text import LABELS
 
 ROOT = Path(__file__).resolve().parents[1]
-TEMPLATE = Path(__file__).with_name('templates') / 'generalisation_summary.md'
+TEMPLATES = Path(__file__).with_name('templates')
+TEMPLATE = TEMPLATES / 'generalisation_summary.md'
 BLOCK = re.compile(r'<!-- summary -->\n.*?<!-- /summary -->\n', re.S)
 #: Below this percentile among its own traces, a class is unlike them (5 %).
 UNLIKE = 5.0
+#: A share of measures inside their envelopes this far below 0.95 is named as a miss.
+LOW_SHARE = 0.8
 
 
 def sets(json_dir):
@@ -62,6 +66,70 @@ def render(json_dir):
     return '<!-- summary -->\n' + body.rstrip('\n') + '\n<!-- /summary -->\n'
 
 
+def _shares(check, key):
+    """Return 'N / E' shares of ``key`` in a validation record, and the axes below LOW_SHARE."""
+    values = [check[ax][key] for ax in ('north', 'east')]
+    low = [ax for ax, v in zip(('north', 'east'), values) if v < LOW_SHARE]
+    return f'{values[0]:.0%} / {values[1]:.0%}', low
+
+
+def render_calibration(json_dir):
+    """Return the summary block of docs/calibration.md."""
+    rows, misses = [], []
+    for path in sorted(Path(json_dir).glob('*.json')):
+        doc = json.loads(path.read_text())
+        cells = []
+        for part, check in (('in sample', doc['pacf'].get('insample')),
+                            ('held out', doc.get('holdout', {}).get('pacf'))):
+            for key, what in (('acf_lags_inside_envelope', 'ACF'),
+                              ('quantiles_inside_envelope', 'quantiles')):
+                if check is None:
+                    cells.append('too short')
+                    continue
+                text, low = _shares(check, key)
+                cells.append(text)
+                misses += [f'{doc["trace"]} {part}, {what} {ax}' for ax in low]
+        rows.append(f'| {doc["trace"]} | {doc["rows"]} | ' + ' | '.join(cells) + ' |')
+    verdict = ('Every share is 80 % or more.' if not misses else
+               f'Shares below {LOW_SHARE:.0%}: ' + '; '.join(misses) + '. There the fit '
+               'misses the recording: the sections below say how.')
+    return _block('calibration_summary.md', rows, verdict)
+
+
+def render_close_loop(json_dir):
+    """Return the summary block of docs/close-the-loop.md."""
+    rows, weak = [], []
+    for path in sorted(Path(json_dir).glob('*.json')):
+        dg = json.loads(path.read_text())['diagnosis']
+        found = [e['name'] for e in dg['effects']] or ['none']
+        kept = dg['selection'].get('kept') or ['none']
+        gain = dg['improvement']
+        lo, hi = gain['ci95']
+        if lo <= 0:
+            weak.append(dg['input'])
+        left = '; '.join(u['structure'] for u in dg['unexplained']) or 'nothing'
+        rows.append(f'| {dg["input"]} | {", ".join(found)} | {", ".join(kept)} | '
+                    f'{gain["heldout_nll_per_sample"]:.3f} ({lo:.3f} to {hi:.3f}) | {left} |')
+    verdict = ('On every recording the extended model predicts the held-out part better, '
+               'its interval above 0.' if not weak else
+               'The gain\'s interval holds 0 (not resolved by the held-out samples) on: '
+               + ', '.join(weak) + '; above 0 on the others.')
+    return _block('close_loop_summary.md', rows, verdict)
+
+
+def _block(template, rows, verdict):
+    """Return a summary block from a template, its rows and its verdict."""
+    body = (TEMPLATES / template).read_text().replace('{{ROWS}}', '\n'.join(rows)).replace(
+        '{{VERDICT}}', verdict)
+    return '<!-- summary -->\n' + body.rstrip('\n') + '\n<!-- /summary -->\n'
+
+
+#: Each evidence page: its file, the folder of its JSON, and its renderer.
+PAGES = {'generalisation.md': ('generalisation', render),
+         'calibration.md': ('calibration', render_calibration),
+         'close-the-loop.md': ('close-the-loop', render_close_loop)}
+
+
 def with_summary(page, block):
     """Return ``page`` with ``block`` under its title (replacing an older one)."""
     if BLOCK.search(page):
@@ -71,14 +139,16 @@ def with_summary(page, block):
 
 
 def main(argv=None):
-    """Write the summary into docs/generalisation.md; exit 0."""
+    """Write the summaries into the evidence pages (or those named); exit 0."""
     ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     ap.add_argument('--docs', type=Path, default=ROOT / 'docs')
+    ap.add_argument('pages', nargs='*', default=sorted(PAGES), help='pages to update')
     args = ap.parse_args(argv)
-    page = args.docs / 'generalisation.md'
-    page.write_text(with_summary(page.read_text(),
-                                 render(args.docs / 'generalisation')))
-    print(f'wrote the summary of {page}')
+    for name in args.pages:
+        folder, make = PAGES[name]
+        page = args.docs / name
+        page.write_text(with_summary(page.read_text(), make(args.docs / folder)))
+        print(f'wrote the summary of {page}')
     return 0
 
 

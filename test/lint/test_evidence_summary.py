@@ -3,19 +3,27 @@
 from pathlib import Path
 import sys
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / 'tools'))
 
 import evidence_summary  # noqa: E402
 
 
-def test_the_generalisation_page_opens_with_its_current_summary():
-    page = (ROOT / 'docs' / 'generalisation.md').read_text()
+@pytest.mark.parametrize('name', sorted(evidence_summary.PAGES))
+def test_an_evidence_page_opens_with_its_current_summary(name):
+    page = (ROOT / 'docs' / name).read_text()
+    folder, make = evidence_summary.PAGES[name]
+    block = make(ROOT / 'docs' / folder)
+    assert block in page, f'the summary of {name} is stale: run python tools/evidence_summary.py'
+    title_end = page.index('\n')
+    assert page.index(block) == title_end + 2, 'the summary comes right under the title'
+    assert block.count('\n| ') >= 4, 'a header and a row per recording or set'
+
+
+def test_the_generalisation_summary_has_a_row_per_set():
     block = evidence_summary.render(ROOT / 'docs' / 'generalisation')
-    assert block in page, 'the summary is stale: run python tools/evidence_summary.py'
-    assert page.index(block) < page.index('\n## ', page.index(block) + len(block)), \
-        'the summary comes first'
-    # one row per judged set, the recommended class's own verdict in each
     sets = list(evidence_summary.sets(ROOT / 'docs' / 'generalisation'))
     assert len(sets) >= 4
     assert block.count('\n| ') == len(sets) + 1     # the header and a row per set
