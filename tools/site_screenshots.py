@@ -19,7 +19,7 @@ PAGES = ('index', 'tutorials/python', 'tutorials/node', 'tutorials/sumo', 'tutor
          'presets', 'faults', 'gross-failures', 'bags', 'robot-localization', 'glossary',
          'node', 'calibrating', 'sumo', 'profiles', 'reference/api',
          'reference/commands', 'reference/commands-simulate', 'walks', 'architecture',
-         'performance', 'decisions/index',
+         'performance', 'generalisation', 'calibration', 'close-the-loop', 'decisions/index',
          'decisions/0034-faults-on-demand', 'decisions/0035-a-few-public-names')
 
 
