@@ -86,9 +86,14 @@ class FixOutput:
         vertical = self.node.groups[g].covariance[8]
         return conversions.enu_covariances(fix.cov[rows], vertical)
 
+    @staticmethod
+    def _has_fix(fix: FixBatch) -> BoolArray:
+        """Return the rows with a fix due (False: an outage)."""
+        return np.ones(fix.agents.size, dtype=bool) if fix.fix is None else fix.fix
+
     def _split(self, fix: FixBatch) -> tuple[BoolArray, BoolArray]:
         """Return (rows to publish with a position, rows without a fix)."""
-        has = np.ones(fix.agents.size, dtype=bool) if fix.fix is None else fix.fix
+        has = self._has_fix(fix)
         finite = np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt)
         bad = has & ~finite
         if bad.any():
@@ -110,7 +115,7 @@ class FixOutput:
             if node.pose_frame_id:
                 self._poses(g, fix, good)
             if node.nmea is not None:
-                self._nmea(g, fix, good, ~good & ~self._bad(fix))
+                self._nmea(g, fix, good, ~self._has_fix(fix))
             if node.polled:
                 raws = self.fix_templates[g].render(
                     fix.stamp_ns, fix.lat[good], fix.lon[good], fix.alt[good],
@@ -168,11 +173,6 @@ class FixOutput:
                     fix.stamp_ns, node.pose_frame_id, east[j], north[j], up[j],
                     node.groups[g].covariance if covs is None else covs[j]))
         self.poses += int(rows.size)
-
-    def _bad(self, fix: FixBatch) -> BoolArray:
-        """Return the rows with a fix due but a non-finite position (never sent)."""
-        has = np.ones(fix.agents.size, dtype=bool) if fix.fix is None else fix.fix
-        return has & ~(np.isfinite(fix.lat) & np.isfinite(fix.lon) & np.isfinite(fix.alt))
 
     def _nmea(self, g: int, fix: FixBatch, good: BoolArray, none: BoolArray) -> None:
         """Stream the rows as NMEA: a fix for ``good``, quality 0 for ``none``."""
