@@ -32,7 +32,7 @@ from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.streams import agent_keys
 from gps_error_ros.sim.faults import Fault, faults_from_yaml
-from gps_error_ros.sim.simulate import _Stated, agent_names, model_step, trajectory_fixes
+from gps_error_ros.sim.trajectory_fixes import agent_names, model_step, Stated, trajectory_fixes
 from gps_error_ros.sim.velocity_sim import row_values
 from gps_error_ros.traces.loading import load_trace
 
@@ -114,9 +114,8 @@ def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: f
     keys = agent_keys(seed, names)
     about = covariance_mode != 'reported'
     model = profile.model(about_truth=about)
-    plain = profile.model(gross_failures=False, about_truth=about)
     conditional = needs_predictive(covariance_mode, profile.reported_accuracy)
-    state, clean = model.initial_state(keys, start), plain.initial_state(keys, start)
+    state = model.initial_state(keys, start)
     err = np.empty((len(names), steps, 2))
     fix = np.empty((len(names), steps), dtype=bool)
     failed = np.empty((len(names), steps), dtype=bool)
@@ -127,12 +126,13 @@ def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: f
             if conditional:
                 cov[:, i] = model.predictive_cov(state)
             model.advance(state, keys, start + i)
-            plain.advance(clean, keys, start + i)
         elif conditional:
             cov[:, 0] = model.predictive_cov(state, first=True)
         err[:, i] = model.errors(state)
-        failed[:, i] = np.any(err[:, i] != plain.errors(clean), axis=1)
         fix[:, i] = available(model, state)
+        # a failure is a pure function of (agent, step), as in the model's own draw
+        failed[:, i] = False if profile.gross_failures is None else \
+            profile.gross_failures.offsets(keys, start + i)[1]
     t = (start + np.arange(steps)) / profile.rate_hz
     if covariance_mode == 'reported':
         cov = _stated_cov(profile, model, seed, names, t, start, cov)
@@ -144,7 +144,7 @@ def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: f
 def _stated_cov(profile: Profile, model: Any, seed: int, names: Sequence[str],
                 t: FloatArray, start: int, cov: FloatArray) -> FloatArray:
     """Return the covariance the phone states at every (agent, step): mode ``reported``."""
-    stated = _Stated(model, profile.reported_accuracy, seed, model.mean)
+    stated = Stated(model, profile.reported_accuracy, seed, model.mean)
     n, steps = cov.shape[:2]
     rows_agent = np.repeat(np.asarray(names, dtype=object), steps)
     rows_t = np.tile(t, n)
