@@ -244,22 +244,37 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
 
 
 def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = False,
-              order: int | None = None, name: str = 'calibrated') -> Profile:
+              order: int | None = None, name: str = 'calibrated',
+              within: str = 'extended') -> Profile:
     """
     Return a profile fitted to recordings of one receiver (trace CSVs or bags).
 
-    As ``gps_error calibrate``; ``population``: also each agent's own bias
-    and scale, as recordings and stretches differ (the best-predicting
-    class on held-out days). Write it with
-    :func:`gps_error_ros.model.profiles.write_profile` and ``to_dict``.
+    As ``gps_error calibrate``. Without ``population``: one AR process per
+    axis, the paper's model. With it: each agent its own bias and scale, as
+    recordings and stretches differ, and within them the extended model
+    (``within='extended'``, the class that predicted best on held-out days)
+    or the Gaussian AR (``within='ar'``, faster; ``order`` fixes its order).
+    Write it with :func:`gps_error_ros.model.profiles.write_profile` and ``to_dict``.
 
     >>> profile = calibrate('data/gsdc2020-mtv1-pixel4.csv', order=3)
     >>> profile.axes['north'].order, profile.velocity is not None
     (3, True)
+    >>> best = calibrate('data/gsdc2020-mtv1-pixel4.csv', population=True)
+    >>> best.population is not None, 'heavy_tails' in best.effects.names
+    (True, True)
     """
+    if within not in ('extended', 'ar'):
+        raise ValueError(f'within={within!r}: expected \'extended\' or \'ar\'')
     paths = [recordings] if isinstance(recordings, (str, os.PathLike)) else list(recordings)
     traces = [load_trace(p)[0] for p in paths]
-    result = _calibrate(traces, order=order, population=population)
+    if population and within == 'extended':
+        if order is not None:
+            raise ValueError(f'order={order}: the extended model within a population chooses '
+                             f'its own orders; pass within=\'ar\' to fix the order')
+        from gps_error_ros.judge.population_calibration import calibrate_best
+        result = calibrate_best(traces)
+    else:
+        result = _calibrate(traces, order=order, population=population)
     return profiles.profile_from_dict(result.profile_dict(name))
 
 

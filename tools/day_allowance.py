@@ -9,7 +9,7 @@ all of them gives a part held for the run (between occasions) and a wander
 ``ratio``. This prints that ratio, and judges it: for every recording long
 enough for a population of its own (3 blocks) and every recording of
 another occasion, the population fitted on the first alone (the Gaussian AR
-within, as ``calibrate --population`` writes it) is scored on the second
+within, as ``calibrate --population --within ar`` writes it) is scored on the second
 with no allowance, with the ratio of the other occasions (the held-out
 occasion left out of it) and with the ratio of all: the held-out NLL per
 sample and whether the held-out mean error lies inside the 95 % range of

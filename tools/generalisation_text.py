@@ -58,9 +58,10 @@ method in `gps_error_ros/judge/generalise.py`):
   own); **own at 0.90**: how often the class's own traces have every such
   group at 0.90 or more, the bar a perfect simulator would have to clear.
 
-The population classes are the profile that `calibrate --population`
-writes (Gaussian AR within blocks of 300 s) and the same section on the
-extended model fitted within blocks (`diagnose --profile-out --population`):
+The population classes are the profile that `calibrate --population
+--within ar` writes (Gaussian AR within blocks of 300 s) and the same
+section on the extended model fitted within blocks (`calibrate
+--population`, or `diagnose --profile-out --population` on the training part):
 each simulated agent draws its own bias (and its wander) and scale from the
 spread of the training blocks.
 

@@ -2,7 +2,7 @@
 Build the fitted preset ``phone-suburban-drive`` and write ``docs/presets.md``.
 
 Run ``make presets`` (or ``python tools/presets.py --data data --out .``).
-The preset is ``gps_error calibrate --population`` of the GSDC Pixel 4
+The preset is ``gps_error calibrate --population --within ar`` of the GSDC Pixel 4
 drive (Apache-2.0), written to ``config/profiles/``. It is then checked on
 data the fit did not see, with ``gps_error validate``: the other phone of the
 same drive (Pixel 4 XL, modified), and the last 30 % of the Pixel 4 drive
@@ -43,10 +43,12 @@ def gps_error(*args, cwd=None):
 def build(data, root):
     """Fit the preset into config/profiles/; return its path."""
     path = root / 'config' / 'profiles' / f'{NAME}.yaml'
-    gps_error('calibrate', data / TRAIN, '--population', '--name', NAME, '-o', path)
+    gps_error('calibrate', data / TRAIN, '--population', '--within', 'ar', '--name', NAME,
+              '-o', path)
     raw = yaml.safe_load(path.read_text())
     raw['description'] = DESCRIPTION
-    raw['source'] = f'make presets: gps_error calibrate --population {TRAIN} (GSDC 2020, Google)'
+    raw['source'] = (f'make presets: gps_error calibrate --population --within ar {TRAIN} '
+                     f'(GSDC 2020, Google)')
     path.write_text('# Written by make presets (tools/presets.py); do not edit by hand.\n'
                     + yaml.safe_dump(raw, sort_keys=False, width=100))
     return path
@@ -73,10 +75,12 @@ def held_out(data, root, preset):
             whole = 'ar3.yaml' if order else (
                 NAME if preset == (builtin_dir() / f'{NAME}.yaml').resolve() else preset)
             if order:
-                gps_error('calibrate', data / TRAIN, '--population', *order, '-o', whole,
+                gps_error('calibrate', data / TRAIN, '--population', '--within', 'ar', *order,
+                          '-o', whole,
                           cwd=tmp)
             first = f'first70-{label}.yaml'
-            gps_error('calibrate', 'first70.csv', '--population', *order, '-o', first, cwd=tmp)
+            gps_error('calibrate', 'first70.csv', '--population', '--within', 'ar', *order,
+                      '-o', first, cwd=tmp)
             for check, profile, target in (('other-phone', whole, data / OTHER_PHONE),
                                            ('last-30', first, 'last30.csv')):
                 where = out / f'{check}-{label}'

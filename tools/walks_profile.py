@@ -253,7 +253,7 @@ def main():
         '`make walks-profile` (`python tools/walks_profile.py --data data`).',
         '',
         f'The built-in profile `{NAME}` is fitted from the {len(paths)} SnapperGPS walks '
-        'of `data/` together (`gps_error calibrate --population` with several '
+        'of `data/` together (`gps_error calibrate --population --within ar` with several '
         'recordings): '
         'a low-cost L1 snapshot receiver, each fix an independent single-epoch solution, '
         'carried on foot in Oxford with RTK truth.',

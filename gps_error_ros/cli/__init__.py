@@ -20,8 +20,8 @@ import sys
 from typing import Any, TYPE_CHECKING
 
 from gps_error_ros.cli.parser import build_parser
-from gps_error_ros.fit.calibration import (calibrate, CalibrationError, check_sampling,
-                                           little_data_note)
+from gps_error_ros.fit.calibration import (calibrate, CalibrationError, CalibrationResult,
+                                           check_sampling, little_data_note)
 from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures, GrossFailures,
                                               without_gross_failures)
 from gps_error_ros.fit.population_fit import one_occasion_note, population_line
@@ -221,9 +221,25 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         from gps_error_ros.cli.zones import calibrate_per_zone
         return calibrate_per_zone(args, _load_input)
     _check_output_dir(args.output, '-o')
+    if args.within is not None and not args.population:
+        raise ValueError(f'--within {args.within} is the process within a population\'s '
+                         f'blocks: add --population, or leave --within out')
+    extended = args.population and args.within != 'ar'
+    if extended and args.order is not None:
+        raise ValueError(f'--order {args.order} fixes the Gaussian AR\'s order; the extended '
+                         f'model within a population chooses its own by the PACF: add '
+                         f'--within ar to fix it')
     traces = _load_inputs(args)
-    result = calibrate(traces, order=args.order, max_order=args.max_order,
-                       population=args.population, day_allowance=args.day_allowance)
+    if extended:
+        from gps_error_ros.judge.population_calibration import calibrate_best, STAGES
+        progress = _stage_progress(traces, STAGES, 'fitting the extended model within')
+        try:
+            result = calibrate_best(traces, args.day_allowance, args.seed, progress.update)
+        finally:
+            progress.close()
+    else:
+        result = calibrate(traces, order=args.order, max_order=args.max_order,
+                           population=args.population, day_allowance=args.day_allowance)
     out = Path(args.output)
     profile = result.profile_dict(args.name or out.stem)
     write_profile(out, profile)
@@ -233,18 +249,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     g = result.grid
     print(f'{result.input}: {g.n} samples in {len(g.segments)} segment(s), '
           f'{g.span_s:.0f} s')
-    axes = result.axis_params
-    sd = ARErrorModel(*axes).stationary_sd
-    for i, (ax, fit) in enumerate((('north', result.north), ('east', result.east))):
-        p = axes[i]
-        print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
-              f'{fit.bic_order}) delta={p.delta:.4f} '
-              f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}; '
-              f'mean error {p.mean:.3f} m, stationary SD {sd[i]:.3f} m')
-        if not fit.fixed_order and fit.pacf_order == args.max_order:
-            print(f'  note: the {ax} PACF is significant up to the largest order '
-                  f'allowed (--max-order {args.max_order}); a larger --max-order '
-                  f'may choose more')
+    _print_axes(args, result)
     if result.population is not None:
         print(f'  {population_line(result.population)}')
         if one_occasion_note(result.population):
@@ -256,6 +261,28 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
               f'{MIN_TEST} held out, of 70 and 30 %)')
     print(f'wrote {out}')
     return 0
+
+
+def _print_axes(args: argparse.Namespace, result: 'CalibrationResult') -> None:
+    """Print each axis's fit: the whole trace's AR, or the process within a population."""
+    axes = result.axis_params
+    if result.effects is not None:
+        orders = ', '.join(f'{ax} AR({p.order})' for ax, p in zip(('north', 'east'), axes))
+        print(f'  within the blocks: the extended model, {orders}, effects '
+              f'{", ".join(result.effects.names) or "none"} (the class that predicted best '
+              f'on held-out days; --within ar: the Gaussian AR)')
+        return
+    sd = ARErrorModel(*axes).stationary_sd
+    for i, (ax, fit) in enumerate((('north', result.north), ('east', result.east))):
+        p = axes[i]
+        print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
+              f'{fit.bic_order}) delta={p.delta:.4f} '
+              f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}; '
+              f'mean error {p.mean:.3f} m, stationary SD {sd[i]:.3f} m')
+        if not fit.fixed_order and fit.pacf_order == args.max_order:
+            print(f'  note: the {ax} PACF is significant up to the largest order '
+                  f'allowed (--max-order {args.max_order}); a larger --max-order '
+                  f'may choose more')
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:

@@ -115,15 +115,24 @@ def _add_calibrate(sub: 'Subparsers') -> None:
     c.add_argument('--name', default=None,
                    help='profile name (default: the output file stem)')
     c.add_argument('--population', action='store_true',
-                   help='describe the receiver across stretches: fit the AR within blocks '
-                        'of 300 s and a population section (each simulated agent draws '
-                        'its own bias and scale, as blocks and recordings differ; the '
-                        'bias split into a part held for a run and a wander where the '
-                        'recordings hold two runs or more; with 3 '
-                        'recordings or more, its own gross-failure rate too); needs '
-                        '3 blocks of 300 s, e.g. 15 min of data or several recordings; '
-                        'not with --zones (a zone map takes the population of its '
-                        'default_profile)')
+                   help='describe the receiver across stretches, the class that predicted '
+                        'best on held-out days: a population section (each simulated agent '
+                        'draws its own bias and scale, as blocks of 300 s and recordings '
+                        'differ; with 3 recordings or more, its own gross-failure rate '
+                        'too) and, within the blocks, the extended model of diagnose '
+                        '(see --within); needs 3 blocks of 300 s, e.g. 15 min of data or '
+                        'several recordings; not with --zones (a zone map takes the '
+                        'population of its default_profile)')
+    c.add_argument('--within', choices=('extended', 'ar'), default=None,
+                   help='with --population, the process within the blocks: extended (the '
+                        'default: the AR with the effects diagnose keeps, chosen by blocked '
+                        'cross-validation; slower, about 25 s for 30 min of data) or ar '
+                        '(the Gaussian AR, its order from the PACF or --order; the bias '
+                        'split into a part held for a run and a wander where the '
+                        'recordings hold two runs or more)')
+    c.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,
+                   help='with --population: the seed of the effect selection\'s '
+                        'simulations (default 0)')
     c.add_argument('--day-allowance', type=number(float, 0.0, 10.0), default=DAY_RATIO,
                    metavar='RATIO',
                    help='with --population from one occasion (one recording, or several '

@@ -89,11 +89,11 @@ def profile_class(profile: Profile) -> str:
     if profile.population is not None:
         return ('  profile class: a population with a Gaussian AR within; the population with '
                 'the extended model within predicted better on held-out days and walks: '
-                'gps_error diagnose RECORDINGS --profile-out BEST.yaml --population')
+                'gps_error calibrate RECORDINGS --population -o BEST.yaml')
     within = 'the extended model (' + ', '.join(effects) + ')' if effects else 'one AR process'
-    return (f'  profile class: {within} for every agent, no population; a population '
-            f'(gps_error calibrate --population, or diagnose --profile-out ... --population) '
-            f'predicted better on held-out days and walks')
+    return (f'  profile class: {within} for every agent, no population; a population with '
+            f'the extended model within predicted better on held-out days and walks: '
+            f'gps_error calibrate RECORDINGS --population -o BEST.yaml')
 
 
 def run_validate(args: argparse.Namespace) -> int:

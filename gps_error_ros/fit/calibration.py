@@ -40,6 +40,7 @@ from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
 from gps_error_ros.model.ar_model import AXES, AxisParams
 from gps_error_ros.model.availability import runs_without_fix
+from gps_error_ros.model.effect_schema import Effects
 from gps_error_ros.model.failures import failures_from_sizes, GrossFailureProcess
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.profiles import profile_mapping
@@ -181,6 +182,10 @@ class CalibrationResult:
     # per recording, every grid step: a fix (failures too)
     fix_masks: Optional[tuple[BoolArray, ...]] = None
     population: Optional[PopulationFit] = None   # when asked for
+    #: with a population: the extended model fitted within its blocks (axes,
+    #: effects), set by :func:`~gps_error_ros.judge.population_calibration.calibrate_best`;
+    #: None: the Gaussian AR of the population fit
+    within: Optional[tuple[tuple[AxisParams, AxisParams], Effects]] = None
 
     @property
     def availability(self) -> SectionFit:
@@ -205,8 +210,15 @@ class CalibrationResult:
     def axis_params(self) -> tuple[AxisParams, AxisParams]:
         """Return the profile's (north, east) AR: the within process with a population."""
         if self.population is not None and self.population.population is not None:
-            return self.population.axis_params()
+            return self.population.axis_params() if self.within is None else self.within[0]
         return self.north.params, self.east.params
+
+    @property
+    def effects(self) -> Optional[Effects]:
+        """Return the effects of the process within a population (None: a Gaussian AR)."""
+        if self.within is None or self.population is None or self.population.population is None:
+            return None
+        return self.within[1]
 
     def profile_dict(self, name: str, description: Optional[str] = None,
                      source: Optional[str] = None) -> dict[str, Any]:
@@ -231,7 +243,7 @@ class CalibrationResult:
         return profile_mapping(
             name, description or f'fitted to {self.input}',
             source or f'gps_error calibrate {self.input}',
-            self.axis_params, rate_hz=self.grid.rate_hz, fit=fit,
+            self.axis_params, rate_hz=self.grid.rate_hz, effects=self.effects, fit=fit,
             availability=availability.section, velocity=self.velocity.section,
             reported_accuracy=self.reported.section, gross_failures=self.failure_process(),
             population=None if pop is None else pop.population)

@@ -48,6 +48,13 @@ class BetweenDays(TypedDict):
     source: str
 
 
+class WithinModel(TypedDict):
+    """The process within the blocks, where it is the extended model."""
+
+    model: str
+    effects: list[str]
+
+
 class PopulationEvidence(TypedDict, total=False):
     """
     The population fit's record of itself.
@@ -56,7 +63,7 @@ class PopulationEvidence(TypedDict, total=False):
     refused has ``reason``; a fitted one the block spreads, the neighbour
     pairs and the draws; a bias on two time scales its wander and held
     parts too. ``calibrate`` adds ``occasions``, and a population of one
-    occasion may carry ``between_days``.
+    occasion may carry ``between_days``; the extended model within, ``within``.
     """
 
     block_s: float
@@ -88,3 +95,5 @@ class PopulationEvidence(TypedDict, total=False):
     #: The recordings' occasions (``calibrate``: recordings made together count once).
     occasions: int
     between_days: BetweenDays
+    #: ``calibrate --population``: the extended model within, not the Gaussian AR.
+    within: 'WithinModel'

@@ -5,7 +5,7 @@ Wings, bottom to top (``docs/architecture.md``): ``model`` imports nothing
 of the package; ``traces`` the model; ``fit`` and ``sim`` the model and
 traces; ``diagnose`` also fit; ``judge`` also diagnose; ``reports`` anything below; ``ros`` and
 ``cli`` sit on top (cli never imports ros); ``api`` (the public names) takes
-from model, traces, fit and sim. Only ``ros`` imports rclpy or
+from model, traces, fit, sim, diagnose and judge. Only ``ros`` imports rclpy or
 message packages, only ``traces.bag_io`` imports rosbags (and not at module
 level), and only ``reports`` imports matplotlib.
 """
@@ -26,7 +26,7 @@ BELOW = {
     'reports': {'model', 'traces', 'fit', 'sim', 'diagnose', 'judge'},
     'ros': {'model', 'traces', 'fit', 'sim', 'reports'},
     'cli': {'model', 'traces', 'fit', 'sim', 'diagnose', 'judge', 'reports'},
-    'api': {'model', 'traces', 'fit', 'sim'},
+    'api': {'model', 'traces', 'fit', 'sim', 'diagnose', 'judge'},
 }
 ROS_PACKAGES = ('rclpy', 'rcl_interfaces', 'builtin_interfaces', 'rosgraph_msgs',
                 'sensor_msgs', 'geometry_msgs', 'nav_msgs', 'std_srvs', 'std_msgs',
