@@ -17,7 +17,7 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc \
+.PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
 	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets
 
 # The measured recordings the evidence targets read: the repository's data/
@@ -133,6 +133,12 @@ input-sweep: setup
 # Regenerate docs/close-the-loop.md and docs/close-the-loop/ from the traces.
 close-the-loop-doc: setup
 	$(PY) tools/close_loop_doc.py --data $(DATA) --out docs
+	$(PY) tools/evidence_summary.py close-the-loop.md
+
+# The page again from its templates (tools/templates/close_loop*.md) and the JSON in
+# docs/close-the-loop/, without diagnosing: after editing the words.
+close-the-loop-page: setup
+	$(PY) tools/close_loop_doc.py --render --out docs
 	$(PY) tools/evidence_summary.py close-the-loop.md
 
 lint: setup

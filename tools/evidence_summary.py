@@ -100,6 +100,8 @@ def render_close_loop(json_dir):
     """Return the summary block of docs/close-the-loop.md."""
     rows, weak = [], []
     for path in sorted(Path(json_dir).glob('*.json')):
+        if path.name == 'records.json':         # the synthetic walks and the refusals
+            continue
         dg = json.loads(path.read_text())['diagnosis']
         found = [e['name'] for e in dg['effects']] or ['none']
         kept = dg['selection'].get('kept') or ['none']
