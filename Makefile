@@ -18,6 +18,7 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
+	generalisation-page \
 	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets
 
 # The measured recordings the evidence targets read: the repository's data/
@@ -82,6 +83,12 @@ site-screenshots: docs
 # and receivers of data/, GTSAM's smoother among the consumers (about 20 minutes).
 generalisation: setup
 	$(PY) tools/generalisation.py --data $(DATA) --out .
+	$(PY) tools/evidence_summary.py generalisation.md
+
+# The page again from its template (tools/templates/generalisation.md) and the JSON in
+# docs/generalisation/, without fitting: after editing the words.
+generalisation-page: setup
+	$(PY) tools/generalisation.py --from-json --data $(DATA) --out .
 	$(PY) tools/evidence_summary.py generalisation.md
 
 # gpsd (Debian's gpsd and gpsd-clients, installed here if missing) reads the NMEA

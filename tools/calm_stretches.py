@@ -9,6 +9,7 @@ traces of the recording's own stationary AR simulated on its time grid.
 """
 
 import numpy as np
+from page_template import Template
 
 from gps_error_ros.fit.calibration import calibrate, errors_on_grid
 from gps_error_ros.model import streams
@@ -17,6 +18,8 @@ from gps_error_ros.model.ar_model import ARErrorModel
 #: The windows of the floor analysis, s (the population's block), and its simulated traces.
 FLOOR_WINDOW_S = 300
 FLOOR_SIMS = 100
+#: The section's words are the generalisation page's (tools/templates/generalisation.md).
+TEMPLATE = Template('generalisation')
 
 
 def _window_stats(segments, w=FLOOR_WINDOW_S):
@@ -75,31 +78,8 @@ def _floor_rows(traces):
 
 def calm_section(traces):
     """Return the section's lines for ``traces``, (name, trace) pairs."""
-    return [FLOOR_HEAD, '| recording | windows | corr(SD, ACF 1) N | corr(SD, ACF 1) E | '
+    return [TEMPLATE.snippet('floor-head') + '\n',
+            '| recording | windows | corr(SD, ACF 1) N | corr(SD, ACF 1) E | '
             'lowest ACF 1 N | lowest ACF 1 E | floor SD N (m) | floor SD E (m) | '
             'persistent part\'s ACF 1 N / E |', '|---|---|---|---|---|---|---|---|---|'] + \
-        _floor_rows(traces) + ['', FLOOR_TAIL]
-
-
-FLOOR_HEAD = """## Calm stretches, and what sampling alone gives
-
-Each phone's recording in windows of 300 s (stepped by 150 s), each figure
-beside its 95 % range over 100 traces of the recording's own stationary AR
-(`calibrate`) simulated on its time grid: what sampling alone gives a
-persistent process in such windows (**out** where the measured figure lies
-outside). The figures: the correlation of the windows' SD with their lag-1
-ACF, the lowest window lag-1 ACF, and the floor of a regression of each
-window's variance on its lag-1 autocovariance (`var = floor^2 + cov_1 /
-rho`: a white floor under a persistent part whose amplitude changes between
-windows; `rho` in the last column).
-"""
-
-FLOOR_TAIL = """A stationary persistent process already gives windows whose SD and lag-1
-ACF move together, and a regression floor of a few decimetres, so these two
-say little alone. A correlation below its range says the stretches differ
-in scale more than in persistence (what the population's per-agent scale
-draws). A lowest window ACF below its range says the recording holds
-stretches less persistent than its own stationary process allows (cause (b)
-above), which a profile with one persistence for every agent cannot
-simulate, however its scale and bias are drawn.
-"""
+        _floor_rows(traces) + ['', TEMPLATE.snippet('floor-tail') + '\n']

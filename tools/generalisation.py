@@ -29,8 +29,8 @@ import numpy as np
 
 from calm_stretches import calm_section
 from data_sources import WALKS
-from generalisation_text import (BEATEN_HEAD, CAUSES_HEAD, EXPLAIN_HEAD, FILTER_HEAD, LABELS,
-                                 PAGE_HEAD, PRECEDENT_HEAD, SPREAD_HEAD)
+from generalisation_text import LABELS
+from page_template import Template
 from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.judge.beaten import gain_text, ORDER_GAIN
@@ -55,9 +55,18 @@ SPEEDS = (3.0, 10.0, 27.0)
 PHONES = ('gsdc2020-mtv1-pixel4.csv', 'gsdc2020-mtv1-pixel4xlmodded.csv')
 #: The rows of the phones' profiles validated on each other (phone_transfer.py).
 TRANSFER_JSON = 'phone-transfer.json'
+#: The sets in the page's order and the recordings not judged, as the fitting run found them.
+PAGE_JSON = 'page.json'
 WALK_SET, PHONE_SET = 'SnapperGPS walks', 'GSDC phones of one drive'
 #: Held-out samples a rolling fold needs: one population block's worth.
 MIN_HELD_OUT = MIN_BLOCK_SAMPLES
+#: The page's words (tools/templates/generalisation.md).
+TEMPLATE = Template('generalisation')
+
+
+def _words(key, /, **fields):
+    """Return a snippet of the template as one line (inside a list item or a sentence)."""
+    return ' '.join(TEMPLATE.snippet(key, **fields).split())
 
 
 def _clean(path):
@@ -158,11 +167,8 @@ def _score_sentence(summary, folds, cls='population'):
     lower = [f'{LABELS.get(c, c)} on {s["nll_minus_population"]["lower_folds"]}'
              for c, s in summary.items() if c != cls and s['nll_minus_population']['lower_folds']]
     if not lower:
-        return (f' No class\'s held-out NLL lies below the population class\'s beyond its '
-                f'95 % interval on any of the {len(folds)} folds.')
-    return (f' Held-out NLL below the population class\'s beyond its 95 % interval: '
-            f'{"; ".join(lower)} of {len(folds)} folds (where, and why: the next '
-            f'section).')
+        return ' ' + _words('score-none', folds=len(folds))
+    return ' ' + _words('score-lower', lower='; '.join(lower), folds=len(folds))
 
 
 def _evidence(folds):
@@ -172,27 +178,24 @@ def _evidence(folds):
         ev = f['classes']['population']['fit']
         sec = f['classes']['population']['section']
         if not ev.get('fitted'):
-            lines.append(f'- {f["fold"]}: no population ({ev["reason"]}): the class is the '
-                         f'extended one fitted on the whole training part, and ties with it')
+            lines.append(_words('fold-no-fit', fold=f['fold'], reason=ev['reason']))
             continue
         tau = sec.get('bias_time_constant_s')
-        lines.append(
-            f'- {f["fold"]}: {ev["blocks"]} blocks; block means spread '
-            f'{ev["block_mean_sd_m"][0]:.2f} / {ev["block_mean_sd_m"][1]:.2f} m (north / east) '
-            f'where the process within gives {ev["within_mean_sd_m"][0]:.2f} / '
-            f'{ev["within_mean_sd_m"][1]:.2f} m; bias SD {sec["bias_sd_m"][0]:.2f} / '
-            f'{sec["bias_sd_m"][1]:.2f} m, '
-            + ('constant for a run' if tau is None else _tau_words(tau, ev))
-            + f', scale log SD {sec["scale_sd_log"]:.2f}' + _held_words(f))
+        lines.append(_words(
+            'fold-fit', fold=f['fold'], blocks=ev['blocks'],
+            spread_north=ev['block_mean_sd_m'][0], spread_east=ev['block_mean_sd_m'][1],
+            within_north=ev['within_mean_sd_m'][0], within_east=ev['within_mean_sd_m'][1],
+            bias_north=sec['bias_sd_m'][0], bias_east=sec['bias_sd_m'][1],
+            wander=_words('wander-constant') if tau is None else _tau_words(tau, ev),
+            scale=sec['scale_sd_log'], held=_held_words(f)))
     return lines
 
 
 def _tau_words(tau, ev):
     """Return the time constant as the fit knows it: a value, or the bound it is."""
     tc = ev.get('bias_time_constant') or {}
-    if tc.get('kind') == 'upper bound':
-        return f'time constant at most {tau:.0f} s (a bound: the blocks do not resolve it)'
-    return f'time constant {tau:.0f} s'
+    return _words('wander-bound' if tc.get('kind') == 'upper bound' else 'wander-value',
+                  seconds=tau)
 
 
 def _held_words(fold):
@@ -201,9 +204,8 @@ def _held_words(fold):
     if 'run_bias_sd_m' not in sec:
         return ''
     held, wander = sec['run_bias_sd_m'], sec['bias_sd_m']
-    return (f'; with the Gaussian AR within, a part held for the run {held[0]:.2f} / '
-            f'{held[1]:.2f} m and a wander {wander[0]:.2f} / {wander[1]:.2f} m '
-            f'(time constant {sec["bias_time_constant_s"]:.0f} s)')
+    return ' ' + _words('held', held_north=held[0], held_east=held[1], wander_north=wander[0],
+                        wander_east=wander[1], seconds=sec['bias_time_constant_s'])
 
 
 def _drift_rows(folds):
@@ -246,8 +248,7 @@ def _filter_rows(folds, cls='population'):
             f'{r["measured"]:.3g} ({r["percentile"]:.0f})' for r in cells) + ' |')
     if not rows:
         return []
-    return ['\nWhat the population\'s filter error is made of where its filter misses '
-            '(measured, and its percentile among the simulated):\n',
+    return ['\n' + TEMPLATE.snippet('filter-head') + '\n',
             '| fold | filter RMS m | mean size m | SD m | filter RMS per SD '
             '(the error less its mean) |\n|---|---|---|---|---|'] + rows
 
@@ -270,8 +271,7 @@ def _spread_rows(folds, cls='population'):
             for ax in ('north', 'east')) + ' |')
     if not rows:
         return []
-    return ['\nThe training part\'s lag-1 ACF from block to block (300 s), against the '
-            'population\'s traces simulated on the same samples:\n',
+    return ['\n' + TEMPLATE.snippet('spread-head') + '\n',
             '| fold | blocks | ACF(1) SD N | ACF(1) SD E | lowest ACF(1) N | '
             'lowest ACF(1) E |\n|---|---|---|---|---|---|'] + rows
 
@@ -308,10 +308,8 @@ def _velocity_precedent(folds):
         return ''
     new = sum(len(n) for _, n, _ in found)
     unmeasured = sum(len(u) for _, _, u in found)
-    return (f'Of the {miss} speed and course measures outside their ranges, {new} lie outside '
-            f'every stretch of the training rows as long as the held-out rows'
-            + (f' ({unmeasured} in a band no such stretch had rows enough in)'
-               if unmeasured else '') + ' (the speed and course table). ')
+    said = ' ' + _words('velocity-unmeasured', count=unmeasured) if unmeasured else ''
+    return _words('velocity-precedent', misses=miss, new=new, unmeasured=said) + ' '
 
 
 def _causes(parts):
@@ -333,29 +331,22 @@ def _causes(parts):
         best = max(summary, key=lambda c: min(summary[c]['groups'].values()))
         miss, new = _precedent_counts(folds)
         above_spread, judged = spread_above(folds)
-        spread = (f'Within the training parts, the 300-s blocks\' lag-1 ACF spreads beyond '
-                  f'what the population\'s own blocks give on {len(above_spread)} of the '
-                  f'{judged} axes of its folds (table below). ' if judged else '')
-        precedent = (f'Of the population class\'s {miss} error measures outside their '
-                     f'ranges, {new} lie outside every training window like the held-out '
-                     f'part as well (no precedent: table below). ' if miss else '')
-        precedent += _velocity_precedent(folds)
-        out.append(
-            f'- **{name}** ({how}). (a) '
-            + (f'Block means of 300 s spread {min(wander):.1f}-{max(wander):.1f} times what '
-               f'the process within a block gives a mean of that length. ' if wander else
-               'Too few blocks of 300 s to compare their means. ')
-            +
-            f'(b) The held-out SD is {lo:.2f}-{hi:.2f} times the training part\'s; the '
-            f'lag-1 ACF goes from {min(a for a, _ in acf):.2f}-{max(a for a, _ in acf):.2f} '
-            f'to {min(b for _, b in acf):.2f}-{max(b for _, b in acf):.2f}. {spread}{precedent}'
-            f'(d) The real gate rate lies above AR(1)\'s simulated range on {above} of '
-            f'{len(folds)} folds. (e) The extended class has the best held-out NLL on '
-            f'{ext["best_score_folds"]} of {len(folds)} folds, and its worst group averages '
-            f'{ext["worst_group"]["inside_95"]:.2f} ({ext["worst_group"]["group"]}); the '
-            f'class whose worst group is highest is {LABELS.get(best, best)} '
-            f'({min(summary[best]["groups"].values()):.2f}).' + _score_sentence(summary, folds) +
-            _own_sentence(summary))
+        spread = _words('cause-spread', above=len(above_spread), judged=judged) + ' ' \
+            if judged else ''
+        said = _words('cause-precedent', misses=miss, new=new) + ' ' if miss else ''
+        said += _velocity_precedent(folds)
+        out.append(_words(
+            'cause', name=name, how=how,
+            wander=_words('cause-wander', low=min(wander), high=max(wander)) if wander
+            else _words('cause-no-blocks'),
+            sd_low=lo, sd_high=hi, acf_train_low=min(a for a, _ in acf),
+            acf_train_high=max(a for a, _ in acf), acf_held_low=min(b for _, b in acf),
+            acf_held_high=max(b for _, b in acf), spread=spread, precedent=said,
+            gate_above=above, folds=len(folds), extended_best=ext['best_score_folds'],
+            extended_worst=ext['worst_group']['inside_95'],
+            extended_worst_group=ext['worst_group']['group'], best_class=LABELS.get(best, best),
+            best_worst=min(summary[best]['groups'].values()),
+            score=_score_sentence(summary, folds), own=_own_sentence(summary)))
     return out
 
 
@@ -369,23 +360,20 @@ def _beaten_lines(parts):
                 continue
             who = ', '.join(LABELS.get(c, c) for c in wb['winners'])
             far, near = wb['far'], wb['near']
-            out.append(f'**{name}, {f["fold"]}**: {who} (NLL minus the population '
-                       f'class\'s, with its 95 % interval). In the held-out blocks of '
-                       f'{wb["block_samples"]} samples whose mean lies more than '
-                       f'{wb["far_sd"]:g} of the population\'s bias SDs '
-                       f'({wb["bias_sd_m"][0]:.2f} / {wb["bias_sd_m"][1]:.2f} m) from its '
-                       f'mean ({far["samples"]} samples): ' +
-                       ('; '.join(f'{LABELS.get(c, c)} {gain_text(far[c])}'
-                                  for c in wb['winners'] if c in far) or 'none') +
-                       f'; in the others ({near["samples"]} samples): ' +
-                       ('; '.join(f'{LABELS.get(c, c)} {gain_text(near[c])}'
-                                  for c in wb['winners'] if c in near) or 'none') + '.')
+            out.append(_words(
+                'beaten-fold', name=name, fold=f['fold'], winners=who,
+                block_samples=wb['block_samples'], far_sd=wb['far_sd'],
+                bias_north=wb['bias_sd_m'][0], bias_east=wb['bias_sd_m'][1],
+                far_samples=far['samples'], near_samples=near['samples'],
+                far='; '.join(f'{LABELS.get(c, c)} {gain_text(far[c])}'
+                              for c in wb['winners'] if c in far) or 'none',
+                near='; '.join(f'{LABELS.get(c, c)} {gain_text(near[c])}'
+                               for c in wb['winners'] if c in near) or 'none'))
             pacf = wb.get('pacf') or {}
             if pacf.get('train') and pacf.get('held_out'):
                 tr, te = pacf['train'], pacf['held_out']
                 lags = len(tr['north'])
-                out.append('\nPartial autocorrelation of the errors, lags 1-'
-                           f'{lags} (beyond the bound, 1.96 / sqrt(n), in bold):\n')
+                out.append('\n' + _words('pacf-head', lags=lags) + '\n')
                 out.append('| part, axis | bound | ' +
                            ' | '.join(str(k) for k in range(1, lags + 1)) + ' |\n|' +
                            '---|' * (lags + 2))
@@ -395,13 +383,12 @@ def _beaten_lines(parts):
                                  for v in p[axis][:lags]]
                         out.append(f'| {part}, {axis} | {p["bound"]:.3f} | ' +
                                    ' | '.join(cells) + ' |')
-                out.append('\nLags beyond the bound in the training part and not in the '
-                           'held-out part: ' + '; '.join(
-                               f'{axis} ' + (', '.join(map(str, v)) or 'none')
-                               for axis, v in pacf['only_in_training'].items()) + '.\n')
+                out.append('\n' + _words('pacf-only', lags='; '.join(
+                    f'{axis} ' + (', '.join(map(str, v)) or 'none')
+                    for axis, v in pacf['only_in_training'].items())) + '\n')
             out.extend(_orders_lines(wb.get('orders')))
             out.append(_beaten_reading(wb, f['classes']['population']['fit']))
-    return [BEATEN_HEAD] + out if out else []
+    return [TEMPLATE.snippet('beaten-head') + '\n'] + out if out else []
 
 
 def _orders_lines(orders):
@@ -411,14 +398,12 @@ def _orders_lines(orders):
 
     def part(name, o):
         if o is None:
-            return f'{name}: fewer than 3 blocks'
+            return _words('orders-few', part=name)
         gains = ' / '.join(f'{o[a]["gain_per_sample"]:.2f}' for a in ('north', 'east'))
-        return (f'{name} ({o["blocks"]} blocks): north {o["north"]["order"]}, east '
-                f'{o["east"]["order"]} ({gains} nats per sample below AR(1))')
-    return ['The AR order within blocks that predicts each 300-s block of a part best from '
-            'the part\'s other blocks (orders 1-10, least squares, one-step NLL): ' +
-            part('training part', orders['train']) + '; ' +
-            part('held-out part', orders.get('held_out')) + '.\n']
+        return _words('orders-part', part=name, blocks=o['blocks'], north=o['north']['order'],
+                      east=o['east']['order'], gains=gains)
+    return [_words('orders', train=part('training part', orders['train']),
+                   held=part('held-out part', orders.get('held_out'))) + '\n']
 
 
 def _orders_reading(orders, within):
@@ -433,18 +418,11 @@ def _orders_reading(orders, within):
     axes = ('north', 'east')
     if held and all(train[a]['order'] > held[a]['order']
                     and train[a]['gain_per_sample'] >= ORDER_GAIN for a in axes):
-        return ('The training part\'s blocks, each predicted from the others, choose more '
-                'lags than the held-out part\'s do: the lags hold across the training '
-                'data\'s own stretches, so they are its dynamics, not a selection fitted to '
-                'one split, and the held-out data has other dynamics (another receiver, or '
-                'another stretch).')
+        return _words('reading-more-lags')
     more = [a for a in axes if within and within[a] > train[a]['order']]
     if more:
-        return ('The population fit\'s order within blocks is more than the training '
-                'part\'s own blocks choose (' + ', '.join(
-                    f'{a} {within[a]} against {train[a]["order"]}' for a in more) +
-                '): the lags beyond fit the training part as a whole, not each of its '
-                'stretches.')
+        return _words('reading-lags-beyond', axes=', '.join(
+            f'{a} {within[a]} against {train[a]["order"]}' for a in more))
     return ''
 
 
@@ -456,24 +434,14 @@ def _beaten_reading(wb, fit):
     near, far = resolved('near'), resolved('far')
     out = []
     if near:
-        out.append(f'{", ".join(near)} score better beyond the interval over the blocks '
-                   f'whose level lies within {wb["far_sd"]:g} bias SDs of the population\'s '
-                   f'mean, where its bias law holds the level: there its bias is not what '
-                   f'costs the population.')
+        out.append(_words('reading-near', classes=', '.join(near), far_sd=wb['far_sd']))
     elif far:
-        out.append(f'Only over the blocks whose level lies beyond {wb["far_sd"]:g} bias SDs '
-                   f'do {", ".join(far)} score better beyond the interval: the population\'s '
-                   f'bias law is narrower than this data.')
+        out.append(_words('reading-far', classes=', '.join(far), far_sd=wb['far_sd']))
     only = (wb.get('pacf') or {}).get('only_in_training')
     if only and all(only.values()):
         order = fit.get('within_order')
-        out.append('The training errors have partial autocorrelation beyond the bound at '
-                   'lags the held-out errors lack, on both axes: the process within that '
-                   'the population carries over' +
-                   (f' (the population fit\'s AR order within blocks: north {order["north"]}, '
-                    f'east {order["east"]})'
-                    if order else '') + ' predicts dynamics the held-out receiver does '
-                   'not have, and a class with fewer lags carries fewer of them.')
+        out.append(_words('reading-pacf', order=' ' + _words(
+            'reading-pacf-order', north=order['north'], east=order['east']) if order else ''))
     said = _orders_reading(wb.get('orders'), fit.get('within_order'))
     if said:
         out.append(said)
@@ -487,30 +455,27 @@ def _own_sentence(summary, cls='population'):
         return ''
     others = [LABELS.get(c, c) for c, s in summary.items()
               if c != cls and 'own' in s and s['own']['percentile'] >= 5.0]
-    return (f' (f) Read against its own traces, the population class\'s worst group '
-            f'({own["worst"]:.2f}) is matched or undercut by {own["percentile"]:.0f} % of '
-            f'them (below 5 % would say it is unlike them), and its own traces have every '
-            f'group at 0.90 or more in {own["own_meet_bar"]:.0f} % of sets of folds; '
-            f'other classes at 5 % or more: ' + ('; '.join(others) or 'none') + '.')
+    return ' ' + _words('own', worst=own['worst'], percentile=own['percentile'],
+                        bar=own['own_meet_bar'], others='; '.join(others) or 'none')
 
 
 def _explanation(parts, data):
     """Return the section on what the folds show about why a profile fails to transfer."""
-    out = [CAUSES_HEAD] + _causes(parts) + [''] + _beaten_lines(parts)
+    out = [TEMPLATE.snippet('causes-head') + '\n'] + _causes(parts) + [''] + _beaten_lines(parts)
     if _phones_here(data):
         out += calm_section([(name, _clean(data / name)) for name in PHONES])
-    out += ['', EXPLAIN_HEAD + FILTER_HEAD + SPREAD_HEAD]
+    out += ['', TEMPLATE.snippet('explain-head') + '\n']
     for name, how, folds, _ in parts:
         out.append(f'### {name}: {how}\n')
         out.append('| fold | SD N | SD E | ACF(1) N | ACF(1) E | mean N | mean E |\n'
                    '|---|---|---|---|---|---|---|')
         out += _drift_rows(folds)
-        out.append('\nGate rejections (%), measured and the simulated 95 % range:\n')
+        out.append('\n' + TEMPLATE.snippet('gate-head') + '\n')
         out.append('| fold | measured | AR(1) | extended | population |\n|---|---|---|---|---|')
         out += _consumer_rows(folds)
         out += _filter_rows(folds)
         out += _spread_rows(folds)
-        out.append(PRECEDENT_HEAD)
+        out.append('\n' + TEMPLATE.snippet('precedent-head') + '\n')
         out.append('| fold | training windows | outside the population\'s range | '
                    'without precedent |\n|---|---|---|---|')
         out += _precedent_rows(folds)
@@ -534,10 +499,16 @@ def main(argv=None):
     json_dir = args.out / 'docs' / 'generalisation'
     json_dir.mkdir(parents=True, exist_ok=True)
     rows_json = json_dir / TRANSFER_JSON
+    page_json = json_dir / PAGE_JSON
     if args.from_json:
-        docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json') if p != rows_json]
-        judged, not_judged = alone(args.data)
-        order = set_order(judged)
+        docs = [json.loads(p.read_text()) for p in json_dir.glob('*.json')
+                if p not in (rows_json, page_json)]
+        if page_json.exists():          # the sets as the run that fitted them found them
+            kept = json.loads(page_json.read_text())
+            order, not_judged = kept['order'], kept['not_judged']
+        else:
+            judged, not_judged = alone(args.data)
+            order = set_order(judged)
         docs.sort(key=lambda d: order.index(d['set']))
         rows = json.loads(rows_json.read_text()) if rows_json.exists() else []
         _write_page(args, [(d['set'], d['how'], d['folds'], d['summary']) for d in docs],
@@ -555,6 +526,8 @@ def main(argv=None):
     rows = transfer(args.data, PHONES, json_dir, args.out / 'docs' / 'close-the-loop') \
         if _phones_here(args.data) else []
     rows_json.write_text(json.dumps(rows, indent=1))
+    page_json.write_text(json.dumps({'order': [p[0] for p in parts],
+                                     'not_judged': not_judged}, indent=1) + '\n')
     seconds, date = time.time() - started, dt.date.today().isoformat()
     for name, how, folds, summary, stem in parts:
         for f in folds:             # each simulated trace's shares: summarised, not kept
@@ -604,8 +577,8 @@ def _velocity_rows(folds):
 def _write_page(args, parts, seconds, date=None, rows=(), not_judged=None):
     machine = f'{platform.machine()}, {platform.python_implementation()} ' \
               f'{platform.python_version()}'
-    text = [PAGE_HEAD.format(date=date or dt.date.today().isoformat(), machine=machine,
-                             minutes=seconds / 60.0, sims=args.sims)]
+    text = [TEMPLATE.page(date=date or dt.date.today().isoformat(), machine=machine,
+                          minutes=seconds / 60.0, sims=args.sims)]
     for name, how, folds, summary in parts:
         text.append(f'## {name}: {how}\n')
         text.append('Folds: ' + '; '.join(

@@ -26,9 +26,9 @@ class Template:
         self.body = parts[0]
         self.snippets = {k: v.strip() for k, v in zip(parts[1::2], parts[2::2])}
 
-    def snippet(self, name, **fields):
-        """Return the snippet ``name`` with its fields filled in."""
-        return self._fill(self.snippets[name], fields, f'snippet {name}')
+    def snippet(self, key, /, **fields):
+        """Return the snippet ``key`` with its fields filled in."""
+        return self._fill(self.snippets[key], fields, f'snippet {key}')
 
     def page(self, **fields):
         """Return the body with its fields filled in."""

@@ -19,6 +19,8 @@ import json
 from pathlib import Path
 import tempfile
 
+from page_template import Template
+
 from gps_error_ros.cli import main as cli
 
 #: The profiles of each phone: the extended one of a stretch, the population one.
@@ -67,30 +69,15 @@ def transfer(data, phones, out_dir, close_loop_dir, sims=200):
     return rows
 
 
-TABLE_HEAD = """## Each phone's profile on the other phone
-
-The two GSDC phones rode one drive: each phone's profiles, validated on the
-other phone's recording (`gps_error validate PROFILE OTHER.csv --sims {sims}`):
-another receiver, the nearest to another day that the visible data hold. The
-shares of autocorrelation lags 1-60 and of the 99 quantiles inside the
-simulated 95 % envelopes, per axis, and the four shares judged together
-(their smallest percentile against the simulated traces' own: below 5 the
-recording is unlike the profile's traces at the 5 % level;
-[checking](checking.md)). The extended profile describes the stretch it was
-fitted on; the population profile (`gps_error diagnose X.csv --profile-out
-X.population.yaml --population`, in `docs/generalisation/`) draws each
-agent's bias and scale from the spread of the drive's 300-s blocks: it is
-the profile meant for other drives, days and phones.
-
-| profile | validated on | ACF N | quantiles N | ACF E | quantiles E | joint percentile |
-|---|---|---|---|---|---|---|"""
+#: The section's words are the generalisation page's (tools/templates/generalisation.md).
+TEMPLATE = Template('generalisation')
 
 
 def transfer_lines(rows):
     """Return the section's markdown lines from :func:`transfer`'s rows."""
     if not rows:
         return []
-    out = [TABLE_HEAD.format(sims=rows[0]['sims'])]
+    out = [TEMPLATE.snippet('transfer-head', sims=rows[0]['sims'])]
     for r in rows:
         out.append(f'| {r["profile"]} | {r["validated_on"]} | ' +
                    ' | '.join(f'{100 * r[ax][m]:.0f} %' for ax in ('north', 'east')

@@ -31,3 +31,18 @@ def test_every_trace_with_words_is_on_the_page_and_no_placeholder_is_left(tmp_pa
         assert 'NO_SUCH_TABLE' in str(exc)
     else:
         raise AssertionError('a placeholder without a table was left in the page')
+
+
+def test_the_generalisation_page_is_its_template_filled_in(tmp_path):
+    import shutil
+    import subprocess
+    src = ROOT / 'docs' / 'generalisation'
+    shutil.copytree(src, tmp_path / 'docs' / 'generalisation')
+    subprocess.run([sys.executable, str(ROOT / 'tools' / 'generalisation.py'), '--from-json',
+                    '--data', str(ROOT / 'data'), '--out', str(tmp_path)],
+                   check=True, capture_output=True, cwd=ROOT)
+    built = (tmp_path / 'docs' / 'generalisation.md').read_text()
+    built = evidence_summary.with_summary(built, evidence_summary.render(src))
+    assert built == (ROOT / 'docs' / 'generalisation.md').read_text(), \
+        'docs/generalisation.md differs from tools/templates/generalisation.md: run ' \
+        'python tools/generalisation.py --from-json --data data --out .'
