@@ -18,7 +18,7 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
-	generalisation-page \
+	generalisation-page calibration-page \
 	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets
 
 # The measured recordings the evidence targets read: the repository's data/
@@ -55,6 +55,12 @@ test: setup
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup
 	$(PY) tools/calibration_doc.py --data $(DATA) --out docs
+	$(PY) tools/evidence_summary.py calibration.md
+
+# The page again from its template (tools/templates/calibration.md) and the JSON in
+# docs/calibration/, without fitting: after editing the words.
+calibration-page: setup
+	$(PY) tools/calibration_doc.py --render --out docs
 	$(PY) tools/evidence_summary.py calibration.md
 
 # The built-in profile snapshot-receiver-on-foot and docs/walks.md, from the

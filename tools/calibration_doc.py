@@ -6,7 +6,8 @@ For each trace CSV in the data directory: fit with the PACF-chosen order and
 with the paper's fixed AR(3); validate both in-sample (as the paper did) and,
 where the trace is long enough, fit on the first 70 % of its duration and
 validate on the last 30 %. Writes figures, profiles and JSON under
-``docs/calibration/`` and the document itself.
+``docs/calibration/`` and the document itself, its words from
+``tools/templates/calibration.md`` (``--render``: from the JSON already there).
 """
 
 import argparse
@@ -14,6 +15,7 @@ import json
 from pathlib import Path
 
 from data_sources import CREDITS
+from page_template import Template
 
 from gps_error_ros.diagnose.split import split_trace
 from gps_error_ros.judge.zoned_compare import compare_zones
@@ -27,6 +29,8 @@ from gps_error_ros.traces.trace_io import read_trace_csv
 
 MIN_HOLDOUT_SAMPLES = 600
 SIMS = 300
+#: The page's words (tools/templates/calibration.md).
+TEMPLATE = Template('calibration')
 #: Zone maps drawn from a drive's own environment (docs/calibration/), by trace prefix.
 ZONE_MAPS = {'gsdc2020-mtv1-': 'gsdc2020-mtv1-zones.geojson'}
 #: Recordings calibrated together elsewhere (docs/walks.md, make walks-profile), by prefix.
@@ -106,7 +110,7 @@ def run(data_dir, out_dir):
             rec['zones'] = zones
         (sub / f'{stem}.json').write_text(json.dumps(rec, indent=1) + '\n')
         records.append(rec)
-    (out_dir / 'calibration.md').write_text(render(records) + render_zones(records))
+    (out_dir / 'calibration.md').write_text(render(records))
     return records
 
 
@@ -137,16 +141,8 @@ def render_zones(records):
     recs = [r for r in records if 'zones' in r]
     if not recs:
         return ''
-    lines = ['', '## Per-zone calibration (`calibrate --zones`, `compare --zones`)', '',
-             'The paper finds its fits location-specific. The two GSDC drives run from '
-             'Mountain View\'s streets up US-101 to Millbrae; the zone map '
-             f'`calibration/{recs[0]["zones"]["map"]}` is drawn from that route, not from '
-             'the errors: the streets at each end and the freeway cut in two at latitude '
-             f'37.51. A zone needs {MIN_ZONE_SAMPLES} samples for a profile of its own. '
-             'First, every sample of the drive (`calibrate --zones`); then fitted on the '
-             'first 70 % and judged on the last 30 %, one profile against a profile per '
-             'zone, both Yule-Walker as `calibrate` writes them (`compare --zones`, 100 '
-             'simulated traces, seed 0).', '']
+    lines = [TEMPLATE.snippet('zones-head', map=recs[0]['zones']['map'],
+                              min_zone=MIN_ZONE_SAMPLES), '']
     for r in recs:
         z = r['zones']
         lines += [f'### {r["trace"]}', '', '| zone | samples | stationary SD north / east '
@@ -161,15 +157,15 @@ def render_zones(records):
         for name, c in h['classes'].items():
             lines.append(f'| {name.replace("_", " ")} | {c["heldout_nll_per_sample"]:.4f} | '
                          f'{c["fidelity"]["inside_95"]:.2f} |')
-        lines += ['', f'Per zone lowers the held-out NLL by {imp["per_sample"]:.4f} per '
-                  f'sample (95 % CI {imp["ci95"][0]:.4f} .. {imp["ci95"][1]:.4f}, '
-                  'moving-block bootstrap).', '']
+        lines += ['', TEMPLATE.snippet('zones-gain', gain=imp['per_sample'],
+                                       low=imp['ci95'][0], high=imp['ci95'][1]), '']
         for name, e in h['zones'].items():
             if 'heldout_samples' in e:
-                own = 'its own profile' if e.get('fitted') else 'the one profile'
-                lines.append(f'- {name} ({own}): {e["heldout_samples"]} held-out samples, '
-                             f'NLL one profile {e["heldout_nll_one_profile"]:.4f}, per zone '
-                             f'{e["heldout_nll_per_zone"]:.4f}')
+                lines.append(TEMPLATE.snippet(
+                    'zone-line', zone=name,
+                    whose='its own profile' if e.get('fitted') else 'the one profile',
+                    samples=e['heldout_samples'], one=e['heldout_nll_one_profile'],
+                    per_zone=e['heldout_nll_per_zone']))
         lines.append('')
     spans = [r['zones']['heldout']['nll_improvement']['ci95'] for r in recs]
     zero = all(lo <= 0.0 <= hi for lo, hi in spans)
@@ -178,15 +174,9 @@ def render_zones(records):
            for r in recs]
     train = {n: e['train_samples'] for r in recs
              for n, e in r['zones']['heldout']['zones'].items() if 'train_samples' in e}
-    lines += ['What the data say: ' + (
-        'the interval of the per-zone gain spans zero on every drive: no demonstrable '
-        'gain here' if zero else 'the per-zone gain is outside sampling on at least one '
-        'drive') + f'; `inside_95` differs by at most {max(fid):.2f} between the two. '
-              'Training samples per zone (last drive): '
-              + ', '.join(f'{n} {v}' for n, v in train.items())
-              + '. The held-out 30 % is the end of the drive, where the zones had the '
-              'fewest training samples: a route that passes each zone several times '
-              'would test per-zone profiles better.', '']
+    lines += [TEMPLATE.snippet('zones-zero' if zero else 'zones-nonzero') + ' ' +
+              TEMPLATE.snippet('zones-tail', fidelity=max(fid),
+                               train=', '.join(f'{n} {v}' for n, v in train.items())), '']
     return '\n'.join(lines)
 
 
@@ -207,115 +197,94 @@ def _pct(x):
 
 
 def render(records):
-    """Return the markdown document."""
-    lines = [
-        '# Calibration on measured traces',
-        '',
-        'Generated by `make calibration-doc` (`python '
-        'tools/calibration_doc.py --data data --out docs`); '
-        'do not edit by hand. Profiles, figures and the numbers behind them are '
-        'in `docs/calibration/`.',
-        '',
-        'For each trace: the profile fitted with the order the PACF chose (the '
-        'paper\'s rule: the largest lag up to 10 whose partial autocorrelation '
-        'lies outside 1.96/sqrt(n)), BIC\'s choice beside it, and the paper\'s '
-        'fixed AR(3). Validation follows the paper\'s Section IV with '
-        f'{SIMS} simulated traces on the measured time grid: the share of lags '
-        '1-60 at which the measured autocorrelation lies inside the simulated '
-        '95 % envelope, the share of the 1-99 % quantiles inside theirs, and the '
-        'RMS offset of the measured autocorrelation from the simulated median '
-        'over lags 1-10 (the paper\'s Fig. 5 measure). In-sample is what the '
-        f'paper did; traces of at least {MIN_HOLDOUT_SAMPLES} samples are also '
-        'fitted on the first 70 % of their duration and validated on the last '
-        '30 %.',
-        '',
-        'None of these traces is what the paper modelled (a pedestrian\'s phone '
-        'in Manhattan): two are phones in a car on suburban roads, one a '
-        'receiver\'s snapshot solutions in a car in a Hong Kong canyon, one a '
-        'static phone. They test the calibration procedure, not Table II.',
-        '',
-        'The pedestrian walks of a low-cost snapshot receiver (seven SnapperGPS walks, '
-        'three of them one walk with three receivers) are calibrated together into the '
-        'built-in profile `snapshot-receiver-on-foot`: each walk\'s gross failures, its fit, '
-        'the profile validated on each walk left out and what the diagnosis finds on them '
-        'are in [walks.md](walks.md) (`make walks-profile`).',
-        '',
-    ]
+    """Return the markdown document: the template with every trace's section."""
+    sections = []
     for rec in records:
-        name = rec['trace']
-        what, credit = CREDITS.get(name, ('', 'see data/README.md'))
-        stem = Path(name).stem
-        lines += [f'## {name}', '', f'{what}. {rec["rows"]} fixes.', '',
-                  f'Source and licence: {credit}.', '']
-        pacf = rec.get('pacf', {})
-        if 'refused' in pacf:
-            lines += [f'Calibration refused: {pacf["refused"]}', '']
+        sections += _trace_lines(rec)
+    return TEMPLATE.page(sims=SIMS, holdout_samples=MIN_HOLDOUT_SAMPLES,
+                         traces='\n'.join(sections), zones=render_zones(records))
+
+
+def _trace_lines(rec):
+    """Return one trace's section."""
+    name = rec['trace']
+    what, credit = CREDITS.get(name, ('', 'see data/README.md'))
+    stem = Path(name).stem
+    lines = [TEMPLATE.snippet('trace', name=name, what=what, rows=rec['rows'], credit=credit),
+             '']
+    pacf = rec.get('pacf', {})
+    if 'refused' in pacf:
+        return lines + [TEMPLATE.snippet('refused', why=pacf['refused']), '']
+    ev = pacf['evidence']
+    lines += ['| axis | PACF order | BIC order | delta | phi | sigma_w (m) |',
+              '|---|---|---|---|---|---|']
+    for ax in ('north', 'east'):
+        p = pacf['profile'][ax]
+        phi = ', '.join(f'{v:.3f}' for v in p['phi'])
+        lines.append(f'| {ax} | {ev[ax]["pacf_order"]} | {ev[ax]["bic_order"]} '
+                     f'| {p["delta"]:.4f} | {phi} | {p["sigma_w"]:.3f} |')
+    lines += ['', TEMPLATE.snippet('samples', samples=pacf['samples'],
+                                   segments=pacf['segments']), '']
+    res_m = rec['resolution_m']
+    strongest = {ax: max(range(2, len(ev[ax]['pacf']) + 1),
+                         key=lambda k: abs(ev[ax]['pacf'][k - 1]))
+                 for ax in ('north', 'east')}
+    lines += [TEMPLATE.snippet(
+        'facts', step_north=res_m['north'], step_east=res_m['east'],
+        lag_north=strongest['north'], pacf_north=ev['north']['pacf'][strongest['north'] - 1],
+        lag_east=strongest['east'], pacf_east=ev['east']['pacf'][strongest['east'] - 1],
+        bound=ev['north']['pacf_bound']), '']
+    lines += _fit_table(pacf, rec.get('ar3', {}), ev)
+    lines += ['', f'![in-sample validation](calibration/{stem}-pacf-insample.png)', '']
+    return lines + _holdout_lines(rec.get('holdout'), stem)
+
+
+def _fit_table(pacf, ar3, ev):
+    """Return the table of both fits validated in-sample."""
+    lines = ['| model | axis | sigma_w (m) | BIC | ACF lags inside (in-sample) '
+             '| quantiles inside | ACF offset RMS 1-10 |', '|---|---|---|---|---|---|---|']
+    for label, res in (('PACF order', pacf), ('AR(3)', ar3)):
+        if 'refused' in res:
+            lines.append(f'| {label} | | refused: {res["refused"]} | | | | |')
             continue
-        ev = pacf['evidence']
-        lines += ['| axis | PACF order | BIC order | delta | phi | sigma_w (m) |',
-                  '|---|---|---|---|---|---|']
         for ax in ('north', 'east'):
-            p = pacf['profile'][ax]
-            phi = ', '.join(f'{v:.3f}' for v in p['phi'])
-            lines.append(f'| {ax} | {ev[ax]["pacf_order"]} | {ev[ax]["bic_order"]} '
-                         f'| {p["delta"]:.4f} | {phi} | {p["sigma_w"]:.3f} |')
-        lines += ['', f'{pacf["samples"]} samples in {pacf["segments"]} '
-                  'segment(s).', '']
-        res_m = rec['resolution_m']
-        strongest = {ax: max(range(2, len(ev[ax]['pacf']) + 1),
-                             key=lambda k: abs(ev[ax]['pacf'][k - 1]))
-                     for ax in ('north', 'east')}
-        lines += [
-            'Measured facts: the fixes\' coordinates change in steps of at least '
-            f'{res_m["north"]} m north and {res_m["east"]} m east (their '
-            'printed resolution); beyond lag 1 the largest partial '
-            f'autocorrelation is at lag {strongest["north"]} north '
-            f'({ev["north"]["pacf"][strongest["north"] - 1]:+.3f}) and '
-            f'{strongest["east"]} east '
-            f'({ev["east"]["pacf"][strongest["east"] - 1]:+.3f}), against a bound '
-            f'of {ev["north"]["pacf_bound"]}.', '']
-        ar3 = rec.get('ar3', {})
-        lines += ['| model | axis | sigma_w (m) | BIC | ACF lags inside (in-sample) '
-                  '| quantiles inside | ACF offset RMS 1-10 |',
-                  '|---|---|---|---|---|---|---|']
-        for label, res in (('PACF order', pacf), ('AR(3)', ar3)):
-            if 'refused' in res:
-                lines.append(f'| {label} | | refused: {res["refused"]} | | | | |')
-                continue
-            for ax in ('north', 'east'):
-                order = len(res['profile'][ax]['phi'])
-                bic = ev[ax]['bic'][order - 1] if order <= len(ev[ax]['bic']) else ''
-                v = res['insample'][ax]
-                lines.append(
-                    f'| {label} (p={order}) | {ax} | {res["profile"][ax]["sigma_w"]:.3f}'
-                    f' | {bic} | {_pct(v["acf_lags_inside_envelope"])} | '
-                    f'{_pct(v["quantiles_inside_envelope"])} | '
-                    f'{v["acf_offset_rms_lags_1_10"]:.3f} |')
-        lines += ['', f'![in-sample validation](calibration/{stem}-pacf-insample.png)', '']
-        ho = rec.get('holdout')
-        if ho:
-            lines += [f'Held out: fitted on {ho["train_samples"]} samples, '
-                      f'validated on {ho["test_samples"]}.', '',
-                      '| model | axis | ACF lags inside | quantiles inside '
-                      '| ACF offset RMS 1-10 |', '|---|---|---|---|---|']
-            for label, key in (('PACF order', 'pacf'), ('AR(3)', 'ar3')):
-                res = ho.get(key, {})
-                if 'refused' in res:
-                    lines.append(f'| {label} | | refused: {res["refused"]} | | |')
-                    continue
-                for ax in ('north', 'east'):
-                    v = res[ax]
-                    lines.append(
-                        f'| {label} (p={res["order"][ax]}) | {ax} | '
-                        f'{_pct(v["acf_lags_inside_envelope"])} | '
-                        f'{_pct(v["quantiles_inside_envelope"])} | '
-                        f'{v["acf_offset_rms_lags_1_10"]:.3f} |')
-            lines += ['', f'![held-out validation](calibration/{stem}-pacf-holdout.png)',
-                      '']
-        else:
-            lines += [f'Too short for a held-out part (< {MIN_HOLDOUT_SAMPLES} '
-                      'samples): validated in-sample only.', '']
-    return '\n'.join(lines)
+            order = len(res['profile'][ax]['phi'])
+            bic = ev[ax]['bic'][order - 1] if order <= len(ev[ax]['bic']) else ''
+            v = res['insample'][ax]
+            lines.append(
+                f'| {label} (p={order}) | {ax} | {res["profile"][ax]["sigma_w"]:.3f}'
+                f' | {bic} | {_pct(v["acf_lags_inside_envelope"])} | '
+                f'{_pct(v["quantiles_inside_envelope"])} | '
+                f'{v["acf_offset_rms_lags_1_10"]:.3f} |')
+    return lines
+
+
+def _holdout_lines(ho, stem):
+    """Return the held-out validation's lines, or why there is none."""
+    if not ho:
+        return [TEMPLATE.snippet('too-short', holdout_samples=MIN_HOLDOUT_SAMPLES), '']
+    lines = [TEMPLATE.snippet('held-out', train=ho['train_samples'], test=ho['test_samples']),
+             '', '| model | axis | ACF lags inside | quantiles inside '
+             '| ACF offset RMS 1-10 |', '|---|---|---|---|---|']
+    for label, key in (('PACF order', 'pacf'), ('AR(3)', 'ar3')):
+        res = ho.get(key, {})
+        if 'refused' in res:
+            lines.append(f'| {label} | | refused: {res["refused"]} | | |')
+            continue
+        for ax in ('north', 'east'):
+            v = res[ax]
+            lines.append(
+                f'| {label} (p={res["order"][ax]}) | {ax} | '
+                f'{_pct(v["acf_lags_inside_envelope"])} | '
+                f'{_pct(v["quantiles_inside_envelope"])} | '
+                f'{v["acf_offset_rms_lags_1_10"]:.3f} |')
+    return lines + ['', f'![held-out validation](calibration/{stem}-pacf-holdout.png)', '']
+
+
+def load(out_dir):
+    """Return the records a run left in ``out_dir``/calibration (one JSON per trace)."""
+    return [json.loads(p.read_text())
+            for p in sorted((Path(out_dir) / 'calibration').glob('*.json'))]
 
 
 #: The repository's measured recordings (data/README.md).
@@ -327,7 +296,13 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0].strip())
     p.add_argument('--data', default=str(DATA), help='trace CSV directory')
     p.add_argument('--out', default='docs', help='docs directory')
+    p.add_argument('--render', action='store_true',
+                   help='write the page from the template and the JSON already there')
     args = p.parse_args(argv)
+    if args.render:
+        (Path(args.out) / 'calibration.md').write_text(render(load(args.out)))
+        print(f'wrote {Path(args.out) / "calibration.md"}')
+        return 0
     for rec in run(args.data, args.out):
         print(f'{rec["trace"]}: done')
     print(f'wrote {Path(args.out) / "calibration.md"}')

@@ -46,3 +46,24 @@ def test_the_generalisation_page_is_its_template_filled_in(tmp_path):
     assert built == (ROOT / 'docs' / 'generalisation.md').read_text(), \
         'docs/generalisation.md differs from tools/templates/generalisation.md: run ' \
         'python tools/generalisation.py --from-json --data data --out .'
+
+
+def test_the_calibration_page_is_its_template_filled_in():
+    import calibration_doc
+    page = evidence_summary.with_summary(
+        calibration_doc.render(calibration_doc.load(ROOT / 'docs')),
+        evidence_summary.render_calibration(ROOT / 'docs' / 'calibration'))
+    assert page == (ROOT / 'docs' / 'calibration.md').read_text(), \
+        'docs/calibration.md differs from tools/templates/calibration.md: run ' \
+        'make calibration-page'
+
+
+def test_a_template_names_a_missing_field():
+    import page_template
+    template = page_template.Template('walks')
+    try:
+        template.snippet('family', occasions=5)
+    except KeyError as exc:
+        assert 'walks.md' in str(exc) and 'smallest' in str(exc)
+    else:
+        raise AssertionError('a field without a value was filled in silently')
