@@ -254,11 +254,16 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
     recordings and stretches differ, and within them the extended model
     (``within='extended'``, the class that predicted best on held-out days)
     or the Gaussian AR (``within='ar'``, faster; ``order`` fixes its order).
-    Write it with :func:`gps_error_ros.model.profiles.write_profile` and ``to_dict``.
+    ``profile.save(path)`` writes it for the node and the commands.
 
     >>> profile = calibrate('data/gsdc2020-mtv1-pixel4.csv', order=3)
     >>> profile.axes['north'].order, profile.velocity is not None
     (3, True)
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     profile.save(os.path.join(folder, 'my_phone.yaml'))
+    ...     load_profile(os.path.join(folder, 'my_phone.yaml')).axes['north'].order
+    3
     >>> best = calibrate('data/gsdc2020-mtv1-pixel4.csv', population=True)
     >>> best.population is not None, 'heavy_tails' in best.effects.names
     (True, True)
@@ -286,7 +291,9 @@ def validate(profile: Profile, recording: PathLike, sims: int = 200,
     As ``gps_error validate``: autocorrelation and quantiles against the
     simulated 95 % envelopes, the stated accuracy and the outages; the
     recording's gross failures are left out on both sides.
-    ``summary()`` is the text ``validate`` prints, ``to_dict()`` its JSON.
+    ``summary()`` is the text ``validate`` prints of the envelopes, stated accuracy
+    and outages (the command adds the gross failures and the profile's class);
+    ``to_dict()`` is its JSON.
 
     >>> result = validate(load_profile('phone-suburban-drive'),
     ...                   'data/gsdc2020-mtv1-pixel4xlmodded.csv', sims=50)

@@ -2,7 +2,7 @@
 Gross failures: fixes that are not a noisy estimate of the position at all.
 
 A snapshot receiver whose solution failed, or a phone that jumped to a wrong
-cell, reports a point hundreds of metres to kilometres away. Such a fix is
+cell, reports a point tens of metres to kilometres away. Such a fix is
 not an error of the process the profile models: a handful of them would set
 the whole fit (``sigma_w`` in kilometres). This module finds them by one
 stated rule, relative to the trace's own robust spread, so that it does not

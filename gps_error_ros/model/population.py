@@ -6,8 +6,7 @@ the bias of that run, and another day, another walk or another phone of the
 same kind has another. The optional ``population`` section makes the
 profile describe the receiver across runs (``gps_error calibrate`` fits it
 from several recordings, or from the blocks of one long recording: see
-
-:mod:`gps_error_ros.fit.population_fit`)::
+:mod:`gps_error_ros.fit.population_fit`). The section::
 
     population:
       bias_sd_m: [1.9, 2.4]       # SD of a run's bias about the profile's mean, north/east

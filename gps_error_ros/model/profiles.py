@@ -26,6 +26,7 @@ without them behaves exactly as the paper's model) and ``availability``
 :meth:`Profile.model` refuses it. Any other key is an error.
 """
 
+import copy
 from dataclasses import dataclass, field
 import math
 import os
@@ -87,6 +88,19 @@ class Profile:
     reported_accuracy: Optional[ReportedAccuracy] = None
     gross_failures: Optional[GrossFailureProcess] = None
     population: Optional[Population] = None
+    #: the mapping it was read from (what :meth:`to_dict` returns)
+    raw: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the profile as the plain mapping a profile YAML holds."""
+        return copy.deepcopy(self.raw)
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the profile to ``path`` as YAML, for the node and the commands."""
+        if not self.raw:
+            raise ProfileError(f'profile {self.name}: built without its mapping, nothing to '
+                               f'write; load it with load_profile or profile_from_dict')
+        write_profile(path, self.to_dict(), 'the Python API')
 
     @property
     def fitted(self) -> bool:
@@ -272,7 +286,8 @@ def profile_from_dict(raw: Any, source: str = '<profile>') -> Profile:
         velocity=velocity,
         reported_accuracy=reported,
         gross_failures=failures,
-        population=population)
+        population=population,
+        raw=copy.deepcopy(raw))
 
 
 def load_profile_file(path: str | os.PathLike[str]) -> Profile:

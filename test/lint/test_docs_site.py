@@ -33,7 +33,7 @@ def test_mkdocs_builds_the_site_strictly(site):
     # the home page shows what the package makes: the demo's figure
     assert 'src="images/demo.png"' in home and (site / 'images' / 'demo.png').stat().st_size
     api = (site / 'reference' / 'api.html').read_text()
-    assert 'load_profile' in api and 'WithPopulation' in api
+    assert 'load_profile' in api and 'to_dict' in api and 'Profile.save' in api
 
 
 def test_every_link_of_the_site_opens_a_file_from_disk(site):
