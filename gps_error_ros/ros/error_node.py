@@ -104,7 +104,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             seed = secrets.randbits(63)
             self.get_logger().info(f'no seed given: using seed {seed}')
         self.seed = seed
-        self.faults = NodeFaults(self, cfg['fault_schedule'], cfg['faults'])
+        self.faults = NodeFaults(self, cfg['fault_schedule'], cfg['faults'],
+                                 period_ns=int(round(1e9 / cfg['rate'])))
         self._build_groups(cfg, profiles, active=pattern is None)
         # the datum is checked after the profiles: a bad profile is named first
         self.frame: LocalTangentFrame | None = None

@@ -18,8 +18,9 @@ class NodeFaults:
     overlay of its own; :meth:`apply` adds accepted faults to all of them.
     """
 
-    def __init__(self, node: Any, path: str, given: str) -> None:
+    def __init__(self, node: Any, path: str, given: str, period_ns: int = int(NS)) -> None:
         self.node = node
+        self.period_ns = period_ns
         self.faults: list[Fault] = []
         self._pending: list[Fault] = []
         self._now_ns = 0
@@ -60,7 +61,10 @@ class NodeFaults:
         if not text.strip():
             return None
         try:
-            pending = faults_from_yaml(text, 'faults', now_s=now_ns / NS)
+            # without at: from the first output step after the clock (the step at the
+            # clock's reading may have gone out already)
+            first = (now_ns // self.period_ns + 1) * self.period_ns
+            pending = faults_from_yaml(text, 'faults', now_s=first / NS)
         except FaultError as exc:
             return str(exc)
         unknown = self._unknown(pending)

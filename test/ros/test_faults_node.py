@@ -150,3 +150,23 @@ def test_faults_set_at_run_time_land_on_the_chosen_agent(tmp_path, peer):
         _check_same(fixes[n], expected[n])
     assert sum(f.status.status == NavSatStatus.STATUS_NO_FIX for f in fixes['ann']) == 3
     assert all(f.status.status == NavSatStatus.STATUS_FIX for f in fixes['bob'])
+
+
+def test_a_fault_set_without_at_covers_its_whole_duration_from_the_next_step(peer):
+    # the step at the clock's reading has gone out when the fault is set: an
+    # outage of 3 s without at is the next 3 steps, not 2 of them
+    ns = unique_ns()
+    node = start(ns, 'profile:=DS5', DATUM_ARG, f'seed:={SEED}')
+    pub = peer.publisher(PoseStamped, f'{ns}/pose')
+    fixes = peer.collect(NavSatFix, f'{ns}/fix')
+    peer.wait_connected(pub, f'{ns}/fix', node)
+    drive(peer, pub, fixes, 5)                       # steps T0 .. T0 + 4 out
+    ok = _set_faults(peer, ns, '{kind: outage, duration: 3}')
+    assert ok.successful, ok.reason
+    drive(peer, pub, fixes, 10, start_s=T0 + 5)
+    rc, out = node.stop()
+    assert rc == 0, out
+    assert f'from {T0 + 5:.3f} s for 3 s' in out, out
+    no_fix = [stamp_ns(f.header.stamp) // NS for f in fixes
+              if f.status.status == NavSatStatus.STATUS_NO_FIX]
+    assert no_fix == [T0 + 5, T0 + 6, T0 + 7]
