@@ -37,7 +37,7 @@ from gps_error_ros.ros import cdr, conversions, nmea_stream
 from gps_error_ros.ros.agent_watch import AgentWatcher, PatternAgents
 from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR, OK,
                                            Report, WARN)
-from gps_error_ros.ros.fix_output import FixOutput, start_summary
+from gps_error_ros.ros.fix_output import FixOutput, profile_carries, start_summary
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.node_faults import NodeFaults
 from gps_error_ros.ros.parameters import (
@@ -69,6 +69,7 @@ class ProfileGroup:
     covariance: list[float]    # row-major ENU m^2 of the published fixes
     covariance_type: int
     profile: str               # the profile parameter's value for these agents
+    carries: str = ''          # what the profile carries (the start-up line says it)
 
 
 AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')
@@ -187,7 +188,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 model.stationary_cov, profile.vertical_variance(model))
             g = len(self.groups)
             self.groups.append(ProfileGroup(engine, np.array(members), cov, cov_type,
-                                            spec))
+                                            spec, profile_carries(profile)))
             for local, i in enumerate(members):
                 self.slot[i] = (g, local)
         self.slot_group = np.array([g for g, _ in self.slot])

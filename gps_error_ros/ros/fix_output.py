@@ -192,6 +192,20 @@ class FixOutput:
         send_paced(handles, raws, self.burst)
 
 
+def profile_carries(profile: Any) -> str:
+    """Return what a profile carries beside its AR process, in words, for the start-up line."""
+    parts = [f'name {profile.name}']
+    if profile.effects.names:
+        parts.append('effects ' + ', '.join(profile.effects.names))
+    parts += [section for section in ('population', 'availability', 'velocity',
+                                      'reported_accuracy')
+              if getattr(profile, section) is not None]
+    failures = profile.gross_failures
+    parts.append('no gross failures' if failures is None else
+                 f'gross failures at {failures.rate:.3g} per fix')
+    return '; '.join(parts)
+
+
 def start_summary(groups: Sequence[Any], cfg: Mapping[str, Any], who: str, polled: bool,
                   seed: int) -> str:
     """
@@ -213,7 +227,9 @@ def start_summary(groups: Sequence[Any], cfg: Mapping[str, Any], who: str, polle
         if zmap is not None:
             name = (f'{zmap.default.name} (the map\'s default_profile)'
                     if zmap.default is not None else name) + ' outside the zones'
-        parts.append(f'profile {name}{agents}: {what} north {sd[0]:.2f} m, east {sd[1]:.2f} m')
+        carries = f' ({group.carries})' if getattr(group, 'carries', '') else ''
+        parts.append(f'profile {name}{agents}: {what} north {sd[0]:.2f} m, east {sd[1]:.2f} m'
+                     f'{carries}')
     zones = '' if zmap is None else (
         f'; zones {cfg["zones"]} ({len(zmap)}: ' + ', '.join(
             f'{z} profile {p.name}' for z, p in zip(zmap.names, zmap.profiles)) + ')')

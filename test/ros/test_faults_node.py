@@ -167,6 +167,8 @@ def test_a_fault_set_without_at_covers_its_whole_duration_from_the_next_step(pee
     rc, out = node.stop()
     assert rc == 0, out
     assert f'from {T0 + 5:.3f} s for 3 s' in out, out
+    # the start-up line says what the profile carries: here no gross failures
+    assert 'profile DS5: ' in out and '(name DS5; no gross failures)' in out, out
     no_fix = [stamp_ns(f.header.stamp) // NS for f in fixes
               if f.status.status == NavSatStatus.STATUS_NO_FIX]
     assert no_fix == [T0 + 5, T0 + 6, T0 + 7]
