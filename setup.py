@@ -48,6 +48,7 @@ setup(
             'gps_error = gps_error_ros.cli:main',
             'gps_calibration_node = gps_error_ros.ros.calibration_node:main',
             'gps_error_play = gps_error_ros.ros.bag_play:main',
+            'gps_error_record = gps_error_ros.ros.bag_record:main',
             'gps_error_sumo = gps_error_ros.ros.sumo_bridge:main',
         ],
     },

@@ -23,7 +23,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = ['tutorials/python.md', 'tutorials/calibrate.md', 'tutorials/node.md',
-         'tutorials/sumo.md', 'gross-failures.md', 'bags.md', 'outages.md']
+         'tutorials/sumo.md', 'gross-failures.md', 'bags.md', 'outages.md',
+         'reported-accuracy.md']
 BLOCK = re.compile(r'```(\w+)\n(.*?)```', re.S)
 
 
