@@ -64,6 +64,14 @@ def test_steps_are_told_in_short_sentences(path):
     assert max(lengths) <= 50, f'{path}: a sentence of {max(lengths)} words'
 
 
+@pytest.mark.parametrize('path', [p for p in nav_pages()['Explanation'] if p not in EVIDENCE])
+def test_explanation_is_told_in_sentences_a_reader_follows(path):
+    lengths = sentence_lengths((DOCS / path).read_text())
+    assert statistics.median(lengths) <= 20, \
+        f'{path}: median sentence {statistics.median(lengths)}'
+    assert max(lengths) <= 50, f'{path}: a sentence of {max(lengths)} words'
+
+
 def test_no_page_but_the_evidence_is_long():
     long = {}
     for path in DOCS.rglob('*.md'):
