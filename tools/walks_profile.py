@@ -13,6 +13,7 @@ walk. ``make walks-profile`` runs it (under a minute). The words are
 
 import argparse
 import datetime as dt
+import os
 from pathlib import Path
 import platform
 
@@ -265,7 +266,7 @@ def main():
     page = TEMPLATE.page(
         summary_rows=summary_rows, summary_verdict=summary_verdict, name=NAME,
         walks=len(paths), date=dt.date.today().isoformat(),
-        machine=f'{platform.node() or "this machine"} ({platform.machine()}, Python '
+        machine=f'a {os.cpu_count()}-core {platform.machine()} machine (Python '
                 f'{platform.python_version()})',
         north_order=north.order, east_order=east.order, sd_north=sd[0], sd_east=sd[1],
         mean_north=north.mean, mean_east=east.mean,
