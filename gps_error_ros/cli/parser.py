@@ -382,7 +382,8 @@ def _add_synth(sub: 'Subparsers') -> None:
                     'waits) with phone errors carrying one effect, made by a '
                     'mechanism other than the ones diagnose fits, as a trace '
                     'CSV. Scenarios: ' + ', '.join(_scenarios()) + '.')
-    y.add_argument('scenario', choices=_scenarios())
+    y.add_argument('scenario', choices=_scenarios(), metavar='SCENARIO',
+                   help='one of the scenarios listed above')
     y.add_argument('-o', '--output', required=True, help='trace CSV to write')
     y.add_argument('--seed', type=number(int, 0, 2 ** 32 - 1), default=0,
                    help='seed (default 0)')
@@ -433,7 +434,7 @@ def _build() -> tuple[argparse.ArgumentParser, 'Subparsers']:
     p = argparse.ArgumentParser(
         prog='gps_error',
         description='Smartphone GPS error model tools (no ROS needed).')
-    sub = p.add_subparsers(dest='command', required=True)
+    sub = p.add_subparsers(dest='command', required=True, metavar='COMMAND')
     for add in (_add_calibrate, _add_validate, _add_simulate, _add_diagnose,
                 _add_compare, _add_import, _add_synth, _add_scenario):
         add(sub)

@@ -82,6 +82,14 @@ class Endpoint:
     def qos_cell(self) -> str:
         """Return the QoS as table text (each choice named for a parameter)."""
         if isinstance(self.qos, dict):
+            choices = list(self.qos.values())
+            first = choices[0]
+            if all(q.depth == first.depth and q.durability == first.durability
+                   and q.history == first.history for q in choices):
+                # they differ in reliability alone: name it once, the default first
+                kinds = [qos_text(q).split(', ')[0] for q in choices]
+                rest = ', '.join(qos_text(first).split(', ')[1:])
+                return ' or '.join([f'{kinds[0]} (default)'] + kinds[1:]) + f', {rest}'
             return '; '.join(f'{qos_text(q)} ({k})' for k, q in self.qos.items())
         return qos_text(self.qos)
 

@@ -148,7 +148,7 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
     text = '\n'.join(lines)
     assert lines[0].startswith('## Where a simpler class scores better')
     assert '**phones, f1**: AR(1)' in text and 'f2' not in text
-    assert '(0 samples): none; in the others (300 samples): AR(1) -0.300 (-0.500 to -0.100)' \
+    assert '(0 samples): none. In the others (300 samples): AR(1) -0.300 (-0.500 to -0.100)' \
         in text
     assert '| training, north | 0.050 | **0.90** | **0.30** |' in text
     assert '| held out, east | 0.060 | **0.80** | **0.20** |' in text
@@ -185,7 +185,7 @@ def test_the_generalisation_page_shows_where_the_population_is_beaten():
     text = '\n'.join(_beaten_lines([('phones', 'across', folds, None)]))
     assert 'held-out part: fewer than 3 blocks' in text
     assert ("order within blocks is more than the training part's own blocks choose (north 3 "
-            'against 1): the lags beyond') in text
+            'against 1). The lags beyond') in text
 
 
 def test_the_generalisation_page_shows_the_training_blocks_persistence():
@@ -263,6 +263,6 @@ def test_the_generalisation_page_regenerates_from_a_data_directory(tmp_path):
     page = (tmp_path / 'docs' / 'generalisation.md').read_text()
     assert '## long.csv: rolling origin (3 folds)' in page
     assert 'Not judged: short.csv (300 samples: a rolling fold would hold out 37).' in page
-    assert 'SnapperGPS walks' not in page and 'GSDC phones' not in page
+    assert '## SnapperGPS walks' not in page and '## GSDC phones of one drive' not in page
     assert json.loads((tmp_path / 'docs' / 'generalisation' / 'long.json').read_text())['set'] \
         == 'long.csv'
