@@ -241,6 +241,15 @@ def _long_run(long_run):
     return md + _pooled_rows(long_run['summary'])
 
 
+def _rounded(value):
+    """Return a parameter as text, its numbers to three significant figures."""
+    if isinstance(value, (list, tuple)):
+        return '[' + ', '.join(_rounded(v) for v in value) + ']'
+    if isinstance(value, float):
+        return f'{value:.3g}'
+    return str(value)
+
+
 def _trace(rec, words):
     """Return one measured trace's section."""
     name = rec['trace']
@@ -263,7 +272,9 @@ def _trace(rec, words):
     md += _tests_table(s) + [''] + _effect_lines(s) + ['']
     eff = s['extended']['parameters'].get('effects', {})
     if eff:
-        md += ['Fitted effects: `' + json.dumps(eff) + '`', '']
+        md += ['The fitted effects:', ''] + [f'- `{name}`: ' + ', '.join(
+            f'{key} {_rounded(value)}' for key, value in params.items())
+            for name, params in eff.items()] + ['']
     before = s['error_before']['heldout_nll_per_sample']
     after = s['error_after']['heldout_nll_per_sample']
     md += [f'Held-out NLL per sample: before {_f(before)}, after {_f(after)}; gain '

@@ -7,12 +7,16 @@ simulate it worse (``inside_95``)? The experiments of
 ``tools/close_loop_doc.py``, rendered here as tables.
 """
 
+from page_template import Template
+
 from gps_error_ros.diagnose import evidence
 from gps_error_ros.judge.baselines import CLASSES, compare
 from gps_error_ros.diagnose.pipeline import fit_split
 
 #: Held-out measures shown per failing list.
 SHOW_FAILING = 6
+#: The tables' captions (tools/templates/close_loop_evidence.md).
+WORDS = Template('close_loop_evidence')
 
 
 def run_evidence(fitted, trace, sims):
@@ -47,23 +51,19 @@ def _failing(names):
 
 def render_trace(name, ev, forward):
     """Return the Markdown lines of one trace's evidence."""
-    md = [f'### {name}', '', '**Is it stationary?** The training part in three '
-          'blocks of equal time span, and the held-out part:', '',
+    md = [f'### {name}', '', WORDS.snippet('blocks'), '',
           '| part | samples | mean N, E (m) | SD N, E (m) | motion lag alone (s) '
           '| median speed (m/s) |', '|---|---|---|---|---|---|']
     for r in ev['blocks']:
         md.append(f'| {r["part"]} | {r["samples"]} | {_v(r["mean_m"][0])}, '
                   f'{_v(r["mean_m"][1])} | {_v(r["sd_m"][0])}, {_v(r["sd_m"][1])} | '
                   f'{_v(r["motion_lag_s"], 3)} | {_v(r["median_speed_mps"], 1)} |')
-    md += ['', '**Sampling alone**: the AR(p)\'s simulated central 95 % range of '
-           'a measure on the held-out grid, against the training and held-out '
-           'values:', '', '| measure | training | held out | simulated 95 % range |',
-           '|---|---|---|---|']
+    md += ['', WORDS.snippet('spread'), '',
+           '| measure | training | held out | simulated 95 % range |', '|---|---|---|---|']
     for k, r in ev['spread'].items():
         md.append(f'| {k} | {_v(r["training"])} | {_v(r["held_out"])} | '
                   f'{_v(r["sim_lo"])} - {_v(r["sim_hi"])} |')
-    md += ['', '**The direction of the split**: the same procedure holding out '
-           'the first 30 % (trained on the last 70 %):', '',
+    md += ['', WORDS.snippet('reversed'), '',
            '| model class | held-out NLL, forward | inside_95, forward | '
            'held-out NLL, reversed | inside_95, reversed |', '|---|---|---|---|---|']
     for label in CLASSES:
@@ -71,10 +71,10 @@ def render_trace(name, ev, forward):
         md.append(f'| {label} | {_v(f["heldout_nll_per_sample"], 3)} | '
                   f'{_v(f["calibrated"]["inside_95"])} | '
                   f'{_v(r["heldout_nll_per_sample"], 3)} | {_v(r["inside_95"])} |')
-    md += ['', f'Reversed, the selection keeps: {_eff(ev["reversed_kept"])}.', '']
+    md += ['', WORDS.snippet('reversed-kept', effects=_eff(ev['reversed_kept'])), '']
     md += _ablation(ev)
     est = ev['estimator']
-    md += ['**The estimator** of the AR(p) part, same orders:', '',
+    md += [WORDS.snippet('estimator'), '',
            '| estimator | held-out NLL | inside_95 | failing measures |', '|---|---|---|---|']
     for k, r in est.items():
         md.append(f'| {k} | {_v(r["heldout_nll_per_sample"], 3)} | '
@@ -85,9 +85,7 @@ def render_trace(name, ev, forward):
 
 def _ablation(ev):
     found, kept = ev['found'], ev['selection'].get('kept', [])
-    md = ['**Where the effects enter**: every subset of the effects found, fitted '
-          'on the training part, on the held-out part (`found`: the model before '
-          'the selection; `kept`: after):', '',
+    md = [WORDS.snippet('ablation'), '',
           '| effects | held-out NLL | inside_95 | q95 simulated (measured) m | '
           'failing measures |', '|---|---|---|---|---|']
     for r in ev['ablation']:
@@ -97,8 +95,7 @@ def _ablation(ev):
                   f'| {_v(r["inside_95"])} | {_v(r["q95_sim_median"])} '
                   f'({_v(r["q95_measured"])}) | {_failing(r["failing"])} |')
     sel = ev['selection']
-    md += ['', '**The selection** (training part only; '
-           f'{sel["rule"]}):', '',
+    md += ['', WORDS.snippet('selection'), '',
            '| effects | CV NLL | CV inside_95 | inside_95 by block | CRPS by block |',
            '|---|---|---|---|---|']
     for c in sel['candidates']:
