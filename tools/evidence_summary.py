@@ -17,10 +17,9 @@ import re
 import sys
 
 from generalisation_text import LABELS
+from page_template import Template
 
 ROOT = Path(__file__).resolve().parents[1]
-TEMPLATES = Path(__file__).with_name('templates')
-TEMPLATE = TEMPLATES / 'generalisation_summary.md'
 BLOCK = re.compile(r'<!-- summary -->\n.*?<!-- /summary -->\n', re.S)
 #: Below this percentile among its own traces, a class is unlike them (5 %).
 UNLIKE = 5.0
@@ -57,13 +56,10 @@ def render(json_dir):
         rows.append(text)
         if bad:
             unlike.append(name)
-    verdict = ('On every set the population class is not unlike its own simulated traces.'
-               if not unlike else
-               'The population class is unlike its own simulated traces on: '
-               + ', '.join(unlike) + '.')
-    body = TEMPLATE.read_text().replace('{{ROWS}}', '\n'.join(rows)).replace(
-        '{{VERDICT}}', verdict)
-    return '<!-- summary -->\n' + body.rstrip('\n') + '\n<!-- /summary -->\n'
+    words = Template('generalisation_summary')
+    verdict = words.snippet('some-unlike', sets=', '.join(unlike)) if unlike else \
+        words.snippet('all-alike')
+    return _block(words, rows, verdict)
 
 
 def _shares(check, key):
@@ -90,10 +86,10 @@ def render_calibration(json_dir):
                 cells.append(text)
                 misses += [f'{doc["trace"]} {part}, {what} {ax}' for ax in low]
         rows.append(f'| {doc["trace"]} | {doc["rows"]} | ' + ' | '.join(cells) + ' |')
-    verdict = ('Every share is 80 % or more.' if not misses else
-               f'Shares below {LOW_SHARE:.0%}: ' + '; '.join(misses) + '. There the fit '
-               'misses the recording: the sections below say how.')
-    return _block('calibration_summary.md', rows, verdict)
+    words = Template('calibration_summary')
+    verdict = words.snippet('some-miss', misses='; '.join(misses)) if misses else \
+        words.snippet('all-hold')
+    return _block(words, rows, verdict)
 
 
 def render_close_loop(json_dir):
@@ -112,18 +108,21 @@ def render_close_loop(json_dir):
         left = '; '.join(u['structure'] for u in dg['unexplained']) or 'nothing'
         rows.append(f'| {dg["input"]} | {", ".join(found)} | {", ".join(kept)} | '
                     f'{gain["heldout_nll_per_sample"]:.3f} ({lo:.3f} to {hi:.3f}) | {left} |')
-    verdict = ('On every recording the extended model predicts the held-out part better, '
-               'its interval above 0.' if not weak else
-               'The gain\'s interval holds 0 (not resolved by the held-out samples) on: '
-               + ', '.join(weak) + '; above 0 on the others.')
-    return _block('close_loop_summary.md', rows, verdict)
+    words = Template('close_loop_summary')
+    verdict = words.snippet('some-unresolved', names=', '.join(weak)) if weak else \
+        words.snippet('all-resolved')
+    records = Path(json_dir) / 'records.json'
+    refused = sorted(json.loads(records.read_text()).get('refused', {})) \
+        if records.is_file() else []
+    if refused:
+        verdict += '\n\n' + words.snippet('refused', names=', '.join(refused))
+    return _block(words, rows, verdict)
 
 
-def _block(template, rows, verdict):
-    """Return a summary block from a template, its rows and its verdict."""
-    body = (TEMPLATES / template).read_text().replace('{{ROWS}}', '\n'.join(rows)).replace(
-        '{{VERDICT}}', verdict)
-    return '<!-- summary -->\n' + body.rstrip('\n') + '\n<!-- /summary -->\n'
+def _block(words, rows, verdict):
+    """Return a summary block from its template's words, its rows and its verdict."""
+    body = words.page(rows='\n'.join(rows), verdict=verdict)
+    return '<!-- summary -->\n' + body.strip('\n') + '\n<!-- /summary -->\n'
 
 
 #: Each evidence page: its file, the folder of its JSON, and its renderer.
