@@ -160,8 +160,11 @@ class Fixes:
 
     ``lat``, ``lon`` are NaN where ``fix`` is False (an outage);
     ``covariance`` ``(rows, 2, 2)`` north/east m^2 is what the node states;
-    ``accuracy`` the 68 % radius stated (m). With a datum, ``east`` and
-    ``north`` are the fixes in its ENU frame (m), else None.
+    ``accuracy`` the 68 % radius stated (m). ``failed`` marks a gross failure
+    of the profile's section (a fault's are at the times you chose). With a
+    datum, ``east`` and ``north`` are the fixes in its ENU frame (m), else
+    None. ``speed`` (m/s) and ``bearing`` (degrees from north) are what the
+    phone reports where the profile has a ``velocity`` section, else None.
     """
 
     t: FloatArray
@@ -171,8 +174,11 @@ class Fixes:
     fix: BoolArray
     covariance: FloatArray
     accuracy: FloatArray
+    failed: BoolArray
     east: FloatArray | None = None
     north: FloatArray | None = None
+    speed: FloatArray | None = None
+    bearing: FloatArray | None = None
 
 
 def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = None,
@@ -229,6 +235,7 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     about = covariance_mode != 'reported'
     model = profile.model(about_truth=about)
     rows, radius = trajectory_fixes(data, model, profile.rate_hz, seed,
+                                    velocity=profile.velocity,
                                     covariance_mode=covariance_mode,
                                     reported=profile.reported_accuracy,
                                     reported_bias=model.mean, faults=faults)
@@ -239,8 +246,24 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     out_east = out_north = None
     if frame is not None:
         out_east, out_north, _ = frame.to_enu(rows.lat, rows.lon, np.zeros(t.size))
+    speed = rows.extra.get('speed')
+    bearing = rows.extra.get('bearing')
     return Fixes(t, names, rows.lat, rows.lon, rows.fix, rows.cov, accuracy,
-                 out_east, out_north)
+                 _failed_rows(profile, seed, names, t) & rows.fix, out_east, out_north,
+                 speed, bearing)
+
+
+def _failed_rows(profile: Profile, seed: int, names: Sequence[str], t: FloatArray) -> BoolArray:
+    """Return which rows the profile's gross failures hit (the model's own draws)."""
+    failed = np.zeros(t.size, dtype=bool)
+    if profile.gross_failures is None or not t.size:
+        return failed
+    keys = agent_keys(seed, list(names))
+    steps = np.array([model_step(v, profile.rate_hz) for v in t])
+    for step in np.unique(steps):
+        rows = np.flatnonzero(steps == step)
+        failed[rows] = profile.gross_failures.offsets(keys[rows], int(step))[1]
+    return failed
 
 
 def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = False,

@@ -79,6 +79,24 @@ def test_added_errors_are_what_simulate_writes(tmp_path):
     np.testing.assert_allclose(fixes.accuracy, [float(r['accuracy']) for r in rows], rtol=1e-12)
 
 
+def test_added_errors_flag_the_models_failures_and_report_velocity():
+    # a gross failure of the profile lands on the same (agent, step) as in
+    # simulate_errors; the failed fixes are the far ones
+    t = np.arange(0.0, 3600.0)
+    profile = api.load_profile('snapshot-receiver-on-foot')
+    fixes = api.add_errors(profile, t, 1, east=1.3 * t, north=np.zeros(t.size),
+                           datum=[51.75, -1.25])
+    errors = api.simulate_errors(profile, [''], 3600, seed=1)
+    np.testing.assert_array_equal(fixes.failed, errors.failed[0])
+    off = np.hypot(fixes.east - 1.3 * t, fixes.north)
+    assert fixes.failed.sum() > 10 and np.median(off[fixes.failed]) > 3 * np.median(off)
+    assert fixes.speed is None               # this profile has no velocity section
+    phone = api.add_errors(api.load_profile('phone-suburban-drive'), t[:60], 1,
+                           east=1.3 * t[:60], north=np.zeros(60), datum=[37.42, -122.08])
+    assert phone.speed is not None and np.nanmedian(np.abs(phone.speed - 1.3)) < 1.0
+    assert np.nanmedian(np.abs(phone.bearing - 90.0)) < 45.0
+
+
 @pytest.mark.parametrize('call, says', [
     (lambda p: api.simulate_errors(p, 2, 10, 1, covariance_mode='stated'),
      "covariance_mode 'stated'"),
