@@ -4,7 +4,8 @@
 For installs without ros2cli (the PyPI wheels). Subscribes to each topic
 with the QoS its publishers offer and writes the raw CDR bytes, stamped
 with the receive time on the node's clock (``--use-sim-time``: the ROS
-clock of ``/clock``), to an MCAP (or SQLite3) bag. Stops on Ctrl-C, on
+clock of ``/clock``; a message before the first tick takes that tick's
+time), to an MCAP (or SQLite3) bag. Stops on Ctrl-C, on
 SIGTERM or after ``--duration`` seconds, and closes the bag whole: every
 message received is in it.
 """
@@ -32,8 +33,12 @@ DISCOVERY_S = 10.0
 class Recorder:
     """The subscriptions and the bag they write to."""
 
-    def __init__(self, node: Node, out: str, topics: Sequence[str], storage: str) -> None:
+    def __init__(self, node: Node, out: str, topics: Sequence[str], storage: str,
+                 sim_time: bool = False) -> None:
         self.node = node
+        self.sim_time = sim_time
+        #: messages received before the first /clock (sim time): written with its time
+        self._early: list[tuple[Any, bytes]] = []
         self.writer = bag_io.open_writer(out, storage)
         self.counts = {t: 0 for t in topics}
         self._subs: list[Any] = []
@@ -69,12 +74,27 @@ class Recorder:
     def _writer_for(self, topic: str, conn: Any) -> Any:
         """Return the callback that writes ``topic``'s raw messages."""
         def write(raw: bytes) -> None:
-            self.writer.write(conn, self.node.get_clock().now().nanoseconds, raw)
+            now = self.node.get_clock().now().nanoseconds
             self.counts[topic] += 1
+            if self.sim_time and now == 0:      # no /clock yet: stamp it with the first
+                self._early.append((conn, raw))
+                return
+            self._flush(now)
+            self.writer.write(conn, now, raw)
         return write
 
+    def _flush(self, now: int) -> None:
+        """Write the messages held for the first clock reading, stamped ``now``."""
+        for conn, raw in self._early:
+            self.writer.write(conn, now, raw)
+        self._early.clear()
+
     def close(self) -> None:
-        """Close the bag (its index and metadata written)."""
+        """Close the bag (its index and metadata written); nothing received is left out."""
+        if self._early:
+            self.node.get_logger().warning(
+                f'{len(self._early)} message(s) came before any /clock: stamped 0')
+            self._flush(0)
         self.writer.close()
 
 
@@ -92,7 +112,7 @@ def record(out: str, topics: Sequence[str], duration_s: float | None = None,
     stop = []
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.append(True))
-    recorder = Recorder(node, out, topics, storage)
+    recorder = Recorder(node, out, topics, storage, use_sim_time)
     print(f'recording {", ".join(topics)} to {out}', flush=True)
     end = None if duration_s is None else time.monotonic() + duration_s
     try:
