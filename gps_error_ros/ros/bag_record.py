@@ -89,6 +89,10 @@ class Recorder:
             self.writer.write(conn, now, raw)
         self._early.clear()
 
+    def matched(self) -> bool:
+        """Return whether every subscription is matched with a publisher."""
+        return all(sub.get_publisher_count() > 0 for sub in self._subs)
+
     def close(self) -> None:
         """Close the bag (its index and metadata written); nothing received is left out."""
         if self._early:
@@ -113,6 +117,10 @@ def record(out: str, topics: Sequence[str], duration_s: float | None = None,
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.append(True))
     recorder = Recorder(node, out, topics, storage, use_sim_time)
+    # each subscription matched with its publishers before 'recording' is said
+    deadline = time.monotonic() + DISCOVERY_S
+    while not recorder.matched() and time.monotonic() < deadline:
+        rclpy.spin_once(node, timeout_sec=0.05)
     print(f'recording {", ".join(topics)} to {out}', flush=True)
     end = None if duration_s is None else time.monotonic() + duration_s
     try:
