@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 
 from gps_error_ros.diagnose.pipeline import fit_split
 from gps_error_ros.fit.calibration import calibrate, CalibrationResult
-from gps_error_ros.fit.gross_failures import without_gross_failures
+from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.population_fit import (DAY_RATIO, occasions, segment_weights,
                                               with_day_allowance)
 from gps_error_ros.judge.generalise import split_between
@@ -59,7 +59,8 @@ def calibrate_best(trace: Trace | Sequence[Trace], day_allowance: float = DAY_RA
     result = calibrate(trace, population=True, day_allowance=day_allowance)
     if result.population is None or result.population.population is None:
         return result
-    kept, _ = without_gross_failures(recordings_of(trace))
+    # the recordings as calibrate fitted them: its failures, found once, left out
+    kept = [without_rows(t, f.mask) for t, f in zip(recordings_of(trace), result.failures)]
     joined = join_recordings(kept)
     end = float(joined.t[-1]) + 1.0
     split = split_between(joined, end, end, 'every recording trains')

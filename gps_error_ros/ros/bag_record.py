@@ -24,6 +24,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
+from gps_error_ros.ros.bag_play import message_class
 from gps_error_ros.traces import bag_io
 
 #: Seconds to wait for every topic's publisher to appear (its type comes from it).
@@ -46,7 +47,7 @@ class Recorder:
             conn = bag_io.add_topic(self.writer, topic, msgtype)
             qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE if reliable
                              else ReliabilityPolicy.BEST_EFFORT)
-            cls = _message_class(msgtype)
+            cls = message_class(msgtype)
             self._subs.append(node.create_subscription(
                 cls, topic, self._writer_for(topic, conn), qos, raw=True))
 
@@ -100,12 +101,6 @@ class Recorder:
                 f'{len(self._early)} message(s) came before any /clock: stamped 0')
             self._flush(0)
         self.writer.close()
-
-
-def _message_class(msgtype: str) -> Any:
-    """Return the rclpy class of ``pkg/msg/Name``."""
-    from gps_error_ros.ros.bag_play import message_class
-    return message_class(msgtype)
 
 
 def record(out: str, topics: Sequence[str], duration_s: float | None = None,

@@ -106,7 +106,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             self.get_logger().info(f'no seed given: using seed {seed}')
         self.seed = seed
         self.faults = NodeFaults(self, cfg['fault_schedule'], cfg['faults'],
-                                 period_ns=int(round(1e9 / cfg['rate'])))
+                                 period_ns=int(round(NS / cfg['rate'])))
         self._build_groups(cfg, profiles, active=pattern is None)
         # the datum is checked after the profiles: a bad profile is named first
         self.frame: LocalTangentFrame | None = None

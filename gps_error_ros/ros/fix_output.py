@@ -227,7 +227,7 @@ def start_summary(groups: Sequence[Any], cfg: Mapping[str, Any], who: str, polle
         if zmap is not None:
             name = (f'{zmap.default.name} (the map\'s default_profile)'
                     if zmap.default is not None else name) + ' outside the zones'
-        carries = f' ({group.carries})' if getattr(group, 'carries', '') else ''
+        carries = f' ({group.carries})' if group.carries else ''
         parts.append(f'profile {name}{agents}: {what} north {sd[0]:.2f} m, east {sd[1]:.2f} m'
                      f'{carries}')
     zones = '' if zmap is None else (
