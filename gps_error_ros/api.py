@@ -25,11 +25,11 @@ from gps_error_ros.fit.gross_failures import find_gross_failures
 from gps_error_ros.fit.validation import FAILURE_COLUMN, ValidationResult
 from gps_error_ros.fit.validation import validate as _validate
 from gps_error_ros.model import profiles
-from gps_error_ros.model.availability import available
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import Profile
 from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.model.stepping import run
 from gps_error_ros.model.streams import agent_keys
 from gps_error_ros.sim.faults import Fault, faults_from_yaml
 from gps_error_ros.sim.trajectory_fixes import agent_names, model_step, Stated, trajectory_fixes
@@ -68,9 +68,10 @@ class Errors:
     ``fix`` is False where the agent has no fix (an outage: the node
     publishes NO_FIX there); it is True throughout for a profile without an
     ``availability`` section (no built-in one has one: put outages where you
-    want them with :func:`add_errors`' faults); ``failed`` marks a gross failure (a fix far
-    off); ``covariance`` ``(agents, steps, 2, 2)`` is what the node states
-    in its ``covariance_mode``; ``velocity`` ``(agents, steps, 2)`` is the
+    want them with :func:`add_errors`' faults); ``failed`` marks a gross failure
+    (a fix far off; never where there is no fix); ``covariance``
+    ``(agents, steps, 2, 2)`` is what the node states in its
+    ``covariance_mode``; ``velocity`` ``(agents, steps, 2)`` is the
     reported velocity's error (east, north m/s) where the profile has a
     ``velocity`` section, else None.
     """
@@ -115,30 +116,17 @@ def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: f
     about = covariance_mode != 'reported'
     model = profile.model(about_truth=about)
     conditional = needs_predictive(covariance_mode, profile.reported_accuracy)
-    state = model.initial_state(keys, start)
-    err = np.empty((len(names), steps, 2))
-    fix = np.empty((len(names), steps), dtype=bool)
-    failed = np.empty((len(names), steps), dtype=bool)
-    cov = np.repeat(np.asarray(model.stationary_cov)[None, None], len(names), axis=0)
-    cov = np.repeat(cov, steps, axis=1)
-    for i in range(steps):
-        if i:
-            if conditional:
-                cov[:, i] = model.predictive_cov(state)
-            model.advance(state, keys, start + i)
-        elif conditional:
-            cov[:, 0] = model.predictive_cov(state, first=True)
-        err[:, i] = model.errors(state)
-        fix[:, i] = available(model, state)
-        # a failure is a pure function of (agent, step), as in the model's own draw
-        failed[:, i] = False if profile.gross_failures is None else \
-            profile.gross_failures.offsets(keys, start + i)[1]
+    result = run(model, keys, start, steps, cov=conditional)
+    cov = result.covariance
+    if cov is None:
+        cov = np.repeat(np.asarray(model.stationary_cov)[None, None], len(names), axis=0)
+        cov = np.repeat(cov, steps, axis=1)
     t = (start + np.arange(steps)) / profile.rate_hz
     if covariance_mode == 'reported':
         cov = _stated_cov(profile, model, seed, names, t, start, cov)
     velocity = None if profile.velocity is None else \
         profile.velocity.errors(keys, steps, start).transpose(1, 0, 2)
-    return Errors(t, names, err, fix, failed, cov, velocity)
+    return Errors(t, names, result.errors, result.fix, result.failed, cov, velocity)
 
 
 def _stated_cov(profile: Profile, model: Any, seed: int, names: Sequence[str],
@@ -185,7 +173,7 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
                lon: Numbers | None = None, *, east: Numbers | None = None,
                north: Numbers | None = None, datum: Sequence[float] | None = None,
                agents: Sequence[str] | None = None, covariance_mode: str = 'stationary',
-               faults: Sequence[Fault] | str = ()) -> Fixes:
+               faults: Sequence[Fault] | str = (), zones: PathLike | None = None) -> Fixes:
     """
     Return the fixes a phone would give along true positions.
 
@@ -194,8 +182,10 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     in time order (``t``, s), the rows of all agents sorted together;
     ``agents`` names each row's agent (default: one agent, ``''``, as the
     single-agent node). ``faults``: faults on demand, as YAML text or
-    :func:`gps_error_ros.sim.faults.faults_from_yaml`'s list. A row without
-    a fix (an outage) has NaN position, covariance and accuracy.
+    :func:`gps_error_ros.sim.faults.faults_from_yaml`'s list. ``zones``: a
+    zone map (GeoJSON) whose zones' profiles apply where the truth is, as
+    the node's ``zones`` parameter. A row without a fix (an outage) has NaN
+    position, covariance and accuracy.
 
     >>> import numpy as np
     >>> t = np.arange(1000.0, 1060.0)
@@ -234,9 +224,15 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
             'truth_lon': np.asarray(lon, float)}
     about = covariance_mode != 'reported'
     model = profile.model(about_truth=about)
+    zoned = None
+    if zones is not None:
+        from gps_error_ros.model.zoned import zoned_errors
+        from gps_error_ros.model.zones import load_zone_map
+        profile, model, zoned = zoned_errors(load_zone_map(zones), profile, covariance_mode,
+                                             about)
     rows, radius = trajectory_fixes(data, model, profile.rate_hz, seed,
                                     velocity=profile.velocity,
-                                    covariance_mode=covariance_mode,
+                                    covariance_mode=covariance_mode, zones=zoned,
                                     reported=profile.reported_accuracy,
                                     reported_bias=model.mean, faults=faults)
     from gps_error_ros.model.accuracy import radius68

@@ -21,7 +21,8 @@ from gps_error_ros.diagnose.split import Part, TruthTrack
 from gps_error_ros.fit.autocorrelation import about_recording_means, segment_acf
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, StepInputs
+from gps_error_ros.model.stepping import run
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
 from gps_error_ros.traces.trace_io import RECORDING_GAP_S
 
@@ -116,13 +117,11 @@ def _run(sim: ErrorModel[Any], keys: Keys, start: int, end: int, truth: TruthTra
         return sim.simulate(keys, end - start, start=start)
     # street_frame: the innovations turn with the walk
     heading = travel_headings(truth, t0 + np.arange(start, end), lag_s)
-    x = np.empty((end - start, keys.size, 2))
-    state = sim.initial_state(keys, start)
-    sim.face(state, np.full(keys.size, heading[0]))
-    x[0] = sim.errors(state)
-    for k in range(start + 1, end):
-        x[k - start] = sim.advance(state, keys, k, np.full(keys.size, heading[k - start]))
-    return x
+    keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+
+    def inputs(k: int) -> StepInputs:
+        return StepInputs(heading=np.full(keys.size, heading[k - start]))
+    return run(sim, keys, start, end - start, inputs=inputs).errors.transpose(1, 0, 2)
 
 
 def fidelity(model: Simulates, part: Part, truth: TruthTrack, sims: int = 100, seed: int = 0,

@@ -24,6 +24,7 @@ import numpy as np
 from gps_error_ros.fit.envelope import envelope
 from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import reference_cov, ReportedAccuracy
+from gps_error_ros.model.stepping import run
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
 from gps_error_ros.traces.trace_io import Trace
 
@@ -59,13 +60,9 @@ def _simulated_radius(model: ErrorModel[Any], reported: ReportedAccuracy, keys: 
     x = reported.errors(keys, span)[steps, :, :]             # (n, sims, 1)
     if reported.follow == 0.0:
         return reported.radius(x)
-    state = model.initial_state(keys, 0)       # the same errors as model.simulate
-    covs = np.empty((span, keys.size, 2, 2))
-    covs[0] = model.predictive_cov(state, first=True)
-    for k in range(1, span):
-        covs[k] = model.predictive_cov(state)
-        model.advance(state, keys, k)
-    return reported.radius(x, covs[steps], reference_cov(model))
+    covs = run(model, keys, 0, span, cov=True).covariance    # the errors of model.simulate
+    assert covs is not None
+    return reported.radius(x, covs.transpose(1, 0, 2, 3)[steps], reference_cov(model))
 
 
 def reported_check(model: ErrorModel[Any], reported: ReportedAccuracy, trace: Trace,

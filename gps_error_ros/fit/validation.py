@@ -33,7 +33,6 @@ from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
-from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import ReportedAccuracy
 from gps_error_ros.model.state import FloatArray, Keys, Numbers
@@ -170,7 +169,7 @@ def validate(model: ErrorModel[Any], trace: Trace, sims: int = 200, max_lag: int
     that states its accuracy, the stated radius is compared too
     (:mod:`reported_check`; not with zones).
 
-    With ``zones`` (``(ZoneMap, ZonedErrors)``) the traces follow the zone of
+    With ``zones`` (``(ZoneMap, StepsPerFix)``) the traces follow the zone of
     the truth at every sample (:func:`~gps_error_ros.model.zoned.simulate_along`)
     and the checks are also made on each zone's samples alone (``per_zone``).
 
@@ -352,8 +351,4 @@ def availability_check(model: ErrorModel[Any], grid: GriddedErrors,
     on both sides (runs of 2 or more steps without a fix).
     """
     mask = grid.fix_mask()
-    if isinstance(model, WithAvailability):
-        sims = model.simulate_availability(keys, mask.size)
-    else:
-        sims = np.ones((len(keys), mask.size), dtype=bool)
-    return outage_envelopes(mask, sims)
+    return outage_envelopes(mask, model.simulate_fix(keys, mask.size))

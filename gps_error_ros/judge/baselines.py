@@ -191,7 +191,7 @@ def training_outages(split: Split, model: Any, sims: int, seed: int = 0) -> Bool
         return None
     avail = WithAvailability(model, availability_from_dict(section))
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
-    return avail.simulate_availability(keys, part_fix_mask(split.test).size)
+    return avail.simulate_fix(keys, part_fix_mask(split.test).size)
 
 
 def compare(diag: Any, sims: int = 100, seed: int = 0) -> dict[str, dict[str, Any]]:

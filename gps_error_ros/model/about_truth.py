@@ -24,11 +24,11 @@ the mean square error matrix about the truth, ``E[e e^T] = C + m m^T``:
 model's own, bit for bit.
 """
 
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.state import AgentState, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
@@ -63,19 +63,18 @@ class AboutTruth(Wrapper[AgentState]):
         """Return the wrapped model's state of ``n`` agents, all zeros."""
         return self.core.empty_state(n)
 
-    def initial_state(self, keys: Keys, index: int) -> AgentState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> AgentState:
         """Draw the wrapped model's state at model step ``index``."""
-        return self.core.initial_state(keys, index)
+        return self.core.initial_state(keys, index, inputs)
 
-    def state_after(self, keys: Keys, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> AgentState:
+    def state_after(self, keys: Keys, start: int, step: int, inputs: Inputs = None) -> AgentState:
         """Return the wrapped model's state at ``step`` of a run started at ``start``."""
-        return self.core.state_after(keys, start, step, heading)
+        return self.core.state_after(keys, start, step, inputs)
 
     def advance(self, state: AgentState, keys: Keys, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+                inputs: Inputs = None) -> FloatArray:
         """Advance the wrapped model's state in place; return its errors."""
-        return self.core.advance(state, keys, index, heading)
+        return self.core.advance(state, keys, index, inputs)
 
     @property
     def stationary_cov(self) -> FloatArray:

@@ -19,7 +19,7 @@ from typing import Any, Optional
 import numpy.typing as npt
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel, S
+from gps_error_ros.model.protocol import Inputs, Process
 from gps_error_ros.model.state import ARState, FloatArray, Keys, Numbers
 
 AXES = ('north', 'east')
@@ -142,7 +142,7 @@ def _sqrt_psd(cov: FloatArray) -> FloatArray:
         return v * np.sqrt(np.clip(w, 0.0, None))
 
 
-class ARErrorModel:
+class ARErrorModel(Process[ARState]):
     """
     Two-axis AR error process with exact stationary moments.
 
@@ -235,11 +235,12 @@ class ARErrorModel:
 
     # --- simulation -----------------------------------------------------
 
-    def initial_state(self, keys: Keys, index: int) -> ARState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> ARState:
         """
         Draw the state at model step ``index`` from the stationary law.
 
         Returns an :class:`~.state.ARState`: the deviations from the mean.
+        ``inputs`` is accepted for the protocol's sake and not used.
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         p = self.order
@@ -298,15 +299,29 @@ class ARErrorModel:
         """Return the state of ``n`` agents, all zeros."""
         return ARState(np.zeros((n, 2, self.order)))
 
-    def face(self, state: ARState, heading: Numbers) -> None:
-        """Do nothing: the AR process does not turn with the direction of travel."""
+    def prepare(self, state: ARState, keys: Keys, index: int, inputs: Inputs = None) -> None:
+        """Do nothing: the AR process takes no inputs."""
 
-    def state_after(self, keys: Keys, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> ARState:
+    def carried(self, state: ARState) -> FloatArray:
+        """Return the last ``p`` errors (n, 2, p), mean included, newest first (zones)."""
+        return state.deviations + self.mean[None, :, None]
+
+    def resumed(self, carried: FloatArray, keys: Keys, index: int,
+                inputs: Inputs = None) -> ARState:
+        """
+        Return the state of agents entering this process at ``index`` with errors ``carried``.
+
+        ``carried`` (n, 2, P >= p): the last errors under the process they
+        leave (:meth:`carried`), newest first. The state is the one before
+        step ``index``: the recursion continues from those errors.
+        """
+        return ARState(carried[:, :, :self.order] - self.mean[None, :, None])
+
+    def state_after(self, keys: Keys, start: int, step: int, inputs: Inputs = None) -> ARState:
         """
         Return the state at model step ``step`` of a run started at ``start``.
 
-        ``heading`` is accepted for the protocol's sake and not used.
+        ``inputs`` is accepted for the protocol's sake and not used.
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         span = step - start + 1
@@ -331,13 +346,13 @@ class ARErrorModel:
         return w
 
     def advance(self, state: ARState, keys: Keys, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+                inputs: Inputs = None) -> FloatArray:
         """
         Advance ``state`` in place to model step ``index``; return errors.
 
         The innovation of step ``index`` is drawn from each key's stream at
         that index. Returns the errors (mean included), shape (n, 2).
-        ``heading`` is accepted for the protocol's sake and not used.
+        ``inputs`` is accepted for the protocol's sake and not used.
         """
         z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
         return self.advance_with(state, z)
@@ -459,22 +474,3 @@ class ARErrorModel:
                 y, zi[ax] = signal.lfilter([1.0], np.r_[1.0, -self.phi[ax]],
                                            series, axis=-1, zi=zi[ax])
                 out[t0:t1, :, ax] = y.T + self.mean[ax]
-
-
-def state_and_cov(model: ErrorModel[S], keys: Keys, start: int,
-                  step: int) -> tuple[S, FloatArray]:
-    """
-    Return (state at model ``step`` of a run from ``start``, its predictive covariance).
-
-    For any of the package's models (plain, with effects, with availability).
-
-    The covariance is the model's for the error at ``step`` given the state a
-    step before (at ``start``: given the stationary law), (n, 2, 2).
-    """
-    if step == start:
-        state = model.initial_state(keys, step)
-        return state, model.predictive_cov(state, first=True)
-    state = model.state_after(keys, start, step - 1)
-    cov = model.predictive_cov(state)
-    model.advance(state, keys, step)
-    return state, cov

@@ -30,12 +30,12 @@ gives the same errors, bit for bit, as before it existed.
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
@@ -167,35 +167,42 @@ class WithAvailability(Wrapper[AvailabilityState]):
         """Return the state of ``n`` agents, all zeros."""
         return AvailabilityState(self.inner.empty_state(n), np.zeros(n))
 
-    def initial_state(self, keys: Keys, index: int) -> AvailabilityState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> AvailabilityState:
         """Draw the inner state and the outage state at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return AvailabilityState(self.inner.initial_state(keys, index),
+        return AvailabilityState(self.inner.initial_state(keys, index, inputs),
                                  np.asarray(self.availability.initial(keys, index), dtype=float))
 
     def advance(self, state: AvailabilityState, keys: Keys, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+                inputs: Inputs = None) -> FloatArray:
         """Advance both in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(state.inner, keys, index, heading)
+        err = self.inner.advance(state.inner, keys, index, inputs)
         self.availability.advance(state.outage_left, keys, index)
         return err
 
-    def available(self, state: AvailabilityState) -> BoolArray:
+    def fix_mask(self, state: AvailabilityState) -> BoolArray:
         """Return which agents have a fix at the current step."""
-        return state.outage_left == 0
+        return (state.outage_left == 0) & self.inner.fix_mask(state.inner)
+
+    def failed(self, state: AvailabilityState) -> BoolArray:
+        """Return which agents' fixes failed at the current step: none without a fix."""
+        return self.inner.failed(state.inner) & self.fix_mask(state)
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> AvailabilityState:
+                    inputs: Inputs = None) -> AvailabilityState:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        inner = self.inner.state_after(keys, start, step, heading)
+        inner = self.inner.state_after(keys, start, step, inputs)
         left = np.asarray(self.availability.initial(keys, start), dtype=float)
         for k in range(start + 1, step + 1):
             self.availability.advance(left, keys, k)
         return AvailabilityState(inner, left)
 
-    def simulate_availability(self, keys: Keys, n_steps: int, start: int = 0) -> BoolArray:
+    #: Some steps have no fix.
+    has_outages = True
+
+    def simulate_fix(self, keys: Keys, n_steps: int, start: int = 0) -> BoolArray:
         """Return the fix mask at steps ``start .. start + n_steps - 1``, (n, n_steps)."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         left = self.availability.initial(keys, start)
@@ -212,10 +219,3 @@ def runs_without_fix(mask: Numbers) -> list[int]:
     mask = np.asarray(mask, dtype=bool)
     edges = np.diff(np.r_[0, (~mask).astype(np.int8), 0])
     return (np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).tolist()
-
-
-def available(model: ErrorModel[Any], state: Any) -> BoolArray:
-    """Return the fix mask of ``state`` (all True for a model without availability)."""
-    if isinstance(model, WithAvailability):
-        return model.available(state)
-    return np.ones(len(state), dtype=bool)

@@ -71,15 +71,16 @@ from gps_error_ros.model.effect_schema import (  # noqa: F401 (the schema, re-ex
     EFFECT_NAMES, Effects, effects_from_dict, EffectsError, MAX_DOF, MAX_LAG_S, MOVING_M,
     stationary_distribution)
 from gps_error_ros.model.periodic import agent_phases, mean_autocovariance, periodic_mean
-from gps_error_ros.model.state import (EffectsState, FloatArray, IntArray, Keys, Numbers,
-                                       zeros_effects_state)
+from gps_error_ros.model.protocol import Inputs, Process
+from gps_error_ros.model.state import (EffectsState, FloatArray, IntArray, Keys,
+                                       Numbers, zeros_effects_state)
 
 
 __all__ = ['EFFECT_NAMES', 'Effects', 'EffectsError', 'ExtendedModel', 'MAX_DOF', 'MAX_LAG_S',
            'MOVING_M', 'build_model', 'effects_from_dict', 'stationary_distribution']
 
 
-class ExtendedModel:
+class ExtendedModel(Process[EffectsState]):
     """
     The AR(p) process with effects; same interface as :class:`ARErrorModel`.
 
@@ -160,17 +161,20 @@ class ExtendedModel:
         moving = np.isfinite(heading)
         state.heading[moving] = heading[moving]
 
-    def initial_state(self, keys: Keys, index: int) -> EffectsState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> EffectsState:
         """
         Draw the state at model step ``index``.
 
         The regime from the chain's stationary distribution; the AR part
         Gaussian with the unconditional stationary covariance (under heavy
         tails or regimes the exact law is not Gaussian; the difference fades
-        within the process's correlation time).
+        within the process's correlation time). ``inputs``: the direction
+        of travel at the start (street_frame; north where unknown).
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         state = self.empty_state(keys.size)
+        if self.street is not None and inputs is not None and inputs.heading is not None:
+            self.face(state, inputs.heading)
         state.deviations[:] = self.unit.initial_state(keys, index).deviations * \
             self._init_scale
         if self.scales.size > 1:
@@ -189,18 +193,18 @@ class ExtendedModel:
         return state
 
     def advance(self, state: EffectsState, keys: Keys, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+                inputs: Inputs = None) -> FloatArray:
         """
         Advance ``state`` in place to model step ``index``; return errors.
 
-        ``heading`` (n,) radians: the direction of travel at this step
+        ``inputs.heading`` (n,) radians: the direction of travel at this step
         (street_frame; NaN: standing, the last direction holds).
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         p = self.order
         z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
         if self.street is not None:
-            w = self._street_innovations(state, z, heading)
+            w = self._street_innovations(state, z, None if inputs is None else inputs.heading)
         else:
             w = self.unit._innovations(z)
         if self.scales.size > 1:
@@ -338,22 +342,58 @@ class ExtendedModel:
                 (state.in_jump > 0.5)[:, None] * state.jump
         return out
 
+    def prepare(self, state: EffectsState, keys: Keys, index: int,
+                inputs: Inputs = None) -> None:
+        """Turn the agents to step ``index``'s direction of travel (street_frame)."""
+        if self.street is not None and inputs is not None and inputs.heading is not None:
+            self.face(state, inputs.heading)
+
+    def carried(self, state: EffectsState) -> FloatArray:
+        """Return the AR part's last ``p`` errors (n, 2, p), mean included, no jump (zones)."""
+        return state.deviations + self.mean[None, :, None]
+
+    def resumed(self, carried: FloatArray, keys: Keys, index: int,
+                inputs: Inputs = None) -> EffectsState:
+        """
+        Return the state of agents entering this process at ``index`` with errors ``carried``.
+
+        The AR recursion continues from ``carried`` (n, 2, P >= p, newest
+        first); what the errors do not carry is this process's own, drawn as
+        a new run's is at ``index``: the regime and a jump under way from
+        their stationary laws, the cycle's phase from the agent's offset
+        (the state before step ``index``); the direction of travel is
+        ``inputs.heading``.
+        """
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        state = self.empty_state(keys.size)
+        state.deviations[:] = carried[:, :, :self.order] - self.mean[None, :, None]
+        if inputs is not None and inputs.heading is not None:
+            self.face(state, inputs.heading)
+        if self.scales.size > 1:
+            u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_REGIME, index)[:, 0]
+            state.regime[:] = np.searchsorted(self.cum_pi, u, side='right')
+        if self.periodic is not None:
+            offset = agent_phases(keys, self.periodic.period)
+            state.cycle_offset[:] = offset
+            state.phase[:] = (offset + index - 1) % self.periodic.period
+        if self.outliers is not None:
+            state.in_jump[:], state.jump[:] = jumps.initial_offsets(self.outliers, keys, index)
+        return state
+
     def regimes(self, state: EffectsState) -> IntArray:
         """Return the current regime index of each agent."""
         return state.regime.copy()
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> EffectsState:
+                    inputs: Inputs = None) -> EffectsState:
         """
         Return the state at model step ``step`` of a run started at ``start``.
 
-        ``heading`` (street_frame): the direction of travel of every step.
+        ``inputs`` (street_frame: the direction of travel) hold at every step.
         """
-        state = self.initial_state(keys, start)
-        if heading is not None:
-            state.heading[:] = np.where(np.isfinite(heading), heading, 0.0)
+        state = self.initial_state(keys, start, inputs)
         for k in range(start + 1, step + 1):
-            self.advance(state, keys, k)
+            self.advance(state, keys, k, inputs)
         return state
 
     def simulate(self, keys: Keys, n_steps: int, start: int = 0,

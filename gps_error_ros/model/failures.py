@@ -43,7 +43,7 @@ from typing import Any, Optional, Sequence
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
@@ -251,20 +251,24 @@ class WithFailures(Wrapper[FailureState]):
         """Return the state of ``n`` agents, all zeros."""
         return FailureState(self.inner.empty_state(n), np.zeros((n, 2)))
 
-    def initial_state(self, keys: Keys, index: int) -> FailureState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> FailureState:
         """Draw the inner state and this step's failure at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return FailureState(self.inner.initial_state(keys, index),
+        return FailureState(self.inner.initial_state(keys, index, inputs),
                             self.failures.offsets(keys, index)[0])
 
     def advance(self, state: FailureState, keys: Keys, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+                inputs: Inputs = None) -> FloatArray:
         """Advance in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(state.inner, keys, index, heading)
+        err = self.inner.advance(state.inner, keys, index, inputs)
         off, fails = self.failures.offsets(keys, index)
         state.offset[:] = off
         return np.where(fails[:, None], off, err)
+
+    def failed(self, state: FailureState) -> BoolArray:
+        """Return which agents' fixes failed at the current step."""
+        return np.any(state.offset != 0.0, axis=1) | self.inner.failed(state.inner)
 
     def errors(self, state: FailureState) -> FloatArray:
         """Return the current north/east errors, a failed fix's where one failed."""
@@ -273,10 +277,10 @@ class WithFailures(Wrapper[FailureState]):
         return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> FailureState:
+                    inputs: Inputs = None) -> FailureState:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return FailureState(self.inner.state_after(keys, start, step, heading),
+        return FailureState(self.inner.state_after(keys, start, step, inputs),
                             self.failures.offsets(keys, step)[0])
 
     def simulate(self, keys: Keys, n_steps: int, start: int = 0,

@@ -72,6 +72,30 @@ def lag_offsets(t: Numbers, north: Numbers, east: Numbers, lag_s: float,
     return truth_at(t, ne, at - lag_s, gap_s) - truth_at(t, ne, at)
 
 
+#: Nanoseconds per second: trajectories' times are taken in integer nanoseconds, as the node's.
+NS = 1_000_000_000
+
+
+def stamp_ns(t: float) -> int:
+    """Return time ``t`` (s) in whole nanoseconds, as the node stamps it."""
+    return int(round(t * NS))
+
+
+def between(a: tuple[float, float, float], b: tuple[float, float, float],
+            when: int) -> tuple[float, float]:
+    """
+    Return the position at ``when`` (ns) between samples ``a`` and ``b`` (ns, x, y).
+
+    The node's interpolation of its truth, to the last bit
+    (:meth:`~gps_error_ros.sim.truth_ring.TruthRing.interpolate`): the same
+    weight from the same nanoseconds and the same arithmetic, so that a
+    lagged position and a direction of travel are the node's in ``simulate``.
+    """
+    span = b[0] - a[0]
+    w = (when - a[0]) / span if span > 0 else 0.0
+    return a[1] + w * (b[1] - a[1]), a[2] + w * (b[2] - a[2])
+
+
 class LagBuffer:
     """
     Recent positions per named agent, to report where each was ``lag_s`` ago.
@@ -84,6 +108,7 @@ class LagBuffer:
 
     def __init__(self, lag_s: float) -> None:
         self.lag_s = float(lag_s)
+        self.lag_ns = int(round(self.lag_s * NS))
         self.hist: dict[str, list[tuple[float, float, float]]] = {}
 
     def lagged(self, names: Sequence[str], t: float, x: Numbers,
@@ -92,16 +117,15 @@ class LagBuffer:
         ox, oy = np.array(x, dtype=float), np.array(y, dtype=float)
         if self.lag_s == 0.0:
             return ox, oy
-        want = t - self.lag_s
+        t_ns = stamp_ns(t)
+        want = t_ns - self.lag_ns
         for i, n in enumerate(names):
             h = self.hist.setdefault(n, [])
-            h.append((t, ox[i], oy[i]))
+            h.append((float(t_ns), ox[i], oy[i]))
             while len(h) > 2 and h[1][0] <= want:
                 h.pop(0)
             if len(h) > 1 and h[0][0] <= want:
-                (t0, x0, y0), (t1, x1, y1) = h[0], h[1]
-                w = (want - t0) / (t1 - t0) if t1 > t0 else 0.0
-                ox[i], oy[i] = x0 + w * (x1 - x0), y0 + w * (y1 - y0)
+                ox[i], oy[i] = between(h[0], h[1], want)
             else:
                 ox[i], oy[i] = h[0][1], h[0][2]
         return ox, oy

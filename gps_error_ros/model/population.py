@@ -69,7 +69,7 @@ from typing import Any, Optional
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.state import AgentState, FloatArray, Keys
 from gps_error_ros.model.wrapped import Wrapper
 
@@ -201,9 +201,9 @@ class AgentDraws:
     """
     What a population section draws for each agent: its scale, its run's bias and wander.
 
-    Shared by :class:`WithPopulation` and the zone path
-    (:class:`~gps_error_ros.model.zoned.ZonedErrors`), so that an agent's
-    bias and scale are the same numbers with and without a zone map.
+    What :class:`WithPopulation` draws; with a zone map it wraps the zones
+    (:class:`~gps_error_ros.model.zoned.WithZones`), so that an agent's bias
+    and scale are the same numbers in every zone and without a map.
     """
 
     def __init__(self, population: Population, rate_hz: float = 1.0) -> None:
@@ -348,21 +348,21 @@ class WithPopulation(Wrapper[PopulationState]):
 
     def _agent(self, inner_err: FloatArray, state: PopulationState) -> FloatArray:
         """Return the agent's errors from the inner model's: ``m + f d + b``."""
-        m = np.asarray(self.inner.mean, dtype=float)
+        m = self.inner.means(state.inner)
         out = m + state.scale[:, None] * (inner_err - m) + state.bias
         return out if state.held is None else out + state.held
 
-    def initial_state(self, keys: Keys, index: int) -> PopulationState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> PopulationState:
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        return self._state(self.inner.initial_state(keys, index), keys, index,
+        return self._state(self.inner.initial_state(keys, index, inputs), keys, index,
                            *self.draws.run_bias(keys, index))
 
     def advance(self, state: PopulationState, keys: Keys, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+                inputs: Inputs = None) -> FloatArray:
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        err = self.inner.advance(state.inner, keys, index, heading)
+        err = self.inner.advance(state.inner, keys, index, inputs)
         self.draws.wander(state.bias, state.bias_factor, keys, index)
         return self._agent(err, state)
 
@@ -371,10 +371,10 @@ class WithPopulation(Wrapper[PopulationState]):
         return self._agent(self.inner.errors(state.inner), state)
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> PopulationState:
+                    inputs: Inputs = None) -> PopulationState:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
-        inner = self.inner.state_after(keys, start, step, heading)
+        inner = self.inner.state_after(keys, start, step, inputs)
         return self._state(inner, keys, start, *self.draws.bias_at(keys, start, step))
 
     def simulate(self, keys: Keys, n_steps: int, start: int = 0,
@@ -415,6 +415,6 @@ class WithPopulation(Wrapper[PopulationState]):
 
     def predictive_mean(self, state: PopulationState, first: bool = False) -> FloatArray:
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""
-        return self.draws.agent_mean(np.asarray(self.inner.mean, dtype=float),
+        return self.draws.agent_mean(self.inner.means(state.inner),
                                      self.inner.predictive_mean(state.inner, first),
                                      state.scale, state.bias, first, state.held)

@@ -37,11 +37,12 @@ from typing import Any, Callable, NoReturn, Optional
 import yaml
 
 from gps_error_ros.model.about_truth import AboutTruth
-from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
+from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.availability import (Availability, availability_from_dict,
                                               AvailabilityError, WithAvailability)
-from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
+from gps_error_ros.model.effects import (build_model, Effects, effects_from_dict, EffectsError,
+                                         ExtendedModel)
 from gps_error_ros.model.failures import (failures_from_dict, FailuresError,
                                           GrossFailureProcess, WithFailures)
 from gps_error_ros.model.population import (Population, population_from_dict, PopulationError,
@@ -107,27 +108,14 @@ class Profile:
         """Return True when the profile carries AR parameters."""
         return self.axes is not None
 
-    def model(self, gross_failures: bool = True, about_truth: bool = False) -> ErrorModel[Any]:
+    def process(self) -> ARErrorModel | ExtendedModel:
         """
-        Return the :class:`ARErrorModel` of this profile.
-
-        With its effects, the agent's population draw (``population``), gross
-        failures (unless ``gross_failures`` is False) and availability, each
-        wrapped around the one before. ``about_truth``:
-        its stated covariances are the error's mean square about the truth
-        (:mod:`about_truth`), not its covariance about its mean.
-
-        Parameters
-        ----------
-        gross_failures
-            Include the ``gross_failures`` section, if the profile has one.
-        about_truth
-            State covariances about the truth (see above).
+        Return the profile's error process alone: the AR part and its effects.
 
         Returns
         -------
-        ARErrorModel or a wrapped model
-            The model to simulate or serve with.
+        ARErrorModel or ExtendedModel
+            The process, without population, failures or availability.
 
         Raises
         ------
@@ -144,11 +132,44 @@ class Profile:
                 f'{", ".join(fitted)}. Select one of those, or calibrate a '
                 f'profile from a recording of your own (`gps_error calibrate '
                 f'TRACE.csv -o PROFILE.yaml`) and pass its path')
-        model: ErrorModel[Any]
         try:
-            model = build_model(self.axes['north'], self.axes['east'], self.effects)
+            return build_model(self.axes['north'], self.axes['east'], self.effects)
         except ModelError as exc:
             raise ProfileError(f'{self.path}: {exc}') from None
+
+    def model(self, gross_failures: bool = True, about_truth: bool = False,
+              process: Optional[ErrorModel[Any]] = None) -> ErrorModel[Any]:
+        """
+        Return the :class:`ARErrorModel` of this profile.
+
+        With its effects, the agent's population draw (``population``), gross
+        failures (unless ``gross_failures`` is False) and availability, each
+        wrapped around the one before. ``about_truth``:
+        its stated covariances are the error's mean square about the truth
+        (:mod:`about_truth`), not its covariance about its mean.
+
+        Parameters
+        ----------
+        gross_failures
+            Include the ``gross_failures`` section, if the profile has one.
+        about_truth
+            State covariances about the truth (see above).
+        process
+            The error process to wrap in place of the profile's own
+            (:meth:`process`): a zone map's (:class:`~.zoned.WithZones`).
+
+        Returns
+        -------
+        ARErrorModel or a wrapped model
+            The model to simulate or serve with.
+
+        Raises
+        ------
+        ProfileNotFittedError
+            For a placeholder profile.
+
+        """
+        model: ErrorModel[Any] = self.process() if process is None else process
         if self.population is not None:
             model = WithPopulation(model, self.population, self.rate_hz)
         if about_truth:

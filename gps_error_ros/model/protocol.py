@@ -23,11 +23,48 @@ the agents' stream keys (uint64, :func:`~.streams.agent_keys`).
 
 from __future__ import annotations
 
-from typing import Any, Optional, Protocol, TypeVar
+from dataclasses import dataclass
+from typing import Any, Generic, Optional, Protocol, TypeVar
 
-from gps_error_ros.model.state import AgentState, FloatArray
+import numpy as np
+
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray
 
 S = TypeVar('S', bound=AgentState)
+
+
+@dataclass(frozen=True)
+class StepInputs:
+    """
+    What a step may need from the truth: the direction of travel and the zone.
+
+    Attributes
+    ----------
+    heading : (n,) float or None
+        Each agent's direction of travel, radians from north, clockwise
+        (NaN: standing, the last direction holds); for ``street_frame``.
+    zone : (n,) int or None
+        Each agent's zone in a zone map (``zones.OUTSIDE``, -1: the default
+        profile's); for :class:`~.zoned.WithZones`.
+
+    Notes
+    -----
+    A model that needs neither (:attr:`ErrorModel.needs_heading` False, no
+    zone map) gives the same errors with inputs or without.
+
+    """
+
+    heading: Optional[FloatArray] = None
+    zone: Optional[IntArray] = None
+
+    def take(self, rows: Any) -> 'StepInputs':
+        """Return the inputs of agents ``rows`` (an index or mask)."""
+        return StepInputs(None if self.heading is None else np.asarray(self.heading)[rows],
+                          None if self.zone is None else np.asarray(self.zone)[rows])
+
+
+#: What a step's ``inputs`` argument takes: :class:`StepInputs`, or None (nothing known).
+Inputs = Optional[StepInputs]
 
 
 class ErrorModel(Protocol[S]):
@@ -79,26 +116,58 @@ class ErrorModel(Protocol[S]):
         """Return the state of ``n`` agents, all zeros (slots to be filled)."""
         ...
 
-    def initial_state(self, keys: Any, index: int) -> S:
+    def initial_state(self, keys: Any, index: int, inputs: Inputs = None) -> S:
         """Draw the agents' state at model step ``index`` from the stationary law."""
         ...
 
-    def state_after(self, keys: Any, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> S:
-        """Return the state at model step ``step`` of a run started at ``start``."""
+    def state_after(self, keys: Any, start: int, step: int, inputs: Inputs = None) -> S:
+        """Return the state at ``step`` of a run started at ``start``, ``inputs`` at every step."""
         ...
 
-    def advance(self, state: S, keys: Any, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
-        """Advance ``state`` in place to model step ``index``; return the errors (n, 2)."""
+    def prepare(self, state: S, keys: Any, index: int, inputs: Inputs = None) -> None:
+        """
+        Apply step ``index``'s inputs to ``state`` in place, before its draws.
+
+        The direction of travel turns, an agent entering a zone takes the
+        zone's process: what the covariance of the step's error given the
+        state depends on. :meth:`advance` applies them too (once: a second
+        call changes nothing).
+        """
+        ...
+
+    def advance(self, state: S, keys: Any, index: int, inputs: Inputs = None) -> FloatArray:
+        """
+        Advance ``state`` in place to model step ``index``; return the errors (n, 2).
+
+        The one step of the package: every path (the node's engine, crowds,
+        ``simulate``, the API, the judges' simulations) advances a model
+        through it (see :mod:`.stepping`).
+        """
         ...
 
     def errors(self, state: S) -> FloatArray:
         """Return the current north/east error of every agent (n, 2), mean included."""
         ...
 
-    def face(self, state: S, heading: Any) -> None:
-        """Set the agents' direction of travel (radians from north; NaN: the last holds)."""
+    def means(self, state: S) -> FloatArray:
+        """Return the stationary mean (n, 2) of the process each agent is under now."""
+        ...
+
+    def fix_mask(self, state: S) -> BoolArray:
+        """Return which agents have a fix at the current step (n,) (availability)."""
+        ...
+
+    def failed(self, state: S) -> BoolArray:
+        """Return which agents' fixes failed at the current step (n,) (gross failures)."""
+        ...
+
+    @property
+    def has_outages(self) -> bool:
+        """Return True when some steps may have no fix (an availability process)."""
+        ...
+
+    def simulate_fix(self, keys: Any, n_steps: int, start: int = 0) -> BoolArray:
+        """Return the fix mask at steps ``start .. start + n_steps - 1``, (n, n_steps)."""
         ...
 
     def predictive_cov(self, state: S, first: bool = False) -> FloatArray:
@@ -118,3 +187,33 @@ class ErrorModel(Protocol[S]):
                  out: Optional[FloatArray] = None) -> FloatArray:
         """Return errors at model steps ``start .. start + n_steps - 1``, (n_steps, n, 2)."""
         ...
+
+
+class Process(Generic[S]):
+    """
+    What an error process (not a wrapper) answers of availability and failures: none.
+
+    :class:`~.ar_model.ARErrorModel`, :class:`~.effects.ExtendedModel` and
+    :class:`~.zoned.WithZones` take these; the wrappers of
+    :mod:`.availability` and :mod:`.failures` answer for their own.
+    """
+
+    mean: FloatArray
+    #: A process alone has a fix at every step.
+    has_outages = False
+
+    def means(self, state: S) -> FloatArray:
+        """Return the stationary mean of every agent, (n, 2)."""
+        return np.repeat(np.asarray(self.mean)[None], len(state), axis=0)
+
+    def fix_mask(self, state: S) -> BoolArray:
+        """Return True for every agent: a process alone has no outages."""
+        return np.ones(len(state), dtype=bool)
+
+    def failed(self, state: S) -> BoolArray:
+        """Return False for every agent: a process alone has no gross failures."""
+        return np.zeros(len(state), dtype=bool)
+
+    def simulate_fix(self, keys: Any, n_steps: int, start: int = 0) -> BoolArray:
+        """Return True at every step, (n, n_steps): a process alone has no outages."""
+        return np.ones((np.size(keys), n_steps), dtype=bool)

@@ -15,7 +15,8 @@ every state class: :meth:`AgentState.take` (some agents' rows, a copy),
 :meth:`AgentState.put` (write rows from another state of the same kind)
 and :meth:`AgentState.joined` (append agents), all by walking the fields,
 nested states included. A field may be ``None`` (a part the model does not
-have, e.g. a population without a held bias).
+have, e.g. a population without a held bias), or a tuple of states (a zone
+map's processes, :mod:`.zoned`).
 """
 
 from __future__ import annotations
@@ -50,7 +51,10 @@ class AgentState:
     def __len__(self) -> int:
         """Return the number of agents."""
         for _, value in self._items():
-            if value is not None:
+            if isinstance(value, tuple):
+                if value:
+                    return len(value[0])
+            elif value is not None:
                 return len(value)
         return 0
 
@@ -62,6 +66,8 @@ class AgentState:
                 out[name] = None
             elif isinstance(value, AgentState):
                 out[name] = value.take(rows)
+            elif isinstance(value, tuple):
+                out[name] = tuple(v.take(rows) for v in value)
             else:
                 out[name] = np.array(value[rows])
         return type(self)(**out)
@@ -76,6 +82,9 @@ class AgentState:
         for name, value in self._items():
             if isinstance(value, AgentState):
                 out.update(value.arrays(f'{prefix}{name}.'))
+            elif isinstance(value, tuple):
+                for i, v in enumerate(value):
+                    out.update(v.arrays(f'{prefix}{name}.{i}.'))
             elif value is not None:
                 out[prefix + name] = value
         return out
@@ -98,6 +107,9 @@ class AgentState:
                 continue
             if isinstance(value, AgentState):
                 value.put(rows, getattr(other, name))
+            elif isinstance(value, tuple):
+                for mine, theirs in zip(value, getattr(other, name)):
+                    mine.put(rows, theirs)
             else:
                 value[rows] = getattr(other, name)
 
@@ -112,6 +124,8 @@ class AgentState:
                 out[name] = None
             elif isinstance(value, AgentState):
                 out[name] = value.joined(getattr(other, name))
+            elif isinstance(value, tuple):
+                out[name] = tuple(a.joined(b) for a, b in zip(value, getattr(other, name)))
             else:
                 out[name] = np.concatenate([value, getattr(other, name)])
         return type(self)(**out)

@@ -19,8 +19,8 @@ from typing import Any, Generic, Optional, TypeVar
 
 import numpy as np
 
-from gps_error_ros.model.protocol import ErrorModel
-from gps_error_ros.model.state import AgentState, FloatArray
+from gps_error_ros.model.protocol import ErrorModel, Inputs
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray
 
 #: The wrapper's own state class.
 W = TypeVar('W', bound=AgentState)
@@ -42,17 +42,15 @@ class Wrapper(Generic[W]):
         """Return the state of ``n`` agents, all zeros."""
         raise NotImplementedError
 
-    def initial_state(self, keys: Any, index: int) -> W:
+    def initial_state(self, keys: Any, index: int, inputs: Inputs = None) -> W:
         """Draw the state at model step ``index``."""
         raise NotImplementedError
 
-    def state_after(self, keys: Any, start: int, step: int,
-                    heading: Optional[FloatArray] = None) -> W:
+    def state_after(self, keys: Any, start: int, step: int, inputs: Inputs = None) -> W:
         """Return the state at model step ``step`` of a run started at ``start``."""
         raise NotImplementedError
 
-    def advance(self, state: W, keys: Any, index: int,
-                heading: Optional[FloatArray] = None) -> FloatArray:
+    def advance(self, state: W, keys: Any, index: int, inputs: Inputs = None) -> FloatArray:
         """Advance ``state`` in place to model step ``index``; return the errors (n, 2)."""
         raise NotImplementedError
 
@@ -106,9 +104,30 @@ class Wrapper(Generic[W]):
         """Return the current north/east errors, (n, 2)."""
         return self.inner.errors(self.part(state))
 
-    def face(self, state: W, heading: Any) -> None:
-        """Set the direction of travel (radians; NaN: the last one holds)."""
-        self.inner.face(self.part(state), heading)
+    def prepare(self, state: W, keys: Any, index: int, inputs: Inputs = None) -> None:
+        """Apply step ``index``'s inputs to the inner model's state."""
+        self.inner.prepare(self.part(state), keys, index, inputs)
+
+    def means(self, state: W) -> FloatArray:
+        """Return the stationary mean (n, 2) of the process each agent is under."""
+        return self.inner.means(self.part(state))
+
+    def fix_mask(self, state: W) -> BoolArray:
+        """Return which agents have a fix now (the inner model's)."""
+        return self.inner.fix_mask(self.part(state))
+
+    def failed(self, state: W) -> BoolArray:
+        """Return which agents' fixes failed now (the inner model's)."""
+        return self.inner.failed(self.part(state))
+
+    @property
+    def has_outages(self) -> bool:
+        """Return True when some steps may have no fix (the inner model's)."""
+        return self.inner.has_outages
+
+    def simulate_fix(self, keys: Any, n_steps: int, start: int = 0) -> BoolArray:
+        """Return the fix mask at steps ``start ..``, (n, n_steps) (the inner model's)."""
+        return self.inner.simulate_fix(keys, n_steps, start)
 
     def predictive_cov(self, state: W, first: bool = False) -> FloatArray:
         """Return each agent's covariance of the next error given ``state`` (n, 2, 2)."""

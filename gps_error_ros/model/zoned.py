@@ -2,64 +2,56 @@
 Errors whose parameters follow the zone each agent is in.
 
 With a zone map (:mod:`zones`) an agent's error process takes, at every
-model step, the parameters of the zone its truth is in. The transition:
+model step, the parameters of the zone its truth is in.
+:class:`WithZones` is that process: an :class:`~.protocol.ErrorModel`
+that holds one state per zone process and steps each agent with its
+zone's own step (the step's ``inputs.zone``). What the receiver does
+beyond the error process (its population draw, gross failures,
+availability, covariances about the truth) wraps it, from the default
+profile, as without a map (:meth:`~.profiles.Profile.model`). The
+transition:
 
-* The state carries over and only the parameters change. The state holds
-  the last ``P`` errors themselves (mean included, ``P`` the largest order of
-  any zone), and a step in zone ``z`` is that zone's recursion on them::
+* The AR errors carry over and only the parameters change. The zone wrapper
+  keeps each agent's last ``P`` errors of the AR part (mean included, no
+  jump; ``P`` the largest order of any zone), and an agent entering zone
+  ``z`` continues that zone's recursion from them::
 
       e(k) = mu_z + sum_i phi_z,i (e(k - i) - mu_z) + s w(k)
 
   with ``w(k)`` from the agent's stream at step ``k`` (the same draw in
-  every zone) and ``s`` the zone's effects (coupling, heavy tails,
-  regimes). So the error is continuous across a boundary: it moves to the
-  new zone's mean and spread at the new zone's own pace, and after a few of
-  its correlation times it is a draw from the new zone's stationary law.
-* Variance regimes: an agent entering a zone with regimes draws its regime
-  from that zone's stationary regime law (the stream's initial-regime draw at
-  that step); while it stays, the regime follows the zone's chain.
-* Gross failures (the default profile's ``gross_failures`` section, as
-  availability comes from it): at a step where the fix failed, the failure
-  replaces the zone's error, and the zone's process runs on beneath it, as
-  :class:`~.failures.WithFailures` does without zones; the same draws, so a
-  failure falls at the same step and place in every zone.
-* An agent's bias and scale (the default profile's ``population`` section,
-  as availability comes from it): the zone's process runs as above, and
-  what the agent reports is ``m_z + f (e - m_z) + b(k)``, ``m_z`` the mean
-  of the zone it is in, ``f`` the agent's scale and ``b`` its run's bias
-  and wander, drawn as without zones (:class:`~.population.AgentDraws`):
-  the same bias and scale in every zone, and outside every zone the same
-  errors as the default profile's model without a map. The stated
-  covariances cover the population as :class:`~.population.WithPopulation`
-  does (the bias spread in the stationary one; given the state, the
-  agent's scale and bias known).
+  every zone) and ``s`` the zone's effects. So the error is continuous
+  across a boundary: it moves to the new zone's mean and spread at the new
+  zone's own pace, and after a few of its correlation times it is a draw
+  from the new zone's stationary law.
+* What the errors do not carry is the entered zone's own, drawn as a new
+  run's is at that step: the variance regime and a jump under way
+  (outliers) from their stationary laws, the cycle's phase (periodic) from
+  the agent's offset; the direction of travel is the agent's last. While
+  the agent stays, they follow the zone's own process.
+* An agent's bias and scale (the default profile's ``population``):
+  what it reports is ``m_z + f (e - m_z) + b(k)``, ``m_z`` the mean of the
+  zone it is in, with the same bias and scale in every zone.
 * Which zone a model step belongs to: the zone of the truth that serves
-  the agent's fix at that step. Steps an agent gets no fix for (no truth, a
-  later attach) are advanced with the zone of the next fix's truth; an
-  agent's first steps are drawn from the stationary law of the zone of its
-  first fix. Given the truth, everything is a pure function of (seed, agent
-  name, step): the node, ``simulate`` and every shard agree.
-
-Errors are computed when an agent's fix is made, not when the step comes
-due, because the zone is known only once the truth for the step is.
+  the agent's fix at that step. Steps an agent gets no fix for are
+  advanced with the zone of the next fix's truth; an agent's first steps
+  are drawn from the stationary law of the zone of its first fix
+  (:class:`~.stepping.StepsPerFix`).
 """
 
+import dataclasses
 import math
-from typing import Any, Iterator, Optional, Sequence
+from typing import Any, Iterator, Optional, Protocol, Sequence
 
 import numpy as np
 
-from gps_error_ros.model import streams
-from gps_error_ros.model.about_truth import AboutTruth, mean_square
-from gps_error_ros.model.availability import WithAvailability
-from gps_error_ros.model.effects import ExtendedModel, MOVING_M
-from gps_error_ros.model.failures import GrossFailureProcess, WithFailures
+from gps_error_ros.model.effects import MOVING_M
 from gps_error_ros.model.geodesy import difference
-from gps_error_ros.model.population import AgentDraws, WithPopulation
+from gps_error_ros.model.motion_lag import between, NS, stamp_ns
 from gps_error_ros.model.profiles import Profile
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, Inputs, Process, S, StepInputs
 from gps_error_ros.model.reported import needs_predictive
-from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray, Keys, Numbers
+from gps_error_ros.model.stepping import StepsPerFix
 from gps_error_ros.model.zones import OUTSIDE, zone_models, ZoneMap
 
 
@@ -80,339 +72,249 @@ def travel_direction(lat0: Numbers, lon0: Numbers, lat1: Numbers, lon1: Numbers,
     return np.where(moving, np.arctan2(east, north), np.nan)
 
 
-def _core(model: ErrorModel[Any]) -> tuple[ErrorModel[Any], bool]:
-    """Return (the model beneath an :class:`AboutTruth`, whether it was wrapped)."""
-    return (model.core, True) if isinstance(model, AboutTruth) else (model, False)
+class ZoneProcess(ErrorModel[S], Protocol):
+    """An error process a zone may have: it hands its AR errors on and takes them over."""
+
+    def carried(self, state: S) -> FloatArray:
+        """Return the AR part's last ``p`` errors (n, 2, p), mean included, newest first."""
+        ...
+
+    def resumed(self, carried: FloatArray, keys: Keys, index: int,
+                inputs: Inputs = None) -> S:
+        """Return the state of agents entering at step ``index`` with errors ``carried``."""
+        ...
 
 
-def _process(model: ErrorModel[Any]) -> ExtendedModel:
-    """Return the process with effects beneath any :class:`AboutTruth`."""
-    core = _core(model)[0]
-    if not isinstance(core, ExtendedModel):
-        raise TypeError(f'expected a model with effects, got {type(core).__name__}')
-    return core
-
-
-def _has_regimes(model: ErrorModel[Any]) -> bool:
-    """Return True when the process (beneath any :class:`AboutTruth`) has variance regimes."""
-    core = _core(model)[0]
-    return isinstance(core, ExtendedModel) and core.scales.size > 1
-
-
-#: Per-slot arrays of :class:`ZonedErrors` (grown, kept and forgotten together).
-_SLOT_ARRAYS = ('err', 'regime', 'zone', 'step', 'started', 'cov', 'heading',
-                'bias', 'scale', 'bias_factor', 'held')
-
-
-class ZonedErrors:
+@dataclasses.dataclass(eq=False)
+class ZonedState(AgentState):
     """
-    Per-slot error state over zone models, advanced lazily per agent.
+    The state of :class:`WithZones`.
+
+    Attributes
+    ----------
+    parts : tuple of states
+        One state of every agent per zone process (the one an agent is
+        under is current; the others wait for it to enter).
+    zone : (n,) int
+        The process each agent is under.
+    carried : (n, 2, P) float
+        The last ``P`` errors of the AR part, mean included, newest first.
+    heading : (n,) float
+        The last direction of travel known, radians (0 until one is).
+
+    """
+
+    parts: tuple[AgentState, ...]
+    zone: IntArray
+    carried: FloatArray
+    heading: FloatArray
+
+
+class WithZones(Process[ZonedState]):
+    """
+    The error process of the zone each agent is in (see the module docstring).
 
     Parameters
     ----------
-    models
-        The error models of the zones, in the zone map's order, then the
-        default model last (zone index ``OUTSIDE`` = -1 picks it). Zones
-        with the same model object are stepped together, and moving between
-        them is not entering a new zone (the regime carries on).
-    n
-        Slots to start with (more with :meth:`grow`).
-    conditional_cov
-        Covariance of each error given the state a step before (the node's
-        ``covariance_mode`` conditional); else the zone's stationary one.
-    failures
-        The gross failures of every zone (the default profile's section).
-    population
-        Each agent's bias and scale in every zone (the default profile's
-        ``population`` section).
+    processes
+        The zones' error processes, in the zone map's order, then the
+        default's last (zone index ``OUTSIDE`` = -1 picks it). Zones with
+        the same process object share it: moving between them is not
+        entering a new zone.
 
     """
 
-    def __init__(self, models: Sequence[ErrorModel[Any]], n: int = 0,
-                 conditional_cov: bool = False,
-                 failures: Optional[GrossFailureProcess] = None,
-                 population: Optional[AgentDraws] = None) -> None:
+    def __init__(self, processes: Sequence[ZoneProcess[Any]]) -> None:
         assert OUTSIDE == -1
-        self.models: list[ErrorModel[Any]] = []      # distinct models
+        self.processes: list[ZoneProcess[Any]] = []
         index: dict[int, int] = {}
-        for m in models:
+        for m in processes:
             if id(m) not in index:
-                index[id(m)] = len(self.models)
-                self.models.append(m)
-        # zone index (OUTSIDE = -1 is the last entry) -> distinct model
-        self.model_of_zone = np.array([index[id(m)] for m in models], dtype=np.int64)
-        self.order = max(m.order for m in self.models)
-        self.conditional_cov = conditional_cov
-        self.failures = failures
-        self.population = population
-        self.means = np.array([m.mean for m in self.models], dtype=float)
-        self.stationary = np.array([m.stationary_cov for m in self.models])
-        if population is not None:
-            self.stationary = self.stationary + population.spread
-        #: whether any zone's innovations turn with the direction of travel
-        self.needs_heading = any(m.needs_heading for m in self.models)
-        self.start: Optional[int] = None
-        self._alloc(n)
+                index[id(m)] = len(self.processes)
+                self.processes.append(m)
+        #: zone index (OUTSIDE = -1 is the last entry) -> distinct process
+        self.process_of_zone = np.array([index[id(m)] for m in processes], dtype=np.int64)
+        self.default = self.processes[int(self.process_of_zone[-1])]
+        self.order = max(m.order for m in self.processes)
+        self.lag_s = self.default.lag_s
+        self.needs_heading = any(m.needs_heading for m in self.processes)
+        self._means = np.array([m.mean for m in self.processes], dtype=float)
+        #: the default process's stationary mean (outside every zone), north and east
+        self.mean = self.default.mean
 
-    def _alloc(self, n: int) -> None:
-        self.err = np.zeros((n, 2, self.order))    # last P errors, newest first
-        self.regime = np.zeros(n, dtype=np.int64)
-        self.zone = np.zeros(n, dtype=np.int64)    # the distinct model in use
-        self.step = np.zeros(n, dtype=np.int64)    # last model step advanced
-        self.started = np.zeros(n, dtype=bool)
-        self.cov = np.zeros((n, 2, 2))             # of the current error
-        self.heading = np.zeros(n)                 # last direction of travel, rad
-        self.bias = np.zeros((n, 2))               # the run's bias (population)
-        self.scale = np.ones(n)                    # the agent's scale f
-        self.bias_factor = np.ones(n)              # the run's Student-t factor g
-        self.held = np.zeros((n, 2))               # the part of the bias held for the run
+    # --- the default's moments (outside every zone) ------------------------
 
     @property
-    def n(self) -> int:
-        """Return the number of slots."""
-        return self.started.size
+    def stationary_cov(self) -> FloatArray:
+        """Return the default process's stationary covariance (2, 2)."""
+        return self.default.stationary_cov
 
-    def grow(self, n: int) -> None:
-        """Add ``n`` slots (not started)."""
-        old = [getattr(self, k) for k in _SLOT_ARRAYS]
-        self._alloc(n)
-        for k, a in zip(_SLOT_ARRAYS, old):
-            setattr(self, k, np.concatenate([a, getattr(self, k)]))
+    @property
+    def stationary_sd(self) -> FloatArray:
+        """Return the default process's stationary standard deviation per axis."""
+        return self.default.stationary_sd
 
-    def keep(self, mask: BoolArray) -> None:
-        """Keep only the slots where ``mask`` is True (in order)."""
-        for name in _SLOT_ARRAYS:
-            setattr(self, name, getattr(self, name)[mask])
+    def autocovariance(self, max_lag: int) -> FloatArray:
+        """Return the default process's autocovariance, (max_lag + 1, 2, 2)."""
+        return self.default.autocovariance(max_lag)
 
-    def restart(self, start: int, rows: Any = slice(None)) -> None:
-        """Forget ``rows`` (all by default); runs count from model step ``start``."""
-        self.start = int(start)
-        self.started[rows] = False
+    def autocorrelation(self, max_lag: int) -> FloatArray:
+        """Return the default process's autocorrelation per axis, (max_lag + 1, 2)."""
+        return self.default.autocorrelation(max_lag)
 
-    def forget(self, rows: Any) -> None:
-        """Forget ``rows``: their next fix starts them again from the run's start."""
-        self.started[rows] = False
-        self.heading[rows] = 0.0
+    def mean_step_cov(self) -> FloatArray:
+        """Return the default process's mean one-step covariance (2, 2)."""
+        return self.default.mean_step_cov()
 
-    def errors(self, rows: IntArray, keys: Keys, step: int, zones: IntArray,
-               heading: Optional[FloatArray] = None) -> tuple[FloatArray, FloatArray]:
-        """
-        Return the error, shape (m, 2), and covariance (m, 2, 2) of ``rows`` at a step.
+    # --- state and the step ------------------------------------------------
 
-        ``keys`` are the rows' stream keys and ``zones`` the zone index of
-        each row's truth now (``OUTSIDE`` for the default); ``heading`` the
-        direction of travel now (radians; NaN standing: the last one holds),
-        for street_frame. Rows behind are advanced to model step ``step``
-        first, in the zone and direction of now (see the module doc).
-        """
-        rows = np.asarray(rows, dtype=np.int64)
-        keys = np.asarray(keys, dtype=np.uint64)
-        zones = self.model_of_zone[np.asarray(zones, dtype=np.int64)]
-        if self.start is None:
-            raise ValueError('ZonedErrors.restart(start) was not called')
-        if heading is not None:
-            heading = np.asarray(heading, dtype=float)
-            moving = np.isfinite(heading)
-            self.heading[rows[moving]] = heading[moving]
-        fresh = ~self.started[rows]
-        if fresh.any():
-            self._begin(rows[fresh], keys[fresh], step, zones[fresh])
-        if np.any(self.step[rows] > step):
-            raise ValueError(f'model step {step} is before the last step served '
-                             f'({int(self.step[rows].max())})')
-        behind = np.flatnonzero(self.step[rows] < step)
-        if behind.size:
-            r, k, z = rows[behind], keys[behind], zones[behind]
-            for s in range(int(self.step[r].min()) + 1, step + 1):
-                due = self.step[r] < s
-                self._advance(r[due], k[due], s, z[due])
-        cov = self.cov[rows] if self.conditional_cov else self.stationary[self.zone[rows]]
-        err = self.err[rows, :, 0].copy()
-        if self.population is not None:             # m + f (e - m) + b
-            m = self.means[self.zone[rows]]
-            err = m + self.scale[rows, None] * (err - m) + self.bias[rows]
-            if self.population.held:
-                err += self.held[rows]
-        if self.failures is not None:
-            off, fails = self.failures.offsets(keys, step)
-            err[fails] = off[fails]
-        return err, cov
+    def _zones(self, inputs: Inputs, n: int) -> IntArray:
+        """Return each agent's process index from the inputs' zones (none: the default)."""
+        if inputs is None or inputs.zone is None:
+            return np.full(n, self.process_of_zone[-1], dtype=np.int64)
+        return self.process_of_zone[np.asarray(inputs.zone, dtype=np.int64)]
 
     def _groups(self, zones: IntArray) -> Iterator[tuple[int, IntArray]]:
         for z in np.unique(zones):
             yield int(z), np.flatnonzero(zones == z)
 
-    def _begin(self, rows: IntArray, keys: Keys, step: int, zones: IntArray) -> None:
-        """Start ``rows`` at ``step``: the state of a run from the start in one zone."""
-        if self.population is not None:            # the bias a step before, the scale
-            self._draw(rows, keys, step)
-        for z, sel in self._groups(zones):
-            model, r, k = self.models[z], rows[sel], keys[sel]
-            if model.needs_heading:
-                state = self._street_start(model, r, k, step)
-            elif self.conditional_cov:
-                state = self._conditional_start(model, r, k, step)
-            else:
-                state = model.state_after(k, self._start(), step)
-            p = model.order
-            self.err[r] = model.mean[None, :, None]       # lags beyond p: the mean
-            self.err[r, :, :p] = state.deviations + model.mean[None, :, None]
-            self.regime[r] = state.regime if _has_regimes(model) else 0
-            self.zone[r] = z
-            self.step[r] = step
-            self.started[r] = True
-        if self.population is not None and step > self._start():
-            self._wander(rows, keys, step)
+    def empty_state(self, n: int) -> ZonedState:
+        """Return the state of ``n`` agents, all zeros, in the default process."""
+        return ZonedState(tuple(m.empty_state(n) for m in self.processes),
+                          np.full(n, self.process_of_zone[-1], dtype=np.int64),
+                          np.zeros((n, 2, self.order)), np.zeros(n))
 
-    def _start(self) -> int:
-        """Return the run's first model step (set by :meth:`restart`)."""
-        if self.start is None:
-            raise ValueError('ZonedErrors.restart(start) was not called')
-        return self.start
+    def _set(self, state: ZonedState, z: int, rows: IntArray, part: AgentState) -> None:
+        """Write ``part`` as ``rows``' state under process ``z``; carry its errors."""
+        m = self.processes[z]
+        state.parts[z].put(rows, part)
+        state.zone[rows] = z
+        own = m.carried(part)
+        state.carried[rows] = m.mean[None, :, None]     # lags beyond the process's p: its mean
+        state.carried[rows, :, :own.shape[2]] = own
 
-    def _draws(self) -> AgentDraws:
-        """Return the population's draws (only called when there is a population)."""
-        if self.population is None:
-            raise ValueError('this ZonedErrors has no population')
-        return self.population
+    def _headed(self, state: ZonedState, inputs: Inputs) -> None:
+        """Keep the last finite direction of travel of every agent."""
+        if inputs is not None and inputs.heading is not None:
+            heading = np.asarray(inputs.heading, dtype=float)
+            moving = np.isfinite(heading)
+            state.heading[moving] = heading[moving]
 
-    def _draw(self, rows: IntArray, keys: Keys, step: int) -> None:
-        """Draw the agents' scales and their runs' biases, wandered to ``step - 1``."""
-        draws, start = self._draws(), self._start()
-        self.bias[rows], self.bias_factor[rows] = draws.bias_at(keys, start, step - 1)
-        self.scale[rows] = draws.scales(keys)
-        self.held[rows] = draws.held_part(keys, start, self.bias_factor[rows])
-
-    def _wander(self, rows: IntArray, keys: Keys, step: int) -> None:
-        """Wander the runs' biases of ``rows`` to model step ``step``."""
-        bias = self.bias[rows]
-        self._draws().wander(bias, self.bias_factor[rows], keys, step)
-        self.bias[rows] = bias
-
-    def _stated(self, model: ErrorModel[Any], rows: IntArray, state: Any,
-                first: bool = False) -> FloatArray:
-        """Return the covariances (m, 2, 2) of ``rows``' next errors given ``state``."""
-        if self.population is None:
-            return model.predictive_cov(state, first)
-        core, about = _core(model)
-        draws, scale = self.population, self.scale[rows]
-        cov = draws.agent_cov(core.predictive_cov(state, first), scale,
-                              self.bias_factor[rows], first)
-        if not about:
-            return cov
-        return mean_square(cov, draws.agent_mean(core.mean, core.predictive_mean(state, first),
-                                                 scale, self.bias[rows], first,
-                                                 self.held[rows] if draws.held else None))
-
-    def _conditional_start(self, model: ErrorModel[Any], rows: IntArray, keys: Keys,
-                           step: int) -> Any:
-        """Return the state at ``step`` of a run from the start; set its covariance."""
-        if step == self.start:
-            state = model.initial_state(keys, step)
-            self.cov[rows] = self._stated(model, rows, state, first=True)
-            return state
-        state = model.state_after(keys, self._start(), step - 1)
-        self.cov[rows] = self._stated(model, rows, state)
-        model.advance(state, keys, step)
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> ZonedState:
+        """Draw the state at ``index``: each agent from its zone process's stationary law."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        state = self.empty_state(keys.size)
+        self._headed(state, inputs)
+        for z, r in self._groups(self._zones(inputs, keys.size)):
+            sub = None if inputs is None else inputs.take(r)
+            self._set(state, z, r, self.processes[z].initial_state(keys[r], index, sub))
         return state
 
-    def _street_start(self, model: ErrorModel[Any], rows: IntArray, keys: Keys, step: int) -> Any:
-        """Return the state at ``step`` of a street-frame run from the start, heading now."""
-        if step == self.start:
-            state = model.initial_state(keys, step)
-            model.face(state, self.heading[rows])
-            if self.conditional_cov:
-                self.cov[rows] = self._stated(model, rows, state, first=True)
-            return state
-        state = model.state_after(keys, self._start(), step - 1, heading=self.heading[rows])
-        if self.conditional_cov:
-            self.cov[rows] = self._stated(model, rows, state)
-        model.advance(state, keys, step)
+    def state_after(self, keys: Keys, start: int, step: int, inputs: Inputs = None) -> ZonedState:
+        """Return the state at ``step`` of a run from ``start`` in the zones of ``inputs``."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        state = self.empty_state(keys.size)
+        self._headed(state, inputs)
+        for z, r in self._groups(self._zones(inputs, keys.size)):
+            sub = None if inputs is None else inputs.take(r)
+            self._set(state, z, r, self.processes[z].state_after(keys[r], start, step, sub))
         return state
 
-    def _advance(self, rows: IntArray, keys: Keys, step: int, zones: IntArray) -> None:
-        """Advance ``rows`` (one step behind) to ``step`` with their zones' recursions."""
-        for z, sel in self._groups(zones):
-            model, r, k = self.models[z], rows[sel], keys[sel]
-            p = model.order
-            tmp = model.empty_state(r.size)
-            tmp.deviations[:] = self.err[r, :, :p] - model.mean[None, :, None]
-            if model.needs_heading:
-                model.face(tmp, self.heading[r])
-            if _has_regimes(model):
-                regime = self.regime[r].copy()
-                entering = self.zone[r] != z
-                if entering.any():
-                    u = streams.uniform_pairs(k[entering], streams.DOMAIN_INIT_REGIME,
-                                              step)[:, 0]
-                    regime[entering] = np.searchsorted(_process(model).cum_pi, u, side='right')
-                tmp.regime[:] = regime
-            if self.conditional_cov:
-                self.cov[r] = self._stated(model, r, tmp)
-            e = model.advance(tmp, k, step)
-            self.err[r, :, 1:] = self.err[r, :, :-1]
-            self.err[r, :, 0] = e
-            self.regime[r] = tmp.regime if _has_regimes(model) else 0
-            self.zone[r] = z
-            self.step[r] = step
-        if self.population is not None:
-            self._wander(rows, keys, step)
+    def prepare(self, state: ZonedState, keys: Keys, index: int, inputs: Inputs = None) -> None:
+        """Move the agents entering a zone at step ``index`` to its process (module doc)."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        self._headed(state, inputs)
+        for z, r in self._groups(self._zones(inputs, keys.size)):
+            m, sub = self.processes[z], None if inputs is None else inputs.take(r)
+            entering = r[state.zone[r] != z]
+            if entering.size:
+                state.parts[z].put(entering, m.resumed(
+                    state.carried[entering], keys[entering], index,
+                    StepInputs(heading=state.heading[entering])))
+                state.zone[entering] = z
+            if sub is not None and sub.heading is not None:
+                part = state.parts[z].take(r)
+                m.prepare(part, keys[r], index, sub)
+                state.parts[z].put(r, part)
+
+    def advance(self, state: ZonedState, keys: Keys, index: int,
+                inputs: Inputs = None) -> FloatArray:
+        """Advance each agent with its zone's process to step ``index``; return the errors."""
+        keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
+        self.prepare(state, keys, index, inputs)
+        out = np.empty((keys.size, 2))
+        for z, r in self._groups(state.zone):
+            m, sub = self.processes[z], None if inputs is None else inputs.take(r)
+            part = state.parts[z].take(r)
+            out[r] = m.advance(part, keys[r], index, sub)
+            state.parts[z].put(r, part)
+            state.carried[r, :, 1:] = state.carried[r, :, :-1]
+            state.carried[r, :, 0] = m.carried(part)[:, :, 0]
+        return out
+
+    def _per_process(self, state: ZonedState, what: str, shape: tuple[int, ...],
+                     *args: Any) -> FloatArray:
+        """Return member ``what`` of each agent's process, gathered, (n, *shape)."""
+        out = np.empty((len(state),) + shape)
+        for z, r in self._groups(state.zone):
+            out[r] = getattr(self.processes[z], what)(state.parts[z].take(r), *args)
+        return out
+
+    def errors(self, state: ZonedState) -> FloatArray:
+        """Return the current north/east errors of every agent, (n, 2)."""
+        return self._per_process(state, 'errors', (2,))
+
+    def means(self, state: ZonedState) -> FloatArray:
+        """Return the stationary mean (n, 2) of each agent's zone process."""
+        return self._means[state.zone]
+
+    def predictive_cov(self, state: ZonedState, first: bool = False) -> FloatArray:
+        """Return each agent's covariance (n, 2, 2) of the next error under its process."""
+        return self._per_process(state, 'predictive_cov', (2, 2), first)
+
+    def predictive_mean(self, state: ZonedState, first: bool = False) -> FloatArray:
+        """Return each agent's expected next error (n, 2) under its process."""
+        return self._per_process(state, 'predictive_mean', (2,), first)
+
+    def simulate(self, keys: Keys, n_steps: int, start: int = 0,
+                 out: Optional[FloatArray] = None) -> FloatArray:
+        """Return errors at steps ``start ..`` with every agent outside every zone."""
+        return self.default.simulate(keys, n_steps, start=start, out=out)
 
 
 #: What the engine, the crowd and ``simulate`` take as ``zones``: a zone map and the
-#: errors per zone (the map None: a street frame, everyone in one zone).
-ZoneSetup = tuple[Optional[ZoneMap], ZonedErrors]
-
-
-def one_zone(model: ErrorModel[Any], conditional_cov: bool = False) -> ZonedErrors:
-    """
-    Return the :class:`ZonedErrors` of a street-frame model without a zone map.
-
-    A street frame needs each fix's direction of travel, which the
-    zone path carries: one zone, the error process beneath the availability
-    and failure wrappers, with the failures and the population's draws
-    applied as in zones.
-    """
-    failures = None
-    while isinstance(model, (WithAvailability, WithFailures)):
-        failures = getattr(model, 'failures', failures)
-        model = model.inner
-    core, about = _core(model)
-    draws = None
-    if isinstance(core, WithPopulation):
-        draws = core.draws
-        model = AboutTruth(core.inner) if about else core.inner
-    return ZonedErrors([model], conditional_cov=conditional_cov, failures=failures,
-                       population=draws)
+#: agents stepped per fix (the map None: a street frame, no map).
+ZoneSetup = tuple[Optional[ZoneMap], StepsPerFix[Any]]
 
 
 def zoned_errors(zone_map: ZoneMap, profile: Profile, covariance_mode: str = 'stationary',
                  about_truth: bool = False
-                 ) -> tuple[Profile, ErrorModel[Any], tuple[ZoneMap, ZonedErrors]]:
+                 ) -> tuple[Profile, ErrorModel[Any], tuple[ZoneMap, StepsPerFix[Any]]]:
     """
-    Return (default profile, its model, ``(zone_map, ZonedErrors)``) for a run.
+    Return (default profile, its model, ``(zone_map, StepsPerFix)``) for a run.
 
     The default profile is the map's ``default_profile``, else ``profile``;
-    its model gives what is not the error process (availability) and the
-    error outside every zone. ``about_truth``: the stated covariances are
-    the error's mean square about the truth (:mod:`about_truth`).
+    its model gives what is not the error process (availability, the
+    population, gross failures) and the error outside every zone; the
+    zones' processes are wrapped the same way. ``about_truth``: the stated
+    covariances are the error's mean square about the truth
+    (:mod:`about_truth`).
     """
-    default, models = zone_models(zone_map, profile, about_truth)
-    draws = None if default.population is None else \
-        AgentDraws(default.population, default.rate_hz)
-    return default, default.model(about_truth=about_truth), (zone_map, ZonedErrors(
-        models, conditional_cov=needs_predictive(covariance_mode, default.reported_accuracy),
-        failures=default.gross_failures, population=draws))
+    default, processes = zone_models(zone_map, profile)
+    zoned = default.model(about_truth=about_truth, process=WithZones(processes))
+    return default, default.model(about_truth=about_truth), (zone_map, StepsPerFix(
+        zoned, conditional_cov=needs_predictive(covariance_mode, default.reported_accuracy)))
 
 
-def simulate_along(zoned: ZonedErrors, keys: Keys, steps: Numbers, zones: Numbers) -> FloatArray:
+def simulate_along(zoned: StepsPerFix[Any], keys: Keys, steps: Numbers,
+                   zones: Numbers) -> FloatArray:
     """
     Return errors (n samples, agents, 2) simulated along sampled steps in zones.
 
     ``steps`` (n,) increasing model steps from 0 where a trace has samples,
     ``zones`` (n,) the zone of each sample. Every agent runs continuously
     from step 0; a step without a sample takes the zone of the next sample
-    (the rule of the module doc). ``zoned`` is a fresh :class:`ZonedErrors`.
+    (the rule of the module doc). ``zoned`` is a fresh :class:`StepsPerFix`.
     """
     steps = np.asarray(steps, dtype=np.int64)
     span = int(steps[-1]) + 1
@@ -445,13 +347,13 @@ class TravelDirections:
 
     def __init__(self, lag_s: float = 0.0) -> None:
         self.lag_s = float(lag_s)
+        self.lag_ns = int(round(self.lag_s * NS))
         self.hist: dict[str, list[tuple[float, float, float]]] = {}
 
-    def _at(self, h: list[tuple[float, float, float]], when: float) -> tuple[float, float]:
-        for (t0, a0, b0), (t1, a1, b1) in zip(h[:-1], h[1:]):
-            if t0 <= when <= t1:
-                w = (when - t0) / (t1 - t0) if t1 > t0 else 0.0
-                return a0 + w * (a1 - a0), b0 + w * (b1 - b0)
+    def _at(self, h: list[tuple[float, float, float]], when: int) -> tuple[float, float]:
+        for a, b in zip(h[:-1], h[1:]):
+            if a[0] <= when <= b[0]:
+                return between(a, b, when)
         if h and h[-1][0] == when:
             return h[-1][1], h[-1][2]
         return math.nan, math.nan
@@ -460,15 +362,16 @@ class TravelDirections:
                    lon: Numbers) -> FloatArray:
         """Store (t, lat, lon) per agent; return each one's direction now (rad or NaN)."""
         out = np.full(len(names), np.nan)
-        back = t - self.lag_s - 1.0
+        t_ns = stamp_ns(t)
+        back = t_ns - self.lag_ns - NS
         pts = np.full((len(names), 4), np.nan)
         for i, n in enumerate(names):
             h = self.hist.setdefault(n, [])
-            h.append((t, float(lat[i]), float(lon[i])))
+            h.append((float(t_ns), float(lat[i]), float(lon[i])))
             while len(h) > 2 and h[1][0] <= back:
                 h.pop(0)
             pts[i, :2] = self._at(h, back)
-            pts[i, 2:] = self._at(h, t - self.lag_s)
+            pts[i, 2:] = self._at(h, t_ns - self.lag_ns)
         ok = np.isfinite(pts).all(axis=1)
         if ok.any():
             out[ok] = travel_direction(pts[ok, 0], pts[ok, 1], pts[ok, 2], pts[ok, 3])

@@ -36,7 +36,6 @@ Point-in-polygon is vectorised over agents: one query of a shapely 2
 ``STRtree`` per step (the optional extra ``zones``).
 """
 
-from dataclasses import replace
 import json
 from pathlib import Path
 from typing import Any, NoReturn, Optional, Sequence
@@ -44,8 +43,9 @@ from typing import Any, NoReturn, Optional, Sequence
 import numpy as np
 import os
 
+from gps_error_ros.model.ar_model import ARErrorModel
+from gps_error_ros.model.effects import ExtendedModel
 from gps_error_ros.model.profiles import load_profile, Profile, ProfileError
-from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.state import FloatArray, IntArray, Numbers
 
 #: The zone index of a point outside every polygon.
@@ -275,25 +275,22 @@ def load_zone_map(path: str | os.PathLike[str]) -> ZoneMap:
     return zone_map_from_dict(raw, str(path))
 
 
-def zone_models(zone_map: ZoneMap, profile: Profile,
-                about_truth: bool = False) -> tuple[Profile, list[ErrorModel[Any]]]:
+def zone_models(zone_map: ZoneMap,
+                profile: Profile) -> tuple[Profile, list[ARErrorModel | ExtendedModel]]:
     """
-    Return (the default profile, the error models of the zones then the default).
+    Return (the default profile, the error processes of the zones then the default's).
 
     ``profile`` is the run's own profile; the map's ``default_profile``
-    replaces it when the map has one. ``about_truth``: the models state the
-    error's mean square about the truth (:meth:`Profile.model`). Raises
+    replaces it when the map has one. The processes are the AR part and its
+    effects alone: what the receiver does beyond them comes from the
+    default profile (:func:`~.zoned.zoned_errors` wraps them). Raises
     :class:`ZoneMapError` for a zone profile the run cannot mix with the
     default (see the module doc).
     """
     default = zone_map.default or profile
-    # the default's error process alone: its availability and population serve
-    # every zone (zoned.ZonedErrors draws the population)
-    inner = replace(default, availability=None, population=None).model(
-        gross_failures=False, about_truth=about_truth)
-    models: list[ErrorModel[Any]] = []
-    built: dict[str, ErrorModel[Any]] = {}
-    _no_cycle(inner, f'{zone_map.path}: default profile {default.name}')
+    inner = default.process()
+    models: list[ARErrorModel | ExtendedModel] = []
+    built: dict[str, ARErrorModel | ExtendedModel] = {}
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
         if zp.path == default.path:
@@ -311,8 +308,7 @@ def zone_models(zone_map: ZoneMap, profile: Profile,
                     f'{where}: has {article} {section} section; expected none: '
                     f'{section} comes from the default profile ({default.name}) '
                     f'everywhere')
-        model = built.setdefault(zp.path, zp.model(about_truth=about_truth))   # may be shared
-        _no_cycle(model, where)
+        model = built.setdefault(zp.path, zp.process())   # may be shared
         if model.lag_s != inner.lag_s:
             raise ZoneMapError(f'{where}: motion_lag {model.lag_s} s differs from the '
                                f'default profile {default.name}\'s {inner.lag_s} s; '
@@ -320,15 +316,3 @@ def zone_models(zone_map: ZoneMap, profile: Profile,
         models.append(model)
     models.append(inner)
     return default, models
-
-
-def _no_cycle(model: ErrorModel[Any], where: str) -> None:
-    """Refuse the ``periodic`` and ``outliers`` effects: zones do not carry their state."""
-    if getattr(model, 'periodic', None) is not None:
-        raise ZoneMapError(f'{where}: has the periodic effect; expected none: a zone '
-                           f'map does not carry a cycle\'s phase from zone to zone yet '
-                           f'(run without zones, or drop effects.periodic)')
-    if getattr(model, 'outliers', None) is not None:
-        raise ZoneMapError(f'{where}: has the outliers effect; expected none: a zone '
-                           f'map does not carry a jump under way from zone to zone yet '
-                           f'(run without zones, or drop effects.outliers)')

@@ -17,11 +17,10 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.ar_model import state_and_cov
-from gps_error_ros.model.availability import available
 from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
-from gps_error_ros.model.zoned import ZonedErrors, ZoneSetup
+from gps_error_ros.model.stepping import state_at, step as model_step, StepsPerFix
+from gps_error_ros.model.zoned import ZoneSetup
 from gps_error_ros.model.zones import ZoneMap
 
 
@@ -43,7 +42,7 @@ class CrowdErrors:
     conditional_cov
         Keep each agent's covariance given the state a step before.
     zoned
-        ``(ZoneMap, ZonedErrors)``: the errors follow each agent's zone.
+        ``(ZoneMap, StepsPerFix)``: the errors follow each agent's zone.
 
     """
 
@@ -64,9 +63,9 @@ class CrowdErrors:
         # the state a step before (covariance_mode conditional)
         self.conditional_cov = conditional_cov
         self.cov_now: FloatArray = np.zeros((0, 2, 2))
-        # zoned: (ZoneMap, ZonedErrors) when the errors follow a zone map
+        # zoned: (ZoneMap, StepsPerFix) when the errors follow a zone map
         self.zone_map: ZoneMap | None = None
-        self.zoned: ZonedErrors | None = None
+        self.zoned: StepsPerFix[Any] | None = None
         if zoned is not None:
             self.zone_map, self.zoned = zoned
         if self.zoned is not None:
@@ -80,9 +79,10 @@ class CrowdErrors:
         while self.step < step:
             self.step += 1
             if self.keys.size:
-                if self.conditional_cov:
-                    self.cov_now = self.model.predictive_cov(self.state)
-                self.model.advance(self.state, self.keys, self.step)
+                cov = model_step(self.model, self.state, self.keys, self.step,
+                                 cov=self.conditional_cov)
+                if cov is not None:
+                    self.cov_now = cov
 
     def errors(self, names: Sequence[str]) -> FloatArray:
         """Return the named agents' current north/east errors, in metres."""
@@ -106,8 +106,7 @@ class CrowdErrors:
         """
         rows = self._rows(names)
         self.last_seen[rows] = self.step
-        zones = np.full(rows.size, -1) if self.zone_map is None else \
-            self.zone_map.lookup(lat, lon)
+        zones = None if self.zone_map is None else self.zone_map.lookup(lat, lon)
         if self.zoned is None:
             raise ValueError('zoned_errors: the crowd has no zones (expected zoned=...)')
         out = self.zoned.errors(rows, self.keys[rows], self.step, zones, heading)
@@ -121,7 +120,7 @@ class CrowdErrors:
 
     def available(self, names: Sequence[str]) -> BoolArray:
         """Return which named agents have a fix now (profile availability; else all)."""
-        return available(self.model, self.state.take(self._rows(names)))
+        return self.model.fix_mask(self.state.take(self._rows(names)))
 
     def _rows(self, names: Sequence[str]) -> IntArray:
         """Return the state rows of ``names``, adding the agents not yet known."""
@@ -133,11 +132,10 @@ class CrowdErrors:
     def _add(self, names: Sequence[str]) -> None:
         keys = np.array([streams.agent_key(self.seed, n) for n in names],
                         dtype=np.uint64)
-        if self.conditional_cov:
-            state, cov = state_and_cov(self.model, keys, self.start, self.step)
+        state, cov = state_at(self.model, keys, self.start, self.step,
+                              cov=self.conditional_cov)
+        if cov is not None:
             self.cov_now = np.concatenate([self.cov_now, cov])
-        else:
-            state = self.model.state_after(keys, self.start, self.step)
         base = len(self.names)
         for i, n in enumerate(names):
             self.index[n] = base + i

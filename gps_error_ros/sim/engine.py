@@ -15,15 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from gps_error_ros.model.availability import available
-from gps_error_ros.model.ar_model import state_and_cov
 from gps_error_ros.model.geodesy import offset
 from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import reference_cov, ReportedAccuracy
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray, Keys, Numbers
+from gps_error_ros.model.stepping import state_at, step as model_step, StepsPerFix
 from gps_error_ros.model.velocity import Velocity
-from gps_error_ros.model.zoned import one_zone, travel_direction, ZonedErrors, ZoneSetup
-from gps_error_ros.model.zones import OUTSIDE, ZoneMap
+from gps_error_ros.model.zoned import travel_direction, ZoneSetup
+from gps_error_ros.model.zones import ZoneMap
 from gps_error_ros.sim.engine_types import EngineStats, FixBatch, PendingStep
 from gps_error_ros.sim.faults import FaultOverlay, FixRows
 from gps_error_ros.sim.truth_ring import TruthRing
@@ -66,7 +65,7 @@ class FixEngine:
         Each fix carries the model's covariance of its error given the state
         a step before (else the node states the stationary one).
     zones
-        ``(ZoneMap, ZonedErrors)``: the errors follow each fix's zone.
+        ``(ZoneMap, StepsPerFix)``: the errors follow each fix's zone.
     reported
         The profile's reported_accuracy: each fix carries the radius the
         phone states and the covariance it implies.
@@ -146,11 +145,11 @@ class FixEngine:
         A street frame needs each fix's direction of travel: the same path, one zone.
         """
         self.zone_map: ZoneMap | None = None
-        self.zoned: ZonedErrors | None = None
+        self.zoned: StepsPerFix[Any] | None = None
         if zones is not None:
             self.zone_map, self.zoned = zones
         if self.zoned is None and self.model.needs_heading:
-            self.zoned = one_zone(self.model, self.conditional_cov)
+            self.zoned = StepsPerFix(self.model, conditional_cov=self.conditional_cov)
         if self.zoned is not None:
             self.zoned.grow(self.n - self.zoned.n)
 
@@ -281,17 +280,15 @@ class FixEngine:
         for step in self.pending:
             while m < step.model_step:
                 m += 1
-                cov = self.model.predictive_cov(state) if cov is not None else None
-                self.model.advance(state, keys, m)
+                cov = model_step(self.model, state, keys, m, cov=cov is not None)
             step.err[slots] = self.model.errors(state)
-            step.fix[slots] = available(self.model, state)
+            step.fix[slots] = self.model.fix_mask(state)
             step.done[slots] = False
             if cov is not None and step.cov is not None:     # both: conditional_cov
                 step.cov[slots] = cov
         while m < self.model_index:
             m += 1
-            cov = self.model.predictive_cov(state) if cov is not None else None
-            self.model.advance(state, keys, m)
+            cov = model_step(self.model, state, keys, m, cov=cov is not None)
         self.state.put(slots, state)
         if cov is not None and self.cov_now is not None:   # both: conditional_cov
             self.cov_now[slots] = cov
@@ -321,9 +318,7 @@ class FixEngine:
                    start: int | None = None) -> tuple[AgentState, FloatArray | None]:
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
         start = self.start_index if start is None else start
-        if not self.conditional_cov:
-            return self.model.state_after(keys, start, m), None
-        return state_and_cov(self.model, keys, start, m)
+        return state_at(self.model, keys, start, m, cov=self.conditional_cov)
 
     def detach(self, slots: Numbers) -> None:
         """Free ``slots``: no more fixes for them, their truth forgotten."""
@@ -387,16 +382,17 @@ class FixEngine:
                 self.cov_now = self.model.predictive_cov(self.state, first=True)
         while self.model_index < m:
             self.model_index += 1
-            if self.conditional_cov:
-                self.cov_now = self.model.predictive_cov(self.state)
-            self.model.advance(self.state, self.keys, self.model_index)
+            cov = model_step(self.model, self.state, self.keys, self.model_index,
+                             cov=self.conditional_cov)
+            if cov is not None:
+                self.cov_now = cov
             for side in self.side.values():
                 side.advance(self.keys, self.model_index)
         self.stats.steps += 1
         # free slots are done already
         self.pending.append(PendingStep(
             t_ns, m, self.model.errors(self.state), ~self.active,
-            available(self.model, self.state), {k: v.w.copy() for k, v in self.side.items()},
+            self.model.fix_mask(self.state), {k: v.w.copy() for k, v in self.side.items()},
             None if self.cov_now is None else self.cov_now.copy()))
 
     def resolve(self, now_ns: int) -> list[FixBatch]:
@@ -459,7 +455,7 @@ class FixEngine:
         err, fix = step.err[agents], step.fix[agents]
         cov = None if step.cov is None else step.cov[agents]
         if self.zoned is not None:
-            zones = np.full(agents.size, OUTSIDE) if self.zone_map is None else \
+            zones = None if self.zone_map is None else \
                 self.zone_map.lookup(coords[:, 0], coords[:, 1])
             heading = self._headings(agents, step.t_ns) if self.zoned.needs_heading else None
             err, cov = self.zoned.errors(agents, self.keys[agents], step.model_step, zones,

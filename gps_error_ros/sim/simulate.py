@@ -15,7 +15,7 @@ A profile's ``effects`` apply in every mode, except ``motion_lag`` in the
 ``.npz`` mode, which has no trajectory to lag (the two trajectory modes
 report each agent's position ``lag_s`` earlier, interpolated).
 
-With a zone map (``zones``: ``(ZoneMap, ZonedErrors)``, see
+With a zone map (``zones``: ``(ZoneMap, StepsPerFix)``, see
 :func:`gps_error_ros.model.zoned.zoned_errors`) the two trajectory modes give each agent the error
 process of the zone its (lagged) truth is in, step by step
 (:mod:`gps_error_ros.model.zoned`), as the node with ``zones`` does; the
@@ -36,7 +36,6 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.accuracy import radius68
 from gps_error_ros.model.atomic import atomic_output, PathArg
-from gps_error_ros.model.availability import WithAvailability
 from gps_error_ros.model.motion_lag import LagBuffer
 from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import needs_predictive, ReportedAccuracy
@@ -374,7 +373,7 @@ def _fcd_counts(src: PathArg, model: ErrorModel[Any], steps: int, rows: int, age
                               f'expected positions to add errors to (did SUMO fail or end '
                               f'before anyone departed?)')
     out = {'timesteps': steps, 'positions': rows, 'agents': agents}
-    if isinstance(model, WithAvailability) or faults:
+    if model.has_outages or faults:
         out['positions_without_fix'] = no_fix
     return out
 
@@ -433,7 +432,7 @@ def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
     fix = rows.fix
     extra = accuracy_columns(rows.cov, fix, radius)
     extra.update(rows.extra)
-    outages = isinstance(model, WithAvailability) or bool(faults)
+    outages = model.has_outages or bool(faults)
     write_trace_csv(Trace(Path(dst).name, data['t'], rows.lat, rows.lon, data['truth_lat'],
                           data['truth_lon'], extra), dst, agent=data['agent'],
                     fix=fix if outages else None)
@@ -470,7 +469,7 @@ def _simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: in
                 block = model.simulate(keys, steps, start=start)
                 f.write(np.ascontiguousarray(block.transpose(1, 0, 2)).tobytes())
                 progress.update(keys.size)
-        if isinstance(model, WithAvailability):         # fix[a, k]: False in an outage
+        if model.has_outages:         # fix[a, k]: False in an outage
             with zf.open('fix.npy', 'w', force_zip64=True) as f:
                 np.lib.format.write_array_header_2_0(
                     f, {'descr': '|b1', 'fortran_order': False, 'shape': shape[:2]})
@@ -478,7 +477,7 @@ def _simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: in
                     keys = np.array([streams.agent_key(seed, n)
                                      for n in names[a0:a0 + chunk]], dtype=np.uint64)
                     f.write(np.ascontiguousarray(
-                        model.simulate_availability(keys, steps, start=start)).tobytes())
+                        model.simulate_fix(keys, steps, start=start)).tobytes())
         for name, arr in (('t', (start + np.arange(steps)) / rate_hz),
                           ('names', np.array(names)), ('seed', np.array(seed)),
                           ('rate_hz', np.array(rate_hz))):

@@ -21,7 +21,8 @@ from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import needs_predictive, reference_cov, ReportedAccuracy
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import Velocity
-from gps_error_ros.model.zoned import one_zone, TravelDirections, ZoneSetup
+from gps_error_ros.model.stepping import StepsPerFix
+from gps_error_ros.model.zoned import TravelDirections, ZoneSetup
 from gps_error_ros.sim.crowd import CrowdErrors
 from gps_error_ros.sim.faults import Fault, FaultOverlay, FixRows, lay_over_rows
 from gps_error_ros.sim.velocity_sim import row_values, speed_and_course, StreamTracker
@@ -30,9 +31,9 @@ from gps_error_ros.traces.trajectories import add_errors_lonlat, TrajectoryError
 
 def per_fix(model: ErrorModel[Any], zones: ZoneSetup | None,
             conditional: bool = False) -> ZoneSetup | None:
-    """Return ``zones``, or a one-zone set-up for a street-frame model, or None."""
+    """Return ``zones``, or the agents stepped per fix of a street-frame model, or None."""
     if zones is None and model.needs_heading:
-        return None, one_zone(model, conditional)
+        return None, StepsPerFix(model, conditional_cov=conditional)
     return zones
 
 

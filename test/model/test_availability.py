@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.availability import (Availability, available, runs_without_fix,
+from gps_error_ros.model.availability import (Availability, runs_without_fix,
                                               WithAvailability)
 from gps_error_ros.model.profiles import load_profile, profile_from_dict, ProfileError
 
@@ -35,7 +35,7 @@ def test_outages_follow_the_declared_law():
     model = profile().model()
     av = model.availability
     keys = streams.agent_keys(3, [f'a{i}' for i in range(200)])
-    mask = model.simulate_availability(keys, 3000, start=50)
+    mask = model.simulate_fix(keys, 3000, start=50)
     n = mask.size
     frac = 1.0 - mask.mean()
     assert av.outage_fraction == pytest.approx(4.5 / (4.5 + 50.0))     # E[L] = 4.5
@@ -52,11 +52,11 @@ def test_outages_follow_the_declared_law():
 def test_outages_are_each_agents_own_stream():
     model = profile().model()
     keys = streams.agent_keys(3, ['x', 'y', 'z'])
-    crowd = model.simulate_availability(keys, 400, start=7)
-    alone = model.simulate_availability(keys[1:2], 400, start=7)
+    crowd = model.simulate_fix(keys, 400, start=7)
+    alone = model.simulate_fix(keys[1:2], 400, start=7)
     np.testing.assert_array_equal(crowd[1:2], alone)
     state = model.state_after(keys, 7, 300)      # caught up = stepped
-    np.testing.assert_array_equal(model.available(state), crowd[:, 300 - 7])
+    np.testing.assert_array_equal(model.fix_mask(state), crowd[:, 300 - 7])
 
 
 def test_the_errors_are_the_inner_models_bit_for_bit():
@@ -68,7 +68,7 @@ def test_the_errors_are_the_inner_models_bit_for_bit():
     for k in range(11, 200):
         np.testing.assert_array_equal(with_av.advance(s1, keys, k),
                                       without.advance(s2, keys, k))
-    np.testing.assert_array_equal(available(without, s2), [True, True])
+    np.testing.assert_array_equal(without.fix_mask(s2), [True, True])
     assert load_profile('DS5').availability is None
 
 

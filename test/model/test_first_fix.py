@@ -16,7 +16,7 @@ import yaml
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
-from gps_error_ros.model.zoned import one_zone
+from gps_error_ros.model.stepping import StepsPerFix
 
 AGENTS = 5000
 POPULATION = {'bias_sd_m': [2.0, 3.0], 'scale_sd_log': 0.3, 'bias_time_constant_s': 200.0,
@@ -86,7 +86,7 @@ def test_the_zone_path_states_the_stationary_law_at_the_first_step(population):
         sections['population'] = POPULATION
     profile = _profile(**sections)
     model = profile.model(about_truth=True)
-    zoned = one_zone(model, conditional_cov=True)
+    zoned = StepsPerFix(model, conditional_cov=True)
     keys = streams.agent_keys(5, [f'w{i}' for i in range(AGENTS)])
     zoned.grow(AGENTS)
     zoned.restart(0)

@@ -7,8 +7,7 @@ import yaml
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AxisParams
 from gps_error_ros.model.effects import build_model, effects_from_dict, EffectsError
-from gps_error_ros.model.profiles import builtin_dir, load_profile_file
-from gps_error_ros.model.zones import ZoneMapError
+from gps_error_ros.model.profiles import load_profile, builtin_dir, load_profile_file
 
 SECTION = {'rate': 0.02, 'mean_steps': 2.5, 'sigma_m': 8.0}
 NORTH, EAST = AxisParams(0.3, (0.9,), 0.8), AxisParams(-0.2, (1.1, -0.2), 0.6)
@@ -98,7 +97,7 @@ def test_bad_sections_are_named(change, hint):
     assert 'p.yaml' in str(err.value) and f'effects.outliers.{hint}' in str(err.value)
 
 
-def test_profile_round_trip_and_zones_refuse_it(tmp_path):
+def test_profile_round_trip_and_zones_carry_it(tmp_path):
     raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
     raw['effects'] = {'outliers': SECTION, 'heavy_tails': {'dof': 6.0}}
     path = tmp_path / 'jumps.yaml'
@@ -106,6 +105,18 @@ def test_profile_round_trip_and_zones_refuse_it(tmp_path):
     p = load_profile_file(path)
     assert p.effects.to_dict()['outliers'] == SECTION
     assert p.effects.names == ('heavy_tails', 'outliers')
-    from gps_error_ros.model.zones import _no_cycle
-    with pytest.raises(ZoneMapError, match='outliers effect'):
-        _no_cycle(p.model(), 'map.geojson: zone a')
+    # in a zone map: an agent that stays in the jumps' zone has the profile's own errors
+    from gps_error_ros.model.stepping import StepsPerFix
+    from gps_error_ros.model.zoned import simulate_along, WithZones
+    keys = streams.agent_keys(2, [f'z{i}' for i in range(50)])
+    zones = WithZones([p.process(), load_profile('DS1').process()])
+    stay = simulate_along(StepsPerFix(zones), keys, np.arange(400), np.zeros(400, int))
+    np.testing.assert_allclose(stay, p.model().simulate(keys, 400), atol=1e-9)
+    # one that enters it draws a jump under way from its stationary law, and jumps there
+    enter = simulate_along(StepsPerFix(zones), keys, np.arange(400),
+                           np.r_[np.full(100, -1), np.zeros(300, int)])
+    np.testing.assert_allclose(enter[:100], load_profile('DS1').model().simulate(keys, 100),
+                               atol=1e-9)
+    assert np.all(np.isfinite(enter))
+    share = np.mean(np.hypot(*(enter[200:] - stay[200:]).T) > 0)
+    assert share > 0.5          # the AR part, carried from DS1, has not yet forgotten it

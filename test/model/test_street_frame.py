@@ -9,7 +9,8 @@ import yaml
 from gps_error_ros.model import streams
 from gps_error_ros.model.effects import effects_from_dict, EffectsError
 from gps_error_ros.model.profiles import builtin_dir, profile_from_dict
-from gps_error_ros.model.zoned import TravelDirections, ZonedErrors
+from gps_error_ros.model.stepping import StepsPerFix
+from gps_error_ros.model.zoned import TravelDirections
 
 ALONG, ACROSS = 0.5, 2.0
 
@@ -45,13 +46,12 @@ def test_the_innovations_turn_with_the_walker(heading, cov):
     m = street_model()
     n = 20000
     keys = streams.agent_keys(1, [f'a{i}' for i in range(n)])
-    zoned = ZonedErrors([m], n, conditional_cov=True)
+    zoned = StepsPerFix(m, n, conditional_cov=True)
     zoned.restart(0)
     rows = np.arange(n)
-    out = np.zeros(n) - 1
-    zoned.errors(rows, keys, 5, out.astype(np.int64), np.full(n, 1.0))   # any direction
-    before = zoned.err[:, :, :m.order].copy()
-    e, c = zoned.errors(rows, keys, 6, out.astype(np.int64), np.full(n, heading))
+    zoned.errors(rows, keys, 5, None, np.full(n, 1.0))   # any direction
+    before = m.carried(zoned.state)
+    e, c = zoned.errors(rows, keys, 6, None, np.full(n, heading))
     w = e - m.mean - np.einsum('ai,nai->na', m.phi, before - m.mean[None, :, None])
     got = np.cov(w.T)
     tol = 4 * np.sqrt(2.0 / n) * ACROSS ** 2         # 4 SE of a variance estimate
@@ -62,10 +62,10 @@ def test_the_innovations_turn_with_the_walker(heading, cov):
 def test_standing_holds_the_last_direction():
     m = street_model()
     keys = streams.agent_keys(2, ['a'])
-    zoned = ZonedErrors([m], 1, conditional_cov=True)
+    zoned = StepsPerFix(m, 1, conditional_cov=True)
     zoned.restart(0)
-    zoned.errors([0], keys, 0, [-1], [math.pi / 2])
-    _, c = zoned.errors([0], keys, 1, [-1], [math.nan])
+    zoned.errors([0], keys, 0, None, [math.pi / 2])
+    _, c = zoned.errors([0], keys, 1, None, [math.nan])
     assert np.allclose(c[0], [[ACROSS ** 2, 0], [0, ALONG ** 2]])
 
 
@@ -81,41 +81,41 @@ def test_travel_directions_of_a_streamed_walk():
 
 
 def test_a_street_frame_keeps_its_failures_and_its_population():
-    """Without zones a street frame runs on the zone path: failures and population carried."""
+    """A street frame steps per fix: its failures and its population are the model's."""
     from gps_error_ros.model.failures import GrossFailureProcess, WithFailures
     from gps_error_ros.model.population import Population, WithPopulation
-    from gps_error_ros.model.zoned import one_zone
     m = street_model()
     fails = GrossFailureProcess(0.3, (70.0,))
     keys = streams.agent_keys(5, ['a', 'b'])
-    plain, failing = one_zone(m, True), one_zone(WithFailures(m, fails), True)
-    assert plain.failures is None and failing.failures is fails
+    plain = StepsPerFix(m, conditional_cov=True)
+    failing = StepsPerFix(WithFailures(m, fails), conditional_cov=True)
     for z in (plain, failing):
         z.grow(2)
         z.restart(0)
-    got = [(plain.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])[0],
-            failing.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])[0]) for k in range(200)]
+    got = [(plain.errors([0, 1], keys, k, None, [0.0, 0.0])[0],
+            failing.errors([0, 1], keys, k, None, [0.0, 0.0])[0]) for k in range(200)]
     a, b = np.array(got).transpose(1, 0, 2, 3)
     failed = np.any(a != b, axis=2)
     assert 0.2 < failed.mean() < 0.4
     np.testing.assert_allclose(np.hypot(*b[failed].T), 70.0)
     # a population: the same process, each agent's scale and its run's wandering bias
     section = Population(bias_sd_m=(1.0, 2.0), scale_sd_log=0.3, bias_time_constant_s=20.0)
-    pop, again = one_zone(WithPopulation(m, section), True), one_zone(m, True)
+    with_pop = WithPopulation(m, section)
+    pop, again = StepsPerFix(with_pop, conditional_cov=True), StepsPerFix(m, conditional_cov=True)
     for z in (pop, again):
         z.grow(2)
         z.restart(0)
-    draws = pop.population
+    draws = with_pop.draws
     f, (bias, g) = draws.scales(keys), draws.run_bias(keys, 0)
     assert np.ptp(f) > 0.01             # two agents, two scales
     for k in range(200):
         if k:
             draws.wander(bias, g, keys, k)
-        err, cov = pop.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])
-        e, c = again.errors([0, 1], keys, k, [-1, -1], [0.0, 0.0])
+        err, cov = pop.errors([0, 1], keys, k, None, [0.0, 0.0])
+        e, c = again.errors([0, 1], keys, k, None, [0.0, 0.0])
         np.testing.assert_allclose(e, a[k], atol=1e-12)
         np.testing.assert_allclose(err, m.mean + f[:, None] * (e - m.mean) + bias, atol=1e-12)
         expected = c + np.diag([1.0, 4.0]) if k == 0 else \
             f[:, None, None] ** 2 * c + np.diag(draws.wander_sd ** 2)
         np.testing.assert_allclose(cov, expected, atol=1e-12)
-    assert not np.allclose(c[0], again.stationary[0])     # given the state: not the law
+    assert not np.allclose(c[0], m.stationary_cov)     # given the state: not the law

@@ -12,9 +12,9 @@ import pytest
 import yaml
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.ar_model import state_and_cov
 from gps_error_ros.model.profiles import builtin_dir, load_profile, profile_from_dict
-from gps_error_ros.model.zoned import one_zone, simulate_along, zoned_errors, ZonedErrors
+from gps_error_ros.model.stepping import state_at, StepsPerFix
+from gps_error_ros.model.zoned import simulate_along, WithZones, zoned_errors
 from gps_error_ros.model.zones import load_zone_map, OUTSIDE, zone_models, ZoneMapError
 
 LAT0, LON0 = 40.75, -73.99
@@ -143,7 +143,7 @@ def test_the_default_profiles_failures_serve_every_zone(tmp_path):
     (tmp_path / 'fails.yaml').write_text(text + 'gross_failures: {rate: 0.2, sizes_m: [90]}\n')
     path = two_zones(tmp_path, default_profile=str(tmp_path / 'fails.yaml'))
     default, model, (zone_map, zoned) = zoned_errors(load_zone_map(path), load_profile('DS1'))
-    assert default.gross_failures is not None and zoned.failures == default.gross_failures
+    assert default.gross_failures is not None
     keys = streams.agent_keys(4, [f'a{i}' for i in range(6)])
     zoned.grow(keys.size)
     zoned.restart(0)
@@ -183,7 +183,7 @@ def test_the_default_profiles_population_serves_every_zone(tmp_path):
         np.testing.assert_allclose(np.array([e for e, _ in got]), model.simulate(keys, 300),
                                    atol=1e-9)
         for k in (0, 1, 57, 299):
-            expected = state_and_cov(model, keys, 0, k)[1] if mode == 'conditional' else \
+            expected = state_at(model, keys, 0, k, cov=True)[1] if mode == 'conditional' else \
                 np.broadcast_to(model.stationary_cov, (6, 2, 2))
             np.testing.assert_allclose(got[k][1], expected, atol=1e-9)
     # a bias of 20 m and one scale: an agent's mean error is its bias in both zones
@@ -201,14 +201,17 @@ def test_the_default_profiles_population_serves_every_zone(tmp_path):
     for axis in (0, 1):
         assert np.corrcoef(means[0][:, axis], means[1][:, axis])[0, 1] > 0.95
         assert 17 < means[0][:, axis].std() < 23
-    np.testing.assert_allclose(zoned.stationary[0], zmap.profiles[0].model().stationary_cov
-                               + 400 * np.eye(2))
+    # stated (stationary mode): the zone's stationary covariance and the bias spread
+    cov = zoned.errors(np.arange(n), keys, 600, zmap.lookup(lat, np.full(n, LON0 + 0.005)))[1]
+    np.testing.assert_allclose(cov, np.broadcast_to(
+        zmap.profiles[0].model().stationary_cov + 400 * np.eye(2), (n, 2, 2)))
 
 
 def test_one_zone_is_the_plain_model():
     model = load_profile('DS5').model()
     keys = streams.agent_keys(3, ['a', 'b', 'c'])
-    zoned = ZonedErrors([model, load_profile('DS1').model()], 3)
+    zoned = StepsPerFix(WithZones([load_profile('DS5').process(),
+                                   load_profile('DS1').process()]), 3)
     zoned.restart(10)
     got = np.array([zoned.errors(np.arange(3), keys, k, np.zeros(3, int))[0]
                     for k in range(10, 60)])
@@ -234,7 +237,7 @@ def test_what_a_covariance_is_about_does_not_change_the_errors_in_zones(street):
     keys = streams.agent_keys(3, [f'r{i}' for i in range(20)])
     got = []
     for about in (False, True):
-        zoned = one_zone(profile.model(about_truth=about), conditional_cov=True)
+        zoned = StepsPerFix(profile.model(about_truth=about), conditional_cov=True)
         got.append(simulate_along(zoned, keys, np.arange(300), np.full(300, OUTSIDE)))
     np.testing.assert_array_equal(got[0], got[1])
     if not street:          # and they are the model's own, with or without a zone map

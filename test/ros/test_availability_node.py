@@ -30,7 +30,7 @@ def test_no_fix_messages_where_the_stream_has_an_outage(tmp_path, peer):
     path = outage_profile(tmp_path)
     model = load_profile_file(path).model()
     key = np_key('')
-    mask = model.simulate_availability(key, STEPS, start=T0)[0]
+    mask = model.simulate_fix(key, STEPS, start=T0)[0]
     assert 5 < (~mask).sum() < STEPS - 5, 'the seed gives too few or too many outages'
     ns = unique_ns()
     node = start(ns, f'profile:={path}', DATUM_ARG, f'seed:={SEED}')
@@ -61,7 +61,7 @@ def test_a_silent_crowd_sends_nothing_in_an_outage(tmp_path, peer):
     path = outage_profile(tmp_path)
     model = load_profile_file(path).model()
     names = ['ann', 'bob']
-    masks = {n: model.simulate_availability(np_key(n), STEPS, start=T0)[0] for n in names}
+    masks = {n: model.simulate_fix(np_key(n), STEPS, start=T0)[0] for n in names}
     ns = unique_ns()
     node = start(ns, f'profile:={path}', DATUM_ARG, f'seed:={SEED}',
                  'agents:=["ann", "bob"]', 'outage_output:=silent')

@@ -230,7 +230,7 @@ def test_outages_leave_gaps_where_the_stream_has_them(tmp_path):
     for name in ('ped0', 'ped3', 'veh0'):
         steps = sorted(t for (n, t) in every if n == name)
         first = int(read_fcd_first_time(src))
-        mask = model.simulate_availability(
+        mask = model.simulate_fix(
             np.array([streams.agent_key(4, name)], dtype=np.uint64), 80, start=first)[0]
         kept = sorted(t for (n, t) in moved if n == name)
         assert kept == [t for t in steps if mask[int(t) - first]], name
@@ -240,7 +240,7 @@ def test_outages_leave_gaps_where_the_stream_has_them(tmp_path):
     csv_src.write_text('t,agent,truth_lat,truth_lon\n' + ''.join(
         f'{t},w,{LAT0!r},{LON0!r}\n' for t in range(100)))
     res = simulate_csv(csv_src, tmp_path / 'o.csv', model, 1.0, 4)
-    mask = model.simulate_availability(
+    mask = model.simulate_fix(
         np.array([streams.agent_key(4, 'w')], dtype=np.uint64), 100, start=0)[0]
     lines = (tmp_path / 'o.csv').read_text().splitlines()
     assert lines[0].startswith('t,agent,status,lat,lon,')
@@ -267,7 +267,7 @@ def test_npz_carries_the_fix_mask_with_availability(tmp_path):
         np.testing.assert_array_equal(a['errors'], b['errors'])     # errors unchanged
         assert 'fix' not in b
         keys = np.array([streams.agent_key(6, f'agent{i}') for i in range(5)], dtype=np.uint64)
-        np.testing.assert_array_equal(a['fix'], model.simulate_availability(keys, 200))
+        np.testing.assert_array_equal(a['fix'], model.simulate_fix(keys, 200))
         assert 0 < (~a['fix']).sum() < a['fix'].size
 
 
