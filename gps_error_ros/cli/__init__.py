@@ -19,22 +19,18 @@ import secrets
 import sys
 from typing import Any, TYPE_CHECKING
 
+from gps_error_ros.cli.inputs import clean_recordings, load_input, load_inputs
 from gps_error_ros.cli.parser import build_parser
-from gps_error_ros.fit.calibration import (calibrate, CalibrationError, CalibrationResult,
-                                           check_sampling, little_data_note)
-from gps_error_ros.fit.gross_failures import (failures_doc, find_gross_failures, GrossFailures,
-                                              without_gross_failures)
-from gps_error_ros.fit.population_fit import one_occasion_note, population_line
-from gps_error_ros.model.ar_model import ARErrorModel
-from gps_error_ros.model.profiles import load_profile_file, Profile, ProfileError, write_profile
+from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
+from gps_error_ros.fit.gross_failures import failures_doc, find_gross_failures
+from gps_error_ros.model.profiles import load_profile_file, ProfileError, write_profile
 from gps_error_ros.traces.bag_io import BagError
 from gps_error_ros.traces.gnsslogger import GnssLoggerError
 from gps_error_ros.traces.gpx import GpxError
 from gps_error_ros.traces.landmarks import LandmarkError
 from gps_error_ros.traces.nmea import NmeaError
-from gps_error_ros.traces.loading import expand_inputs, load_trace, parse_datum
 from gps_error_ros.traces.pairing import PairingError
-from gps_error_ros.traces.trace_io import join_recordings, Trace, TraceError
+from gps_error_ros.traces.trace_io import Trace, TraceError
 
 if TYPE_CHECKING:
     from gps_error_ros.diagnose.pipeline import Diagnosis
@@ -44,78 +40,6 @@ if TYPE_CHECKING:
 # DiagnosisError is a ValueError
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
           NmeaError, GnssLoggerError, GpxError, LandmarkError, ValueError, OSError)
-
-
-def _load_inputs(args: argparse.Namespace, paths: Sequence[str] | None = None) -> list[Trace]:
-    """
-    Load every INPUT (or ``paths``: files, or folders of them); print how it went.
-
-    A recording sampled slower than the 1-Hz grid is refused (:func:`check_sampling`).
-    """
-    traces: list[Trace] = []
-    for path in expand_inputs(args.input if paths is None else paths):
-        trace, notes = load_trace(path, args.fix_topic, args.truth_topic,
-                                  parse_datum(args.datum), args.max_truth_gap, args.agent)
-        for line in notes:
-            print(line)
-        check_sampling(trace)
-        traces.append(trace)
-    return traces
-
-
-def _load_input(args: argparse.Namespace) -> Trace:
-    """Return :func:`_load_clean`'s trace alone."""
-    return _load_clean(args)[0]
-
-
-def clean_recordings(args: argparse.Namespace, paths: Sequence[str] | None = None,
-                     mark: str | None = None) -> tuple[list[Trace], list[GrossFailures]]:
-    """
-    Return the INPUTs (or ``paths``) without their gross failures, and the failures.
-
-    Each recording's are found on its own, printed, and left out (with
-    ``mark``: kept and flagged 1.0 in the extra column of that name).
-    """
-    loaded = _load_inputs(args, paths)
-    if mark:
-        found = [find_gross_failures(trace) for trace in loaded]
-        for trace, f in zip(loaded, found):
-            trace.extra[mark] = f.mask.astype(float)
-        traces = loaded
-    else:
-        traces, found = without_gross_failures(loaded)
-    for f in found:
-        print(f.describe())
-    return traces, found
-
-
-def _load_clean(args: argparse.Namespace,
-                mark: str | None = None) -> tuple[Trace, list[GrossFailures]]:
-    """Return :func:`clean_recordings` joined into one trace (:func:`join_recordings`)."""
-    traces, found = clean_recordings(args, mark=mark)
-    return join_recordings(traces), found
-
-
-def _failure_check(profile: Profile, found: Sequence[GrossFailures]) -> str:
-    """
-    Return a line: the failures measured against the profile's rate (95 % range).
-
-    Binomial for one rate; with the section's ``rate_sd_log`` each recording
-    is an agent with a rate of its own, and the range is their total's.
-    """
-    from scipy import stats
-    count, fixes = sum(f.count for f in found), sum(f.rows for f in found)
-    process = profile.gross_failures
-    rate = process.rate if process is not None else 0.0
-    said = f'the profile\'s rate {rate:.4g}'
-    if process is None or not process.rate_sd_log:
-        lo, hi = (int(v) for v in stats.binom.ppf([0.025, 0.975], fixes, rate))
-    else:
-        lo, hi = process.count_range([f.rows for f in found])
-        said += f' (each recording\'s own, log SD {process.rate_sd_log:.2g})'
-    inside = 'inside' if lo <= count <= hi else 'OUTSIDE'
-    return (f'  gross failures: measured {count} of {fixes} fixes; {said} gives '
-            f'{lo}-{hi} (95 %): {inside}')
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -199,16 +123,6 @@ def _check_output_dir(path: str, option: str) -> None:
         raise ValueError(f'{option} {path}: directory {parent} does not exist')
 
 
-def _part(text: str) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in text.split(','))
-    except ValueError:
-        raise ValueError(f'--part {text!r}: expected START,END fractions') from None
-    if not 0.0 <= lo < hi <= 1.0:
-        raise ValueError(f'--part {text!r}: expected 0 <= START < END <= 1')
-    return lo, hi
-
-
 def cmd_validate(args: argparse.Namespace) -> int:
     """Run ``gps_error validate``; return the exit code (:mod:`.validate`)."""
     from gps_error_ros.cli.validate import run_validate
@@ -219,7 +133,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     """Run ``gps_error calibrate``; return the exit code."""
     if args.zones:
         from gps_error_ros.cli.zones import calibrate_per_zone
-        return calibrate_per_zone(args, _load_input)
+        return calibrate_per_zone(args, load_input)
     _check_output_dir(args.output, '-o')
     if args.within is not None and not args.population:
         raise ValueError(f'--within {args.within} is the process within a population\'s '
@@ -229,7 +143,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         raise ValueError(f'--order {args.order} fixes the Gaussian AR\'s order; the extended '
                          f'model within a population chooses its own by the PACF: add '
                          f'--within ar to fix it')
-    traces = _load_inputs(args)
+    traces = load_inputs(args)
     if extended:
         from gps_error_ros.judge.population_calibration import calibrate_best, STAGES
         progress = _stage_progress(traces, STAGES, 'fitting the extended model within')
@@ -246,14 +160,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     load_profile_file(out)          # what we write must load as it is
     for found in result.failures:
         print(found.describe())
-    g = result.grid
-    print(f'{result.input}: {g.n} samples in {len(g.segments)} segment(s), '
-          f'{g.span_s:.0f} s')
-    _print_axes(args, result)
-    if result.population is not None:
-        print(f'  {population_line(result.population)}')
-        if one_occasion_note(result.population):
-            print(f'  note: {one_occasion_note(result.population)}')
+    print(result.summary(max_order=args.max_order))
     note = little_data_note(result)
     if note:        # diagnose's sizes; its package is imported only for this line
         from gps_error_ros.diagnose.common import MIN_TEST, MIN_TRAIN
@@ -261,28 +168,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
               f'{MIN_TEST} held out, of 70 and 30 %)')
     print(f'wrote {out}')
     return 0
-
-
-def _print_axes(args: argparse.Namespace, result: 'CalibrationResult') -> None:
-    """Print each axis's fit: the whole trace's AR, or the process within a population."""
-    axes = result.axis_params
-    if result.effects is not None:
-        orders = ', '.join(f'{ax} AR({p.order})' for ax, p in zip(('north', 'east'), axes))
-        print(f'  within the blocks: the extended model, {orders}, effects '
-              f'{", ".join(result.effects.names) or "none"} (the class that predicted best '
-              f'on held-out days; --within ar: the Gaussian AR)')
-        return
-    sd = ARErrorModel(*axes).stationary_sd
-    for i, (ax, fit) in enumerate((('north', result.north), ('east', result.east))):
-        p = axes[i]
-        print(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
-              f'{fit.bic_order}) delta={p.delta:.4f} '
-              f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}; '
-              f'mean error {p.mean:.3f} m, stationary SD {sd[i]:.3f} m')
-        if not fit.fixed_order and fit.pacf_order == args.max_order:
-            print(f'  note: the {ax} PACF is significant up to the largest order '
-                  f'allowed (--max-order {args.max_order}); a larger --max-order '
-                  f'may choose more')
 
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
@@ -297,7 +182,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     for option, path in (('--json', args.json_out), ('--profile-out', args.profile_out)):
         if path:
             _check_output_dir(path, option)
-    recordings = _load_inputs(args)
+    recordings = load_inputs(args)
     progress = _stage_progress(recordings, STAGES, 'diagnosing')
     try:
         # the library finds each recording's gross failures and leaves them out
@@ -375,7 +260,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
     if args.json_out:
         _check_output_dir(args.json_out, '--json')
-    recordings = _load_inputs(args)
+    recordings = load_inputs(args)
     progress = _stage_progress(recordings, STAGES - 2, 'fitting the classes of')
     try:
         # the held-out simulation is compare's; the library leaves the failures out

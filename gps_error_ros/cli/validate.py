@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from gps_error_ros.cli import _failure_check, _load_clean, _part, clean_recordings
+from gps_error_ros.cli.inputs import clean_recordings, failure_check, load_clean, part_of
 from gps_error_ros.fit.population_fit import occasions
 from gps_error_ros.fit.validation import (FAILURE_COLUMN, family_verdict, slice_trace,
                                           summary_lines, validate)
@@ -68,7 +68,7 @@ def _validate_each(args: argparse.Namespace, profile: Profile, model: Any, zones
           'together are '
           + ('UNLIKE' if fam['unlike'] else 'not unlike') +
           ' the model\'s traces at the 5 % level')
-    print(_failure_check(profile, found))
+    print(failure_check(profile, found))
     print(f'wrote {out / "family.json"} and a directory per recording')
     return 0
 
@@ -98,7 +98,7 @@ def profile_class(profile: Profile) -> str:
 
 def run_validate(args: argparse.Namespace) -> int:
     """Run ``gps_error validate``; return the exit code."""
-    lo, hi = _part(args.part)
+    lo, hi = part_of(args.part)
     profile, zones = load_profile(args.profile), None
     if args.zones:
         from gps_error_ros.model.zoned import zoned_errors
@@ -109,12 +109,12 @@ def run_validate(args: argparse.Namespace) -> int:
         model = profile.model(gross_failures=False)
     if args.each:
         return _validate_each(args, profile, model, zones, (lo, hi))
-    whole, found = _load_clean(args, mark=FAILURE_COLUMN)
+    whole, found = load_clean(args, mark=FAILURE_COLUMN)
     trace = slice_trace(whole, lo, hi)
     out = Path(args.out)
     summary = _validate_one(args, profile, model, zones, trace, out, (lo, hi))
     print('\n'.join(summary_lines(summary)))
-    print(_failure_check(profile, found))
+    print(failure_check(profile, found))
     print(profile_class(profile))
     print(f'wrote {out / "validation.png"} and {out / "validation.json"}')
     return 0

@@ -11,20 +11,18 @@ into an effect.
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 import math
-from typing import Any, Optional, TYPE_CHECKING
+from typing import Any, Optional
 
 import numpy as np
 
 from gps_error_ros.diagnose.common import EFFECT_ORDER
 from gps_error_ros.diagnose.laws import fit_law, law_logpdf
+from gps_error_ros.diagnose.family import FamilyResult
 from gps_error_ros.diagnose.mean import Design, to_travel_frame
 from gps_error_ros.diagnose.models import fit_model, FittedModel
 from gps_error_ros.diagnose.split import Split
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.state import FloatArray
-
-if TYPE_CHECKING:        # the pipeline imports this module
-    from gps_error_ros.diagnose.pipeline import FamilyResult
 
 
 @dataclass
@@ -65,7 +63,7 @@ def _pick(test: Mapping[str, Any]) -> dict[str, Any]:
                                  'at_lag_s') if k in test}
 
 
-def _attribute_law(split: Split, base: FittedModel, family: 'FamilyResult',
+def _attribute_law(split: Split, base: FittedModel, family: FamilyResult,
                    att: Attribution) -> None:
     """Tails against regimes: add the winner to ``att`` (training BIC)."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
@@ -110,7 +108,7 @@ def _attribute_law(split: Split, base: FittedModel, family: 'FamilyResult',
         'bic': bics})
 
 
-def _attribute_cycle(split: Split, base: FittedModel, family: 'FamilyResult',
+def _attribute_cycle(split: Split, base: FittedModel, family: FamilyResult,
                      att: Attribution) -> None:
     """
     Add ``periodic`` to ``att``: the test's period, or a divisor (training BIC).
@@ -132,7 +130,7 @@ def _attribute_cycle(split: Split, base: FittedModel, family: 'FamilyResult',
                                 'bic_by_period': {str(k): v for k, v in bics.items()}}
 
 
-def _attribute_frame(split: Split, base: FittedModel, family: 'FamilyResult',
+def _attribute_frame(split: Split, base: FittedModel, family: FamilyResult,
                      att: Attribution) -> None:
     """
     Axes fixed north/east (coupling) against axes of the travel: training BIC.
@@ -162,7 +160,7 @@ def _attribute_frame(split: Split, base: FittedModel, family: 'FamilyResult',
               'and across it fit better than fixed north/east axes (lower BIC)')})
 
 
-def attribute(split: Split, base: FittedModel, family: 'FamilyResult') -> Attribution:
+def attribute(split: Split, base: FittedModel, family: FamilyResult) -> Attribution:
     """Step 4: turn the rejected tests into effects, or ``unexplained``."""
     tests, reject, adjusted = family.tests, family.reject, family.adjusted
     att = Attribution([], {}, [], [], orders=base.orders, jump_orders=family.jump_orders)

@@ -36,8 +36,9 @@ of the predictive distribution (PIT of the Mahalanobis radius).
 """
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 import math
-from typing import Any, TYPE_CHECKING
+from typing import Any, Optional
 
 import numpy as np
 from scipy import stats
@@ -45,12 +46,10 @@ from scipy import stats
 from gps_error_ros.diagnose.common import (FAMILY_ALPHA, MOTION_TEST_LAGS, Orders, PERIODS,
                                            PERSIST_LAGS, SERIAL_LAGS)
 from gps_error_ros.diagnose.laws import mahalanobis, robust_cov
+from gps_error_ros.diagnose.models import FittedModel
 from gps_error_ros.fit.autocorrelation import segment_acf
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.state import FloatArray, IntArray, Numbers
-
-if TYPE_CHECKING:        # models imports this module
-    from gps_error_ros.diagnose.models import FittedModel
 
 
 def ljung_box(x: FloatArray, seg: IntArray, max_lag: int, dof: int
@@ -400,7 +399,7 @@ def serial_tests(r: FloatArray, seg: IntArray, orders: Orders) -> dict[str, dict
     return out
 
 
-def standardised(model: 'FittedModel', r: FloatArray, pred: FloatArray) -> FloatArray:
+def standardised(model: FittedModel, r: FloatArray, pred: FloatArray) -> FloatArray:
     """Return innovations whitened by the model's predictive covariance."""
     scale2 = pred @ (model.law.scales ** 2)
     chol = np.linalg.cholesky(model.law.cov)
@@ -408,7 +407,7 @@ def standardised(model: 'FittedModel', r: FloatArray, pred: FloatArray) -> Float
     return z / np.sqrt(scale2)[:, None]
 
 
-def pit_radial(model: 'FittedModel', r: FloatArray, pred: FloatArray) -> FloatArray:
+def pit_radial(model: FittedModel, r: FloatArray, pred: FloatArray) -> FloatArray:
     """Return the PIT of each innovation's Mahalanobis radius under the model."""
     dm = mahalanobis(r, model.law.cov)
     u = np.zeros(len(r))
@@ -423,7 +422,7 @@ def pit_radial(model: 'FittedModel', r: FloatArray, pred: FloatArray) -> FloatAr
     return u
 
 
-def retest(model: 'FittedModel', r: FloatArray, seg: IntArray, pred: FloatArray,
+def retest(model: FittedModel, r: FloatArray, seg: IntArray, pred: FloatArray,
            r_axes: FloatArray | None = None, serial: bool = True) -> dict[str, dict[str, Any]]:
     """
     Test the extended model's own innovations; return the test dict.
@@ -450,3 +449,15 @@ def retest(model: 'FittedModel', r: FloatArray, seg: IntArray, pred: FloatArray,
     if serial:
         out.update(serial_tests(z, seg, model.orders))
     return out
+
+
+@dataclass
+class FamilyResult:
+    """The first-round tests, their Holm decisions, and what they ran on."""
+
+    tests: dict[str, dict[str, Any]]   # name -> statistic, p_value, holm_adjusted_p, rejected
+    reject: dict[str, bool]
+    adjusted: dict[str, float]
+    lag_s: Optional[float] = None    # the lag removed before the law's tests, if any
+    jump_orders: tuple[int, ...] = ()   # with jumps: the AR orders without them (run_family)
+    base_residuals: tuple[Any, ...] = ()      # (r, seg) of the base model on the training part

@@ -49,7 +49,7 @@ by least squares, innovation law by maximum likelihood; :mod:`.models`).
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 import math
-from typing import Any, Optional, TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -59,9 +59,9 @@ from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_E
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, FIRST_SHARE,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS, N_TESTS,
                                            Orders, RETEST_ALPHA, round_levels, TRAIN_FRACTION)
-from gps_error_ros.diagnose.family import (holm_tests, innovation_tests, jump_reversal_test,
-                                           motion_test, periodicity_test, retest,
-                                           travel_frame_test)
+from gps_error_ros.diagnose.family import (FamilyResult, holm_tests, innovation_tests,
+                                           jump_reversal_test, motion_test, periodicity_test,
+                                           retest, travel_frame_test)
 from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose.mean import (condition_count, Design, design, fit_lag,
                                          from_travel_frame, gain_loss, least_squares, log_det,
@@ -174,18 +174,6 @@ def improvement_note(summary: Mapping[str, Any]) -> str | None:
 
 #: The effects that change the mean part (the AR residuals north/east); the others change the law.
 MEAN_EFFECTS = ('motion_lag', 'periodic', 'outliers')
-
-
-@dataclass
-class FamilyResult:
-    """The first-round tests, their Holm decisions, and what they ran on."""
-
-    tests: dict[str, dict[str, Any]]   # name -> statistic, p_value, holm_adjusted_p, rejected
-    reject: dict[str, bool]
-    adjusted: dict[str, float]
-    lag_s: Optional[float] = None    # the lag removed before the law's tests, if any
-    jump_orders: tuple[int, ...] = ()   # with jumps: the AR orders without them (run_family)
-    base_residuals: tuple[Any, ...] = ()      # (r, seg) of the base model on the training part
 
 
 def split_step(trace: Trace) -> Split:

@@ -32,13 +32,14 @@ from gps_error_ros.fit.accuracy_fit import estimate_reported
 from gps_error_ros.fit.envelope import MIN_OUTAGE_STEPS
 from gps_error_ros.fit.gross_failures import fit_rate_spread, GrossFailures, without_gross_failures
 from gps_error_ros.fit.population_fit import (DAY_RATIO, fit_population, occasions,
+                                              one_occasion_note, population_line,
                                               PopulationFit, segment_weights,
                                               with_day_allowance)
 from gps_error_ros.fit.section_fit import SectionFit
 from gps_error_ros.fit.velocity_fit import estimate_velocity
 from gps_error_ros.fit.yule_walker import (AxisFit, CalibrationError,
                                            DEFAULT_MAX_ORDER, fit_axis)
-from gps_error_ros.model.ar_model import AXES, AxisParams
+from gps_error_ros.model.ar_model import ARErrorModel, AXES, AxisParams
 from gps_error_ros.model.availability import runs_without_fix
 from gps_error_ros.model.effect_schema import Effects
 from gps_error_ros.model.failures import failures_from_sizes, GrossFailureProcess
@@ -198,7 +199,7 @@ class CalibrationResult:
         """Return the gross failures of every recording as plain data."""
         return {'count': sum(f.count for f in self.failures),
                 'fixes': sum(f.rows for f in self.failures),
-                'recordings': {name: f.summary() for name, f in
+                'recordings': {name: f.to_dict() for name, f in
                                zip(self.names, self.failures)}}
 
     @property
@@ -219,6 +220,44 @@ class CalibrationResult:
         if self.within is None or self.population is None or self.population.population is None:
             return None
         return self.within[1]
+
+    def summary(self, max_order: Optional[int] = None) -> str:
+        """
+        Return what ``gps_error calibrate`` prints of the fit: the data, each axis, the population.
+
+        ``max_order``: the largest order the PACF could choose; an axis that
+        reached it gets a note.
+        """
+        g = self.grid
+        lines = [f'{self.input}: {g.n} samples in {len(g.segments)} segment(s), '
+                 f'{g.span_s:.0f} s']
+        axes = self.axis_params
+        if self.effects is not None:
+            orders = ', '.join(f'{ax} AR({p.order})' for ax, p in zip(AXES, axes))
+            lines.append(f'  within the blocks: the extended model, {orders}, effects '
+                         f'{", ".join(self.effects.names) or "none"} (the class that predicted '
+                         f'best on held-out days; --within ar: the Gaussian AR)')
+        else:
+            sd = ARErrorModel(*axes).stationary_sd
+            for i, (ax, fit) in enumerate(zip(AXES, (self.north, self.east))):
+                p = axes[i]
+                lines.append(f'  {ax}: AR({p.order}) (PACF chose {fit.pacf_order}, BIC '
+                             f'{fit.bic_order}) delta={p.delta:.4f} '
+                             f'phi={[round(v, 4) for v in p.phi]} sigma_w={p.sigma_w:.4f}; '
+                             f'mean error {p.mean:.3f} m, stationary SD {sd[i]:.3f} m')
+                if not fit.fixed_order and fit.pacf_order == max_order:
+                    lines.append(f'  note: the {ax} PACF is significant up to the largest '
+                                 f'order allowed (--max-order {max_order}); a larger '
+                                 f'--max-order may choose more')
+        if self.population is not None:
+            lines.append(f'  {population_line(self.population)}')
+            if one_occasion_note(self.population):
+                lines.append(f'  note: {one_occasion_note(self.population)}')
+        return '\n'.join(lines)
+
+    def to_dict(self, name: str = 'calibrated') -> dict[str, Any]:
+        """Return the fitted profile with its ``fit`` section, as plain data (the YAML's)."""
+        return self.profile_dict(name)
 
     def profile_dict(self, name: str, description: Optional[str] = None,
                      source: Optional[str] = None) -> dict[str, Any]:

@@ -175,7 +175,7 @@ class GrossFailures:
         return (f'{name}: {self.count} gross failure(s) of {self.rows} fixes ({rule}), '
                 f'{fate}; largest: {items}{more}')
 
-    def summary(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Any]:
         """Return the findings as plain data (the fit and JSON reports carry it)."""
         return {'rule': f'robust distance > {K_ROBUST_SD:g} from the trace median and '
                         f'from the median of {NEIGHBOURS} neighbours each side, and more '
@@ -212,7 +212,7 @@ def without_gross_failures(recordings: Trace | Sequence[Trace]
 
 def failures_doc(found: Sequence[GrossFailures]) -> dict[str, dict[str, Any]]:
     """Return the recordings' gross failures as plain data, keyed by recording."""
-    return {f.name: f.summary() for f in found}
+    return {f.name: f.to_dict() for f in found}
 
 
 #: Recordings needed before the rate's spread between receivers is fitted.

@@ -6,13 +6,14 @@ blocks' chains (runs of neighbouring blocks), the neighbours' covariance
 and the time constant it gives, the bias on two time scales (a part held
 for the run, a wander), how many independent draws the blocks hold, and
 the predictive factors that write the section for a run the fit did not
-see. The blocks are :class:`~gps_error_ros.fit.population_fit.Block`s.
+see. The blocks are :class:`Block`s.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Optional, Sequence, TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -21,8 +22,16 @@ from gps_error_ros.fit.population_evidence import (PopulationEvidence, TimeConst
 from gps_error_ros.model.population import MAX_BIAS_DOF, Population
 from gps_error_ros.model.state import FloatArray
 
-if TYPE_CHECKING:         # population_fit imports this module
-    from gps_error_ros.fit.population_fit import Block
+
+@dataclass(frozen=True)
+class Block:
+    """One block: its samples (n, 2), its first and last sample time, and its weight."""
+
+    err: np.ndarray
+    t0: float
+    t1: float
+    weight: float = 1.0
+
 
 #: Neighbour pairs a time constant needs.
 MIN_PAIRS = 3

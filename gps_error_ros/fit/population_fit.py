@@ -94,7 +94,7 @@ from typing import Any, Optional, Sequence
 
 from gps_error_ros.fit.autocorrelation import pooled_autocovariance
 from gps_error_ros.fit.population_evidence import PopulationEvidence
-from gps_error_ros.fit.population_bias import (ADJACENT_GAP_S, bias_section,
+from gps_error_ros.fit.population_bias import (ADJACENT_GAP_S, bias_section, Block,
                                                neighbour_correlation, neighbour_cov_beyond,
                                                neighbour_pairs, time_constant,
                                                time_constant_words, two_scale_bias)
@@ -124,16 +124,6 @@ OCCASION_LAG_S = 10
 OCCASION_OVERLAP = 0.8
 #: How far (m) a recording's truth must move from its start to tell an occasion by it.
 OCCASION_TRACK_M = 50.0
-
-
-@dataclass(frozen=True)
-class Block:
-    """One block: its samples (n, 2), its first and last sample time, and its weight."""
-
-    err: np.ndarray
-    t0: float
-    t1: float
-    weight: float = 1.0
 
 
 def block_ids(times: Sequence[Numbers], block_s: float = BLOCK_S) -> list[IntArray]:

@@ -20,10 +20,10 @@ from gps_error_ros.model.streams import agent_key
 from gps_error_ros.ros import conversions
 from gps_error_ros.ros.parameters import ConfigError
 
-if TYPE_CHECKING:       # the error node imports this module; the mixin's super() is a Node's
-    from rclpy.node import Node as _NodeBase
+from gps_error_ros.ros.profile_group import ProfileGroup
 
-    from gps_error_ros.ros.error_node import GpsErrorNode, ProfileGroup
+if TYPE_CHECKING:       # the mixin's super() is a Node's
+    from rclpy.node import Node as _NodeBase
 else:
     _NodeBase = object
 
@@ -121,7 +121,7 @@ class AgentWatcher:
     imports the catch-up needs.
     """
 
-    def __init__(self, node: 'GpsErrorNode', pattern: AgentPattern, timeout_s: float) -> None:
+    def __init__(self, node: 'PatternAgents', pattern: AgentPattern, timeout_s: float) -> None:
         self.node = node
         self.pattern = pattern
         self.timeout_ns = int(round(timeout_s * 1e9))
@@ -218,7 +218,7 @@ class PatternAgents(_NodeBase):
     """
 
     # what the node that mixes this in holds (GpsErrorNode), per slot where a list
-    groups: list['ProfileGroup']
+    groups: list[ProfileGroup]
     agents: list[str | None]
     subs: list[Any]
     pubs: list[Any]
@@ -231,6 +231,7 @@ class PatternAgents(_NodeBase):
     slot_group: IntArray
     slot_local: IntArray
     _open: Callable[[int, str, str], None]
+    now_ns: Callable[[], int]
 
     def _agent_pattern(self, cfg: Mapping[str, Any]) -> AgentPattern | None:
         """Return the parsed agent_pattern, or None when it is off."""

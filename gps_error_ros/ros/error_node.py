@@ -12,7 +12,6 @@ converts messages and parameters.
 """
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from functools import partial
 import math
 import re
@@ -40,6 +39,7 @@ from gps_error_ros.ros.diagnostics import (Counters, DiagnosticsPublisher, ERROR
 from gps_error_ros.ros.fix_output import FixOutput, profile_carries, start_summary
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.node_faults import NodeFaults
+from gps_error_ros.ros.profile_group import ProfileGroup
 from gps_error_ros.ros.parameters import (
     ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
     WARN_PERIOD_S)
@@ -58,18 +58,6 @@ NOT_TROUBLE = ('fixes published', 'no-fix messages published (outages)',
 WATCH_PERIOD_S = 1.0
 #: Slots an agent_pattern node starts with (doubled whenever they run out).
 FIRST_SLOTS = 16
-
-
-@dataclass
-class ProfileGroup:
-    """The agents that share one profile, and the engine that steps them."""
-
-    engine: FixEngine
-    members: np.ndarray        # node-wide agent indices, in engine order
-    covariance: list[float]    # row-major ENU m^2 of the published fixes
-    covariance_type: int
-    profile: str               # the profile parameter's value for these agents
-    carries: str = ''          # what the profile carries (the start-up line says it)
 
 
 AGENT_NAME = re.compile(r'^[A-Za-z][A-Za-z0-9_]*(/[A-Za-z][A-Za-z0-9_]*)*$')

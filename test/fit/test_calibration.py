@@ -131,3 +131,17 @@ def test_calibrate_says_how_little_data_it_had(tmp_path, capsys):
     assert 'note: 216 samples (3.6 min) is little data' in said
     assert 'compare and diagnose need 180 to train on and 80 held out' in said
     assert 'mean error' in said and 'stationary SD' in said
+
+
+def test_a_calibration_result_says_what_it_fitted():
+    """summary() is the text calibrate prints of the fit; to_dict() the profile it writes."""
+    from gps_error_ros.model.profiles import profile_from_dict
+    result = calibrate(synthetic_trace(3000, seed=4)[0])
+    text = result.summary(max_order=10)
+    lines = text.splitlines()
+    assert lines[0].startswith(f'{result.input}: {result.grid.n} samples in 1 segment(s)')
+    assert lines[1].startswith('  north: AR(') and lines[2].startswith('  east: AR(')
+    profile = profile_from_dict(result.to_dict('mine'))
+    assert profile.name == 'mine'
+    np.testing.assert_allclose(profile.axes['north'].phi, result.north.params.phi, atol=1e-6)
+    assert result.to_dict()['fit']['gross_failures']['count'] == 0

@@ -35,7 +35,7 @@ def test_planted_failures_are_found_and_nothing_else():
     assert np.flatnonzero(found.mask).tolist() == bad.tolist()
     assert found.size_m.max() == pytest.approx(np.hypot(24000.0, 50.0), rel=1e-6)
     assert found.t.tolist() == [50.0, 51.0, 300.0, 599.0]
-    summary = found.summary()
+    summary = found.to_dict()
     assert summary['count'] == 4 and summary['fixes'] == 600
     assert 'robust distance > 5' in summary['rule']
     assert found.describe().startswith('planted: 4 gross failure(s) of 600 fixes')

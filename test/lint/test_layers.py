@@ -127,3 +127,70 @@ def test_modules_and_functions_fit_the_size_guide():
                                f'{node.name}: {n} lines and no "{LONG_MARK}" '
                                f'in its docstring')
     assert not bad, '\n'.join(bad)
+
+
+def module_graph():
+    """Return {module: modules of the package it imports} (at any level, type-only included)."""
+    paths = {}
+    for path in sorted(PKG.rglob('*.py')):
+        rel = path.relative_to(PKG.parent).with_suffix('').parts
+        paths['.'.join(rel[:-1] if rel[-1] == '__init__' else rel)] = path
+    graph = {m: set() for m in paths}
+    for m, path in paths.items():
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                subs = [f'{node.module}.{a.name}' for a in node.names]
+                names = [n for n in subs if n in paths]     # submodules taken by name
+                if len(names) < len(subs):
+                    names.append(node.module)               # names from the module itself
+            graph[m].update(n for n in names if n in paths and n != m)
+    return graph
+
+
+def circles(graph):
+    """Return the strongly connected groups of more than one module (Tarjan, iterative)."""
+    index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
+    for root in graph:
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = counter[0]
+        counter[0] += 1
+        stack.append(root)
+        on.add(root)
+        while work:
+            v, children = work[-1]
+            for w in children:
+                if w not in index:
+                    index[w] = low[w] = counter[0]
+                    counter[0] += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(graph[w]))))
+                    break
+                if w in on:
+                    low[v] = min(low[v], index[w])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[v])
+                if low[v] == index[v]:
+                    group = []
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        group.append(w)
+                        if w == v:
+                            break
+                    if len(group) > 1:
+                        out.append(sorted(group))
+    return out
+
+
+def test_no_modules_import_each_other():
+    """No circle of imports between files, type-only and function-level imports included."""
+    assert circles({'a': {'b'}, 'b': {'c'}, 'c': {'a'}, 'd': {'a'}}) == [['a', 'b', 'c']]
+    assert circles(module_graph()) == []
