@@ -17,7 +17,7 @@ export PYTHONUNBUFFERED := 1
 DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
-.PHONY: setup demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
+.PHONY: setup system-packages demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
 	generalisation-page calibration-page \
 	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets
 
@@ -49,8 +49,14 @@ demo-sumo: setup
 # on two cores faster than two workers (about 7 min against 7.5), since the
 # node tests spend much of their time waiting on a peer process or the graph
 # (docs/performance.md, The test suite).
-test: setup
+test: setup system-packages
 	$(PY) -m pytest -n 3
+
+# Debian's packages the tests use beside PyPI's: gpsd and gpsd-clients (gpsd reads
+# the NMEA the package writes). Installed when missing (root, as on CI).
+system-packages:
+	command -v gpsd >/dev/null && command -v gpspipe >/dev/null || \
+		(apt-get update -qq && apt-get install -y -qq --no-install-recommends gpsd gpsd-clients)
 
 # Regenerate docs/calibration.md and docs/calibration/ from the measured traces.
 calibration-doc: setup

@@ -106,3 +106,13 @@ def test_added_errors_flag_the_models_failures_and_report_velocity():
 def test_a_wrong_call_says_what_was_expected(call, says):
     with pytest.raises(ValueError, match=says):
         call(api.load_profile('DS5'))
+
+
+def test_the_package_lists_its_names():
+    """Tab-completion and help() show the eight names, not the loader's internals."""
+    import gps_error_ros
+    assert set(gps_error_ros.__all__) <= set(dir(gps_error_ros))
+    assert not {'Any', 'TYPE_CHECKING'} & set(dir(gps_error_ros))
+    for name in gps_error_ros.__all__:
+        assert name in gps_error_ros.__doc__
+        assert getattr(gps_error_ros, name) is getattr(gps_error_ros.api, name)
