@@ -34,7 +34,7 @@ $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirement
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
 		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt \
 		-r requirements-docs.txt -r requirements-fast.txt -r requirements-smoother.txt
-	$(PIP) --no-deps -e .
+	$(PIP) --no-deps -e . --config-settings editable_mode=compat
 	touch $@
 
 demo: setup

@@ -16,7 +16,8 @@ from the repository's root (they read its ``data/``).
 from collections.abc import Sequence
 from dataclasses import dataclass
 import os
-from typing import Any
+from typing import Any, Literal
+import warnings
 
 import numpy as np
 
@@ -35,11 +36,14 @@ from gps_error_ros.sim.faults import Fault, faults_from_yaml
 from gps_error_ros.sim.trajectory_fixes import agent_names, model_step, Stated, trajectory_fixes
 from gps_error_ros.sim.velocity_sim import row_values
 from gps_error_ros.traces.loading import load_trace
+from gps_error_ros.traces.progress import stage_progress
 
 __all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'load_profile',
            'simulate_errors', 'validate']
 
 PathLike = str | os.PathLike[str]
+#: What the node states as each fix's covariance (its ``covariance_mode``).
+CovarianceMode = Literal['stationary', 'conditional', 'reported']
 MODES = ('stationary', 'conditional', 'reported')
 
 
@@ -87,7 +91,7 @@ class Errors:
 
 def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: float,
                     seed: int, start_s: float = 0.0,
-                    covariance_mode: str = 'stationary') -> Errors:
+                    covariance_mode: CovarianceMode = 'stationary') -> Errors:
     """
     Return the errors of ``agents`` (a number, or names) over ``duration_s`` seconds.
 
@@ -172,7 +176,8 @@ class Fixes:
 def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = None,
                lon: Numbers | None = None, *, east: Numbers | None = None,
                north: Numbers | None = None, datum: Sequence[float] | None = None,
-               agents: Sequence[str] | None = None, covariance_mode: str = 'stationary',
+               agents: Sequence[str] | None = None,
+               covariance_mode: CovarianceMode = 'stationary',
                faults: Sequence[Fault] | str = (), zones: PathLike | None = None) -> Fixes:
     """
     Return the fixes a phone would give along true positions.
@@ -207,11 +212,16 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     >>> fixes.lat.shape, fixes.east is None
     ((60,), True)
     """
-    t = np.asarray(t, dtype=float)
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    if covariance_mode not in MODES:
+        raise ValueError(f'covariance_mode {covariance_mode!r}: expected one of {MODES}')
+    _same_lengths(t=t, lat=lat, lon=lon, east=east, north=north, agents=agents)
     if isinstance(faults, str):
         faults = faults_from_yaml(faults, 'faults')
     frame = None
     if datum is not None:
+        if len(datum) not in (2, 3):
+            raise ValueError(f'datum {list(datum)!r}: expected [lat, lon] or [lat, lon, alt]')
         frame = LocalTangentFrame(*datum)
         if east is None or north is None:
             raise ValueError('with datum, give east and north (m in its ENU frame)')
@@ -249,6 +259,15 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
                  speed, bearing)
 
 
+def _same_lengths(**columns: Any) -> None:
+    """Raise ValueError naming the columns given (not None) whose lengths differ from ``t``'s."""
+    sizes = {k: int(np.size(v)) if not isinstance(v, (list, tuple)) else len(v)
+             for k, v in columns.items() if v is not None}
+    if len(set(sizes.values())) > 1:
+        said = ', '.join(f'{k} {n}' for k, n in sizes.items())
+        raise ValueError(f'one value per row expected: {said} values (t has {sizes["t"]})')
+
+
 def _failed_rows(profile: Profile, seed: int, names: Sequence[str], t: FloatArray) -> BoolArray:
     """Return which rows the profile's gross failures hit (the model's own draws)."""
     failed = np.zeros(t.size, dtype=bool)
@@ -264,7 +283,8 @@ def _failed_rows(profile: Profile, seed: int, names: Sequence[str], t: FloatArra
 
 def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = False,
               order: int | None = None, name: str = 'calibrated',
-              within: str = 'extended') -> Profile:
+              within: Literal['extended', 'ar'] = 'extended',
+              progress: bool | None = None) -> Profile:
     """
     Return a profile fitted to recordings of one receiver (trace CSVs or bags).
 
@@ -274,6 +294,12 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
     (``within='extended'``, the class that predicted best on held-out days)
     or the Gaussian AR (``within='ar'``, faster; ``order`` fixes its order).
     ``profile.save(path)`` writes it for the node and the commands.
+
+    The extended fit takes from seconds to minutes: its stages show as a
+    bar on standard error (``progress``: None, on a terminal for long
+    recordings; True always; False never). Asked for a population the
+    recordings cannot give (fewer than three 300-s blocks), it returns the
+    profile without one and warns why (``UserWarning``).
 
     >>> profile = calibrate('data/gsdc2020-mtv1-pixel4.csv', order=3)
     >>> profile.axes['north'].order, profile.velocity is not None
@@ -295,10 +321,18 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
         if order is not None:
             raise ValueError(f'order={order}: the extended model within a population chooses '
                              f'its own orders; pass within=\'ar\' to fix the order')
-        from gps_error_ros.judge.population_calibration import calibrate_best
-        result = calibrate_best(traces)
+        from gps_error_ros.judge.population_calibration import calibrate_best, STAGES
+        bar = stage_progress([len(t) for t in traces], [t.name for t in traces], STAGES,
+                             'fitting the extended model within', show=progress)
+        try:
+            result = calibrate_best(traces, done=bar.update)
+        finally:
+            bar.close()
     else:
         result = _calibrate(traces, order=order, population=population)
+    if population and result.population is not None and result.population.population is None:
+        warnings.warn(f'calibrate: no population section: '
+                      f'{result.population.evidence["reason"]}', UserWarning, stacklevel=2)
     return profiles.profile_from_dict(result.profile_dict(name))
 
 

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import gps_error_ros
+import gps_error_ros as ge
 from gps_error_ros import api
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -116,3 +117,30 @@ def test_the_package_lists_its_names():
     for name in gps_error_ros.__all__:
         assert name in gps_error_ros.__doc__
         assert getattr(gps_error_ros, name) is getattr(gps_error_ros.api, name)
+
+
+def test_the_api_names_what_was_wrong():
+    """Rows of different lengths, a mode that does not exist, a datum of one number."""
+    profile = ge.load_profile('DS5')
+    t = np.arange(10.0)
+    with pytest.raises(ValueError, match=r't 10, lat 10, lon 9 values'):
+        ge.add_errors(profile, t, 1, np.full(10, 40.75), np.full(9, -73.99))
+    with pytest.raises(ValueError, match=r"covariance_mode 'bogus'"):
+        ge.add_errors(profile, t, 1, np.full(10, 40.75), np.full(10, -73.99),
+                      covariance_mode='bogus')
+    with pytest.raises(ValueError, match=r'datum \[40.75\]: expected \[lat, lon\]'):
+        ge.add_errors(profile, t, 1, east=t, north=t, datum=[40.75])
+
+
+def test_calibrate_warns_when_it_cannot_fit_a_population(tmp_path):
+    """Five minutes of one walk is one 300-s block; a population needs three."""
+    import warnings
+    rows = (ROOT / 'data' / 'snapper-walk-w00.csv').read_text().splitlines()
+    short = tmp_path / 'short.csv'
+    short.write_text('\n'.join(rows[:301]) + '\n')
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always')
+        profile = ge.calibrate(short, population=True, within='ar', progress=False)
+    assert profile.population is None
+    said = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
+    assert said and 'no population section' in said[0] and '3' in said[0], said

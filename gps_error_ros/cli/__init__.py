@@ -30,12 +30,12 @@ from gps_error_ros.traces.gpx import GpxError
 from gps_error_ros.traces.landmarks import LandmarkError
 from gps_error_ros.traces.nmea import NmeaError
 from gps_error_ros.traces.pairing import PairingError
+from gps_error_ros.traces.progress import stage_progress
 from gps_error_ros.traces.trace_io import Trace, TraceError
 
 if TYPE_CHECKING:
     from gps_error_ros.diagnose.pipeline import Diagnosis
     from gps_error_ros.diagnose.split import Split
-    from gps_error_ros.traces.progress import Progress
 
 # DiagnosisError is a ValueError
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
@@ -146,7 +146,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     traces = load_inputs(args)
     if extended:
         from gps_error_ros.judge.population_calibration import calibrate_best, STAGES
-        progress = _stage_progress(traces, STAGES, 'fitting the extended model within')
+        progress = stage_progress([len(t) for t in traces], [t.name for t in traces], STAGES,
+                                  'fitting the extended model within')
         try:
             result = calibrate_best(traces, args.day_allowance, args.seed, progress.update)
         finally:
@@ -183,7 +184,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         if path:
             _check_output_dir(path, option)
     recordings = load_inputs(args)
-    progress = _stage_progress(recordings, STAGES, 'diagnosing')
+    progress = stage_progress([len(t) for t in recordings], [t.name for t in recordings],
+                              STAGES, 'diagnosing')
     try:
         # the library finds each recording's gross failures and leaves them out
         diag = diagnose(recordings, sims=args.sims, seed=args.seed, done=progress.update)
@@ -219,19 +221,6 @@ def _write_diagnosed_profile(args: argparse.Namespace, diag: 'Diagnosis') -> Non
     print(f'wrote {out}')
 
 
-#: Samples from which diagnose and compare show their progress (on a terminal).
-LONG_RECORDING = 20000
-
-
-def _stage_progress(recordings: Sequence[Trace], stages: int, what: str) -> 'Progress':
-    """Return a progress bar over ``stages`` stages, shown for long recordings."""
-    from gps_error_ros.traces.progress import Progress
-    samples = sum(len(t) for t in recordings)
-    name = recordings[0].name if len(recordings) == 1 else f'{len(recordings)} recordings'
-    return Progress(stages, f'{what} {name}',
-                    min_total=0 if samples >= LONG_RECORDING else stages + 1)
-
-
 def _write_results(args: argparse.Namespace, doc: Any, figure_name: str,
                    draw: Callable[[Path], object]) -> None:
     """Write ``doc`` to ``--json`` and ``draw(path)`` into ``--report``, if asked."""
@@ -261,7 +250,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.json_out:
         _check_output_dir(args.json_out, '--json')
     recordings = load_inputs(args)
-    progress = _stage_progress(recordings, STAGES - 2, 'fitting the classes of')
+    progress = stage_progress([len(t) for t in recordings], [t.name for t in recordings],
+                              STAGES - 2, 'fitting the classes of')
     try:
         # the held-out simulation is compare's; the library leaves the failures out
         fitted = fit_models(recordings, done=progress.update)

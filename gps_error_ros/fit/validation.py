@@ -22,6 +22,7 @@ the simulated values):
 """
 
 from dataclasses import dataclass
+import math
 from typing import Any, Hashable, Mapping, Optional, Sequence
 
 import numpy as np
@@ -79,7 +80,8 @@ class ValidationResult:
     reported: Optional[dict[str, Any]] = None       # stated accuracy, measured against simulated
     # axis -> {'acf', 'quantiles'}: see share_percentile
     share_pct: Optional[dict[str, Any]] = None
-    joint_pct: Optional[float] = None     # the four shares together: see joint_share_percentile
+    #: the four shares together (joint_share_percentile): set by validate, a percentage
+    joint_pct: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         """Return the numbers behind the figures as plain data (``validation.json``)."""
@@ -108,7 +110,7 @@ class ValidationResult:
                 'mean_m': float(self.measured[:, AXES.index(ax)].mean()),
                 'sd_m': float(self.measured[:, AXES.index(ax)].std()),
             }
-        if self.joint_pct is not None:
+        if not math.isnan(self.joint_pct):
             out['shares_joint_percentile'] = self.joint_pct
         if self.availability is not None:
             out['availability'] = self.availability

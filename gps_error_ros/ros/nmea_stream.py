@@ -134,7 +134,9 @@ def open_for(node: Any, port: int, pattern: bool) -> NmeaServer | None:
         server = NmeaServer(port, len(node.agents))
     except OSError as exc:
         raise ConfigError(f'parameter \'nmea_port\': {exc}') from None
-    names = [a or 'the agent' for a in node.agents]
-    node.get_logger().info('NMEA 0183 on ' + ', '.join(
-        f'{n} tcp://{HOST}:{p}' for n, p in zip(names, server.ports)))
+    if node.agents == [None] or node.agents == ['']:      # one agent: its port alone
+        node.get_logger().info(f'NMEA 0183 on tcp://{HOST}:{server.ports[0]}')
+    else:
+        node.get_logger().info('NMEA 0183 on ' + ', '.join(
+            f'{n}: tcp://{HOST}:{p}' for n, p in zip(node.agents, server.ports)))
     return server

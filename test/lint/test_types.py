@@ -63,3 +63,34 @@ def test_the_strict_wings_are_annotated_whole():
     assert done == total, f'{total - done} of {total} functions of the package not annotated'
     print(f'annotated: {done} of {total} functions; ' + ', '.join(
         f'{w} {d}/{t}' for w, (d, t) in sorted(counts.items())))
+
+
+USER_SCRIPT = '''
+import numpy as np
+import gps_error_ros as ge
+
+profile: ge.Profile = ge.load_profile('DS5')
+t = np.arange(0.0, 60.0)
+fixes: ge.Fixes = ge.add_errors(profile, t, seed=7, east=1.4 * t, north=np.zeros(t.size),
+                                datum=[40.75, -73.99], covariance_mode='conditional')
+errors: ge.Errors = ge.simulate_errors(profile, agents=3, duration_s=60, seed=1)
+print(fixes.covariance.shape, errors.north_east.shape)
+'''
+
+
+def test_a_users_script_type_checks_against_the_installed_package(tmp_path):
+    """
+    A user's own script, outside the repository, sees the package's types (mypy --strict).
+
+    The install ``make setup`` makes (editable, ``editable_mode=compat``) is
+    one a type checker follows, and ``py.typed`` ships; a covariance mode that
+    does not exist is caught before the script runs.
+    """
+    def check(text):
+        (tmp_path / 'mine.py').write_text(text)
+        return subprocess.run([sys.executable, '-m', 'mypy', '--strict', '--no-incremental',
+                               'mine.py'], cwd=tmp_path, capture_output=True, text=True)
+    ok = check(USER_SCRIPT)
+    assert ok.returncode == 0, ok.stdout + ok.stderr
+    bad = check(USER_SCRIPT.replace("'conditional'", "'bogus'"))
+    assert bad.returncode == 1 and 'covariance_mode' in bad.stdout, bad.stdout
