@@ -108,6 +108,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self._create_topics()
         self.tick_time: list[float] = [0, 0.0, 0.0]      # ticks, total s, max s
         self.invalid_truth = 0              # truth messages that could not be used
+        self.gaps_reported = 0              # invalid_gaps already warned of
         self.fix_output = FixOutput(self, cfg['outage_output'],
                                     self.fix_reliability == 'best_effort',
                                     cfg['covariance_mode'], per_fix=bool(cfg['zones']),
@@ -293,6 +294,9 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             self.invalid_truth += 1
             self.get_logger().warning(f'dropped a truth message: {exc}',
                                       throttle_duration_sec=WARN_PERIOD_S)
+            g, local = self.slot[agent]
+            self.groups[g].engine.note_invalid(
+                local, conversions.stamp_ns(msg.header.stamp) or self.now_ns())
             return False
         stamp = conversions.stamp_ns(msg.header.stamp) or self.now_ns()
         g, local = self.slot[agent]
@@ -353,6 +357,9 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         local = self.slot_local[agents]
         group_of = self.slot_group[agents]
         for g, group in enumerate(self.groups):
+            bad = parsed & ~ok & (group_of == g)
+            if bad.any():
+                group.engine.note_invalid(local[bad], stamps[bad])
             mine = ok & (group_of == g)
             if mine.any():
                 kept = group.engine.add_truth_batch(local[mine], stamps[mine], coords[mine])
@@ -386,6 +393,14 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 f'max_pose_age ({self.max_pose_age:g} s of the ROS clock) after the '
                 f'step: /clock runs ahead of the poses; raise max_pose_age to the '
                 f'largest lead', throttle_duration_sec=WARN_PERIOD_S)
+        gaps = self._total('invalid_gaps')
+        if gaps > self.gaps_reported:
+            self.gaps_reported = gaps
+            self.get_logger().warning(
+                'steps got no fix while an agent\'s truth was invalid (non-finite '
+                'positions or a zero quaternion, dropped): the node publishes nothing for '
+                'those steps, not NO_FIX; fixes resume with valid truth',
+                throttle_duration_sec=WARN_PERIOD_S)
         if self._total('late_start') and not self.late_reported_start:
             self.late_reported_start = True
             self.get_logger().warning(

@@ -111,6 +111,8 @@ class FixEngine:
         # per agent: the first step skipped for want of truth since truth was
         # last found late (-1: none)
         self.last_skipped = np.full(self.n, -1, dtype=np.int64)
+        # per agent: the newest stamp of truth that was dropped as invalid (-1: none)
+        self.last_invalid = np.full(self.n, -1, dtype=np.int64)
         self.active = np.full(self.n, bool(active))
         self.stats = EngineStats()
         self._side_streams(velocity, reported, reported_bias)
@@ -179,11 +181,26 @@ class FixEngine:
         self._note_late(np.array([agent]), np.array([int(stamp_ns)]))
         return True
 
+    def note_invalid(self, agents: Numbers, stamps: Numbers) -> None:
+        """
+        Note truth of ``agents`` (local indices) stamped ``stamps`` (ns) that was invalid.
+
+        Non-finite positions, a zero quaternion: the caller drops them. The
+        steps they would have served are skipped (no fix, no NO_FIX), and
+        valid truth after them is not counted as late (``invalid_gaps``).
+        """
+        agents = np.atleast_1d(np.asarray(agents, dtype=np.int64))
+        stamps = np.atleast_1d(np.asarray(stamps, dtype=np.int64))
+        np.maximum.at(self.last_invalid, agents, stamps)
+
     def _note_late(self, agents: IntArray, stamps: IntArray) -> None:
         """Count truth that would have served a step already skipped without it."""
         late = (self.last_skipped[agents] >= 0) & (stamps >= self.last_skipped[agents])
         if late.any():
-            self.stats.late_truth += int(np.unique(agents[late]).size)
+            # a step skipped while the agent's truth was invalid: not the clock's lead
+            invalid = late & (self.last_invalid[agents] >= self.last_skipped[agents])
+            self.stats.late_truth += int(np.unique(agents[late & ~invalid]).size)
+            self.stats.invalid_gaps += int(np.unique(agents[invalid]).size)
             self.last_skipped[agents[late]] = -1
 
     def add_truth_batch(self, agents: Numbers, stamps: Numbers, coords: Numbers) -> BoolArray:
@@ -234,6 +251,7 @@ class FixEngine:
         self.keys = np.concatenate([self.keys, np.zeros(n, dtype=np.uint64)])
         self.active = np.concatenate([self.active, np.zeros(n, dtype=bool)])
         self.last_skipped = np.concatenate([self.last_skipped, np.full(n, -1, np.int64)])
+        self.last_invalid = np.concatenate([self.last_invalid, np.full(n, -1, np.int64)])
         self.truth.grow(n)
         if self.state is not None:
             self.state = self.state.joined(self.model.empty_state(n))
@@ -269,6 +287,7 @@ class FixEngine:
         self.active[slots] = True
         self.truth.clear(slots)
         self.last_skipped[slots] = -1
+        self.last_invalid[slots] = -1
         if self.zoned is not None:
             self.zoned.forget(slots)
         if self.faults is not None:
@@ -326,6 +345,7 @@ class FixEngine:
         self.active[slots] = False
         self.truth.clear(slots)
         self.last_skipped[slots] = -1
+        self.last_invalid[slots] = -1
         if self.zoned is not None:
             self.zoned.forget(slots)
         for step in self.pending:
@@ -349,6 +369,7 @@ class FixEngine:
             self.stats.resets += 1
             self.truth.clear()
             self.last_skipped[:] = -1
+            self.last_invalid[:] = -1
             self._reset_time()
         self.last_now = now_ns
         due = now_ns // self.period_ns

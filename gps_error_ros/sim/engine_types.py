@@ -23,6 +23,7 @@ class EngineStats:
     resets: int = 0
     pending_overflow: int = 0
     late_truth: int = 0      # times truth came for a step already skipped
+    invalid_gaps: int = 0    # times steps were skipped while an agent's truth was invalid
     late_start: int = 0      # first clock more than max_pending steps after start_ns
     no_fix: int = 0          # steps resolved in an outage (profile availability)
 

@@ -103,3 +103,35 @@ def test_clock_ahead_of_the_poses_is_named_with_the_parameter_to_raise():
     assert rc == 0, out
     assert 'raise max_pose_age' in out, out
     assert len(fixes) < 12
+
+
+@pytest.mark.parametrize('crowd', [False, True])
+def test_five_seconds_of_nan_poses_are_named_as_such(crowd):
+    """No fix and no NO_FIX while the truth is NaN; the warning names the poses, not the clock."""
+    ns = unique_ns()
+    args = [DATUM_ARG, 'seed:=1'] + (['agents:=["a"]'] if crowd else [])
+    prefix = 'a/' if crowd else ''
+    node = start(ns, *args)
+    peer = Peer()
+    try:
+        pub = peer.publisher(PoseStamped, f'{ns}/{prefix}pose')
+        fixes = peer.collect(NavSatFix, f'{ns}/{prefix}fix')
+        peer.wait_connected(pub, f'{ns}/{prefix}fix', node)
+        for k in range(T0, T0 + 20):
+            m = pose_msg(k * NS)
+            if T0 + 5 <= k < T0 + 10:
+                m.pose.position.x = math.nan
+            pub.publish(m)
+            peer.set_clock(k * NS)
+            peer.spin_for(0.05)
+        peer.spin_for(1.0)
+        rc, out = node.stop()
+    finally:
+        node.stop()
+        peer.destroy()
+    assert rc == 0, out
+    stamps = {stamp_ns(f.header.stamp) // NS for f in fixes}
+    # the last valid pose is held for max_pose_age (1 s); then nothing until valid truth
+    assert not stamps & set(range(T0 + 6, T0 + 10)), sorted(stamps)
+    assert set(range(T0 + 10, T0 + 20)) <= stamps, sorted(stamps)
+    assert 'truth was invalid' in out and 'raise max_pose_age' not in out, out

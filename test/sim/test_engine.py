@@ -206,3 +206,19 @@ def test_a_fixed_start_makes_fixes_independent_of_the_first_clock_reading():
     assert sorted(on_time) == [k * NS for k in range(10, 30)]
     assert on_time == late          # steps 10-13 served from the truth received
     assert run(14, None) != late    # without it, the streams begin at 14
+
+
+def test_invalid_truth_is_a_gap_not_a_clock_ahead():
+    """Five seconds of NaN poses: their steps get nothing, and that is not called lateness."""
+    eng = engine(max_pose_age=1.0)
+    served = []
+    for k in range(0, 20):
+        if 5 <= k < 10:
+            eng.note_invalid(0, k * NS)                    # what the node drops
+        else:
+            eng.add_truth(0, k * NS, LAT, LON, 0.0)
+        served += [f.stamp_ns // NS for f in eng.on_clock(k * NS)]
+    # the last valid pose is held for max_pose_age (step 5); then no fix and no NO_FIX
+    assert [k for k in range(6, 10) if k in served] == []
+    assert all(k in served for k in list(range(1, 6)) + list(range(10, 20)))   # 0: no clock
+    assert eng.stats.late_truth == 0 and eng.stats.invalid_gaps == 1
