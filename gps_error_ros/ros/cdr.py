@@ -64,6 +64,43 @@ def navsatfix(raw: bytes) -> tuple[Any, ...]:
     return (stamp, status) + struct.unpack_from(e + '3d', raw, HEADER + off)
 
 
+def frame_id(raw: bytes) -> str:
+    """Return the ``header.frame_id`` of a serialized stamped message ('' if too short)."""
+    if len(raw) < HEADER + 12:
+        return ''
+    (slen,) = struct.unpack_from(_endian(raw) + 'I', raw, HEADER + 8)
+    return raw[HEADER + 12:HEADER + 12 + slen].rstrip(b'\0').decode(errors='replace')
+
+
+def frame_ids_are(raws: Sequence[bytes], frame: str) -> BoolArray:
+    """
+    Return True per serialized stamped message whose ``header.frame_id`` is ``frame``.
+
+    The string follows the stamp: a uint32 length (with its NUL) and the
+    bytes. Little-endian messages are read with numpy in one pass; any other
+    is read one by one. A message too short to hold it is False.
+    """
+    want = frame.encode() + b'\0'
+    m, k = len(raws), len(want)
+    out = np.zeros(m, dtype=bool)
+    if m == 0:
+        return out
+    lens = np.fromiter(map(len, raws), dtype=np.int64, count=m)
+    starts = np.zeros(m, dtype=np.int64)
+    np.cumsum(lens[:-1], out=starts[1:])
+    buf = np.frombuffer(b''.join([*raws, bytes(HEADER + 12 + k)]), dtype=np.uint8)
+    little = (lens >= HEADER + 12 + k) & (buf[starts + 1] & 1 == 1)
+    at = np.where(little, starts, 0)
+    slen = _read(buf, at + HEADER + 8, '<u4')[:, 0]
+    same = (buf[at[:, None] + HEADER + 12 + np.arange(k)] ==
+            np.frombuffer(want, dtype=np.uint8)).all(axis=1)
+    out[:] = little & (slen == k) & same
+    for i in map(int, np.flatnonzero(~little & (lens >= HEADER + 12))):
+        (slen_i,) = struct.unpack_from(_endian(raws[i]) + 'I', raws[i], HEADER + 8)
+        out[i] = raws[i][HEADER + 12:HEADER + 12 + slen_i] == want
+    return out
+
+
 def _read(buf: Any, at: IntArray, dtype: Any, count: int = 1) -> Any:
     """Read ``count`` little-endian ``dtype`` values at each offset ``at``: (m, count)."""
     size = np.dtype(dtype).itemsize * count

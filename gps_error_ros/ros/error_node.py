@@ -46,6 +46,7 @@ from gps_error_ros.ros.parameters import (
 from gps_error_ros.ros.rclpy_adapter import (DrainedByTheNode, handles, take_raw,
                                              WaitsOnUndrained)
 from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS
+from gps_error_ros.ros.truth_frame import TruthFrame
 from gps_error_ros.sim.engine import FixEngine, NS
 from gps_error_ros.sim.faults import FaultOverlay
 from gps_error_ros.traces.validity import usable_fix, usable_pose
@@ -76,7 +77,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.frame_id = cfg['frame_id']
         self.max_pose_age = cfg['max_pose_age']
         self.start_time = cfg['start_time']
-        self.late_reported, self.late_reported_start = 0, False
+        self.late_reported_start = False
         self.began_ns: int | None = None        # the streams' first step, once logged
         self.input_type = cfg['input_type']
         self.fix_reliability = cfg['fix_reliability']
@@ -100,6 +101,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self.frame: LocalTangentFrame | None = None
         if self.input_type != 'navsatfix':
             self.frame = datum_frame(cfg['datum'], self.input_type)
+        self.truth_frame = TruthFrame.of(self, cfg, self.input_type)
         self.pose_frame_id = cfg['pose_frame_id'].strip()
         if self.pose_frame_id and self.frame is None:
             self.frame = datum_frame(cfg['datum'], self.input_type,
@@ -108,7 +110,6 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
         self._create_topics()
         self.tick_time: list[float] = [0, 0.0, 0.0]      # ticks, total s, max s
         self.invalid_truth = 0              # truth messages that could not be used
-        self.gaps_reported = 0              # invalid_gaps already warned of
         self.fix_output = FixOutput(self, cfg['outage_output'],
                                     self.fix_reliability == 'best_effort',
                                     cfg['covariance_mode'], per_fix=bool(cfg['zones']),
@@ -281,6 +282,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
 
     def _on_truth(self, agent: int, msg: Any) -> bool:
         """Store one truth message of ``agent``; True if it was kept."""
+        if not self.truth_frame.keep(msg.header.frame_id):
+            return False
         try:
             if self.input_type == 'navsatfix':
                 lat, lon, alt = conversions.navsatfix_position(msg)
@@ -337,6 +340,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             self.get_logger().warning(
                 f'dropped {int((~parsed).sum())} truth message(s) that could not be '
                 f'parsed', throttle_duration_sec=WARN_PERIOD_S)
+        parsed &= self.truth_frame.keep_batch(raws)      # a pose in another frame, refused
         agents = np.array(slots)
         now = self.now_ns()
         stamps[stamps == 0] = now
@@ -385,22 +389,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 + ('' if self.start_time >= 0 else
                    ' (the first clock reading: set start_time for fixes that do not '
                    'depend on when the node read it)'))
-        late = self._total('late_truth')
-        if late > self.late_reported:
-            self.late_reported = late
-            self.get_logger().warning(
-                f'steps got no fix although their truth came, more than '
-                f'max_pose_age ({self.max_pose_age:g} s of the ROS clock) after the '
-                f'step: /clock runs ahead of the poses; raise max_pose_age to the '
-                f'largest lead', throttle_duration_sec=WARN_PERIOD_S)
-        gaps = self._total('invalid_gaps')
-        if gaps > self.gaps_reported:
-            self.gaps_reported = gaps
-            self.get_logger().warning(
-                'steps got no fix while an agent\'s truth was invalid (non-finite '
-                'positions or a zero quaternion, dropped): the node publishes nothing for '
-                'those steps, not NO_FIX; fixes resume with valid truth',
-                throttle_duration_sec=WARN_PERIOD_S)
+        self.truth_frame.warn_of_gaps(self._total('late_truth'), self._total('invalid_gaps'),
+                                      self.max_pose_age)
         if self._total('late_start') and not self.late_reported_start:
             self.late_reported_start = True
             self.get_logger().warning(
@@ -450,6 +440,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             'truth dropped (out of order)': t('dropped_out_of_order'),
             'truth dropped (stamped in the future)': t('dropped_future'),
             'truth dropped (invalid)': self.invalid_truth,
+            'truth in another frame than truth_frame': self.truth_frame.others,
             'truth came after its step was skipped': t('late_truth'),
             'clock resets': t('resets'),
             'non-finite fixes refused': self.fix_output.refused,

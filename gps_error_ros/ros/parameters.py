@@ -101,6 +101,14 @@ ERROR_NODE_PARAMS = (
     ParamSpec('frame_id', 'gps', ParameterType.PARAMETER_STRING,
               'header.frame_id of the published fixes (the antenna frame).',
               read_only=False),
+    ParamSpec('truth_frame', 'map', ParameterType.PARAMETER_STRING,
+              'The frame_id the truth poses are expected in: ENU metres about the '
+              'datum. Poses in another frame are counted on /diagnostics; empty: '
+              'not checked.'),
+    ParamSpec('other_frames', 'warn', ParameterType.PARAMETER_STRING,
+              'A truth pose whose frame_id is not truth_frame: warn (taken as it '
+              'is, one warning per frame name) or refuse (dropped).',
+              choices=('warn', 'refuse')),
     ParamSpec('max_pose_age', 1.0, ParameterType.PARAMETER_DOUBLE,
               'Seconds past its stamp that the newest truth sample may be '
               'held when no newer one arrives; older truth gives no fix.',

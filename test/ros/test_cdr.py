@@ -103,3 +103,16 @@ def test_batch_parse_agrees_with_one_by_one():
     for kind in one:        # a batch of nothing but a short message
         assert not cdr.parse_batch(kind, [b''])[2].any()
         assert not cdr.parse_batch(kind, [b'\x00\x01\x00'])[2].any()
+
+
+def test_frame_ids_are_read_from_the_bytes():
+    frames = ['map', 'base_link', '', 'mapx', 'ma', 'map']
+    raws = []
+    for f in frames:
+        p = PoseStamped()
+        p.header.frame_id = f
+        raws.append(serialize_message(p))
+    raws.append(raws[0][:10])                                   # truncated
+    assert cdr.frame_ids_are(raws, 'map').tolist() == [f == 'map' for f in frames] + [False]
+    assert cdr.frame_ids_are(raws, '').tolist() == [f == '' for f in frames] + [False]
+    assert [cdr.frame_id(r) for r in raws] == frames + ['']

@@ -135,3 +135,44 @@ def test_five_seconds_of_nan_poses_are_named_as_such(crowd):
     assert not stamps & set(range(T0 + 6, T0 + 10)), sorted(stamps)
     assert set(range(T0 + 10, T0 + 20)) <= stamps, sorted(stamps)
     assert 'truth was invalid' in out and 'raise max_pose_age' not in out, out
+
+
+@pytest.mark.parametrize('crowd, policy', [(False, 'warn'), (True, 'warn'), (True, 'refuse')])
+def test_a_pose_in_another_frame_is_named_and_counted(crowd, policy):
+    """Poses stamped base_link: one warning naming the frame, a count on /diagnostics."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from ros_harness import node_statuses, status_values
+    ns = unique_ns()
+    args = [DATUM_ARG, 'seed:=1', f'other_frames:={policy}'] + \
+        (['agents:=["a"]'] if crowd else [])
+    prefix = 'a/' if crowd else ''
+    node = start(ns, *args)
+    peer = Peer()
+    try:
+        box = peer.collect(DiagnosticArray, '/diagnostics')
+        pub = peer.publisher(PoseStamped, f'{ns}/{prefix}pose')
+        fixes = peer.collect(NavSatFix, f'{ns}/{prefix}fix')
+        peer.wait_connected(pub, f'{ns}/{prefix}fix', node)
+        for k in range(T0, T0 + 8):
+            m = pose_msg(k * NS)
+            m.header.frame_id = 'base_link'
+            pub.publish(m)
+            peer.set_clock(k * NS)
+            peer.spin_for(0.05)
+        mine = f'{ns}/gps_error_node'
+
+        def counted():
+            statuses = node_statuses(box, mine)
+            return statuses and int(status_values(statuses[-1]).get(
+                'truth in another frame than truth_frame', 0)) == 8
+        assert peer.spin_until(counted, 10), node_statuses(box, mine)[-1:]
+        rc, out = node.stop()
+    finally:
+        node.stop()
+        peer.destroy()
+    assert rc == 0, out
+    assert out.count("truth pose in frame 'base_link', expected 'map'") == 1, out
+    if policy == 'warn':
+        assert len(fixes) >= 6           # taken as they are
+    else:
+        assert len(fixes) == 0           # refused: no truth, no fix
