@@ -194,8 +194,7 @@ class StepsPerFix(Generic[S]):
         keys = np.asarray(keys, dtype=np.uint64)
         inputs = StepInputs(None if heading is None else np.asarray(heading, dtype=float),
                             None if zones is None else np.asarray(zones, dtype=np.int64))
-        if self.start is None:
-            raise ValueError('StepsPerFix.restart(start) was not called')
+        self._start()                   # a run's first step must be set
         fresh = ~self.started[rows]
         if fresh.any():
             self._begin(rows[fresh], keys[fresh], step, inputs.take(fresh))
@@ -205,14 +204,10 @@ class StepsPerFix(Generic[S]):
         behind = np.flatnonzero(self.step[rows] < step)
         if behind.size:
             self._catch_up(rows[behind], keys[behind], step, inputs.take(behind))
-        now = self.state.take(rows)
+        now = self._rows(rows)
         cov = self.cov[rows] if self.conditional_cov else \
             self.model.predictive_cov(now, first=True)
         return self.model.errors(now), cov
-
-    def fix_mask(self, rows: Numbers) -> BoolArray:
-        """Return which ``rows`` have a fix at the step last served."""
-        return self.model.fix_mask(self.state.take(np.asarray(rows, dtype=np.int64)))
 
     def _begin(self, rows: IntArray, keys: Keys, index: int, inputs: StepInputs) -> None:
         """Start ``rows`` at ``index``: the state of a run from the start, inputs of now."""
@@ -229,12 +224,25 @@ class StepsPerFix(Generic[S]):
         for k in range(int(self.step[rows].min()) + 1, index + 1):
             due = self.step[rows] < k
             r = rows[due]
-            part = self.state.take(r)
+            part = self._rows(r)
             cov = step(self.model, part, keys[due], k, inputs.take(due), self.conditional_cov)
-            self.state.put(r, part)
+            if part is not self.state:
+                self.state.put(r, part)
             if cov is not None:
                 self.cov[r] = cov
             self.step[r] = k
+
+    def _rows(self, rows: IntArray) -> S:
+        """
+        Return the state of ``rows``: the state itself when they are every slot in order.
+
+        A crowd's fixes usually serve every slot at once; copying every
+        zone's state of every agent to step them and back again doubled
+        the zone path's cost.
+        """
+        if rows.size == self.n and np.array_equal(rows, np.arange(self.n)):
+            return self.state
+        return self.state.take(rows)
 
     def _start(self) -> int:
         """Return the run's first model step (set by :meth:`restart`)."""

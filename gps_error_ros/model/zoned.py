@@ -233,9 +233,10 @@ class WithZones(Process[ZonedState]):
                     StepInputs(heading=state.heading[entering])))
                 state.zone[entering] = z
             if sub is not None and sub.heading is not None:
-                part = state.parts[z].take(r)
+                part = self._part(state, z, r)
                 m.prepare(part, keys[r], index, sub)
-                state.parts[z].put(r, part)
+                if part is not state.parts[z]:
+                    state.parts[z].put(r, part)
 
     def advance(self, state: ZonedState, keys: Keys, index: int,
                 inputs: Inputs = None) -> FloatArray:
@@ -245,19 +246,26 @@ class WithZones(Process[ZonedState]):
         out = np.empty((keys.size, 2))
         for z, r in self._groups(state.zone):
             m, sub = self.processes[z], None if inputs is None else inputs.take(r)
-            part = state.parts[z].take(r)
+            part = self._part(state, z, r)
             out[r] = m.advance(part, keys[r], index, sub)
-            state.parts[z].put(r, part)
+            if part is not state.parts[z]:
+                state.parts[z].put(r, part)
             state.carried[r, :, 1:] = state.carried[r, :, :-1]
             state.carried[r, :, 0] = m.carried(part)[:, :, 0]
         return out
+
+    def _part(self, state: ZonedState, z: int, rows: IntArray) -> AgentState:
+        """Return process ``z``'s state of ``rows`` (the part itself when they are everyone)."""
+        if rows.size == len(state):       # every agent in one zone: rows are 0..n-1
+            return state.parts[z]
+        return state.parts[z].take(rows)
 
     def _per_process(self, state: ZonedState, what: str, shape: tuple[int, ...],
                      *args: Any) -> FloatArray:
         """Return member ``what`` of each agent's process, gathered, (n, *shape)."""
         out = np.empty((len(state),) + shape)
         for z, r in self._groups(state.zone):
-            out[r] = getattr(self.processes[z], what)(state.parts[z].take(r), *args)
+            out[r] = getattr(self.processes[z], what)(self._part(state, z, r), *args)
         return out
 
     def errors(self, state: ZonedState) -> FloatArray:
