@@ -86,10 +86,12 @@ docs: setup
 
 # The built site as a reader opens it from disk: headless Chromium (Debian's
 # package, installed here if missing) screenshots the main pages at 1280 px
-# into site_screenshots/.
+# into site_screenshots/, then lists every table or code block that scrolls
+# sideways and searches the site from disk (tools/site_check.py).
 site-screenshots: docs
 	command -v chromium >/dev/null || (apt-get update -qq && apt-get install -y -qq chromium)
 	$(PY) tools/site_screenshots.py --site site --out site_screenshots
+	$(PY) tools/site_check.py --site site
 
 # docs/generalisation.md: every class judged on folds across stretches, recordings
 # and receivers of data/, GTSAM's smoother among the consumers (about 20 minutes).

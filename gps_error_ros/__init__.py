@@ -1,7 +1,7 @@
 """
 Smartphone GPS errors (Rostami et al.'s AR model, extended) for ROS 2 and simulators.
 
-The Python API is eight names (:mod:`gps_error_ros.api`):
+The Python API is nine names (:mod:`gps_error_ros.api`):
 
 - ``load_profile(spec)``: a built-in profile (``DS5``, ``phone-suburban-drive``,
   ...) or a profile YAML, as a :class:`Profile`;
@@ -11,7 +11,9 @@ The Python API is eight names (:mod:`gps_error_ros.api`):
   along true positions, as :class:`Fixes`;
 - ``calibrate(recordings)``: a profile fitted to recordings of one receiver;
 - ``validate(profile, recording)``: how a recording compares with the
-  profile's simulated traces.
+  profile's simulated traces;
+- ``to_enu(lat, lon, datum)``: east and north metres about a datum, to
+  compare fixes with the truth.
 
 They are loaded on first use, so importing the package (as the nodes do)
 costs nothing. ``help(gps_error_ros.add_errors)`` shows each one.
@@ -21,11 +23,12 @@ from typing import Any as _Any, TYPE_CHECKING as _TYPE_CHECKING
 
 __version__ = "0.1.0"
 __all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'load_profile',
-           'simulate_errors', 'validate']
+           'simulate_errors', 'to_enu', 'validate']
 
 if _TYPE_CHECKING:
     from gps_error_ros.api import (add_errors, calibrate, Errors, Fixes,  # noqa: F401
-                                   load_profile, Profile, simulate_errors, validate)
+                                   load_profile, Profile, simulate_errors, to_enu,
+                                   validate)
 
 
 def __getattr__(name: str) -> _Any:

@@ -6,11 +6,14 @@ same seed, agent names and profile give the same errors (every draw is a
 pure function of seed, agent and step). The examples run in ``make test``
 from the repository's root (they read its ``data/``).
 
+Examples
+--------
 >>> import gps_error_ros as ge
 >>> profile = ge.load_profile('DS5')
 >>> errors = ge.simulate_errors(profile, agents=3, duration_s=60, seed=42)
 >>> errors.north_east.shape
 (3, 60, 2)
+
 """
 
 from collections.abc import Sequence
@@ -26,7 +29,7 @@ from gps_error_ros.fit.gross_failures import find_gross_failures
 from gps_error_ros.fit.validation import FAILURE_COLUMN, ValidationResult
 from gps_error_ros.fit.validation import validate as _validate
 from gps_error_ros.model import profiles
-from gps_error_ros.model.geodesy import LocalTangentFrame
+from gps_error_ros.model.geodesy import difference, LocalTangentFrame
 from gps_error_ros.model.profiles import Profile
 from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
@@ -39,7 +42,7 @@ from gps_error_ros.traces.loading import load_trace
 from gps_error_ros.traces.progress import stage_progress
 
 __all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'load_profile',
-           'simulate_errors', 'validate']
+           'simulate_errors', 'to_enu', 'validate']
 
 PathLike = str | os.PathLike[str]
 #: What the node states as each fix's covariance (its ``covariance_mode``).
@@ -55,9 +58,12 @@ def load_profile(spec: PathLike) -> Profile:
     (``phone-suburban-drive``, ``snapshot-receiver-on-foot``; see the
     documentation's presets page).
 
+    Examples
+    --------
     >>> profile = load_profile('phone-suburban-drive')
     >>> profile.velocity is not None, profile.availability is None
     (True, True)
+
     """
     return profiles.load_profile(spec)
 
@@ -78,6 +84,23 @@ class Errors:
     ``covariance_mode``; ``velocity`` ``(agents, steps, 2)`` is the
     reported velocity's error (east, north m/s) where the profile has a
     ``velocity`` section, else None.
+
+    Examples
+    --------
+    >>> drive = load_profile('phone-suburban-drive')
+    >>> e = simulate_errors(drive, agents=2, duration_s=300, seed=3)
+    >>> e.names, e.t[:3]
+    (['agent0', 'agent1'], array([0., 1., 2.]))
+    >>> e.north_east.shape, e.fix.shape, e.velocity.shape
+    ((2, 300, 2), (2, 300), (2, 300, 2))
+    >>> e.covariance.shape
+    (2, 300, 2, 2)
+    >>> import numpy as np
+    >>> north, east = e.north_east[0, :, 0], e.north_east[0, :, 1]
+    >>> rms = float(np.sqrt(np.mean(north**2 + east**2)))
+    >>> 0.2 < rms < 5          # a phone in a car: about a metre or two
+    True
+
     """
 
     t: FloatArray
@@ -101,6 +124,8 @@ def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: f
     the step before) or ``reported`` (what the phone states; needs a
     ``reported_accuracy`` section).
 
+    Examples
+    --------
     >>> profile = load_profile('snapshot-receiver-on-foot')
     >>> e = simulate_errors(profile, ['ann', 'bob'], duration_s=600, seed=1,
     ...                     covariance_mode='conditional')
@@ -110,6 +135,7 @@ def simulate_errors(profile: Profile, agents: int | Sequence[str], duration_s: f
     True
     >>> bool(e.fix.all())                # no outages in this profile
     True
+
     """
     if covariance_mode not in MODES:
         raise ValueError(f'covariance_mode {covariance_mode!r}: expected one of {MODES}')
@@ -153,10 +179,26 @@ class Fixes:
     ``lat``, ``lon`` are NaN where ``fix`` is False (an outage);
     ``covariance`` ``(rows, 2, 2)`` north/east m^2 is what the node states;
     ``accuracy`` the 68 % radius stated (m). ``failed`` marks a gross failure
-    of the profile's section (a fault's are at the times you chose). With a
-    datum, ``east`` and ``north`` are the fixes in its ENU frame (m), else
-    None. ``speed`` (m/s) and ``bearing`` (degrees from north) are what the
-    phone reports where the profile has a ``velocity`` section, else None.
+    of the profile's section (a fault's are at the times you chose).
+    ``error`` ``(rows, 2)`` is each fix's error about the truth (m, north
+    then east, as :class:`Errors`; NaN without a fix). With a datum,
+    ``east`` and ``north`` are the fixes in its ENU frame (m), else None.
+    ``speed`` (m/s) and ``bearing`` (degrees from north) are what the phone
+    reports where the profile has a ``velocity`` section, else None.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.arange(0.0, 120.0)
+    >>> fixes = add_errors(load_profile('phone-suburban-drive'), t, seed=7,
+    ...                    lat=np.full(120, 37.4220), lon=-122.0841 + 1e-4 * t)
+    >>> fixes.lat.shape, fixes.error.shape, fixes.agent[0] == ''
+    ((120,), (120, 2), True)
+    >>> float(np.median(np.hypot(*fixes.error.T))) < 5    # metres off the truth
+    True
+    >>> fixes.speed is not None, fixes.east is None   # a velocity; no datum
+    (True, True)
+
     """
 
     t: FloatArray
@@ -167,6 +209,7 @@ class Fixes:
     covariance: FloatArray
     accuracy: FloatArray
     failed: BoolArray
+    error: FloatArray
     east: FloatArray | None = None
     north: FloatArray | None = None
     speed: FloatArray | None = None
@@ -186,21 +229,29 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     ENU frame of ``datum`` (``[lat, lon]`` or ``[lat, lon, alt]``). Rows are
     in time order (``t``, s), the rows of all agents sorted together;
     ``agents`` names each row's agent (default: one agent, ``''``, as the
-    single-agent node). ``faults``: faults on demand, as YAML text or
-    :func:`gps_error_ros.sim.faults.faults_from_yaml`'s list. ``zones``: a
+    single-agent node). ``faults``: faults on demand as YAML text, one
+    fault, a list of them or ``{faults: [...]}``, as the node's ``faults``
+    parameter takes them (the documentation's faults page). ``zones``: a
     zone map (GeoJSON) whose zones' profiles apply where the truth is, as
     the node's ``zones`` parameter. A row without a fix (an outage) has NaN
     position, covariance and accuracy.
 
+    Examples
+    --------
     >>> import numpy as np
     >>> t = np.arange(1000.0, 1060.0)
     >>> fixes = add_errors(load_profile('DS5'), t, seed=7, east=1.3 * (t - 1000),
     ...                    north=np.zeros(60), datum=[40.75057, -73.99065])
     >>> fixes.east.shape, bool(fixes.fix.all())
     ((60,), True)
+    >>> fixes.covariance.shape            # north/east m^2, what the node states
+    (60, 2, 2)
+    >>> bool(np.allclose(fixes.accuracy, fixes.accuracy[0]))  # one radius
+    True
     >>> outage = '{kind: outage, at: 1010, duration: 5}'
     >>> fixes = add_errors(load_profile('DS5'), t, seed=7, east=1.3 * (t - 1000),
-    ...                    north=np.zeros(60), datum=[40.75057, -73.99065], faults=outage)
+    ...                    north=np.zeros(60), datum=[40.75057, -73.99065],
+    ...                    faults=outage)
     >>> int((~fixes.fix).sum())
     5
 
@@ -211,6 +262,7 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     ...                    lon=np.full(60, -73.99), agents=['ann', 'bob'] * 30)
     >>> fixes.lat.shape, fixes.east is None
     ((60,), True)
+
     """
     t = np.atleast_1d(np.asarray(t, dtype=float))
     if covariance_mode not in MODES:
@@ -254,18 +306,52 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
         out_east, out_north, _ = frame.to_enu(rows.lat, rows.lon, np.zeros(t.size))
     speed = rows.extra.get('speed')
     bearing = rows.extra.get('bearing')
+    north_err, east_err = difference(rows.lat, rows.lon, data['truth_lat'], data['truth_lon'])
     return Fixes(t, names, rows.lat, rows.lon, rows.fix, rows.cov, accuracy,
-                 _failed_rows(profile, seed, names, t) & rows.fix, out_east, out_north,
-                 speed, bearing)
+                 _failed_rows(profile, seed, names, t) & rows.fix,
+                 np.stack([north_err, east_err], axis=1), out_east, out_north, speed, bearing)
+
+
+def to_enu(lat: Numbers, lon: Numbers,
+           datum: Sequence[float]) -> tuple[FloatArray, FloatArray]:
+    """
+    Return (east, north) metres of positions in the ENU frame of ``datum``.
+
+    ``datum`` is ``[lat, lon]`` or ``[lat, lon, alt]`` (degrees, m above the
+    ellipsoid), as the node's ``datum`` parameter and :func:`add_errors`'
+    take it; positions are at the datum's height. To compare fixes with the
+    truth (your simulator's, or the node's ``/fix`` against its ``/pose``),
+    put both in one frame and subtract.
+
+    Examples
+    --------
+    >>> east, north = to_enu([40.75057, 40.75147], [-73.99065, -73.99065],
+    ...                      datum=[40.75057, -73.99065])
+    >>> [round(float(v), 1) for v in north]        # 0.0009 degrees of latitude
+    [0.0, 99.9]
+    >>> bool(abs(east).max() < 1e-6)
+    True
+
+    """
+    if len(datum) not in (2, 3):
+        raise ValueError(f'datum {list(datum)!r}: expected [lat, lon] or [lat, lon, alt]')
+    _same_lengths(lat=lat, lon=lon)
+    frame = LocalTangentFrame(*datum)
+    alt = float(datum[2]) if len(datum) == 3 else 0.0
+    east, north, _ = frame.to_enu(np.asarray(lat, float), np.asarray(lon, float),
+                                  np.full(np.shape(lat), alt))
+    return np.asarray(east, float), np.asarray(north, float)
 
 
 def _same_lengths(**columns: Any) -> None:
-    """Raise ValueError naming the columns given (not None) whose lengths differ from ``t``'s."""
+    """Raise ValueError naming the columns given (not None) when their lengths differ."""
     sizes = {k: int(np.size(v)) if not isinstance(v, (list, tuple)) else len(v)
              for k, v in columns.items() if v is not None}
     if len(set(sizes.values())) > 1:
         said = ', '.join(f'{k} {n}' for k, n in sizes.items())
-        raise ValueError(f'one value per row expected: {said} values (t has {sizes["t"]})')
+        first = next(iter(sizes))
+        raise ValueError(f'one value per row expected: {said} values '
+                         f'({first} has {sizes[first]})')
 
 
 def _failed_rows(profile: Profile, seed: int, names: Sequence[str], t: FloatArray) -> BoolArray:
@@ -301,6 +387,8 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
     recordings cannot give (fewer than three 300-s blocks), it returns the
     profile without one and warns why (``UserWarning``).
 
+    Examples
+    --------
     >>> profile = calibrate('data/gsdc2020-mtv1-pixel4.csv', order=3)
     >>> profile.axes['north'].order, profile.velocity is not None
     (3, True)
@@ -312,6 +400,7 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
     >>> best = calibrate('data/gsdc2020-mtv1-pixel4.csv', population=True)
     >>> best.population is not None, 'heavy_tails' in best.effects.names
     (True, True)
+
     """
     if within not in ('extended', 'ar'):
         raise ValueError(f'within={within!r}: expected \'extended\' or \'ar\'')
@@ -348,12 +437,15 @@ def validate(profile: Profile, recording: PathLike, sims: int = 200,
     and outages (the command adds the gross failures and the profile's class);
     ``to_dict()`` is its JSON.
 
+    Examples
+    --------
     >>> result = validate(load_profile('phone-suburban-drive'),
     ...                   'data/gsdc2020-mtv1-pixel4xlmodded.csv', sims=50)
     >>> result.samples
     1743
     >>> result.joint_pct > 5        # not unlike the model's own traces
     True
+
     """
     trace = load_trace(recording)[0]
     trace.extra[FAILURE_COLUMN] = find_gross_failures(trace).mask.astype(float)

@@ -32,9 +32,9 @@ def test_all_is_the_api_and_every_name_has_an_example():
     for name in gps_error_ros.__all__:
         obj = getattr(gps_error_ros, name)
         assert obj is getattr(api, name)
-        if name in ('Profile', 'Errors', 'Fixes'):      # records: their makers show them
-            continue
-        assert '>>>' in (inspect.getdoc(obj) or ''), f'{name} has no example'
+        doc = inspect.getdoc(obj) or ''
+        # numpydoc: an Examples section, which the site renders as code
+        assert '\nExamples\n--------\n' in doc and '>>>' in doc, f'{name} has no example'
     assert (ROOT / 'gps_error_ros' / 'py.typed').exists()
     with pytest.raises(AttributeError, match='no attribute'):
         gps_error_ros.simulate_everything
@@ -42,9 +42,16 @@ def test_all_is_the_api_and_every_name_has_an_example():
 
 def test_the_examples_run_as_written(monkeypatch):
     monkeypatch.chdir(ROOT)
+    from gps_error_ros.model import profiles
     result = doctest.testmod(api, optionflags=doctest.ELLIPSIS)
-    assert result.attempted >= 15
+    assert result.attempted >= 25
     assert result.failed == 0
+    finder = doctest.DocTestFinder()
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS)
+    for test in finder.find(profiles.Profile, 'Profile', globs={}):
+        runner.run(test)
+    assert runner.summarize(verbose=False).attempted >= 3
+    assert runner.summarize(verbose=False).failed == 0
 
 
 def test_simulated_errors_are_the_models_streams():

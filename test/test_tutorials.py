@@ -24,7 +24,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = ['tutorials/python.md', 'tutorials/calibrate.md', 'tutorials/node.md',
          'tutorials/sumo.md', 'gross-failures.md', 'bags.md', 'outages.md',
-         'reported-accuracy.md']
+         'reported-accuracy.md', 'reference/api.md']
 BLOCK = re.compile(r'```(\w+)\n(.*?)```', re.S)
 
 

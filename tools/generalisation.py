@@ -35,7 +35,7 @@ from phone_transfer import transfer, transfer_lines
 
 from gps_error_ros.judge.beaten import gain_text, ORDER_GAIN
 from gps_error_ros.judge.consumers import FILTER_PARTS
-from gps_error_ros.judge.fold_summary import precedent, summarise
+from gps_error_ros.judge.fold_summary import ERROR_GROUPS, precedent, summarise
 from gps_error_ros.judge.generalise import (EXTRA_GROUPS, GROUPS, HORIZON, judge_folds,
                                             ORIGINS, recording_splits, rolling_splits,
                                             split_between)
@@ -141,20 +141,42 @@ def sets(data):
 
 
 def _table(summary):
+    """
+    Return a set's three tables: the score, the error's own measures, the consumers'.
+
+    One table of every column would be wider than the page; each repeats the class.
+    """
     groups = GROUPS + tuple(g for g in EXTRA_GROUPS
                             if any(g in s['groups'] for s in summary.values()))
     own = all('own' in s for s in summary.values())
-    extra = ['worst, own %', 'own at 0.90'] if own else []
-    head = ('| class | held-out NLL | best | - population (<, >) | ' +
-            ' | '.join(list(groups) + extra) + ' |\n|' +
-            '---|' * (4 + len(groups) + len(extra)))
-    rows = [f'| {LABELS.get(c, c)} | {s["heldout_nll_per_sample"]:.3f} | '
-            f'{s["best_score_folds"]} | {_against(s["nll_minus_population"])} | ' +
-            ' | '.join([f'{s["groups"][g]:.2f}' if g in s['groups'] else '-' for g in groups] +
-                       ([f'{s["own"]["worst"]:.2f}, {s["own"]["percentile"]:.0f} %',
-                         f'{s["own"]["own_meet_bar"]:.0f} %'] if own else [])) +
-            ' |' for c, s in summary.items()]
-    return '\n'.join([head] + rows)
+    score = ['held-out NLL', 'best', '- population (<, >)']
+    score += ['worst, own %', 'own at 0.90'] if own else []
+
+    def cells(s):
+        out = [f'{s["heldout_nll_per_sample"]:.3f}', f'{s["best_score_folds"]}',
+               _against(s['nll_minus_population'])]
+        if own:
+            out += [f'{s["own"]["worst"]:.2f}, {s["own"]["percentile"]:.0f} %',
+                    f'{s["own"]["own_meet_bar"]:.0f} %']
+        return out
+
+    def shares(s, names):
+        return [f'{s["groups"][g]:.2f}' if g in s['groups'] else '-' for g in names]
+
+    error = [g for g in groups if g in ERROR_GROUPS]
+    consumers = [g for g in groups if g not in ERROR_GROUPS]
+    tables = [_markdown(['class'] + score,
+                        [[LABELS.get(c, c)] + cells(s) for c, s in summary.items()])]
+    for names in (error, consumers):
+        tables.append(_markdown(['class'] + names, [[LABELS.get(c, c)] + shares(s, names)
+                                                    for c, s in summary.items()]))
+    return '\n\n'.join(tables)
+
+
+def _markdown(head, rows):
+    """Return a Markdown table of a header and rows of cells."""
+    lines = ['| ' + ' | '.join(head) + ' |', '|' + '---|' * len(head)]
+    return '\n'.join(lines + ['| ' + ' | '.join(r) + ' |' for r in rows])
 
 
 def _against(d):

@@ -30,3 +30,17 @@ def strip_roles(html):
 def on_page_content(html, page, config, files):
     """Drop Sphinx roles from a rendered page (mkdocstrings leaves them in)."""
     return strip_roles(html)
+
+
+_WEB_SHIM = re.compile(r'<script src="https://unpkg\.com/iframe-worker/shim"></script>')
+
+
+def worker_from_disk(html, depth):
+    """Return ``html`` loading the site's own file:// worker instead of a shim from the web."""
+    src = '../' * depth + 'javascripts/file_worker.js'
+    return _WEB_SHIM.sub(f'<script src="{src}"></script>', html)
+
+
+def on_post_page(output, page, config):
+    """Search from disk without the web: the offline plugin's shim is the site's own."""
+    return worker_from_disk(output, page.file.dest_uri.count('/'))

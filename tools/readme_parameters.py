@@ -13,7 +13,8 @@ from pathlib import Path
 import re
 import sys
 
-from gps_error_ros.ros.parameters import markdown_table, params_file, README_TABLES
+from gps_error_ros.ros.parameter_docs import (markdown_table, params_file, README_GROUPS,
+                                              README_TABLES)
 from gps_error_ros.ros.topics import markdown_topics
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -23,7 +24,8 @@ DOCS = ROOT / 'docs'
 def render(pages):
     """Return {page: text} with every marked table regenerated where its markers are."""
     for node, specs in README_TABLES.items():
-        for kind, table in (('parameters', markdown_table(specs)),
+        groups = README_GROUPS.get(node, ())
+        for kind, table in (('parameters', markdown_table(specs, groups)),
                             ('topics', markdown_topics(node))):
             pattern = re.compile(rf'(<!-- {kind}:{node} -->\n).*?(<!-- /{kind}:{node} -->)',
                                  re.S)

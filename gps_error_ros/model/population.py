@@ -9,11 +9,16 @@ from several recordings, or from the blocks of one long recording: see
 :mod:`gps_error_ros.fit.population_fit`). The section::
 
     population:
-      bias_sd_m: [1.9, 2.4]       # SD of a run's bias about the profile's mean, north/east
-      bias_time_constant_s: 1800  # optional: the bias wanders (first-order Gauss-Markov)
-      scale_sd_log: 0.25          # SD of the log of an agent's scale of the deviations
-      bias_dof: 4                 # optional: a run's bias is Student-t (heavy-tailed)
-      run_bias_sd_m: [0.5, 3.8]   # optional: SD of a part of the bias held for the whole run
+      # SD of a run's bias about the profile's mean, north/east
+      bias_sd_m: [1.9, 2.4]
+      # optional: the bias wanders (first-order Gauss-Markov)
+      bias_time_constant_s: 1800
+      # SD of the log of an agent's scale of the deviations
+      scale_sd_log: 0.25
+      # optional: a run's bias is Student-t (heavy-tailed)
+      bias_dof: 4
+      # optional: SD of a part of the bias held for the whole run
+      run_bias_sd_m: [0.5, 3.8]
 
 An agent's error at model step ``k`` is::
 

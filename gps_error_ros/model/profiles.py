@@ -72,7 +72,26 @@ class ProfileNotFittedError(ProfileError):
 
 @dataclass(frozen=True)
 class Profile:
-    """A loaded, validated profile."""
+    """
+    A loaded, validated profile: the AR process per axis and its sections.
+
+    ``axes`` holds each axis' AR parameters (``north``, ``east``), ``effects``
+    the extended model's effects; the optional sections (``availability``,
+    ``velocity``, ``reported_accuracy``, ``gross_failures``, ``population``)
+    are None where the profile has none. ``save(path)`` writes it as YAML.
+
+    Examples
+    --------
+    >>> from gps_error_ros import load_profile
+    >>> ds5 = load_profile('DS5')
+    >>> ds5.rate_hz, ds5.axes['north'].order, list(ds5.axes)
+    (1.0, 3, ['north', 'east'])
+    >>> ds5.axes['north'].phi                  # the paper's Table II, DS5's north
+    (1.18, -0.06, -0.14)
+    >>> ds5.population is None, ds5.effects.names
+    (True, ())
+
+    """
 
     name: str
     description: str

@@ -27,7 +27,8 @@ from gps_error_ros.ros import conversions
 from gps_error_ros.ros.diagnostics import DiagnosticsPublisher, OK, Report, WARN
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.parameters import (
-    CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, help_text, WARN_PERIOD_S)
+    CALIBRATION_NODE_PARAMS, ConfigError, datum_frame, declare, WARN_PERIOD_S)
+from gps_error_ros.ros.parameter_docs import help_text
 from gps_error_ros.ros.rclpy_adapter import take_message
 from gps_error_ros.ros.topics import CALIBRATION_INPUT_QOS, help_rows
 from gps_error_ros.traces.pairing import pair, PairingError

@@ -40,9 +40,9 @@ from gps_error_ros.ros.fix_output import FixOutput, profile_carries, start_summa
 from gps_error_ros.ros.lifecycle import run_node
 from gps_error_ros.ros.node_faults import NodeFaults
 from gps_error_ros.ros.profile_group import ProfileGroup
+from gps_error_ros.ros.parameter_docs import help_text
 from gps_error_ros.ros.parameters import (
-    ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, help_text, spec_by_name,
-    WARN_PERIOD_S)
+    ConfigError, datum_frame, declare, ERROR_NODE_PARAMS, spec_by_name, WARN_PERIOD_S)
 from gps_error_ros.ros.rclpy_adapter import (DrainedByTheNode, handles, take_raw,
                                              WaitsOnUndrained)
 from gps_error_ros.ros.topics import FIX_QOS, help_rows, TRUTH_QOS

@@ -69,7 +69,7 @@ class ParamSpec:
         return None
 
 
-_TYPE_NAMES = {
+TYPE_NAMES = {
     ParameterType.PARAMETER_STRING: 'a string',
     ParameterType.PARAMETER_DOUBLE: 'a number',
     ParameterType.PARAMETER_INTEGER: 'an integer',
@@ -244,7 +244,7 @@ def _coerce(spec: ParamSpec, given: Any) -> Any:
         shown = list(given) if hasattr(given, '__iter__') and \
             not isinstance(given, str) else given
         raise ConfigError(f'parameter {spec.name!r}: invalid value {shown!r}: '
-                          f'expected {_TYPE_NAMES[t]}{_range_text(spec)}')
+                          f'expected {TYPE_NAMES[t]}{_range_text(spec)}')
     if t == ParameterType.PARAMETER_DOUBLE:
         return float(given)
     if t == ParameterType.PARAMETER_DOUBLE_ARRAY:
@@ -279,7 +279,7 @@ def _declare_one(node: Node, spec: ParamSpec) -> Any:
     except (InvalidParameterTypeException, InvalidParameterValueException,
             ParameterException):
         raise ConfigError(f'parameter {spec.name!r}: invalid value {value!r}: '
-                          f'expected {_TYPE_NAMES.get(spec.type, "a value")}'
+                          f'expected {TYPE_NAMES.get(spec.type, "a value")}'
                           f'{_range_text(spec)}') from None
     if spec.type == ParameterType.PARAMETER_STRING_ARRAY and value is None:
         value = []
@@ -459,114 +459,3 @@ def datum_frame(datum: Sequence[float] | None, input_type: str,
     except GeodesyError as exc:
         raise ConfigError(f'parameter \'datum\': invalid value {datum!r}: '
                           f'{exc}') from None
-
-
-def _default_text(spec: ParamSpec) -> str:
-    if spec.default is None:
-        return '`[]`' if spec.type == ParameterType.PARAMETER_STRING_ARRAY else '(none)'
-    if isinstance(spec.default, str):
-        return f'`{spec.default}`' if spec.default else "`''`"
-    return f'`{spec.default!r}`'
-
-
-def _bounds_text(spec: ParamSpec) -> str:
-    if spec.choices:
-        return ', '.join(f'`{c}`' for c in spec.choices)
-    if spec.low is not None:
-        high = 'max' if spec.high == INT64_MAX else f'{spec.high:g}'
-        return f'{spec.low:g} to {high}'
-    return ''
-
-
-def markdown_table(specs: Sequence[ParamSpec]) -> str:
-    """
-    Return the Markdown table of a parameter table, for the README.
-
-    The README's tables are this function's output (``tools/readme_parameters.py``
-    rewrites them; a test checks that they agree), so that the documentation
-    cannot drift from the descriptors the nodes declare. Three columns, so
-    that it fits a page of 1280 px: the name, the default, and the meaning
-    led by the type, the range or choices and whether the value is fixed at
-    start (read-only).
-    """
-    lines = ['| parameter | default | meaning |', '|---|---|---|']
-    for s in specs:
-        kind = ', '.join(t for t in (_TYPE_NAMES[s.type].split(' ', 1)[1], _bounds_text(s),
-                                     'read-only' if s.read_only else 'settable at run time')
-                         if t)
-        lines.append(f'| `{s.name}` | {_default_text(s)} | *{kind}.* {s.description} |')
-    return '\n'.join(lines) + '\n'
-
-
-#: README markers around each generated table: node name -> parameter table
-README_TABLES = {'gps_error_node': ERROR_NODE_PARAMS,
-                 'gps_calibration_node': CALIBRATION_NODE_PARAMS,
-                 'gps_error_sumo': SUMO_NODE_PARAMS}
-
-
-def help_text(node: str, summary: str, specs: Sequence[ParamSpec],
-              topics: Sequence[tuple[str, str, str, str]], example: str) -> str:
-    """
-    Return what ``NODE --help`` prints: the node, its parameters, topics, an example.
-
-    ``topics`` is a list of (direction, topic, type, note) rows.
-    """
-    lines = [f'{node}: {summary}', '',
-             f'usage: {node} [--help] [--ros-args -p NAME:=VALUE ... '
-             f'[--params-file FILE] [-r FROM:=TO ...]]', '', 'parameters:']
-    for s in specs:
-        bounds = _bounds_text(s).replace('`', '')
-        extra = ', '.join(t for t in (
-            _TYPE_NAMES[s.type], f'default {_default_text(s).strip("`")}',
-            bounds and (f'one of {bounds}' if s.choices else f'range {bounds}'),
-            'read-only' if s.read_only else 'settable at runtime')
-            if t)
-        lines.append(f'  {s.name} ({extra})')
-        lines.append(f'      {s.description}')
-    lines += ['', 'topics:']
-    for direction, topic, msg_type, note in topics:
-        lines.append(f'  {direction:4} {topic:24} {msg_type}  {note}')
-    lines += ['', 'example:', f'  {example}', '']
-    return '\n'.join(lines)
-
-
-def _yaml_value(spec: ParamSpec) -> str:
-    v = spec.default
-    if isinstance(v, str):
-        plain = v and all(c.isalnum() or c in '_./-' for c in v)
-        return v if plain else '"' + v.replace('"', '\\"') + '"'
-    return repr(v)
-
-
-def params_file(node: str, specs: Sequence[ParamSpec]) -> str:
-    """
-    Return a ROS 2 parameters file of ``node``: every parameter at its default.
-
-    Each parameter comes with its description as a comment; those without a
-    default (``datum``, the agent lists) are written commented out, with an
-    example. ``tools/readme_parameters.py`` writes ``config/<node>.yaml`` from
-    this, and a test checks the files agree with the table.
-    """
-    examples = {'datum': '[40.75057, -73.99065, -23.0]',
-                'agent_pattern': '/peds/*/pose',
-                'agents': '["ped1", "ped2", "ped3"]',
-                'agent_profiles': '["DS2", "DS5", "DS7"]',
-                'sumo_args': '["--fcd-output", "fcd.xml"]'}
-    lines = [f'# {node}: every parameter at its default (generated from the node\'s',
-             '# parameter table by tools/readme_parameters.py; do not edit by hand).',
-             f'# Use: {node} --ros-args --params-file config/{node}.yaml',
-             '/**:', '  ros__parameters:']
-    for s in specs:
-        text = s.description + (f' One of: {", ".join(s.choices)}.' if s.choices else '')
-        words, line = text.split(), '    #'
-        for w in words:
-            if len(line) + len(w) > 88:
-                lines.append(line)
-                line = '    #'
-            line += ' ' + w
-        lines.append(line)
-        if s.default is None:
-            lines.append(f'    # {s.name}: {examples.get(s.name, "")}')
-        else:
-            lines.append(f'    {s.name}: {_yaml_value(s)}')
-    return '\n'.join(lines) + '\n'

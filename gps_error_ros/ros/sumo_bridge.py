@@ -53,7 +53,8 @@ from sensor_msgs.msg import NavSatFix, NavSatStatus
 from gps_error_ros.model.geodesy import GeodesyError
 from gps_error_ros.ros.conversions import to_stamp
 from gps_error_ros.ros.lifecycle import command_line_problem, wants_help
-from gps_error_ros.ros.parameters import ConfigError, declare, help_text, SUMO_NODE_PARAMS
+from gps_error_ros.ros.parameter_docs import help_text
+from gps_error_ros.ros.parameters import ConfigError, declare, SUMO_NODE_PARAMS
 from gps_error_ros.ros.topics import CLOCK_PUB_QOS, help_rows, SUMO_TRUTH_QOS
 from gps_error_ros.sim.sumo_scenario import (Georeference, INSTALL_HINT, net_file,
                                              ScenarioError, sumo_tool, SumoMissing)

@@ -1,30 +1,11 @@
 """The documentation site builds strictly, and browses from disk as a reader opens it."""
 
-import os
 from pathlib import Path
 import re
-import subprocess
-import sys
-
-import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 ROLE = re.compile(r':(?:class|mod|func|meth|attr|data|exc|obj):')
 HREF = re.compile(r'href="([^"]*)"')
-
-
-@pytest.fixture(scope='module')
-def site(tmp_path_factory):
-    """Build the site strictly into a folder of its own; return the folder."""
-    out = tmp_path_factory.mktemp('site')
-    subprocess.run([sys.executable, str(ROOT / 'tools' / 'docs_index.py')], check=True,
-                   capture_output=True)
-    env = dict(os.environ, NO_MKDOCS_2_WARNING='1')
-    run = subprocess.run([sys.executable, '-m', 'mkdocs', 'build', '--strict', '--site-dir',
-                          str(out)], cwd=ROOT, env=env, capture_output=True, text=True)
-    assert run.returncode == 0, run.stdout + run.stderr
-    assert 'WARNING' not in run.stderr, run.stderr
-    return out
 
 
 def test_mkdocs_builds_the_site_strictly(site):

@@ -6,8 +6,9 @@ import re
 from rcl_interfaces.msg import ParameterType
 
 from gps_error_ros.sim.sumo_scenario import build_grid_scenario
-from gps_error_ros.ros.parameters import (ERROR_NODE_PARAMS, markdown_table,
-                                          params_file, README_TABLES)
+from gps_error_ros.ros.parameter_docs import (markdown_table, params_file, README_GROUPS,
+                                              README_TABLES)
+from gps_error_ros.ros.parameters import ERROR_NODE_PARAMS
 from gps_error_ros.ros.topics import markdown_topics
 from ros_harness import NodeProcess, unique_ns
 
@@ -28,11 +29,23 @@ def _block(kind, node):
 def test_the_docs_tables_match_the_parameter_table():
     for node, specs in README_TABLES.items():
         page, table = _block('parameters', node)
-        assert table == markdown_table(specs), \
+        assert table == markdown_table(specs, README_GROUPS.get(node, ())), \
             f'docs/{page}: the {node} table is stale: run python tools/readme_parameters.py'
         page, table = _block('topics', node)
         assert table == markdown_topics(node), \
             f'docs/{page}: the {node} topic table is stale: run python tools/readme_parameters.py'
+
+
+def test_grouped_tables_hold_every_parameter_once():
+    grouped = markdown_table(ERROR_NODE_PARAMS, README_GROUPS['gps_error_node'])
+    rows = [r for r in grouped.splitlines() if r.startswith('| `')]
+    assert sorted(rows) == sorted(r for r in markdown_table(ERROR_NODE_PARAMS).splitlines()
+                                  if r.startswith('| `'))
+    assert grouped.count('\n### ') + grouped.startswith('### ') >= 4
+    import pytest
+    with pytest.raises(ValueError, match='each once'):
+        markdown_table(ERROR_NODE_PARAMS, [('all but one', [s.name for s in
+                                                            ERROR_NODE_PARAMS[1:]])])
 
 
 def test_table_rows_carry_each_descriptor():
