@@ -75,6 +75,9 @@ fixes: ge.Fixes = ge.add_errors(profile, t, seed=7, east=1.4 * t, north=np.zeros
                                 datum=[40.75, -73.99], covariance_mode='conditional')
 errors: ge.Errors = ge.simulate_errors(profile, agents=3, duration_s=60, seed=1)
 print(fixes.covariance.shape, errors.north_east.shape)
+east, north = ge.to_enu(fixes.lat, fixes.lon, datum=[40.75, -73.99])
+error: float = float(np.hypot(*fixes.error.T).mean())
+print(east - fixes.east if fixes.east is not None else north, error)
 '''
 
 
@@ -94,3 +97,5 @@ def test_a_users_script_type_checks_against_the_installed_package(tmp_path):
     assert ok.returncode == 0, ok.stdout + ok.stderr
     bad = check(USER_SCRIPT.replace("'conditional'", "'bogus'"))
     assert bad.returncode == 1 and 'covariance_mode' in bad.stdout, bad.stdout
+    wrong = check(USER_SCRIPT.replace("error: float", "error: str"))
+    assert wrong.returncode == 1 and 'error' in wrong.stdout, wrong.stdout
