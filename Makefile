@@ -19,7 +19,7 @@ DEMO_HOURS ?= 2
 
 .PHONY: setup system-packages demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
 	generalisation-page calibration-page \
-	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets
+	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets model-page
 
 # The measured recordings the evidence targets read: the repository's data/
 # (see data/README.md); DATA=folder for another set (held-out recordings, UrbanNav).
@@ -78,6 +78,11 @@ presets: setup
 
 walks-profile: setup
 	$(PY) tools/walks_profile.py --data $(DATA) --out .
+
+# docs/model.md and its figure: the presets' typical errors and two
+# recordings no fit saw beside simulated traces (about ten seconds).
+model-page: setup
+	$(PY) tools/model_page.py --data $(DATA) --out .
 
 # The documentation site into site/ (MkDocs, strict: no broken link, no page left out).
 docs: setup
