@@ -1,5 +1,5 @@
 """
-Rewrite the docs' parameter and topic tables and config/<node>.yaml.
+Rewrite the docs' parameter, topic and effect tables and config/<node>.yaml.
 
 Run ``python tools/readme_parameters.py`` after changing
 ``gps_error_ros/ros/parameters.py`` or ``gps_error_ros/ros/topics.py``;
@@ -15,6 +15,7 @@ import sys
 
 from gps_error_ros.ros.parameter_docs import (markdown_table, params_file, README_GROUPS,
                                               README_TABLES)
+from gps_error_ros.model.effect_kinds import markdown_table as effects_table
 from gps_error_ros.ros.topics import markdown_topics
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,6 +36,12 @@ def render(pages):
             for p in found:
                 pages[p] = pattern.sub(lambda m, t=table: m.group(1) + t + m.group(2),
                                        pages[p])
+    pattern = re.compile(r'(<!-- effects:table -->\n).*?(<!-- /effects:table -->)', re.S)
+    found = [p for p, text in pages.items() if pattern.search(text)]
+    if not found:
+        raise SystemExit('docs/: no page has a <!-- effects:table --> block')
+    for p in found:
+        pages[p] = pattern.sub(lambda m: m.group(1) + effects_table() + m.group(2), pages[p])
     return pages
 
 

@@ -8,6 +8,8 @@ baselines, pipeline) import these and not each other's internals.
 from collections.abc import Sequence
 import math
 
+from gps_error_ros.model.effect_kinds import EFFECT_NAMES
+
 #: Fraction of a trace's time span that trains; the rest is held out.
 TRAIN_FRACTION = 0.7
 #: Level of the whole diagnosis: the chance that it reports structure that is
@@ -45,9 +47,8 @@ MIN_TRAIN = 180
 MIN_TEST = 80
 #: Largest lag of the fidelity autocorrelation measures, s.
 FIDELITY_MAX_LAG = 30
-#: Effects in schema order (as ``gps_error_ros.model.effects.EFFECT_NAMES``).
-EFFECT_ORDER = ('cross_axis_coupling', 'motion_lag', 'heavy_tails',
-                'variance_regimes', 'street_frame', 'periodic', 'outliers')
+#: Effects in schema order: the registry's (:mod:`gps_error_ros.model.effect_kinds`).
+EFFECT_ORDER = EFFECT_NAMES
 #: Cycle lengths (steps) the periodicity test looks at.
 PERIODS = tuple(range(2, 31))
 LOG2PI = math.log(2.0 * math.pi)

@@ -31,6 +31,7 @@ from gps_error_ros.diagnose.mean import (Design, design, fit_mean, fit_mean_gain
 from gps_error_ros.diagnose.split import Part, TruthTrack
 from gps_error_ros.fit.calibration import CalibrationError, fit_axis
 from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
+from gps_error_ros.model.effect_kinds.variance_regimes import Regimes
 from gps_error_ros.model.effects import build_model, Effects, stationary_distribution
 from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.model.periodic import Periodic
@@ -75,28 +76,28 @@ class FittedModel:
     def effects_obj(self) -> Effects:
         """Return the model's :class:`Effects`."""
         cov = self.law.cov
-        kw: dict[str, Any] = {}
+        params: dict[str, Any] = {}
         if 'cross_axis_coupling' in self.effects:
-            kw['innovation_corr'] = float(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]))
+            params['cross_axis_coupling'] = float(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]))
         if 'motion_lag' in self.effects:
-            kw['lag_s'] = float(self.mean.lag_s)
+            params['motion_lag'] = float(self.mean.lag_s)
         if 'heavy_tails' in self.effects:
-            kw['dof'] = float(self.law.dof)
+            params['heavy_tails'] = float(self.law.dof)
         if 'street_frame' in self.effects:
-            kw['street'] = (float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[1, 1])))
+            params['street_frame'] = (float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[1, 1])))
         if 'variance_regimes' in self.effects:
-            kw['scales'] = tuple(float(v) for v in self.law.scales)
-            kw['transition'] = tuple(tuple(float(v) for v in row)
-                                     for row in self.law.transition)
+            params['variance_regimes'] = Regimes(
+                tuple(float(v) for v in self.law.scales),
+                tuple(tuple(float(v) for v in row) for row in self.law.transition))
         if 'periodic' in self.effects and self.cycle_scales is not None \
                 and self.mean.offsets is not None:
-            kw['periodic'] = Periodic(
+            params['periodic'] = Periodic(
                 int(self.mean.period), tuple(float(v) for v in self.cycle_scales),
                 tuple((float(a), float(b)) for a, b in self.mean.offsets))
         if self.jumps is not None:
-            kw['outliers'] = Outliers(float(self.jumps.rate), float(self.jumps.mean_steps),
-                                      float(self.jumps.sigma_m))
-        return Effects(**kw)
+            params['outliers'] = Outliers(float(self.jumps.rate), float(self.jumps.mean_steps),
+                                          float(self.jumps.sigma_m))
+        return Effects(params)
 
     def simulator(self) -> ErrorModel[Any]:
         """Return the model as a simulator: plain AR, or with its effects."""

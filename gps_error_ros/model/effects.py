@@ -64,13 +64,12 @@ from typing import Optional
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model import outliers as jumps
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
+from gps_error_ros.model.effect_kind import Term
 from gps_error_ros.model.effect_schema import (  # noqa: F401 (the schema, re-exported)
 
     EFFECT_NAMES, Effects, effects_from_dict, EffectsError, MAX_DOF, MAX_LAG_S, MOVING_M,
     stationary_distribution)
-from gps_error_ros.model.periodic import agent_phases, mean_autocovariance, periodic_mean
 from gps_error_ros.model.protocol import Inputs, Process
 from gps_error_ros.model.state import (EffectsState, FloatArray, IntArray, Keys,
                                        Numbers, zeros_effects_state)
@@ -78,6 +77,11 @@ from gps_error_ros.model.state import (EffectsState, FloatArray, IntArray, Keys,
 
 __all__ = ['EFFECT_NAMES', 'Effects', 'EffectsError', 'ExtendedModel', 'MAX_DOF', 'MAX_LAG_S',
            'MOVING_M', 'build_model', 'effects_from_dict', 'stationary_distribution']
+
+
+def _overriding(terms: list[Term], hook: str) -> list[Term]:
+    """Return the terms whose class overrides ``hook`` of :class:`Term`, in order."""
+    return [t for t in terms if getattr(type(t), hook) is not getattr(Term, hook)]
 
 
 class ExtendedModel(Process[EffectsState]):
@@ -89,37 +93,45 @@ class ExtendedModel(Process[EffectsState]):
     travel, the phase in the cycle and the jump under way. Draws come from the agents'
     counter-based streams, one position per model step, so an agent's errors
     do not depend on how many agents are simulated together or when its
-    state was created.
+    state was created. Each effect's part is its kind's :class:`~.effect_kind.Term`
+    (:mod:`~.effect_kinds`), called at its hooks in the kinds' ``stage`` order.
     """
 
     def __init__(self, north: AxisParams, east: AxisParams, effects: Effects) -> None:
         self.effects = effects
         self.street = effects.street
-        if self.street is not None:
-            # the AR part with the innovation variance averaged over directions
-            sw = math.sqrt(0.5 * (self.street[0] ** 2 + self.street[1] ** 2))
-            north = AxisParams(north.delta, north.phi, sw)
-            east = AxisParams(east.delta, east.phi, sw)
-        self.unit = ARErrorModel(north, east, effects.innovation_corr)
+        corr = 0.0
+        for kind, params in effects:
+            north, east, corr = kind.ar(params, north, east, corr)
+        self.unit = ARErrorModel(north, east, corr)
         self.axes = self.unit.axes
         self.order = self.unit.order
         self.phi = self.unit.phi
         self.mean = self.unit.mean
         self.lag_s = effects.lag_s
-        self.scales = np.asarray(effects.scales, dtype=float)
-        self.cum_transition = np.cumsum(np.asarray(effects.transition), axis=1)
-        self.cum_transition[:, -1] = 1.0
-        self.pi = effects.regime_probabilities
-        self.cum_pi = np.cumsum(self.pi)
-        self.cum_pi[-1] = 1.0
-        self.dof = effects.dof
-        self._init_scale = math.sqrt(effects.variance_factor)
-        self.periodic = effects.periodic
-        if self.periodic is not None:
-            self.cycle_scales = np.asarray(self.periodic.scales, dtype=float)
-            self.cycle_offsets = np.asarray(self.periodic.offsets, dtype=float)
-            self.cycle_mean = periodic_mean(self.phi, self.cycle_offsets)
-        self.outliers = effects.outliers
+        staged = sorted(((kind.stage, kind.order, kind.term(params, self.phi, self.order))
+                         for kind, params in effects), key=lambda s: (s[0], s[1]))
+        self.terms = [t for _, _, t in staged if t is not None]
+        self._needs_heading = any(kind.needs_heading for kind, _ in effects)
+        setting = _overriding(self.terms, 'innovations')
+        self._innovator = setting[0] if setting else None
+        self._shapers = _overriding(self.terms, 'shape')
+        self._outputs = _overriding(self.terms, 'output')
+        self._currents = _overriding(self.terms, 'current')
+        self._initials = _overriding(self.terms, 'initial')
+        self._resumes = [t for t in self.terms if t in _overriding(self.terms, 'resume') or
+                         t in self._initials]
+        self._factors = _overriding(self.terms, 'step_factor')
+        self._added = _overriding(self.terms, 'added_cov')
+        self._means = _overriding(self.terms, 'mean_term')
+        self._acvs = _overriding(self.terms, 'autocovariance')
+        self.variance_factor = 1.0
+        self.step_variance_factor = 1.0
+        for t in self.terms:
+            self.variance_factor *= t.variance_factor
+            self.step_variance_factor *= t.variance_factor if t.step_variance_factor is None \
+                else t.step_variance_factor
+        self._init_scale = math.sqrt(self.variance_factor)
 
     @property
     def stationary_cov(self) -> FloatArray:
@@ -133,11 +145,9 @@ class ExtendedModel(Process[EffectsState]):
 
     def autocovariance(self, max_lag: int) -> FloatArray:
         """Return the exact unconditional autocovariance, (max_lag + 1, 2, 2)."""
-        out = self.unit.autocovariance(max_lag) * self.effects.variance_factor
-        if self.periodic is not None:
-            out = out + mean_autocovariance(self.cycle_mean, max_lag)
-        if self.outliers is not None:
-            out = out + self.outliers.autocovariance(max_lag)[:, None, None] * np.eye(2)
+        out = self.unit.autocovariance(max_lag) * self.variance_factor
+        for t in self._acvs:
+            out = out + t.autocovariance(max_lag)
         return out
 
     def autocorrelation(self, max_lag: int) -> FloatArray:
@@ -148,8 +158,8 @@ class ExtendedModel(Process[EffectsState]):
 
     @property
     def needs_heading(self) -> bool:
-        """Return True when the innovations turn with the direction of travel."""
-        return self.street is not None
+        """Return True when an effect's step needs the direction of travel."""
+        return self._needs_heading
 
     def empty_state(self, n: int) -> EffectsState:
         """Return the state of ``n`` agents, all zeros."""
@@ -161,35 +171,29 @@ class ExtendedModel(Process[EffectsState]):
         moving = np.isfinite(heading)
         state.heading[moving] = heading[moving]
 
+    def _face(self, state: EffectsState, inputs: Inputs) -> None:
+        """Turn the agents to ``inputs.heading`` where an effect needs it and it is given."""
+        if self._needs_heading and inputs is not None and inputs.heading is not None:
+            self.face(state, inputs.heading)
+
     def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> EffectsState:
         """
         Draw the state at model step ``index``.
 
-        The regime from the chain's stationary distribution; the AR part
-        Gaussian with the unconditional stationary covariance (under heavy
-        tails or regimes the exact law is not Gaussian; the difference fades
-        within the process's correlation time). ``inputs``: the direction
-        of travel at the start (street_frame; north where unknown).
+        The AR part Gaussian with the unconditional stationary covariance
+        (under heavy tails or regimes the exact law is not Gaussian; the
+        difference fades within the process's correlation time), then each
+        effect's own (the regime from the chain's stationary law, the
+        cycle's phase, a jump under way). ``inputs``: the direction of
+        travel at the start (north where unknown).
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         state = self.empty_state(keys.size)
-        if self.street is not None and inputs is not None and inputs.heading is not None:
-            self.face(state, inputs.heading)
+        self._face(state, inputs)
         state.deviations[:] = self.unit.initial_state(keys, index).deviations * \
             self._init_scale
-        if self.scales.size > 1:
-            u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_REGIME,
-                                      index)[:, 0]
-            state.regime[:] = np.searchsorted(self.cum_pi, u, side='right')
-        if self.periodic is not None:
-            p, period = self.order, self.periodic.period
-            offset = agent_phases(keys, period)
-            phase = (offset + index) % period
-            state.cycle_offset[:], state.phase[:] = offset, phase
-            for i in range(p):          # the lags sit at their phases' cycle mean
-                state.deviations[:, :, i] += self.cycle_mean[(phase - i) % period]
-        if self.outliers is not None:
-            state.in_jump[:], state.jump[:] = jumps.initial_offsets(self.outliers, keys, index)
+        for t in self._initials:
+            t.initial(state, keys, index)
         return state
 
     def advance(self, state: EffectsState, keys: Keys, index: int,
@@ -198,86 +202,57 @@ class ExtendedModel(Process[EffectsState]):
         Advance ``state`` in place to model step ``index``; return errors.
 
         ``inputs.heading`` (n,) radians: the direction of travel at this step
-        (street_frame; NaN: standing, the last direction holds).
+        (NaN: standing, the last direction holds).
         """
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         p = self.order
         z = streams.normal_pairs(keys, streams.DOMAIN_STEP, index)
-        if self.street is not None:
-            w = self._street_innovations(state, z, None if inputs is None else inputs.heading)
+        self._face(state, inputs)
+        if self._innovator is not None:
+            w = self._innovator.innovations(state, z)
         else:
             w = self.unit._innovations(z)
-        if self.scales.size > 1:
-            u = streams.uniform_pairs(keys, streams.DOMAIN_REGIME, index)[:, 0]
-            nxt = (u[:, None] >= self.cum_transition[state.regime]).sum(axis=1)
-            nxt = np.minimum(nxt, self.scales.size - 1)
-            state.regime[:] = nxt
-            w *= self.scales[nxt][:, None]
-        if math.isfinite(self.dof):
-            u = streams.uniform_pairs(keys, streams.DOMAIN_TAIL, index)[:, 0]
-            half = 0.5 * self.dof
-            from scipy import special       # here: a node without tails need not import scipy
-            mix = special.gammaincinv(half, u) / half        # chi2(dof) / dof
-            w *= np.sqrt((self.dof - 2.0) / self.dof / mix)[:, None]
-        if self.periodic is not None:
-            phase = (state.cycle_offset + index) % self.periodic.period
-            state.phase[:] = phase
-            w = w * self.cycle_scales[phase][:, None] + self.cycle_offsets[phase]
+        for t in self._shapers:
+            w = t.shape(state, keys, index, w)
         dev = state.deviations
         for i in range(p):
             w += self.phi[:, i] * dev[:, :, i]
         dev[:, :, 1:p] = dev[:, :, 0:p - 1]
         dev[:, :, 0] = w
-        if self.outliers is not None:
-            jumps.advance_offsets(self.outliers, state.in_jump, state.jump, keys, index)
-            return w + self.mean + state.jump
-        return w + self.mean
-
-    def _street_innovations(self, state: EffectsState, z: FloatArray,
-                            heading: Optional[FloatArray]) -> FloatArray:
-        """Return the innovations along/across the direction of travel, as north/east."""
-        if heading is not None:
-            self.face(state, heading)
-        theta = state.heading
-        c, s = np.cos(theta), np.sin(theta)
-        along_sd, across_sd = self._street_sd()
-        along, across = along_sd * z[:, 0], across_sd * z[:, 1]
-        return np.stack([along * c - across * s, along * s + across * c], axis=1)
-
-    def _street_sd(self) -> tuple[float, float]:
-        """Return the innovation SDs (along, across) of a street frame."""
-        if self.street is None:
-            raise ValueError('no street_frame in this model\'s effects')
-        return self.street
+        out: FloatArray = w + self.mean
+        for t in self._outputs:
+            out = t.output(state, keys, index, out)
+        return out
 
     def street_cov(self, state: EffectsState) -> FloatArray:
         """Return each agent's innovation covariance (n, 2, 2) in its direction of travel."""
-        theta = state.heading
-        c, s = np.cos(theta), np.sin(theta)
-        along_sd, across_sd = self._street_sd()
-        a2, x2 = along_sd ** 2, across_sd ** 2
-        out = np.empty((theta.size, 2, 2))
-        out[:, 0, 0] = a2 * c * c + x2 * s * s
-        out[:, 1, 1] = a2 * s * s + x2 * c * c
-        out[:, 0, 1] = out[:, 1, 0] = (a2 - x2) * c * s
-        return out
+        if self._innovator is None:
+            raise ValueError('no effect of this model turns the innovations')
+        return self._innovator.innovation_cov(state)
 
     def errors(self, state: EffectsState) -> FloatArray:
         """Return the current errors, mean (and any jump) included, shape (n, 2)."""
-        if self.outliers is not None:
-            return state.deviations[:, :, 0] + self.mean + state.jump
-        return state.deviations[:, :, 0] + self.mean
+        out: FloatArray = state.deviations[:, :, 0] + self.mean
+        for t in self._currents:
+            out = t.current(state, out)
+        return out
+
+    def _innovation_cov(self, state: EffectsState) -> FloatArray:
+        """Return the innovation covariance, per agent (n, 2, 2) or shared (1, 2, 2)."""
+        if self._innovator is not None:
+            return self._innovator.innovation_cov(state)
+        return self.unit.innovation_cov[None]
 
     def predictive_cov(self, state: EffectsState, first: bool = False) -> FloatArray:
         """
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
-        The innovation covariance times the expected squared regime scale of
-        the next step given the current regime and the next phase's squared
-        scale; heavy tails keep the unit variance. With street_frame the
-        covariance is turned to the last direction of travel. With outliers
-        the next offset's covariance given the jump state is added
-        (:func:`~.outliers.offset_cov`). ``first``: a run's first error is
+        The innovation covariance (turned to the last direction of travel
+        under street_frame) times the factor the effects give the next step
+        (the expected squared regime scale given the current regime, the
+        next phase's squared scale; heavy tails keep the unit variance),
+        plus what an effect adds outside the AR part (the next jump offset's
+        covariance given the jump state). ``first``: a run's first error is
         drawn from the stationary law, so its covariance is
         :attr:`stationary_cov` (phases, regimes and jumps averaged).
         """
@@ -285,68 +260,51 @@ class ExtendedModel(Process[EffectsState]):
         if first:
             return np.repeat(self.stationary_cov[None], n, axis=0)
         factor = np.ones(n)
-        if self.scales.size > 1:
-            s2 = self.scales ** 2
-            factor = np.asarray(self.effects.transition)[state.regime] @ s2
-        if self.periodic is not None:
-            nxt = (state.phase + 1) % self.periodic.period
-            factor = factor * self.cycle_scales[nxt] ** 2
-        base = self.street_cov(state) if self.street is not None else \
-            self.unit.innovation_cov[None]
-        cov = base * factor[:, None, None]
-        if self.outliers is not None:
-            cov = cov + jumps.offset_cov(self.outliers, state.in_jump, state.jump)
+        for t in self._factors:
+            factor = factor * t.step_factor(state)
+        cov = self._innovation_cov(state) * factor[:, None, None]
+        for t in self._added:
+            cov = cov + t.added_cov(state, False)
         return cov
 
     def mean_step_cov(self) -> FloatArray:
         """
         Return the one-step covariance (2, 2) averaged over the stationary law.
 
-        The innovation covariance times the regimes' stationary mean square
-        scale and the cycle's average, plus a jump's stationary share (the
-        reference of a stated radius that follows the predictive scale).
-        With street_frame the innovation covariance facing north.
+        The innovation covariance times the effects' stationary mean square
+        scale, plus a jump's stationary share (the reference of a stated
+        radius that follows the predictive scale). With street_frame the
+        innovation covariance facing north.
         """
-        factor = 1.0
-        if self.scales.size > 1:
-            factor = float(self.pi @ self.scales ** 2)
-        if self.periodic is not None:
-            factor *= self.periodic.variance_factor
-        base = self.street_cov(self.empty_state(1))[0] if self.street is not None else \
-            self.unit.innovation_cov
-        cov = base * factor
-        if self.outliers is not None:
-            cov = cov + jumps.offset_cov(self.outliers, np.zeros(1), np.zeros((1, 2)),
-                                         first=True)[0]
+        one = self.empty_state(1)
+        cov = self._innovation_cov(one)[0] * self.step_variance_factor
+        for t in self._added:
+            cov = cov + t.added_cov(one, True)[0]
         return cov
 
     def predictive_mean(self, state: EffectsState, first: bool = False) -> FloatArray:
         """
         Return each agent's expected next error (n, 2) given ``state``, mean included.
 
-        The AR part of the deviations held, the next phase's cycle offset
-        (periodic) and what is left of a jump under way (outliers, kept with
-        probability ``1 - q``; a new jump's offset has mean zero). ``first``:
-        the stationary mean. The motion lag is not in it (it needs the truth).
+        The AR part of the deviations held, and what the effects add (the
+        next phase's cycle offset; what is left of a jump under way, kept
+        with probability ``1 - q``, a new jump's offset having mean zero).
+        ``first``: the stationary mean. The motion lag is not in it (it
+        needs the truth).
         """
         out = np.repeat(self.mean[None], len(state), axis=0)
         if first:
             return out
         for i in range(self.order):
             out += self.phi[:, i] * state.deviations[:, :, i]
-        if self.periodic is not None:
-            nxt = (state.phase + 1) % self.periodic.period
-            out += self.cycle_offsets[nxt]
-        if self.outliers is not None:
-            out += (1.0 - self.outliers.end_probability) * \
-                (state.in_jump > 0.5)[:, None] * state.jump
+        for t in self._means:
+            out += t.mean_term(state)
         return out
 
     def prepare(self, state: EffectsState, keys: Keys, index: int,
                 inputs: Inputs = None) -> None:
-        """Turn the agents to step ``index``'s direction of travel (street_frame)."""
-        if self.street is not None and inputs is not None and inputs.heading is not None:
-            self.face(state, inputs.heading)
+        """Turn the agents to step ``index``'s direction of travel (effects that need it)."""
+        self._face(state, inputs)
 
     def carried(self, state: EffectsState) -> FloatArray:
         """Return the AR part's last ``p`` errors (n, 2, p), mean included, no jump (zones)."""
@@ -369,15 +327,8 @@ class ExtendedModel(Process[EffectsState]):
         state.deviations[:] = carried[:, :, :self.order] - self.mean[None, :, None]
         if inputs is not None and inputs.heading is not None:
             self.face(state, inputs.heading)
-        if self.scales.size > 1:
-            u = streams.uniform_pairs(keys, streams.DOMAIN_INIT_REGIME, index)[:, 0]
-            state.regime[:] = np.searchsorted(self.cum_pi, u, side='right')
-        if self.periodic is not None:
-            offset = agent_phases(keys, self.periodic.period)
-            state.cycle_offset[:] = offset
-            state.phase[:] = (offset + index - 1) % self.periodic.period
-        if self.outliers is not None:
-            state.in_jump[:], state.jump[:] = jumps.initial_offsets(self.outliers, keys, index)
+        for t in self._resumes:
+            t.resume(state, keys, index)
         return state
 
     def regimes(self, state: EffectsState) -> IntArray:

@@ -104,7 +104,7 @@ def test_long_runs_match_the_published_covariance():
     w = w[5:]
     # their law, exactly: E[w^2] / E|w|^2 of a Gaussian scaled by the regime
     # and by the Student-t mixing variable g (E g^2 = 1), pi/2 for a Gaussian
-    nu, pi, sc = 5.0, model.pi, model.scales
+    nu, pi, sc = 5.0, model.effects.regime_probabilities, np.asarray(model.effects.scales)
     e_g = math.sqrt(nu - 2) * math.gamma((nu - 1) / 2) / (math.sqrt(2) * math.gamma(nu / 2))
     want = (pi @ sc ** 2) / ((pi @ sc) ** 2 * e_g ** 2 * 2 / math.pi)
     ratio = np.mean(w ** 2, axis=0) / np.mean(np.abs(w), axis=0) ** 2     # per agent
@@ -117,7 +117,7 @@ def test_long_runs_match_the_published_covariance():
 
 
 def test_gaussian_extended_equals_plain_with_correlation_only():
-    eff = Effects(innovation_corr=0.3)
+    eff = Effects({'cross_axis_coupling': 0.3})
     ext = ExtendedModel(NORTH, EAST, eff)
     ref = ARErrorModel(NORTH, EAST, 0.3)
     keys = streams.agent_keys(5, ['x', 'y', 'z'])
@@ -140,7 +140,7 @@ def test_agent_errors_do_not_depend_on_the_crowd_or_catch_up():
 
 def test_engine_reports_the_truth_lag_s_earlier():
     """A walker at 1.5 m/s east: fix = truth(t - 2 s) + AR error, exactly."""
-    model = ExtendedModel(NORTH, EAST, Effects(lag_s=2.0))
+    model = ExtendedModel(NORTH, EAST, Effects({'motion_lag': 2.0}))
     keys = streams.agent_keys(4, [''])
     eng = FixEngine(model, keys, max_pose_age=1.0)
     lat0, lon0 = 40.75, -73.99
@@ -189,8 +189,8 @@ def test_simulate_csv_applies_the_lag(tmp_path):
         lat, lon = offset(lat0, lon0, 1.0 * k, 0.0)
         rows.append(f'{k},w,{float(lat)!r},{float(lon)!r}')
     src.write_text('\n'.join(rows) + '\n')
-    lagged = ExtendedModel(NORTH, EAST, Effects(lag_s=3.0))
-    plain = ExtendedModel(NORTH, EAST, Effects(lag_s=0.0, dof=1000.0))
+    lagged = ExtendedModel(NORTH, EAST, Effects({'motion_lag': 3.0}))
+    plain = ExtendedModel(NORTH, EAST, Effects({'motion_lag': 0.0, 'heavy_tails': 1000.0}))
     out1, out2 = tmp_path / 'a.csv', tmp_path / 'b.csv'
     simulate_csv(src, out1, lagged, 1.0, 9)
     simulate_csv(src, out2, plain, 1.0, 9)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from gps_error_ros.model.effect_kinds.variance_regimes import Regimes
 from gps_error_ros.model import streams
 
 
@@ -77,7 +78,8 @@ def test_every_draw_of_an_initial_state_has_a_word_of_its_own(monkeypatch):
 
     phi = (0.5,) + (0.01,) * (MAX_ORDER - 1)
     model = ExtendedModel(AxisParams(0.0, phi, 1.0), AxisParams(0.0, phi, 1.0),
-                          Effects(scales=(1.0, 2.0), transition=((0.9, 0.1), (0.1, 0.9))))
+                          Effects({'variance_regimes': Regimes((1.0, 2.0),
+                                                               ((0.9, 0.1), (0.1, 0.9)))}))
     seen = _recorded_draws(monkeypatch)
     keys = streams.agent_keys(1, ['a', 'b'])
     for step in (7, 8):                     # consecutive starts must not meet

@@ -1,0 +1,72 @@
+"""``outliers``: jumps held for a few steps, outside the AR recursion (:mod:`~.model.outliers`)."""
+
+from typing import Any
+
+import numpy as np
+
+from gps_error_ros.model import outliers as jumps
+from gps_error_ros.model.effect_kind import EffectKind, Section, Term
+from gps_error_ros.model.outliers import Outliers
+from gps_error_ros.model.state import EffectsState, FloatArray, Keys
+
+
+class JumpTerm(Term):
+    """A jump's offset, added to the error while it lasts; it does not persist after."""
+
+    def __init__(self, outliers: Outliers) -> None:
+        self.outliers = outliers
+
+    def output(self, state: EffectsState, keys: Keys, index: int,
+               errors: FloatArray) -> FloatArray:
+        """Step each agent's jump; return ``errors`` with its offset."""
+        jumps.advance_offsets(self.outliers, state.in_jump, state.jump, keys, index)
+        return errors + state.jump
+
+    def current(self, state: EffectsState, errors: FloatArray) -> FloatArray:
+        """Return ``errors`` with the jump under way."""
+        return errors + state.jump
+
+    def initial(self, state: EffectsState, keys: Keys, index: int) -> None:
+        """Draw a jump under way from the stationary law."""
+        state.in_jump[:], state.jump[:] = jumps.initial_offsets(self.outliers, keys, index)
+
+    def autocovariance(self, max_lag: int) -> FloatArray:
+        """Return the jumps' autocovariance: the same on both axes, uncorrelated between."""
+        return np.asarray(self.outliers.autocovariance(max_lag)[:, None, None] * np.eye(2))
+
+    def added_cov(self, state: EffectsState, first: bool) -> FloatArray:
+        """Return the next offset's covariance given the jump state."""
+        return jumps.offset_cov(self.outliers, state.in_jump, state.jump, first=first)
+
+    def mean_term(self, state: EffectsState) -> FloatArray:
+        """Return what is left of a jump under way (kept with probability ``1 - q``)."""
+        return np.asarray((1.0 - self.outliers.end_probability) *
+                          (state.in_jump > 0.5)[:, None] * state.jump)
+
+
+class OutliersKind(EffectKind[Outliers]):
+    """Jumps: at a rate per step, an offset held for a geometric number of steps."""
+
+    name = 'outliers'
+    keys = ('rate', 'mean_steps', 'sigma_m')
+    summary = ('jumps at `rate` per step, held `mean_steps` on average, SD `sigma_m` m; '
+               'outside the AR recursion')
+    order = 6
+    stage = 4
+
+    def parse(self, section: Section) -> Outliers:
+        """Return the jumps' law."""
+        return Outliers(section.number('rate', 0.0, 0.5),
+                        section.number('mean_steps', 1.0, 1e3, lo_open=False),
+                        section.number('sigma_m', 0.0, jumps.MAX_SIGMA_M))
+
+    def to_dict(self, params: Outliers) -> dict[str, Any]:
+        """Return the section."""
+        return params.to_dict()
+
+    def term(self, params: Outliers, phi: FloatArray, order: int) -> JumpTerm:
+        """Return the jumps' term."""
+        return JumpTerm(params)
+
+
+KIND = OutliersKind()
