@@ -270,6 +270,10 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
     _same_lengths(t=t, lat=lat, lon=lon, east=east, north=north, agents=agents)
     if isinstance(faults, str):
         faults = faults_from_yaml(faults, 'faults')
+    if (lat is not None or lon is not None) and (east is not None or north is not None):
+        raise ValueError('give lat and lon (degrees), or east, north and datum: not both')
+    if datum is None and (east is not None or north is not None):
+        raise ValueError('east and north need datum, the [lat, lon] their ENU frame is about')
     frame = None
     if datum is not None:
         if len(datum) not in (2, 3):
@@ -281,6 +285,7 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
                                         np.zeros(t.size))
     if lat is None or lon is None:
         raise ValueError('give lat and lon (degrees), or east, north and datum')
+    _positions(np.asarray(lat, float), np.asarray(lon, float))
     names = [''] * t.size if agents is None else list(agents)
     data = {'t': t, 'agent': names, 'truth_lat': np.asarray(lat, float),
             'truth_lon': np.asarray(lon, float)}
@@ -349,9 +354,19 @@ def _same_lengths(**columns: Any) -> None:
              for k, v in columns.items() if v is not None}
     if len(set(sizes.values())) > 1:
         said = ', '.join(f'{k} {n}' for k, n in sizes.items())
-        first = next(iter(sizes))
-        raise ValueError(f'one value per row expected: {said} values '
-                         f'({first} has {sizes[first]})')
+        raise ValueError(f'one value per row expected, the same number of each: {said} '
+                         f'values')
+
+
+def _positions(lat: FloatArray, lon: FloatArray) -> None:
+    """Raise ValueError naming the first row whose truth is not a position on Earth."""
+    bad = ~(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0) &
+            (np.abs(lon) <= 180.0))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f'the truth of {int(bad.sum())} row(s) is not a position, the first '
+                         f'row {i}: lat {float(lat[i])!r}, lon {float(lon[i])!r}; expected finite '
+                         f'degrees, lat in [-90, 90] and lon in [-180, 180]')
 
 
 def _failed_rows(profile: Profile, seed: int, names: Sequence[str], t: FloatArray) -> BoolArray:
@@ -420,8 +435,10 @@ def calibrate(recordings: PathLike | Sequence[PathLike], population: bool = Fals
     else:
         result = _calibrate(traces, order=order, population=population)
     if population and result.population is not None and result.population.population is None:
-        warnings.warn(f'calibrate: no population section: '
-                      f'{result.population.evidence["reason"]}', UserWarning, stacklevel=2)
+        warnings.warn(f'calibrate: no population section, so the profile is the Gaussian AR '
+                      f'of the recordings pooled (neither a population nor the extended '
+                      f'model within it): {result.population.evidence["reason"]}',
+                      UserWarning, stacklevel=2)
     return profiles.profile_from_dict(result.profile_dict(name))
 
 

@@ -110,6 +110,13 @@ def test_added_errors_flag_the_models_failures_and_report_velocity():
      "covariance_mode 'stated'"),
     (lambda p: api.add_errors(p, [0.0], 1), 'give lat and lon'),
     (lambda p: api.add_errors(p, [0.0], 1, datum=[48.0, 2.0]), 'with datum, give east'),
+    (lambda p: api.add_errors(p, [0.0], 1, lat=[48.0], lon=[2.0], east=[0.0], north=[0.0],
+                              datum=[48.0, 2.0]), 'not both'),
+    (lambda p: api.add_errors(p, [0.0], 1, east=[0.0], north=[0.0]), 'need datum'),
+    (lambda p: api.add_errors(p, [0.0, 1.0], 1, lat=[48.0, 140.75], lon=[2.0, 2.0]),
+     r'first row 1: lat 140.75, lon 2.0; expected finite degrees'),
+    (lambda p: api.add_errors(p, [0.0], 1, lat=[float('nan')], lon=[2.0]),
+     r'first row 0: lat nan'),
 ])
 def test_a_wrong_call_says_what_was_expected(call, says):
     with pytest.raises(ValueError, match=says):
@@ -151,3 +158,4 @@ def test_calibrate_warns_when_it_cannot_fit_a_population(tmp_path):
     assert profile.population is None
     said = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
     assert said and 'no population section' in said[0] and '3' in said[0], said
+    assert 'neither a population nor the extended model' in said[0], said

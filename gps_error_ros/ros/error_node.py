@@ -423,6 +423,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                 f'{t("skipped_no_truth")} skipped without truth, '
                 f'{t("dropped_out_of_order")} truth messages out of '
                 f'order, {t("dropped_future")} stamped in the future, '
+                f'{self.invalid_truth} invalid (not finite), '
+                f'{self.truth_frame.others} in another frame than truth_frame, '
                 f'{t("resets")} clock resets, '
                 f'{t("late_truth")} times truth came after its step '
                 f'was skipped; '

@@ -81,7 +81,8 @@ ERROR_NODE_PARAMS = (
     ParamSpec('profile', 'DS5', ParameterType.PARAMETER_STRING,
               'Error-model profile: a built-in name (the paper\'s DS1, DS2, DS5, DS7; '
               'the presets phone-suburban-drive and snapshot-receiver-on-foot, see '
-              'docs/presets.md; case-insensitive) or the path of a profile YAML.'),
+              'the presets page of the documentation; case-insensitive) or the path of a '
+              'profile YAML.'),
     ParamSpec('input_type', 'pose', ParameterType.PARAMETER_STRING,
               'Ground truth input: pose (geometry_msgs/PoseStamped on "pose"), '
               'odometry (nav_msgs/Odometry on "odom"), navsatfix '
@@ -177,7 +178,7 @@ ERROR_NODE_PARAMS = (
     ParamSpec('fault_schedule', '', ParameterType.PARAMETER_STRING,
               'A fault schedule (YAML) read at start: faults put on chosen agents at '
               'chosen times of the ROS clock (outage, frozen, offset, degraded, '
-              'gross_failure; see docs/faults.md). Empty: none.'),
+              'gross_failure; see the faults page of the documentation). Empty: none.'),
     ParamSpec('faults', '', ParameterType.PARAMETER_STRING,
               'Set at run time to add faults: one YAML entry or a list, e.g. '
               '"{kind: outage, agent: a1, at: 120, duration: 10}" (without at: from the '

@@ -135,3 +135,17 @@ def test_a_long_reference_has_a_table_of_contents(site, page):
     toc = text[text.index('md-nav--secondary'):]
     toc = toc[:toc.index('</nav>')]
     assert toc.count('class="md-nav__link"') >= 4, page
+
+
+def test_every_long_page_has_headings_for_its_table_of_contents():
+    """A page of more than 700 words has sections (the glossary is a list of terms)."""
+    found = []
+    for page in sorted((ROOT / 'docs').rglob('*.md')):
+        name = str(page.relative_to(ROOT / 'docs'))
+        if name.startswith('decisions/') or name == 'glossary.md':
+            continue
+        text = page.read_text()
+        words = len(re.sub(r'```.*?```', '', text, flags=re.S).split())
+        if words > 700 and len(re.findall(r'^##+ ', text, re.M)) < 2:
+            found.append(f'{name}: {words} words')
+    assert not found, 'long pages without sections:\n' + '\n'.join(found)
