@@ -23,6 +23,7 @@ from typing import Any, Literal
 import warnings
 
 import numpy as np
+import numpy.typing as npt
 
 from gps_error_ros.fit.calibration import calibrate as _calibrate
 from gps_error_ros.fit.gross_failures import find_gross_failures
@@ -32,7 +33,7 @@ from gps_error_ros.model import profiles
 from gps_error_ros.model.geodesy import difference, LocalTangentFrame
 from gps_error_ros.model.profiles import Profile
 from gps_error_ros.model.reported import needs_predictive
-from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.model.state import BoolArray, FloatArray
 from gps_error_ros.model.stepping import run
 from gps_error_ros.model.streams import agent_keys
 from gps_error_ros.sim.faults import Fault, faults_from_yaml
@@ -45,6 +46,8 @@ __all__ = ['Errors', 'Fixes', 'Profile', 'add_errors', 'calibrate', 'load_profil
            'simulate_errors', 'to_enu', 'validate']
 
 PathLike = str | os.PathLike[str]
+#: Times, coordinates or metres, one per row: a numpy array, or a sequence of numbers.
+Series = Sequence[float] | npt.NDArray[Any]
 #: What the node states as each fix's covariance (its ``covariance_mode``).
 CovarianceMode = Literal['stationary', 'conditional', 'reported']
 MODES = ('stationary', 'conditional', 'reported')
@@ -216,9 +219,9 @@ class Fixes:
     bearing: FloatArray | None = None
 
 
-def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = None,
-               lon: Numbers | None = None, *, east: Numbers | None = None,
-               north: Numbers | None = None, datum: Sequence[float] | None = None,
+def add_errors(profile: Profile, t: Series, seed: int, lat: Series | None = None,
+               lon: Series | None = None, *, east: Series | None = None,
+               north: Series | None = None, datum: Sequence[float] | None = None,
                agents: Sequence[str] | None = None,
                covariance_mode: CovarianceMode = 'stationary',
                faults: Sequence[Fault] | str = (), zones: PathLike | None = None) -> Fixes:
@@ -317,7 +320,7 @@ def add_errors(profile: Profile, t: Numbers, seed: int, lat: Numbers | None = No
                  np.stack([north_err, east_err], axis=1), out_east, out_north, speed, bearing)
 
 
-def to_enu(lat: Numbers, lon: Numbers,
+def to_enu(lat: float | Series, lon: float | Series,
            datum: Sequence[float]) -> tuple[FloatArray, FloatArray]:
     """
     Return (east, north) metres of positions in the ENU frame of ``datum``.

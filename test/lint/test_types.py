@@ -99,3 +99,6 @@ def test_a_users_script_type_checks_against_the_installed_package(tmp_path):
     assert bad.returncode == 1 and 'covariance_mode' in bad.stdout, bad.stdout
     wrong = check(USER_SCRIPT.replace("error: float", "error: str"))
     assert wrong.returncode == 1 and 'error' in wrong.stdout, wrong.stdout
+    text = check(USER_SCRIPT.replace("datum=[40.75, -73.99])", "datum=[40.75, -73.99])\n"
+                                     "ge.add_errors(profile, t, 1, lat='abc', lon='abc')"))
+    assert text.returncode == 1 and '"lat"' in text.stdout, text.stdout
