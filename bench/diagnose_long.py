@@ -29,7 +29,7 @@ import time
 from scipy import stats
 
 from gps_error_ros.diagnose import ALPHA, diagnose
-from gps_error_ros.diagnose.fidelity import binomial_interval
+from gps_error_ros.fit.fidelity import binomial_interval
 from gps_error_ros.sim.synthetic import EFFECT_FREE, SCENARIOS, synthetic_trace
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from data_sources import CREDITS
 from page_template import Template
 
-from gps_error_ros.diagnose.split import split_trace
+from gps_error_ros.fit.holdout import split_trace
 from gps_error_ros.judge.zoned_compare import compare_zones
 from gps_error_ros.fit.calibration import calibrate, CalibrationError
 from gps_error_ros.fit.zone_calibration import calibrate_zones, MIN_ZONE_SAMPLES

@@ -23,7 +23,7 @@ from data_sources import CREDITS, WALKS
 
 from gps_error_ros.diagnose import diagnose, DiagnosisError, extended_profile
 from gps_error_ros.judge.baselines import CLASSES, compare, split_comparison
-from gps_error_ros.diagnose.fidelity import binomial_interval
+from gps_error_ros.fit.fidelity import binomial_interval
 from gps_error_ros.model.profiles import write_profile
 from gps_error_ros.reports.compare_figure import compare_figure
 from gps_error_ros.reports.diagnosis_figure import diagnosis_figure

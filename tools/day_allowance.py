@@ -27,9 +27,9 @@ import sys
 
 import numpy as np
 
-from gps_error_ros.diagnose.fidelity import simulate_part
+from gps_error_ros.fit.fidelity import simulate_part
 from gps_error_ros.judge.population_class import PopulationClass
-from gps_error_ros.diagnose.split import cut_trace
+from gps_error_ros.fit.holdout import cut_trace
 from gps_error_ros.fit.calibration import calibrate, without_gross_failures
 from gps_error_ros.fit.population_fit import BLOCK_S, DAY_RATIO, MIN_BLOCKS, occasions
 from gps_error_ros.model.population import WithPopulation

@@ -35,7 +35,7 @@ from gps_error_ros.traces.trace_io import Trace, TraceError
 
 if TYPE_CHECKING:
     from gps_error_ros.diagnose.pipeline import Diagnosis
-    from gps_error_ros.diagnose.split import Split
+    from gps_error_ros.fit.holdout import Split
 
 # DiagnosisError is a ValueError
 ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,

@@ -5,7 +5,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from gps_error_ros.diagnose.split import Split
+from gps_error_ros.fit.holdout import Split
 from gps_error_ros.fit.gross_failures import GrossFailures
 from gps_error_ros.fit.population_fit import segment_weights
 from gps_error_ros.judge.fold_summary import compare_on_folds

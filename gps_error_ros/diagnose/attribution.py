@@ -20,7 +20,7 @@ from gps_error_ros.diagnose.laws import fit_law, law_logpdf
 from gps_error_ros.diagnose.family import FamilyResult
 from gps_error_ros.diagnose.mean import Design, to_travel_frame
 from gps_error_ros.diagnose.models import fit_model, FittedModel
-from gps_error_ros.diagnose.split import Split
+from gps_error_ros.fit.holdout import Split
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.state import FloatArray
 

@@ -8,10 +8,11 @@ baselines, pipeline) import these and not each other's internals.
 from collections.abc import Sequence
 import math
 
+# the held-out machinery's, which the diagnosis's steps read here too
+from gps_error_ros.fit.fidelity import FIDELITY_MAX_LAG as FIDELITY_MAX_LAG  # noqa: F401
+from gps_error_ros.fit.holdout import TRAIN_FRACTION as TRAIN_FRACTION  # noqa: F401
 from gps_error_ros.model.effect_kinds import EFFECT_NAMES
 
-#: Fraction of a trace's time span that trains; the rest is held out.
-TRAIN_FRACTION = 0.7
 #: Level of the whole diagnosis: the chance that it reports structure that is
 #: not there (an effect, or something unexplained) is at most ALPHA.
 ALPHA = 0.05
@@ -45,8 +46,6 @@ PERSIST_LAGS = 10
 #: gives (docs/decisions/0010-short-recordings.md).
 MIN_TRAIN = 180
 MIN_TEST = 80
-#: Largest lag of the fidelity autocorrelation measures, s.
-FIDELITY_MAX_LAG = 30
 #: Effects in schema order: the registry's (:mod:`gps_error_ros.model.effect_kinds`).
 EFFECT_ORDER = EFFECT_NAMES
 #: Cycle lengths (steps) the periodicity test looks at.

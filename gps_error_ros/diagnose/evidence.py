@@ -26,14 +26,14 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.diagnose.common import Orders, TRAIN_FRACTION
-from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, measure_vector,
-                                             simulate_part)
+from gps_error_ros.fit.fidelity import (calibrated_fidelity, measure_vector,
+                                        simulate_part)
 from gps_error_ros.diagnose.mean import condition_count, design, MeanFit
 from gps_error_ros.diagnose.models import fit_model, FittedModel, with_law
 from gps_error_ros.diagnose.pipeline import fit_extended, FittedModels
 from gps_error_ros.diagnose.selection import (FOLDS, shared_condition_count, subsets,
                                               time_blocks)
-from gps_error_ros.diagnose.split import Part, Split, split_trace, TruthTrack
+from gps_error_ros.fit.holdout import Part, Split, split_trace, TruthTrack
 from gps_error_ros.fit.yule_walker import fit_axis
 from gps_error_ros.traces.trace_io import Trace
 

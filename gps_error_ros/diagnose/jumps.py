@@ -74,7 +74,7 @@ from scipy import special
 from gps_error_ros.diagnose.common import LOG2PI
 from gps_error_ros.diagnose.compiled import kernel
 from gps_error_ros.diagnose.mean import Design
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
 

@@ -25,53 +25,9 @@ import numpy as np
 from scipy import optimize
 
 from gps_error_ros.diagnose.common import MAX_LAG_S, MOTION_TEST_LAGS, Orders
-from gps_error_ros.diagnose.split import Part, TruthTrack
+from gps_error_ros.fit.holdout import motion_offsets, Part, travel_headings, TruthTrack
 from gps_error_ros.model.ar_model import inverse_root_modulus
-from gps_error_ros.model.effects import MOVING_M
-from gps_error_ros.model.motion_lag import lag_offsets, RUN_GAP_S, truth_at
 from gps_error_ros.model.state import FloatArray, IntArray, Numbers
-
-
-def motion_offsets(part: Part, truth: TruthTrack | None, lag_s: float,
-                   gain: float = 1.0) -> list[FloatArray]:
-    """
-    Return per segment ``gain * (truth(t - lag_s) - truth(t))``, (n_s, 2).
-
-    ``truth`` is the whole trace's :class:`~.split.TruthTrack`, so a lag
-    reaches back across the train/test cut, but not across a truth gap over
-    :data:`RUN_GAP_S` (recordings joined one after another): there the
-    truth is held at the later run's first sample. Without a motion term
-    (``lag_s`` or ``gain`` 0) the truth is not needed (None).
-    """
-    if lag_s == 0.0 or gain == 0.0 or not part.t:
-        return [np.zeros_like(e) for e in part.err]
-    if truth is None:
-        raise ValueError(f'a motion lag of {lag_s} s needs the truth: expected a TruthTrack')
-    # one interpolation over every segment's times (each costs a pass over the truth)
-    whole = lag_offsets(truth.t, truth.north_east[:, 0], truth.north_east[:, 1], lag_s,
-                        at=np.concatenate(part.t), gap_s=RUN_GAP_S)
-    out = np.split(whole, np.cumsum([len(t) for t in part.t])[:-1])
-    return out if gain == 1.0 else [gain * o for o in out]
-
-
-def travel_headings(truth: TruthTrack, times: Numbers, lag_s: float = 0.0) -> FloatArray:
-    """
-    Return the direction of travel (rad from north, clockwise) at ``times``.
-
-    As the node's street frame: the truth's move over the second before
-    ``times - lag_s``; where it moved less than ``MOVING_M`` the last
-    direction (in the order of ``times``) holds, north before the first.
-    The second never reaches back across a truth gap over :data:`RUN_GAP_S`.
-    """
-    times = np.asarray(times, dtype=float)
-    now, back = (truth_at(truth.t, truth.north_east, when, RUN_GAP_S)
-                 for when in (times - lag_s, times - lag_s - 1.0))
-    dn, de = now[:, 0] - back[:, 0], now[:, 1] - back[:, 1]
-    moving = np.hypot(dn, de) >= MOVING_M
-    held = np.where(moving, np.arange(times.size), -1)
-    held = np.maximum.accumulate(held) if held.size else held
-    theta = np.arctan2(de, dn)
-    return np.where(held >= 0, theta[np.maximum(held, 0)], 0.0)
 
 
 def to_travel_frame(r: FloatArray, heading: Numbers) -> FloatArray:

@@ -28,7 +28,7 @@ from gps_error_ros.diagnose.laws import fit_law, Law, law_logpdf, law_logpdf_giv
 from gps_error_ros.diagnose.mean import (Design, design, fit_mean, fit_mean_gain,
                                          fit_mean_lag, least_squares, MeanFit,
                                          to_travel_frame)
-from gps_error_ros.diagnose.split import Part, TruthTrack
+from gps_error_ros.fit.holdout import Part, TruthTrack
 from gps_error_ros.fit.calibration import CalibrationError, fit_axis
 from gps_error_ros.model.ar_model import AXES, AxisParams, ModelError
 from gps_error_ros.model.effect_kinds.variance_regimes import Regimes

@@ -62,14 +62,14 @@ from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, 
 from gps_error_ros.diagnose.family import (FamilyResult, holm_tests, innovation_tests,
                                            jump_reversal_test, motion_test, periodicity_test,
                                            retest, travel_frame_test)
-from gps_error_ros.diagnose.fidelity import block_bootstrap_mean, fidelity
+from gps_error_ros.fit.fidelity import block_bootstrap_mean, fidelity
 from gps_error_ros.diagnose.mean import (condition_count, Design, design, fit_lag,
                                          from_travel_frame, gain_loss, least_squares, log_det,
                                          motion_correlation, to_travel_frame)
 from gps_error_ros.diagnose.models import (fit_model, fit_motion_probe, robust_phase_scales,
                                            FittedModel, select_orders)
 from gps_error_ros.diagnose.selection import select_effects, Selection
-from gps_error_ros.diagnose.split import Split, split_trace
+from gps_error_ros.fit.holdout import Split, split_trace
 from gps_error_ros.fit.gross_failures import failures_doc, GrossFailures, without_gross_failures
 from gps_error_ros.model.ar_model import AXES
 from gps_error_ros.model.profiles import profile_mapping

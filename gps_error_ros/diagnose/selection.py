@@ -49,11 +49,11 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.diagnose.common import DiagnosisError, EFFECT_ORDER, Orders
-from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, measure_draws,
-                                             simulate_part)
+from gps_error_ros.fit.fidelity import (calibrated_fidelity, measure_draws,
+                                        simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
-from gps_error_ros.diagnose.split import Part, Split
+from gps_error_ros.fit.holdout import Part, Split
 from gps_error_ros.model.state import FloatArray
 
 #: Contiguous blocks of the training part.

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from gps_error_ros.diagnose.split import like_windows
+from gps_error_ros.fit.holdout import like_windows
 from gps_error_ros.fit.envelope import envelope, Envelope, inside
 from gps_error_ros.fit.velocity_fit import estimate_velocity, NEEDED, SLOW_TRUTH, vectors
 from gps_error_ros.model import streams
@@ -129,7 +129,7 @@ def training_windows(train: Trace, span: float, names: Sequence[str]) -> dict[st
     Return the range of each measure in ``names`` over the training rows' stretches of ``span`` s.
 
     Did the training rows ever look like the held-out ones? Each window of
-    :func:`~gps_error_ros.diagnose.split.like_windows` is measured as the
+    :func:`~gps_error_ros.fit.holdout.like_windows` is measured as the
     held-out rows are (:func:`band_measures`); a held-out value outside its
     measure's range has no precedent in training. Returns ``{'span_s',
     'windows', 'range': {name: [low, high]}}``, a measure no window had left

@@ -17,12 +17,12 @@ Each as measured, the simulated median and central 95 % range, and the
 measured value's percentile among the simulations (ties count half).
 """
 
-from typing import Any, cast, Optional
+from typing import cast, Optional
 
 import numpy as np
 
 from gps_error_ros.fit.envelope import envelope
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, S
 from gps_error_ros.model.reported import reference_cov, ReportedAccuracy
 from gps_error_ros.model.stepping import run
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
@@ -54,7 +54,7 @@ def _stats(err: FloatArray, radius: FloatArray, consecutive: BoolArray) -> dict[
             else 0.0}
 
 
-def _simulated_radius(model: ErrorModel[Any], reported: ReportedAccuracy, keys: Keys,
+def _simulated_radius(model: ErrorModel[S], reported: ReportedAccuracy, keys: Keys,
                       span: int, steps: IntArray, sim: FloatArray) -> FloatArray:
     """Return each simulation's stated radius at ``steps``, (n, sims)."""
     x = reported.errors(keys, span)[steps, :, :]             # (n, sims, 1)
@@ -65,7 +65,7 @@ def _simulated_radius(model: ErrorModel[Any], reported: ReportedAccuracy, keys: 
     return reported.radius(x, covs.transpose(1, 0, 2, 3)[steps], reference_cov(model))
 
 
-def reported_check(model: ErrorModel[Any], reported: ReportedAccuracy, trace: Trace,
+def reported_check(model: ErrorModel[S], reported: ReportedAccuracy, trace: Trace,
                    rows: Numbers, steps: IntArray, measured: FloatArray, sim: FloatArray,
                    keys: Keys) -> Optional[dict[str, dict[str, float]]]:
     """

@@ -34,7 +34,7 @@ from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.fit.reported_check import reported_check
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import AXES
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, S
 from gps_error_ros.model.reported import ReportedAccuracy
 from gps_error_ros.model.state import FloatArray, Keys, Numbers
 from gps_error_ros.model.zoned import simulate_along
@@ -161,7 +161,7 @@ def summary_lines(doc: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def validate(model: ErrorModel[Any], trace: Trace, sims: int = 200, max_lag: int = 60,
+def validate(model: ErrorModel[S], trace: Trace, sims: int = 200, max_lag: int = 60,
              seed: int = 0, zones: Any = None,
              reported: Optional[ReportedAccuracy] = None) -> ValidationResult:
     """
@@ -343,7 +343,7 @@ def zone_checks(measured: FloatArray, sim: FloatArray, steps: Numbers, zone: Num
     return out
 
 
-def availability_check(model: ErrorModel[Any], grid: GriddedErrors,
+def availability_check(model: ErrorModel[S], grid: GriddedErrors,
                        keys: Keys) -> dict[str, Any]:
     """
     Return outage statistics, measured (the trace's gaps) against simulated.

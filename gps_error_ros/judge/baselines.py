@@ -28,12 +28,12 @@ import numpy as np
 from scipy import optimize, signal
 
 from gps_error_ros.diagnose.common import LOG2PI
-from gps_error_ros.diagnose.fidelity import (calibrated_fidelity, fidelity_of, part_fix_mask,
-                                             part_steps, run_masks, score_differences,
-                                             simulate_part, with_outages)
+from gps_error_ros.fit.fidelity import (calibrated_fidelity, fidelity_of, part_fix_mask,
+                                        part_steps, run_masks, score_differences,
+                                        simulate_part, with_outages)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.diagnose.models import fit_model
-from gps_error_ros.diagnose.split import Part, Split
+from gps_error_ros.fit.holdout import Part, Split
 from gps_error_ros.fit.calibration import availability_from_mask
 from gps_error_ros.fit.envelope import outage_stats
 from gps_error_ros.judge.results import SplitComparison
@@ -180,10 +180,10 @@ def training_outages(split: Split, model: Any, sims: int, seed: int = 0) -> Bool
     Return a class's simulated fix masks over the held-out span, (sims, span).
 
     Availability is fitted on the training part's gaps as ``calibrate``
-    fits it, each recording's own (:func:`~gps_error_ros.diagnose.fidelity.run_masks`: the time
+    fits it, each recording's own (:func:`~gps_error_ros.fit.fidelity.run_masks`: the time
     between joined recordings is no outage); None when the training part has
     no outage (the class then simulates none). The masks come from the
-    agents' ``outage`` streams of the keys :func:`~gps_error_ros.diagnose.fidelity.simulate_part`
+    agents' ``outage`` streams of the keys :func:`~gps_error_ros.fit.fidelity.simulate_part`
     uses.
     """
     section = availability_from_mask(run_masks(split.train)).section
@@ -201,9 +201,9 @@ def compare(diag: Any, sims: int = 100, seed: int = 0) -> dict[str, dict[str, An
     Returns a dict: class -> ``heldout_nll_per_sample``,
     ``nll_minus_best`` (its NLL minus the lowest class's, paired on the
     same samples, with a 95 % interval:
-    :func:`~gps_error_ros.diagnose.fidelity.score_differences`),
+    :func:`~gps_error_ros.fit.fidelity.score_differences`),
     the summary fidelity measures of ``diagnose`` and ``calibrated`` (the
-    measures of :func:`~gps_error_ros.diagnose.fidelity.calibrated_fidelity`, with the outage
+    measures of :func:`~gps_error_ros.fit.fidelity.calibrated_fidelity`, with the outage
     measures where the held-out part or the extended class has outages),
     all on the same samples.
     """

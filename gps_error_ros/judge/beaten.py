@@ -2,7 +2,7 @@
 Where a class scores better than the population class, and what tells the two apart.
 
 When a class's held-out NLL lies below the population class's beyond its
-95 % interval (:func:`~gps_error_ros.diagnose.fidelity.score_differences`), :func:`where_beaten`
+95 % interval (:func:`~gps_error_ros.fit.fidelity.score_differences`), :func:`where_beaten`
 says where: over held-out blocks far from the population's bias law or
 near it (a gain only far out says the bias law is too narrow), and
 :func:`part_pacf` / :func:`pacf_against` which lags of partial
@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from gps_error_ros.diagnose.fidelity import block_bootstrap_mean
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.fidelity import block_bootstrap_mean
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.fit.population_fit import (block_pieces, BLOCK_S, MIN_BLOCK_SAMPLES,
                                               MIN_BLOCKS)
 from gps_error_ros.fit.yule_walker import CalibrationError, DEFAULT_MAX_ORDER, fit_axis
@@ -152,7 +152,7 @@ def where_beaten(lls: Mapping[str, Numbers], against: Mapping[str, Mapping[str, 
     ``lls``: ``{class: per-sample log densities}`` on the scored held-out
     samples, whose errors (n, 2) and times are ``err`` and ``t``;
     ``against``: each class's NLL minus the reference's on them
-    (:func:`~gps_error_ros.diagnose.fidelity.score_differences`); ``mean`` and ``bias_sd``: the
+    (:func:`~gps_error_ros.fit.fidelity.score_differences`); ``mean`` and ``bias_sd``: the
     population's mean error and bias SD per axis. The classes whose NLL
     lies below the reference's beyond its 95 % interval are the *winners*;
     with none, None. The scored samples are cut into consecutive blocks of ``block``

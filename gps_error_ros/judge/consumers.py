@@ -31,7 +31,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import stats
 
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.fit.envelope import envelope, Envelope
 from gps_error_ros.model.state import BoolArray, FloatArray
 

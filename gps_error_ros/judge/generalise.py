@@ -37,10 +37,10 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
-from gps_error_ros.diagnose.fidelity import (acf_by_axis, part_fix_mask, run_masks,
-                                             score_differences, simulate_part)
+from gps_error_ros.fit.fidelity import (acf_by_axis, part_fix_mask, run_masks,
+                                        score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
-from gps_error_ros.diagnose.split import cut_trace, like_windows, Part, Split
+from gps_error_ros.fit.holdout import cut_trace, like_windows, Part, Split
 from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
 from gps_error_ros.fit.envelope import (envelope, Envelope, inside, OUTAGE_MEASURES,
                                         outage_envelopes, outage_stats)
@@ -85,7 +85,7 @@ def split_between(trace: Trace, cut_t: float, end_t: float, rule: str) -> Split:
     """
     Return the ``Split`` of ``trace``: train before ``cut_t``, test in [cut_t, end_t).
 
-    (:class:`~gps_error_ros.diagnose.split.Split`.)
+    (:class:`~gps_error_ros.fit.holdout.Split`.)
 
     Times are the trace's own (seconds); samples after ``end_t`` are in neither part.
     """
@@ -278,7 +278,7 @@ def judge_split(fitted: 'FittedModels', sims: int = 100, seed: int = 0,
     ``nll_minus_population``: the class's held-out NLL per sample minus the
     population class's (``population`` given ``within``, else
     ``population_ar``), paired on the same samples, with a 95 % interval
-    (:func:`~gps_error_ros.diagnose.fidelity.score_differences`); the population class's
+    (:func:`~gps_error_ros.fit.fidelity.score_differences`); the population class's
     ``where_beaten`` says in which held-out blocks the classes that score
     better than it beyond noise do so (:func:`~.beaten.where_beaten`; None
     for none).

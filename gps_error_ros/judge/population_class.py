@@ -20,8 +20,8 @@ from typing import Any, TYPE_CHECKING
 
 import numpy as np
 
-from gps_error_ros.diagnose.mean import motion_offsets
-from gps_error_ros.diagnose.split import Part, Split, TruthTrack
+from gps_error_ros.fit.holdout import motion_offsets
+from gps_error_ros.fit.holdout import Part, Split, TruthTrack
 from gps_error_ros.fit.population_fit import block_means, block_pieces, BLOCK_S, fit_population
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.effects import build_model

@@ -20,7 +20,7 @@ of comparison return: ``summary()`` is the text the terminal shows,
 from dataclasses import dataclass, field
 from typing import Any, NotRequired, TypedDict
 
-from gps_error_ros.diagnose.fidelity import Difference
+from gps_error_ros.fit.fidelity import Difference
 from gps_error_ros.fit.envelope import Envelope
 from gps_error_ros.fit.population_evidence import PopulationEvidence
 

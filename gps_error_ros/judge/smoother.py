@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.judge.consumers import _grid, _truth_velocity, VELOCITY_SD
 from gps_error_ros.model.state import FloatArray, Numbers
 

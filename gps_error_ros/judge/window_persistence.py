@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.fit.envelope import envelope, Envelope
 from gps_error_ros.fit.population_fit import block_pieces, MIN_BLOCK_SAMPLES
 from gps_error_ros.judge.results import Fold
@@ -58,7 +58,7 @@ def persistence_spread(part: Part,
     """
     Return the spread of ``part``'s block lag-1 ACFs against the simulated traces', or None.
 
-    ``part``: a :class:`~gps_error_ros.diagnose.split.Part`; ``simulated``: traces, each a list of
+    ``part``: a :class:`~gps_error_ros.fit.holdout.Part`; ``simulated``: traces, each a list of
     segments on ``part``'s samples. Per axis, :func:`~gps_error_ros.fit.envelope.envelope`
     rows of the blocks' ACF SD (``acf1_sd_<axis>``) and of their lowest ACF
     (``lowest_acf1_<axis>``), and ``windows``, the number of blocks; None

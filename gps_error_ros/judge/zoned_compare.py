@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.diagnose.common import LOG2PI
-from gps_error_ros.diagnose.fidelity import (block_bootstrap_mean, calibrated_fidelity,
-                                             part_steps)
-from gps_error_ros.diagnose.split import Part, Split
+from gps_error_ros.fit.fidelity import (block_bootstrap_mean, calibrated_fidelity,
+                                        part_steps)
+from gps_error_ros.fit.holdout import Part, Split
 from gps_error_ros.fit.calibration import CalibrationError
 from gps_error_ros.fit.yule_walker import fit_axis
 from gps_error_ros.fit.zone_calibration import MIN_ZONE_SAMPLES

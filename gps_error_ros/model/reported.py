@@ -49,7 +49,7 @@ from typing import Any, Optional
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, S
 from gps_error_ros.model.state import FloatArray, Keys, Numbers
 from gps_error_ros.model.velocity import series
 
@@ -169,7 +169,7 @@ def reported_from_dict(raw: Any, source: str = '<profile>') -> ReportedAccuracy:
     return ReportedAccuracy(**vals)
 
 
-def reference_cov(model: ErrorModel[Any]) -> FloatArray:
+def reference_cov(model: ErrorModel[S]) -> FloatArray:
     """Return the one-step predictive covariance averaged over the stationary law (``s_ref``)."""
     return model.mean_step_cov()
 

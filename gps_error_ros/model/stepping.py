@@ -85,7 +85,7 @@ class Run:
     covariance: Optional[FloatArray]
 
 
-def run(model: ErrorModel[Any], keys: Keys, start: int, steps: int, cov: bool = False,
+def run(model: ErrorModel[S], keys: Keys, start: int, steps: int, cov: bool = False,
         inputs: Optional[Callable[[int], Inputs]] = None) -> Run:
     """
     Return every agent's errors at model steps ``start .. start + steps - 1``.

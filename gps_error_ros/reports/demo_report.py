@@ -13,7 +13,7 @@ import numpy as np
 from gps_error_ros.fit import autocorrelation
 from gps_error_ros.model import geodesy
 from gps_error_ros.model.atomic import PathArg
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, S
 from gps_error_ros.traces import bag_io
 
 NS = 1_000_000_000
@@ -59,7 +59,7 @@ def _stamp(s: Any) -> int:
     return s.sec * NS + s.nanosec
 
 
-def summarise(err: Mapping[str, Any], model: ErrorModel[Any],
+def summarise(err: Mapping[str, Any], model: ErrorModel[S],
               max_lag: int = 300) -> dict[str, Any]:
     """Return a dict comparing measured error statistics with the model."""
     out: dict[str, Any] = {'fixes': int(err['north'].size)}
@@ -80,7 +80,7 @@ def summarise(err: Mapping[str, Any], model: ErrorModel[Any],
     return out
 
 
-def demo_figure(err: Mapping[str, Any], model: ErrorModel[Any], path: PathArg,
+def demo_figure(err: Mapping[str, Any], model: ErrorModel[S], path: PathArg,
                 title: str) -> None:
     """Write the demo's PNG: map, error time series, autocorrelation."""
     import matplotlib

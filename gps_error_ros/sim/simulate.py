@@ -37,7 +37,7 @@ from gps_error_ros.model import streams
 from gps_error_ros.model.accuracy import radius68
 from gps_error_ros.model.atomic import atomic_output, PathArg
 from gps_error_ros.model.motion_lag import LagBuffer
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, S
 from gps_error_ros.model.reported import needs_predictive, ReportedAccuracy
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import Velocity
@@ -55,7 +55,7 @@ from gps_error_ros.traces.trajectories import (
     NetProjection, read_truth_csv, TrajectoryError)
 
 
-def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
                  net: PathArg | None = None, coordinates: str | None = None,
                  digits: int | None = None, zones: ZoneSetup | None = None,
                  covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
@@ -82,7 +82,7 @@ def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
                              zones, covariance_mode, reported, velocity, reported_bias, faults)
 
 
-def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
                  velocity: Velocity | None = None, covariance_mode: str = 'stationary',
                  zones: ZoneSetup | None = None, reported: ReportedAccuracy | None = None,
                  reported_bias: Numbers | None = None,
@@ -107,7 +107,7 @@ def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: fl
                              zones, reported, reported_bias, faults)
 
 
-def simulate_nmea(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float,
+def simulate_nmea(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float,
                   seed: int, utc0: dt.datetime, velocity: Velocity | None = None,
                   covariance_mode: str = 'stationary', zones: ZoneSetup | None = None,
                   reported: ReportedAccuracy | None = None,
@@ -168,7 +168,7 @@ def _nmea_epochs(path: Path, utc0: dt.datetime) -> list[list[str]]:
     return out
 
 
-def simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int, n_agents: int,
+def simulate_npz(dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int, n_agents: int,
                  duration_s: float, start_s: float = 0.0, prefix: str = 'agent',
                  chunk: int = 1024) -> dict[str, int]:
     """Write raw error series to ``dst`` (.npz); return counts (see module doc)."""
@@ -253,7 +253,7 @@ def _moved(mode: str, proj: NetProjection | None, src: PathArg, t: float, x: Num
     return x + err[:, 1], y + err[:, 0], '{:.3f}'
 
 
-def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
                   net: PathArg | None = None, coordinates: str | None = None,
                   digits: int | None = None, zones: ZoneSetup | None = None,
                   covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
@@ -365,7 +365,7 @@ def _fcd_faults(overlay: FaultOverlay, mode: str, proj: NetProjection | None, t:
     return nx, ny, rows.fix, rows.cov, radius
 
 
-def _fcd_counts(src: PathArg, model: ErrorModel[Any], steps: int, rows: int, agents: int,
+def _fcd_counts(src: PathArg, model: ErrorModel[S], steps: int, rows: int, agents: int,
                 no_fix: int, faults: bool = False) -> dict[str, int]:
     """Return what simulate_fcd did; refuse a file in which nobody moved."""
     if not agents:
@@ -420,7 +420,7 @@ def _check_georeferenced(src: PathArg, zones: ZoneSetup | None, mode: str) -> No
                               f'direction of travel for street_frame')
 
 
-def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int,
+def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
                   velocity: Velocity | None = None, covariance_mode: str = 'stationary',
                   zones: ZoneSetup | None = None, reported: ReportedAccuracy | None = None,
                   reported_bias: Numbers | None = None,
@@ -442,7 +442,7 @@ def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: f
     return out
 
 
-def _simulate_npz(dst: PathArg, model: ErrorModel[Any], rate_hz: float, seed: int, n_agents: int,
+def _simulate_npz(dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int, n_agents: int,
                   duration_s: float, start_s: float = 0.0, prefix: str = 'agent',
                   chunk: int = 1024) -> dict[str, int]:
     """

@@ -17,7 +17,7 @@ import numpy as np
 from gps_error_ros.model.accuracy import ellipse, radius68
 from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.motion_lag import LagBuffer
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, S
 from gps_error_ros.model.reported import needs_predictive, reference_cov, ReportedAccuracy
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import Velocity
@@ -29,7 +29,7 @@ from gps_error_ros.sim.velocity_sim import row_values, speed_and_course, StreamT
 from gps_error_ros.traces.trajectories import add_errors_lonlat, TrajectoryError
 
 
-def per_fix(model: ErrorModel[Any], zones: ZoneSetup | None,
+def per_fix(model: ErrorModel[S], zones: ZoneSetup | None,
             conditional: bool = False) -> ZoneSetup | None:
     """Return ``zones``, or the agents stepped per fix of a street-frame model, or None."""
     if zones is None and model.needs_heading:
@@ -42,7 +42,7 @@ def model_step(t: float, rate_hz: float) -> int:
     return int(math.floor(t * rate_hz + 1e-9))
 
 
-def trajectory_fixes(data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: float,
+def trajectory_fixes(data: Mapping[str, Any], model: ErrorModel[S], rate_hz: float,
                      seed: int, velocity: Velocity | None = None,
                      covariance_mode: str = 'stationary', zones: ZoneSetup | None = None,
                      reported: ReportedAccuracy | None = None,
@@ -86,7 +86,7 @@ def trajectory_fixes(data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: f
     return rows, radius
 
 
-def _csv_rows(src: PathArg, data: Mapping[str, Any], model: ErrorModel[Any], rate_hz: float,
+def _csv_rows(src: PathArg, data: Mapping[str, Any], model: ErrorModel[S], rate_hz: float,
               seed: int, conditional: bool, zones: ZoneSetup | None) -> FixRows:
     """
     Return the fixes of every row of a truth CSV (``stamp_ns`` unused: rows of many times).
@@ -128,7 +128,7 @@ def _csv_rows(src: PathArg, data: Mapping[str, Any], model: ErrorModel[Any], rat
     return rows
 
 
-def stated_accuracy(covariance_mode: str, model: ErrorModel[Any],
+def stated_accuracy(covariance_mode: str, model: ErrorModel[S],
                     reported: ReportedAccuracy | None, seed: int,
                     bias: Numbers | None) -> 'Stated | None':
     """Return the :class:`Stated` radius of covariance_mode reported, else None."""

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 from scipy import stats
 
-from gps_error_ros.diagnose.fidelity import binomial_interval
+from gps_error_ros.fit.fidelity import binomial_interval
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'bench'))
 import diagnose_long  # noqa: E402

@@ -5,7 +5,7 @@ import pytest
 import yaml
 
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.split import split_trace
+from gps_error_ros.fit.holdout import split_trace
 from gps_error_ros.model.population import WithPopulation
 from gps_error_ros.model.profiles import load_profile_file
 from gps_error_ros.sim.synthetic import synthetic_trace

@@ -7,8 +7,8 @@ import pytest
 
 from bag_helpers import write_walk_bag
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.fidelity import calibrated_fidelity, part_steps
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.fidelity import calibrated_fidelity, part_steps
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.sim.synthetic import synthetic_trace

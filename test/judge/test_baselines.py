@@ -6,7 +6,7 @@ from scipy import signal
 
 from gps_error_ros.diagnose import diagnose
 from gps_error_ros.judge.baselines import Arma11, CLASSES, compare
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.sim.synthetic import synthetic_trace
 
 

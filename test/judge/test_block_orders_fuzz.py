@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 import numpy as np
 
 from gps_error_ros.judge.beaten import block_orders
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 
 
 @st.composite

@@ -5,14 +5,14 @@ import pytest
 from scipy import stats
 
 from gps_error_ros.judge.consumers import CONFLICT_M, run_filter, v2p_warnings
-from gps_error_ros.diagnose.fidelity import run_masks, score_differences
+from gps_error_ros.fit.fidelity import run_masks, score_differences
 from gps_error_ros.judge.beaten import block_orders, FAR_SD, part_pacf, where_beaten
 from gps_error_ros.judge.fold_summary import own_verdict, precedent_line
 from gps_error_ros.judge.generalise import (_outage_masks, own_shares, recording_splits,
                                             rolling_splits, split_between, training_windows)
 from gps_error_ros.judge.population_class import (_kalman_ll, bias_grid, mixture_forward,
                                                   scale_nodes, within_part)
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.population import Population
 from gps_error_ros.traces.trace_io import join_recordings, Trace
@@ -422,7 +422,7 @@ def test_the_partial_autocorrelation_of_a_part_finds_the_lags_it_has():
 
 def test_a_lag_never_reaches_back_into_the_recording_before():
     """Two recordings 2.5 km apart, joined: the held-out one's first offset and heading."""
-    from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
+    from gps_error_ros.fit.holdout import motion_offsets, travel_headings
 
     a, b = _trace('a', 400, 1), _trace('b', 400, 2, place=31)
     joined = join_recordings([a, b])

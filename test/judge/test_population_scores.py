@@ -5,7 +5,7 @@ import pytest
 from scipy import stats
 
 from gps_error_ros.judge.population_class import _kalman_ll
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 
 

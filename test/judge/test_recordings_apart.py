@@ -13,8 +13,8 @@ import numpy as np
 
 from gps_error_ros.cli import main as cli
 from gps_error_ros.judge.consumers import run_filter
-from gps_error_ros.diagnose.fidelity import acf_by_axis
-from gps_error_ros.diagnose.split import cut_trace
+from gps_error_ros.fit.fidelity import acf_by_axis
+from gps_error_ros.fit.holdout import cut_trace
 from gps_error_ros.model.geodesy import offset
 from gps_error_ros.traces.trace_io import join_recordings, Trace, write_trace_csv
 

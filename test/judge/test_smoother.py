@@ -8,7 +8,7 @@ import pytest
 
 from gps_error_ros.cli import main as cli
 from gps_error_ros.judge.smoother import head, run_smoother, SMOOTHER_MEASURES
-from gps_error_ros.diagnose.split import Part
+from gps_error_ros.fit.holdout import Part
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import write_trace_csv
 

@@ -15,18 +15,19 @@ from typing import Any, Protocol, TypedDict
 import numpy as np
 from scipy import stats
 
-from gps_error_ros.diagnose.common import FIDELITY_MAX_LAG
-from gps_error_ros.diagnose.mean import motion_offsets, travel_headings
-from gps_error_ros.diagnose.split import Part, TruthTrack
 from gps_error_ros.fit.autocorrelation import about_recording_means, segment_acf
 from gps_error_ros.fit.envelope import envelope, inside, outage_envelopes
+from gps_error_ros.fit.holdout import motion_offsets, Part, travel_headings, TruthTrack
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel, StepInputs
+from gps_error_ros.model.protocol import ErrorModel, S, StepInputs
 from gps_error_ros.model.stepping import run
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Keys, Numbers
 from gps_error_ros.traces.trace_io import RECORDING_GAP_S
 
 QUANTILES = (0.5, 0.95, 0.99)
+
+#: Largest lag of the fidelity autocorrelation measures, s.
+FIDELITY_MAX_LAG = 30
 
 
 class Simulates(Protocol):
@@ -110,7 +111,7 @@ def simulate_part(model: Simulates, part: Part, truth: TruthTrack, sims: int,
             for i in range(sims)]
 
 
-def _run(sim: ErrorModel[Any], keys: Keys, start: int, end: int, truth: TruthTrack,
+def _run(sim: ErrorModel[S], keys: Keys, start: int, end: int, truth: TruthTrack,
          t0: float, lag_s: float) -> FloatArray:
     """Return one run's errors at model steps ``start .. end - 1``, (end - start, agents, 2)."""
     if not sim.needs_heading:
