@@ -15,10 +15,14 @@ import sys
 
 from gps_error_ros.ros.parameter_docs import (markdown_table, params_file, README_GROUPS,
                                               README_TABLES)
+from gps_error_ros.model import failures, population, reported
 from gps_error_ros.model.effect_kinds import markdown_table as effects_table
 from gps_error_ros.ros.topics import markdown_topics
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The profile sections declared field by field, whose tables the docs show.
+SECTIONS = {'gross_failures': failures.SECTION, 'population': population.SECTION,
+            'reported_accuracy': reported.SECTION}
 DOCS = ROOT / 'docs'
 
 
@@ -36,6 +40,14 @@ def render(pages):
             for p in found:
                 pages[p] = pattern.sub(lambda m, t=table: m.group(1) + t + m.group(2),
                                        pages[p])
+    for name, spec in SECTIONS.items():
+        pattern = re.compile(rf'(<!-- section:{name} -->\n).*?(<!-- /section:{name} -->)', re.S)
+        found = [p for p, text in pages.items() if pattern.search(text)]
+        if not found:
+            raise SystemExit(f'docs/: no page has a <!-- section:{name} --> block')
+        for p in found:
+            pages[p] = pattern.sub(lambda m, t=spec.markdown(): m.group(1) + t + m.group(2),
+                                   pages[p])
     pattern = re.compile(r'(<!-- effects:table -->\n).*?(<!-- /effects:table -->)', re.S)
     found = [p for p, text in pages.items() if pattern.search(text)]
     if not found:

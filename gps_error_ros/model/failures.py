@@ -44,6 +44,7 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, Inputs
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
@@ -55,8 +56,6 @@ MIN_SIZE_M = 1e-3
 MAX_RATE_SD_LOG = 3.0
 #: The largest rate an agent may draw (its failures are still a minority of its fixes).
 MAX_AGENT_RATE = 0.5
-SECTION_KEYS = ('rate', 'sizes_m')
-OPTIONAL_KEYS = ('rate_sd_log',)
 #: Nodes of the normal ``z`` of an agent's log rate, evenly over +-6 SD, for the count's law.
 _RATE_NODES = 241
 
@@ -78,6 +77,17 @@ class FailuresError(ValueError):
     """A ``gross_failures`` section that is not valid."""
 
 
+#: The ``gross_failures`` section, field by field.
+SECTION = SectionSpec('gross_failures', (
+    Field('rate', 'per model step, the chance that the fix failed', lo=0.0, hi=1.0,
+          hi_open=True, digits=8),
+    Field('sizes_m', 'distance of a failed fix from the truth (m): quantiles at evenly '
+          'spaced probabilities', kind='sizes', lo=0.0, hi=MAX_SIZE_M, lo_open=True, digits=3),
+    Field('rate_sd_log', 'SD of the log of each agent\'s own rate', lo=0.0,
+          hi=MAX_RATE_SD_LOG, absent='one rate for every agent', digits=4),
+), FailuresError)
+
+
 @dataclass(frozen=True)
 class GrossFailureProcess:
     """The parsed section (see the module docstring)."""
@@ -88,11 +98,7 @@ class GrossFailureProcess:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the section as plain data."""
-        out = {'rate': round(float(self.rate), 8),
-               'sizes_m': [round(float(v), 3) for v in self.sizes_m]}
-        if self.rate_sd_log is not None:
-            out['rate_sd_log'] = round(float(self.rate_sd_log), 4)
-        return out
+        return SECTION.write(dataclasses.asdict(self))
 
     def agent_rates(self, keys: Keys) -> FloatArray:
         """Return each agent's rate (n,): ``rate`` for all without ``rate_sd_log``."""
@@ -169,32 +175,7 @@ class GrossFailureProcess:
 
 def failures_from_dict(raw: Any, source: str = '<profile>') -> GrossFailureProcess:
     """Validate a ``gross_failures`` mapping; return :class:`GrossFailureProcess`."""
-    key = 'gross_failures'
-    if not isinstance(raw, dict) or not set(SECTION_KEYS) <= set(raw) or \
-            not set(raw) <= set(SECTION_KEYS + OPTIONAL_KEYS):
-        raise FailuresError(f'{source}: key {key!r}: expected a mapping with '
-                            f'{list(SECTION_KEYS)} and optionally {list(OPTIONAL_KEYS)}, '
-                            f'got {raw!r}')
-    rate = raw['rate']
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 <= rate < 1:
-        raise FailuresError(f'{source}: key {key}.rate: expected a number in [0, 1), '
-                            f'got {rate!r}')
-    sizes = raw['sizes_m']
-    ok = isinstance(sizes, list) and sizes and all(
-        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-        and 0 < v <= MAX_SIZE_M for v in sizes)
-    if not ok or any(b < a for a, b in zip(sizes, sizes[1:])):
-        raise FailuresError(f'{source}: key {key}.sizes_m: expected a non-empty, '
-                            f'non-decreasing list of distances in (0, {MAX_SIZE_M:g}] m, '
-                            f'got {sizes!r}')
-    spread = raw.get('rate_sd_log')
-    if spread is not None and (isinstance(spread, bool) or not isinstance(spread, (int, float))
-                               or not 0 <= spread <= MAX_RATE_SD_LOG):
-        raise FailuresError(f'{source}: key {key}.rate_sd_log: expected a number in '
-                            f'[0, {MAX_RATE_SD_LOG:g}], or the key left out (one rate for '
-                            f'every agent), got {spread!r}')
-    return GrossFailureProcess(float(rate), tuple(float(v) for v in sizes),
-                               None if spread is None else float(spread))
+    return GrossFailureProcess(**SECTION.read(raw, source))
 
 
 def failures_from_sizes(count: int, fixes: int, sizes_m: Numbers, quantiles: int = 11,

@@ -75,11 +75,10 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, Inputs
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import AgentState, FloatArray, Keys
 from gps_error_ros.model.wrapped import Wrapper
 
-SECTION_KEYS = ('bias_sd_m', 'scale_sd_log')
-OPTIONAL_KEYS = ('bias_time_constant_s', 'bias_dof', 'run_bias_sd_m')
 #: The most degrees of freedom a Student-t bias may have (beyond, it is all but normal).
 MAX_BIAS_DOF = 30
 #: The largest bias SD a profile may carry, m.
@@ -90,6 +89,22 @@ MAX_SCALE_SD_LOG = 2.0
 
 class PopulationError(ValueError):
     """A ``population`` section that is not valid."""
+
+
+#: The ``population`` section, field by field.
+SECTION = SectionSpec('population', (
+    Field('bias_sd_m', 'SD of a run\'s bias about the profile\'s mean (m)', kind='pair',
+          lo=0.0, hi=MAX_BIAS_SD_M, digits=4),
+    Field('scale_sd_log', 'SD of the log of an agent\'s scale of the deviations', lo=0.0,
+          hi=MAX_SCALE_SD_LOG, digits=4),
+    Field('bias_time_constant_s', 'the bias wanders, first-order Gauss-Markov with this '
+          'time constant (s)', lo=0.0, hi=1e9, lo_open=True,
+          absent='a bias constant for the run', digits=1),
+    Field('bias_dof', 'a run\'s bias is Student-t with these degrees of freedom',
+          kind='integer', lo=3, hi=MAX_BIAS_DOF, absent='a normal bias'),
+    Field('run_bias_sd_m', 'SD of a part of the bias held for the whole run (m)',
+          kind='pair', lo=0.0, hi=MAX_BIAS_SD_M, absent='no held part', digits=4),
+), PopulationError)
 
 
 @dataclass(frozen=True)
@@ -104,15 +119,7 @@ class Population:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the section as plain data."""
-        out = {'bias_sd_m': [round(float(v), 4) for v in self.bias_sd_m],
-               'scale_sd_log': round(float(self.scale_sd_log), 4)}
-        if self.bias_time_constant_s is not None:
-            out['bias_time_constant_s'] = round(float(self.bias_time_constant_s), 1)
-        if self.bias_dof is not None:
-            out['bias_dof'] = int(self.bias_dof)
-        if self.run_bias_sd_m is not None:
-            out['run_bias_sd_m'] = [round(float(v), 4) for v in self.run_bias_sd_m]
-        return out
+        return SECTION.write(dataclasses.asdict(self))
 
     @property
     def bias_sd_total_m(self) -> tuple[float, ...]:
@@ -127,50 +134,9 @@ class Population:
         return math.exp(-1.0 / (self.bias_time_constant_s * rate_hz))
 
 
-def _positive_number(value: Any, upper: float) -> bool:
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value) and 0 <= value <= upper)
-
-
 def population_from_dict(raw: Any, source: str = '<profile>') -> Population:
     """Validate a ``population`` mapping; return :class:`Population`."""
-    key = 'population'
-    if not isinstance(raw, dict) or not set(SECTION_KEYS) <= set(raw) or \
-            not set(raw) <= set(SECTION_KEYS + OPTIONAL_KEYS):
-        raise PopulationError(f'{source}: key {key!r}: expected a mapping with '
-                              f'{list(SECTION_KEYS)} and optionally {list(OPTIONAL_KEYS)}, '
-                              f'got {raw!r}')
-    sd = raw['bias_sd_m']
-    _check_sd(sd, f'{source}: key {key}.bias_sd_m')
-    run = raw.get('run_bias_sd_m')
-    if run is not None:
-        _check_sd(run, f'{source}: key {key}.run_bias_sd_m')
-    s = raw['scale_sd_log']
-    if not _positive_number(s, MAX_SCALE_SD_LOG):
-        raise PopulationError(f'{source}: key {key}.scale_sd_log: expected a number in '
-                              f'[0, {MAX_SCALE_SD_LOG:g}], got {s!r}')
-    tau = raw.get('bias_time_constant_s')
-    if tau is not None and not (_positive_number(tau, 1e9) and tau > 0):
-        raise PopulationError(f'{source}: key {key}.bias_time_constant_s: expected a '
-                              f'number of seconds in (0, 1e9], or the key left out '
-                              f'(a bias constant for the run), got {tau!r}')
-    dof = raw.get('bias_dof')
-    if dof is not None and not (isinstance(dof, int) and not isinstance(dof, bool)
-                                and 3 <= dof <= MAX_BIAS_DOF):
-        raise PopulationError(f'{source}: key {key}.bias_dof: expected an integer in '
-                              f'[3, {MAX_BIAS_DOF}], or the key left out (a normal '
-                              f'bias), got {dof!r}')
-    return Population(tuple(float(v) for v in sd), float(s),
-                      None if tau is None else float(tau), dof,
-                      None if run is None else tuple(float(v) for v in run))
-
-
-def _check_sd(sd: Any, where: str) -> None:
-    """Raise :class:`PopulationError` unless ``sd`` is two SDs (north, east) in range."""
-    if not isinstance(sd, list) or len(sd) != 2 or \
-            not all(_positive_number(v, MAX_BIAS_SD_M) for v in sd):
-        raise PopulationError(f'{where}: expected two numbers (north, east) in '
-                              f'[0, {MAX_BIAS_SD_M:g}] m, got {sd!r}')
+    return Population(**SECTION.read(raw, source))
 
 
 def agent_scales(keys: Keys, scale_sd_log: float) -> FloatArray:

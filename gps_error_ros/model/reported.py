@@ -50,18 +50,31 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, S
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import FloatArray, Keys, Numbers
 from gps_error_ros.model.velocity import series
 
 #: A 2-D circular Gaussian holds 68 % inside this many per-axis SDs.
 R68_PER_SD = math.sqrt(-2.0 * math.log(1.0 - 0.68))
 
-_KEYS = ('source', 'median_m', 'follow', 'phi', 'sigma_log', 'resolution_m', 'scale_m')
-_SOURCES = ('accuracy', 'hdop')
-
 
 class ReportedError(ValueError):
     """A ``reported_accuracy`` section that is not valid."""
+
+
+#: The ``reported_accuracy`` section, field by field.
+SECTION = SectionSpec('reported_accuracy', (
+    Field('source', 'what the phone stated: its accuracy (m) or an HDOP', kind='choice',
+          choices=('accuracy', 'hdop')),
+    Field('median_m', 'the stated 68 % radius\'s median (m)', lo=0.0, hi=1e4, lo_open=True),
+    Field('follow', 'how the radius follows the error\'s scale: d log(radius) / '
+          'd log(scale)', lo=-3.0, hi=3.0),
+    Field('phi', 'lag-1 autocorrelation of the radius\'s own fluctuation', lo=0.0, hi=0.9999),
+    Field('sigma_log', 'SD of that fluctuation, in log(radius)', lo=0.0, hi=5.0),
+    Field('resolution_m', 'stated values are multiples of this (0: not rounded)', lo=0.0,
+          hi=1e3),
+    Field('scale_m', 'hdop only: metres of 68 % radius per unit of HDOP', lo=0.0, hi=1e4),
+), ReportedError)
 
 
 @dataclass(frozen=True)
@@ -78,9 +91,7 @@ class ReportedAccuracy:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the profile section as plain data."""
-        out: dict[str, Any] = {'source': self.source}
-        out.update({k: float(getattr(self, k)) for k in _KEYS[1:]})
-        return out
+        return SECTION.write({f.name: getattr(self, f.name) for f in SECTION.fields})
 
     def initial(self, keys: Keys, index: int) -> FloatArray:
         """Return the fluctuation ``x`` (n, 1) at a run's first step ``index``."""
@@ -135,33 +146,9 @@ class ReportedAccuracy:
         return radius if self.source == 'accuracy' else radius / self.scale_m
 
 
-def _number(raw: dict[str, Any], k: str, lo: float, hi: float, source: str,
-            open_lo: bool = False) -> float:
-    v = raw[k]
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and (
-        (lo < v if open_lo else lo <= v) and v <= hi)
-    if not ok:
-        lb = '(' if open_lo else '['
-        raise ReportedError(f'{source}: key reported_accuracy.{k}: expected a number in '
-                            f'{lb}{lo:g}, {hi:g}], got {v!r}')
-    return float(v)
-
-
 def reported_from_dict(raw: Any, source: str = '<profile>') -> ReportedAccuracy:
     """Validate a ``reported_accuracy`` mapping; return :class:`ReportedAccuracy`."""
-    if not isinstance(raw, dict) or sorted(raw) != sorted(_KEYS):
-        raise ReportedError(f'{source}: key \'reported_accuracy\': expected a mapping with '
-                            f'exactly {list(_KEYS)}, got {raw!r}')
-    if raw['source'] not in _SOURCES:
-        raise ReportedError(f'{source}: key reported_accuracy.source: expected one of '
-                            f'{list(_SOURCES)}, got {raw["source"]!r}')
-    vals = {'source': raw['source'],
-            'median_m': _number(raw, 'median_m', 0.0, 1e4, source, open_lo=True),
-            'follow': _number(raw, 'follow', -3.0, 3.0, source),
-            'phi': _number(raw, 'phi', 0.0, 0.9999, source),
-            'sigma_log': _number(raw, 'sigma_log', 0.0, 5.0, source),
-            'resolution_m': _number(raw, 'resolution_m', 0.0, 1e3, source),
-            'scale_m': _number(raw, 'scale_m', 0.0, 1e4, source)}
+    vals = SECTION.read(raw, source)
     if vals['source'] == 'hdop' and vals['scale_m'] <= 0:
         raise ReportedError(f'{source}: key reported_accuracy.scale_m: a phone that states '
                             f'an HDOP needs the metres of 68 % radius per unit (> 0), '

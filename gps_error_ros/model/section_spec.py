@@ -1,0 +1,148 @@
+"""
+A profile section declared once: its fields, from which it is read, written and documented.
+
+A :class:`SectionSpec` lists a section's :class:`Field` s, as the nodes'
+``ParamSpec`` lists their parameters. :meth:`SectionSpec.read` checks a
+mapping against it (the keys, then each value) with errors that name the
+key, what was expected and what was given; :meth:`SectionSpec.write` is the
+section as plain data (each value rounded as declared); :meth:`SectionSpec.markdown`
+is its table in the docs. What one field cannot say (a rule between two
+fields) stays with the section's reader.
+"""
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+import math
+from typing import Any, Literal, Optional
+
+Kind = Literal['number', 'integer', 'choice', 'pair', 'sizes']
+
+
+def _shown(v: float) -> str:
+    """Return a bound as people write it: 0.5, 10000, 1e9."""
+    return f'{v:g}'.replace('e+0', 'e').replace('e+', 'e')
+
+
+@dataclass(frozen=True)
+class Field:
+    """
+    One key of a section: its kind, range and meaning.
+
+    ``number``: a finite number in ``lo .. hi`` (``lo_open``, ``hi_open``:
+    the bound excluded); ``integer``: an integer in ``[lo, hi]``; ``choice``:
+    one of ``choices``; ``pair``: two numbers (north, east) in ``[lo, hi]``;
+    ``sizes``: a non-empty, non-decreasing list of numbers in ``lo .. hi``.
+    ``absent``: what leaving an optional key out means (None: required).
+    ``digits``: the decimals it is written with (None: as it is).
+    """
+
+    name: str
+    doc: str
+    kind: Kind = 'number'
+    lo: float = 0.0
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple[str, ...] = ()
+    absent: Optional[str] = None
+    digits: Optional[int] = None
+
+    def expected(self) -> str:
+        """Return what the field takes, in words (the errors' and the docs' text)."""
+        left, right = '(' if self.lo_open else '[', ')' if self.hi_open else ']'
+        span = f'{left}{_shown(self.lo)}, {_shown(self.hi)}{right}'
+        return {'number': f'a number in {span}',
+                'integer': f'an integer in {span}',
+                'choice': f'one of {list(self.choices)}',
+                'pair': f'two numbers (north, east) in {span}',
+                'sizes': f'a non-empty, non-decreasing list of numbers in {span}'}[self.kind]
+
+    def _inside(self, v: Any) -> bool:
+        """Return True when ``v`` is a number within the field's range."""
+        return (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                and (v > self.lo if self.lo_open else v >= self.lo)
+                and (v < self.hi if self.hi_open else v <= self.hi))
+
+    def read(self, v: Any) -> Any:
+        """Return the value checked (floats as floats, lists as tuples), or None when invalid."""
+        if self.kind == 'choice':
+            return v if v in self.choices else None
+        if self.kind == 'integer':
+            ok = isinstance(v, int) and not isinstance(v, bool) and self._inside(v)
+            return int(v) if ok else None
+        if self.kind == 'number':
+            return float(v) if self._inside(v) else None
+        if not isinstance(v, list) or not v or not all(self._inside(x) for x in v):
+            return None
+        if self.kind == 'pair':
+            return tuple(float(x) for x in v) if len(v) == 2 else None
+        return tuple(float(x) for x in v) if all(b >= a for a, b in zip(v, v[1:])) else None
+
+    def write(self, v: Any) -> Any:
+        """Return a value as the section writes it."""
+        if self.kind in ('pair', 'sizes'):
+            return [round(float(x), self.digits) if self.digits is not None else float(x)
+                    for x in v]
+        if self.kind == 'integer':
+            return int(v)
+        if self.kind == 'choice':
+            return v
+        return round(float(v), self.digits) if self.digits is not None else float(v)
+
+
+@dataclass(frozen=True)
+class SectionSpec:
+    """A section of a profile: its key, its fields and the error it raises."""
+
+    key: str
+    fields: tuple[Field, ...]
+    error: type[ValueError]
+
+    @property
+    def required(self) -> list[str]:
+        """Return the keys the section must have."""
+        return [f.name for f in self.fields if f.absent is None]
+
+    @property
+    def optional(self) -> list[str]:
+        """Return the keys it may leave out."""
+        return [f.name for f in self.fields if f.absent is not None]
+
+    def read(self, raw: Any, source: str) -> dict[str, Any]:
+        """
+        Return the section's values by field name (None for an optional key left out).
+
+        Raises the section's error naming ``source``, the key and what was
+        expected.
+        """
+        if not isinstance(raw, Mapping) or not set(self.required) <= set(raw) or \
+                not set(raw) <= set(self.required + self.optional):
+            want = (f'exactly {self.required}' if not self.optional else
+                    f'{self.required} and optionally {self.optional}')
+            raise self.error(f'{source}: key {self.key!r}: expected a mapping with {want}, '
+                             f'got {raw!r}')
+        out: dict[str, Any] = {}
+        for f in self.fields:
+            if f.name not in raw:
+                out[f.name] = None
+                continue
+            value = f.read(raw[f.name])
+            if value is None:
+                left_out = '' if f.absent is None else f', or the key left out ({f.absent})'
+                raise self.error(f'{source}: key {self.key}.{f.name}: expected '
+                                 f'{f.expected()}{left_out}, got {raw[f.name]!r}')
+            out[f.name] = value
+        return out
+
+    def write(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """Return the section as plain data: every field with a value, in declared order."""
+        return {f.name: f.write(values[f.name]) for f in self.fields
+                if values.get(f.name) is not None}
+
+    def markdown(self) -> str:
+        """Return the section's table for the docs: key, what it takes, meaning."""
+        lines = ['| key | takes | meaning |', '|---|---|---|']
+        for f in self.fields:
+            takes = f.expected() + ('' if f.absent is None else f'; left out: {f.absent}')
+            lines.append(f'| `{f.name}` | {takes} | {f.doc} |')
+        return '\n'.join(lines) + '\n'
