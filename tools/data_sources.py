@@ -19,7 +19,9 @@ CREDITS = {
         'Tsui, Hong Kong (dense urban canyon)',
         'UrbanNav-HK-Data20190428 by the Intelligent Positioning and Navigation '
         'Laboratory, The Hong Kong Polytechnic University, via '
-        'weisongwen/GraphGNSSLib; data CC BY-NC-SA 4.0, code GPLv3'),
+        'weisongwen/GraphGNSSLib; data CC BY-NC-SA 4.0, code GPLv3. Not shipped in '
+        'this repository (its licence is non-commercial and share-alike), so these '
+        'figures cannot be measured again from a clone'),
     'gmt-static-phone-2016-08-22.csv': (
         'Android phone (GnssLogger 1.4) location output; static, open area, '
         'Mountain View',
