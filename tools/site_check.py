@@ -48,6 +48,15 @@ SEARCH_JS = """(async () => {
 })()"""
 
 
+def find_chromium(tool):
+    """Return the Chromium on PATH, or None after saying so on stderr as ``tool``."""
+    browser = shutil.which('chromium') or shutil.which('chromium-browser')
+    if browser is None:
+        print(f'{tool}: no chromium on PATH (Debian: apt-get install chromium)',
+              file=sys.stderr)
+    return browser
+
+
 class Chromium:
     """Headless Chromium driven over ``--remote-debugging-pipe`` (file descriptors 3 and 4)."""
 
@@ -120,10 +129,8 @@ def main(argv=None):
     ap.add_argument('--site', type=Path, default=Path('site'))
     ap.add_argument('--width', type=int, default=1280)
     args = ap.parse_args(argv)
-    browser = shutil.which('chromium') or shutil.which('chromium-browser')
+    browser = find_chromium('site_check')
     if browser is None:
-        print('site_check: no chromium on PATH (Debian: apt-get install chromium)',
-              file=sys.stderr)
         return 2
     pages = sorted(p for p in args.site.rglob('*.html') if p.name != '404.html')
     chrome = Chromium(browser, args.width)

@@ -11,9 +11,10 @@ markup or a table cut off show at once).
 
 import argparse
 from pathlib import Path
-import shutil
 import subprocess
 import sys
+
+from site_check import find_chromium
 
 PAGES = ('index', 'tutorials/python', 'tutorials/node', 'tutorials/sumo', 'tutorials/calibrate',
          'presets', 'faults', 'gross-failures', 'bags', 'robot-localization', 'glossary',
@@ -30,10 +31,8 @@ def main(argv=None):
     ap.add_argument('--out', type=Path, default=Path('site_screenshots'))
     ap.add_argument('--width', type=int, default=1280)
     args = ap.parse_args(argv)
-    browser = shutil.which('chromium') or shutil.which('chromium-browser')
+    browser = find_chromium('site_screenshots')
     if browser is None:
-        print('site_screenshots: no chromium on PATH (Debian: apt-get install chromium)',
-              file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     for page in PAGES:

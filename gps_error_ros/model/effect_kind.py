@@ -78,8 +78,6 @@ class Term:
         'autocovariance', 'step_factor', 'added_cov', 'mean_term')
     #: the factor of the innovations' variance, averaged over the effect's own law
     variance_factor: float = 1.0
-    #: the same, for the one-step covariance a stated radius follows (default: as above)
-    step_variance_factor: Optional[float] = None
 
     def innovations(self, state: EffectsState, z: FloatArray) -> FloatArray:
         """Return the innovations, (n, 2), from standard normal pairs ``z`` (one term may)."""
@@ -169,3 +167,31 @@ class EffectKind(Generic[P]):
     def default(self) -> Any:
         """Return what the legacy accessor of :class:`~.effect_schema.Effects` gives without it."""
         return None
+
+
+class OneNumber(EffectKind[float]):
+    """An effect whose parameters are one number, ``keys[0]``; ``none`` means it is absent."""
+
+    lo: ClassVar[float]
+    hi: ClassVar[float]
+    lo_open: ClassVar[bool] = True
+    #: the decimals it is written with
+    digits: ClassVar[int]
+    #: the value that means no effect (what the accessors give without it)
+    none: ClassVar[float]
+
+    def parse(self, section: Section) -> float:
+        """Return the number, in its range."""
+        return section.number(self.keys[0], self.lo, self.hi, lo_open=self.lo_open)
+
+    def to_dict(self, params: float) -> dict[str, Any]:
+        """Return the section."""
+        return {self.keys[0]: round(float(params), self.digits)}
+
+    def absent(self, params: float) -> bool:
+        """Return True for the value that means no effect."""
+        return params == self.none
+
+    def default(self) -> float:
+        """Return the value that means no effect."""
+        return self.none

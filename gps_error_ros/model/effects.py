@@ -119,18 +119,15 @@ class ExtendedModel(Process[EffectsState]):
         self._outputs = _overriding(self.terms, 'output')
         self._currents = _overriding(self.terms, 'current')
         self._initials = _overriding(self.terms, 'initial')
-        self._resumes = [t for t in self.terms if t in _overriding(self.terms, 'resume') or
-                         t in self._initials]
+        self._resumes = [t for t in self.terms if t in self._initials
+                         or type(t).resume is not Term.resume]
         self._factors = _overriding(self.terms, 'step_factor')
         self._added = _overriding(self.terms, 'added_cov')
         self._means = _overriding(self.terms, 'mean_term')
         self._acvs = _overriding(self.terms, 'autocovariance')
         self.variance_factor = 1.0
-        self.step_variance_factor = 1.0
         for t in self.terms:
             self.variance_factor *= t.variance_factor
-            self.step_variance_factor *= t.variance_factor if t.step_variance_factor is None \
-                else t.step_variance_factor
         self._init_scale = math.sqrt(self.variance_factor)
 
     @property
@@ -277,7 +274,7 @@ class ExtendedModel(Process[EffectsState]):
         innovation covariance facing north.
         """
         one = self.empty_state(1)
-        cov = self._innovation_cov(one)[0] * self.step_variance_factor
+        cov = self._innovation_cov(one)[0] * self.variance_factor
         for t in self._added:
             cov = cov + t.added_cov(one, True)[0]
         return cov

@@ -1,12 +1,11 @@
 """``heavy_tails``: the innovations are Student-t with ``dof`` degrees of freedom."""
 
 import math
-from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.effect_kind import EffectKind, Section, Term
+from gps_error_ros.model.effect_kind import OneNumber, Term
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys
 
 #: The most degrees of freedom a profile may carry (beyond, all but Gaussian).
@@ -29,7 +28,7 @@ class HeavyTailTerm(Term):
         return w
 
 
-class HeavyTails(EffectKind[float]):
+class HeavyTails(OneNumber):
     """Bivariate Student-t innovations, scaled to the AR part's covariance."""
 
     name = 'heavy_tails'
@@ -37,26 +36,15 @@ class HeavyTails(EffectKind[float]):
     summary = 'Student-t innovations with `dof` degrees of freedom (one mixing draw per step)'
     order = 2
     stage = 2
-
-    def parse(self, section: Section) -> float:
-        """Return the degrees of freedom, in (2, MAX_DOF]."""
-        return section.number('dof', 2.0, MAX_DOF)
-
-    def to_dict(self, params: float) -> dict[str, Any]:
-        """Return the section."""
-        return {'dof': round(float(params), 4)}
-
-    def term(self, params: float, phi: FloatArray, order: int) -> HeavyTailTerm:
-        """Return the step's mixing."""
-        return HeavyTailTerm(float(params))
+    lo, hi, digits, none = 2.0, MAX_DOF, 4, math.inf
 
     def absent(self, params: float) -> bool:
         """Return True for infinite degrees of freedom (Gaussian)."""
         return not math.isfinite(params)
 
-    def default(self) -> float:
-        """Return infinity: Gaussian."""
-        return math.inf
+    def term(self, params: float, phi: FloatArray, order: int) -> HeavyTailTerm:
+        """Return the step's mixing."""
+        return HeavyTailTerm(float(params))
 
 
 KIND = HeavyTails()

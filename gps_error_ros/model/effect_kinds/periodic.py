@@ -20,7 +20,6 @@ class CycleTerm(Term):
         self.offsets = np.asarray(periodic.offsets, dtype=float)
         self.mean = periodic_mean(phi, self.offsets)
         self.variance_factor = periodic.variance_factor
-        self.step_variance_factor = periodic.variance_factor
 
     def shape(self, state: EffectsState, keys: Keys, index: int, w: FloatArray) -> FloatArray:
         """Return ``w`` scaled and shifted by step ``index``'s phase."""

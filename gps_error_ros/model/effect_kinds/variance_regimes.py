@@ -45,7 +45,6 @@ class RegimeTerm(Term):
         self.cum_pi = np.cumsum(self.pi)
         self.cum_pi[-1] = 1.0
         self.variance_factor = float(self.pi @ np.square(regimes.scales))
-        self.step_variance_factor = float(self.pi @ self.scales ** 2)
 
     def shape(self, state: EffectsState, keys: Keys, index: int, w: FloatArray) -> FloatArray:
         """Step each agent's regime; return ``w`` scaled by the new regime's scale."""
