@@ -29,11 +29,13 @@ setup: $(STAMP)
 
 $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
 		requirements-sumo.txt requirements-zones.txt requirements-docs.txt \
-		requirements-fast.txt requirements-smoother.txt setup.py setup.cfg package.xml
+		requirements-fast.txt requirements-smoother.txt requirements-parquet.txt \
+		requirements-dask.txt setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
 		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt \
-		-r requirements-docs.txt -r requirements-fast.txt -r requirements-smoother.txt
+		-r requirements-docs.txt -r requirements-fast.txt -r requirements-smoother.txt \
+		-r requirements-parquet.txt -r requirements-dask.txt
 	$(PIP) --no-deps -e . --config-settings editable_mode=compat
 	touch $@
 

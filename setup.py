@@ -32,6 +32,8 @@ setup(
     extras_require={'docs': ['mkdocs', 'mkdocs-material', 'mkdocstrings-python'],
                     'fast': ['numba'],
                     'import': ['pynmea2', 'gpxpy'],
+                    'parquet': ['pyarrow'],
+                    'dask': ['pyarrow', 'dask', 'distributed'],
                     'smoother': ['gtsam'],
                     'sumo': ['eclipse-sumo', 'traci', 'sumolib'],
                     'zones': ['shapely>=2']},

@@ -21,6 +21,7 @@ from typing import Any, TYPE_CHECKING
 
 from gps_error_ros.cli.inputs import clean_recordings, load_input, load_inputs
 from gps_error_ros.cli.parser import build_parser
+from gps_error_ros.cli.tables import cmd_split, is_table_input, simulate_table
 from gps_error_ros.fit.calibration import calibrate, CalibrationError, little_data_note
 from gps_error_ros.fit.gross_failures import failures_doc, find_gross_failures
 from gps_error_ros.model.profiles import load_profile_file, ProfileError, write_profile
@@ -47,13 +48,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from gps_error_ros.sim import simulate as batch
     from gps_error_ros.model.profiles import load_profile
 
-    if args.trajectories and (args.agents is not None or args.duration is not None):
-        raise ValueError('--trajectories and --agents/--duration are two modes: '
-                         'give one of them')
-    if not args.trajectories and (args.agents is None or args.duration is None):
-        raise ValueError('expected --trajectories INPUT, or --agents N and '
-                         '--duration S')
-    _check_output_dir(args.out, '--out')
+    _check_simulate_modes(args)
     profile = load_profile(args.profile)
     zones = None
     # covariances about the truth; reported: the phone's radius, the mean added after
@@ -79,7 +74,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         args.seed = secrets.randbits(63)
         print(f'no seed given: using seed {args.seed}')
     faults = _faults(args)
-    if args.trajectories:
+    if args.trajectories and is_table_input(Path(args.trajectories)):
+        res = simulate_table(args, model, profile, bias, faults, zones)
+    elif args.trajectories:
         src = Path(args.trajectories)
         if Path(args.out).suffix.lower() == '.nmea':
             if src.suffix.lower() != '.csv':
@@ -97,12 +94,24 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             res = batch.simulate_fcd(src, args.out, model, profile.rate_hz,
                                      args.seed, args.net, args.coordinates, args.digits,
                                      zones, args.covariance_mode,
-                                     profile.reported_accuracy, profile.velocity, bias, faults)
+                                     profile.reported_accuracy, profile.velocity, bias, faults,
+                                     args.errors)
     else:
         res = batch.simulate_npz(args.out, model, profile.rate_hz, args.seed,
                                  args.agents, args.duration, args.start)
     print(', '.join(f'{v} {k}' for k, v in res.items()) + f'; wrote {args.out}')
     return 0
+
+
+def _check_simulate_modes(args: argparse.Namespace) -> None:
+    """Refuse ``simulate``'s options that name no mode, or two, or an output nowhere."""
+    if args.trajectories and (args.agents is not None or args.duration is not None):
+        raise ValueError('--trajectories and --agents/--duration are two modes: '
+                         'give one of them')
+    if not args.trajectories and (args.agents is None or args.duration is None):
+        raise ValueError('expected --trajectories INPUT, or --agents N and '
+                         '--duration S')
+    _check_output_dir(args.out, '--out')
 
 
 def _faults(args: argparse.Namespace) -> list[Any]:
@@ -358,7 +367,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return {'calibrate': cmd_calibrate, 'validate': cmd_validate,
                 'simulate': cmd_simulate, 'diagnose': cmd_diagnose,
                 'compare': cmd_compare, 'import': cmd_import,
-                'synth': cmd_synth, 'scenario': cmd_scenario}[args.command](args)
+                'synth': cmd_synth, 'scenario': cmd_scenario,
+                'split': cmd_split}[args.command](args)
     except ERRORS as exc:
         print(f'gps_error {args.command}: {exc}', file=sys.stderr)
         return 2

@@ -184,8 +184,8 @@ def _add_simulate(sub: 'Subparsers') -> None:
         'simulate', help='add errors to trajectories, or write raw error series',
         description='Smartphone GPS errors for simulators that do not run ROS, '
                     'with the error node\'s per-agent streams. Either '
-                    '--trajectories INPUT (SUMO FCD output, or a CSV with t, '
-                    'truth_lat, truth_lon and optional agent) --out OUTPUT in '
+                    '--trajectories INPUT (SUMO FCD output as XML or Parquet, or a CSV '
+                    'with t, truth_lat, truth_lon and optional agent) --out OUTPUT in '
                     'the same format with noisy positions (a CSV also keeps the '
                     'true ones; a CSV of one agent can go to --out FIXES.nmea: NMEA '
                     '0183 GGA, GSA, GST and RMC, as a receiver streams them), or '
@@ -195,16 +195,15 @@ def _add_simulate(sub: 'Subparsers') -> None:
                    help='seed of the error streams (as the node\'s; -1: draw one '
                         'and print it)')
     s.add_argument('--out', required=True, help='output file')
-    s.add_argument('--trajectories', help='SUMO FCD .xml or truth CSV')
+    s.add_argument('--trajectories', help='SUMO FCD .xml or .parquet, a directory of Parquet '
+                                          'parts (gps_error split), or a truth CSV')
     s.add_argument('--net', help='SUMO .net.xml for FCD x/y written without '
                                  '--fcd-output.geo')
     s.add_argument('--coordinates', choices=('lonlat', 'xy'), default=None,
                    help='FCD positions are lon/lat or x/y metres; default: what '
                         'SUMO\'s options comment at the top of the file says '
-                        '(required for a file without it)')
-    s.add_argument('--digits', type=number(int, 0, 15), default=None,
-                   help='FCD output: digits after the decimal point of the noisy '
-                        'positions (default 8 for lon/lat, about 1 mm, 3 for metres)')
+                        '(required for a file without it; Parquet has none: x/y '
+                        'metres with --net, else required)')
     s.add_argument('--covariance-mode', choices=('stationary', 'conditional', 'reported'),
                    default='stationary',
                    help='the covariance behind each position\'s accuracy, accuracy_major, '
@@ -226,6 +225,7 @@ def _add_simulate(sub: 'Subparsers') -> None:
                         'trajectories\' t): outages, frozen fixes, offsets, degraded '
                         'stretches and gross failures on chosen agents at chosen times; '
                         'every trajectory mode (FCD: with lon/lat or a georeferenced net)')
+    _add_simulate_fcd(s)
     s.add_argument('--utc-start', type=_utc, default=None,
                    help='NMEA output: the UTC time of t = 0 in the trajectories, '
                         'YYYY-MM-DDTHH:MM:SS (default 1970-01-01T00:00:00: t is Unix '
@@ -236,6 +236,23 @@ def _add_simulate(sub: 'Subparsers') -> None:
                    help='raw mode: seconds to simulate')
     s.add_argument('--start', type=number(float, 0.0), default=0.0,
                    help='raw mode: time of the first step, s (default 0)')
+
+
+def _add_simulate_fcd(s: argparse.ArgumentParser) -> None:
+    """Add ``simulate``'s options for FCD output and for Parquet parts on Dask."""
+    s.add_argument('--digits', type=number(int, 0, 15), default=None,
+                   help='FCD XML output: digits after the decimal point of the noisy '
+                        'positions (default 8 for lon/lat, about 1 mm, 3 for metres; '
+                        'Parquet keeps every digit)')
+    s.add_argument('--errors', action='store_true',
+                   help='FCD output (XML or Parquet): also write each position\'s error, '
+                        'error_north and error_east (m, every digit)')
+    s.add_argument('--workers', type=number(int, 1), default=None,
+                   help='Parquet parts (--trajectories DIR): a local Dask cluster of N '
+                        'processes (default: one per core; needs the extra "dask")')
+    s.add_argument('--scheduler', default=None, metavar='ADDRESS',
+                   help='Parquet parts: run them on the Dask cluster whose scheduler is at '
+                        'ADDRESS (tcp://host:8786) instead of a local one')
 
 
 def _add_diagnose(sub: 'Subparsers') -> None:
@@ -438,4 +455,6 @@ def _build() -> tuple[argparse.ArgumentParser, 'Subparsers']:
     for add in (_add_calibrate, _add_validate, _add_simulate, _add_diagnose,
                 _add_compare, _add_import, _add_synth, _add_scenario):
         add(sub)
+    from gps_error_ros.cli.tables import add_split
+    add_split(sub, number)
     return p, sub

@@ -58,6 +58,8 @@ def radius68(cov: Numbers, p: float = 0.68) -> FloatArray:
     """
     cov = np.asarray(cov, dtype=float)
     flat = cov.reshape(-1, 4)
+    if flat.shape[0] > 1 and (flat == flat[0]).all():      # one for all: no sort
+        return np.full(cov.shape[:-2], radius68(flat[:1].reshape(2, 2), p))
     uniq, inverse = np.unique(flat, axis=0, return_inverse=True)
     keys = [(row.tobytes(), p) for row in uniq]
     radii = np.array([_KNOWN.get(k, np.nan) for k in keys])

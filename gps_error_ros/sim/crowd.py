@@ -59,6 +59,9 @@ class CrowdErrors:
         self.keys = np.zeros(0, dtype=np.uint64)
         self.state = model.empty_state(0)
         self.last_seen = np.zeros(0, dtype=np.int64)
+        #: changes whenever agents are dropped (their rows move): see :meth:`coded_rows`
+        self.generation = 0
+        self._codes: tuple[Any, int, IntArray] | None = None
         # conditional_cov: each agent's covariance of its current error given
         # the state a step before (covariance_mode conditional)
         self.conditional_cov = conditional_cov
@@ -84,17 +87,44 @@ class CrowdErrors:
                 if cov is not None:
                     self.cov_now = cov
 
-    def errors(self, names: Sequence[str]) -> FloatArray:
-        """Return the named agents' current north/east errors, in metres."""
-        rows = self._rows(names)
+    def rows(self, names: Sequence[str]) -> IntArray:
+        """Return the state rows of ``names`` (valid until the next errors call)."""
+        return self._rows(names)
+
+    def coded_rows(self, dictionary: Sequence[str], codes: IntArray) -> IntArray:
+        """
+        Return the state rows of the agents ``dictionary[codes]``.
+
+        For a table's column of agent names, dictionary-encoded: each name
+        of ``dictionary`` is looked up once, not once per row. The rows
+        found are kept for the next call with the same ``dictionary``
+        object, as long as no agent was dropped.
+        """
+        cache = self._codes
+        if cache is None or cache[0] is not dictionary or cache[1] != self.generation:
+            cache = (dictionary, self.generation, np.full(len(dictionary), -1, dtype=np.int64))
+            self._codes = cache
+        lut = cache[2]
+        rows = lut[codes]
+        if (rows < 0).any():
+            todo = np.unique(codes[rows < 0])
+            lut[todo] = self._rows([dictionary[c] for c in todo.tolist()])
+            rows = lut[codes]
+        return rows
+
+    def errors(self, names: Sequence[str], rows: IntArray | None = None) -> FloatArray:
+        """Return the named agents' current north/east errors, in metres (``rows``: theirs)."""
+        rows = self._rows(names) if rows is None else rows
         self.last_seen[rows] = self.step
-        out = self.model.errors(self.state.take(rows))
+        every = rows.size == self.keys.size and np.array_equal(rows, np.arange(rows.size))
+        out = self.model.errors(self.state if every else self.state.take(rows))
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out
 
     def zoned_errors(self, names: Sequence[str], lat: Numbers, lon: Numbers,
-                     heading: Numbers | None = None) -> tuple[FloatArray, FloatArray]:
+                     heading: Numbers | None = None,
+                     rows: IntArray | None = None) -> tuple[FloatArray, FloatArray]:
         """
         Return the named agents' errors and covariances in the zones of (lat, lon).
 
@@ -102,9 +132,10 @@ class CrowdErrors:
         (:mod:`gps_error_ros.model.zoned`); the covariance is the zone's
         (stationary, or conditional with ``conditional_cov``). Without a map
         (a street-frame profile) every agent is in the default zone.
-        ``heading``: the direction of travel (street_frame).
+        ``heading``: the direction of travel (street_frame); ``rows``: the
+        agents' rows (:meth:`coded_rows`), else looked up by name.
         """
-        rows = self._rows(names)
+        rows = self._rows(names) if rows is None else rows
         self.last_seen[rows] = self.step
         zones = None if self.zone_map is None else self.zone_map.lookup(lat, lon)
         if self.zoned is None:
@@ -114,13 +145,13 @@ class CrowdErrors:
             self._forget()
         return out
 
-    def covariance(self, names: Sequence[str]) -> FloatArray:
+    def covariance(self, names: Sequence[str], rows: IntArray | None = None) -> FloatArray:
         """Return the named agents' predictive covariances now (conditional_cov), (n, 2, 2)."""
-        return self.cov_now[self._rows(names)]
+        return self.cov_now[self._rows(names) if rows is None else rows]
 
-    def available(self, names: Sequence[str]) -> BoolArray:
+    def available(self, names: Sequence[str], rows: IntArray | None = None) -> BoolArray:
         """Return which named agents have a fix now (profile availability; else all)."""
-        return self.model.fix_mask(self.state.take(self._rows(names)))
+        return self.model.fix_mask(self.state.take(self._rows(names) if rows is None else rows))
 
     def _rows(self, names: Sequence[str]) -> IntArray:
         """Return the state rows of ``names``, adding the agents not yet known."""
@@ -151,6 +182,7 @@ class CrowdErrors:
         keep = self.step - self.last_seen <= self.forget_after
         if keep.all():
             return
+        self.generation += 1
         self.names = [n for n, k in zip(self.names, keep) if k]
         self.index = {n: i for i, n in enumerate(self.names)}
         self.keys, self.state = self.keys[keep], self.state.take(keep)

@@ -28,31 +28,28 @@ import math
 import os
 from pathlib import Path
 import re
-from typing import Any
 import zipfile
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.accuracy import radius68
 from gps_error_ros.model.atomic import atomic_output, PathArg
-from gps_error_ros.model.motion_lag import LagBuffer
 from gps_error_ros.model.protocol import ErrorModel, S
-from gps_error_ros.model.reported import needs_predictive, ReportedAccuracy
-from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
+from gps_error_ros.model.reported import ReportedAccuracy
+from gps_error_ros.model.state import Numbers
 from gps_error_ros.model.velocity import Velocity
-from gps_error_ros.model.zoned import TravelDirections, ZoneSetup
-from gps_error_ros.sim.crowd import CrowdErrors
-from gps_error_ros.sim.faults import Fault, FaultOverlay, FixRows
+from gps_error_ros.model.zoned import ZoneSetup
+from gps_error_ros.sim.faults import Fault
+from gps_error_ros.sim.fcd_step import (FcdColumns, fcd_counts, FcdOptions, FcdSteps,
+                                        position_mode)
 from gps_error_ros.sim.trajectory_fixes import (accuracy_columns, agent_names, model_step,
-                                                per_fix, stated_accuracy, trajectory_fixes)
-from gps_error_ros.sim.velocity_sim import StreamedVelocity
+                                                trajectory_fixes)
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.nmea_write import epoch_sentences
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
 from gps_error_ros.traces.trajectories import (
-    add_errors_lonlat, check_fcd_root, fcd_coordinates, fcd_net_file, FcdWriter, iter_fcd,
-    NetProjection, read_truth_csv, TrajectoryError)
+    check_fcd_root, fcd_coordinates, fcd_net_file, FcdWriter, iter_fcd, NetProjection,
+    read_truth_csv, TrajectoryError)
 
 
 def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
@@ -61,7 +58,7 @@ def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: floa
                  covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
                  velocity: Velocity | None = None,
                  reported_bias: Numbers | None = None,
-                 faults: Sequence[Fault] = ()) -> dict[str, int]:
+                 faults: Sequence[Fault] = (), errors: bool = False) -> dict[str, int]:
     """
     Add errors to every agent of a SUMO FCD file; return counts (see module doc).
 
@@ -76,10 +73,14 @@ def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: floa
     the phone's ``reported_speed`` (m/s) and ``reported_bearing`` (deg from
     north; none at a standstill), as the CSV mode's ``speed`` and
     ``bearing`` (SUMO's own ``speed`` and ``angle`` stay the truth's).
+    With ``errors`` a position also gets its ``error_north`` and
+    ``error_east`` (m, to the last bit). The run starts at the first
+    timestep with an agent in it.
     """
     with atomic_output(dst) as tmp:
         return _simulate_fcd(src, tmp, model, rate_hz, seed, net, coordinates, digits,
-                             zones, covariance_mode, reported, velocity, reported_bias, faults)
+                             zones, covariance_mode, reported, velocity, reported_bias, faults,
+                             errors)
 
 
 def simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
@@ -192,65 +193,7 @@ def _fcd_mode(src: PathArg, net: PathArg | None,
         raise TrajectoryError(
             f'{src}: no SUMO options comment at the top, so whether x/y are '
             f'lon/lat or metres is unknown: pass --coordinates lonlat or xy')
-    if mode == 'lonlat':
-        _check_geo_output(src, net)
-        return 'lonlat', None
-    if net is None:
-        raise TrajectoryError(
-            f'{src}: positions are x/y metres of the network (SUMO ran without '
-            f'--fcd-output.geo): pass --net NET.xml to georeference them')
-    proj = NetProjection(net)
-    return ('net' if proj.geo else 'plane'), proj
-
-
-def _check_geo_output(src: PathArg, net: PathArg | None) -> None:
-    """
-    Refuse lon/lat that SUMO could not write: ``--fcd-output.geo`` from a net with no projection.
-
-    SUMO then warns that geo output will not work and writes x/y metres
-    anyway. The net given (``--net``) or named in the options comment tells.
-    """
-    net = net or fcd_net_file(src)
-    if net is None or NetProjection(net).geo:
-        return
-    raise TrajectoryError(
-        f'{src}: the options comment says --fcd-output.geo, but the network {net} has '
-        f'no projection (its <location> projParameter is "!"), so SUMO wrote x/y metres, '
-        f'not lon/lat (it warns "fcd-output.geo will not work"): give the network a '
-        f'projection (netgenerate/netconvert --proj "+proj=utm ..." or --proj.utm), or '
-        f'read the positions as a flat plane with --coordinates xy --net {net}')
-
-
-def _lonlat(mode: str, proj: NetProjection | None, x: Numbers,
-            y: Numbers) -> tuple[FloatArray, FloatArray]:
-    """Return FCD positions as (lon, lat) arrays (mode 'lonlat' or 'net')."""
-    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-    if mode == 'lonlat':
-        return x, y
-    lon, lat = _net(proj).to_lonlat(x, y)
-    return np.asarray(lon), np.asarray(lat)
-
-
-def _net(proj: NetProjection | None) -> NetProjection:
-    """Return the network's projection of modes 'net' and 'plane' (which always have one)."""
-    if proj is None:
-        raise TrajectoryError('FCD x/y metres need the network\'s projection (--net NET.xml)')
-    return proj
-
-
-def _moved(mode: str, proj: NetProjection | None, src: PathArg, t: float, x: Numbers,
-           y: Numbers, err: FloatArray) -> tuple[Any, Any, str]:
-    """Return the positions moved by ``err`` and their number format."""
-    if mode == 'lonlat':
-        if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
-            raise TrajectoryError(f'{src}: time {t}: x/y outside lon/lat ranges, '
-                                  f'but the file says (or you said) lon/lat')
-        return (*add_errors_lonlat(x, y, err), '{:.8f}')
-    if mode == 'net':
-        net = _net(proj)
-        lon, lat = net.to_lonlat(x, y)
-        return (*net.to_xy(*add_errors_lonlat(lon, lat, err)), '{:.3f}')
-    return x + err[:, 1], y + err[:, 0], '{:.3f}'
+    return position_mode(src, mode, net or (fcd_net_file(src) if mode == 'lonlat' else None))
 
 
 def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
@@ -259,128 +202,49 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: flo
                   covariance_mode: str = 'stationary', reported: ReportedAccuracy | None = None,
                   velocity: Velocity | None = None,
                   reported_bias: Numbers | None = None,
-                  faults: Sequence[Fault] = ()) -> dict[str, int]:
-    """
-    Add errors to every agent of a SUMO FCD file; return counts.
-
-    Long because it is one streaming pass over the file's timesteps, each
-    step's columns made in the order they depend on each other.
-    """
+                  faults: Sequence[Fault] = (), errors: bool = False) -> dict[str, int]:
+    """Add errors to every agent of a SUMO FCD file; return counts (one streamed pass)."""
     mode, proj = _fcd_mode(src, net, coordinates)
-    conditional = needs_predictive(covariance_mode, reported)
-    stated = stated_accuracy(covariance_mode, model, reported, seed, reported_bias)
-    zones = per_fix(model, zones, conditional)
-    stationary = np.asarray(model.stationary_cov)
-    _check_georeferenced(src, zones, mode)
+    steps = FcdSteps(src, model, FcdOptions(mode, proj, rate_hz, seed, covariance_mode, zones,
+                                            reported, velocity, reported_bias, faults))
     progress = Progress(os.path.getsize(src), f'simulating {Path(src).name}', min_total=20 << 20)
     writer = FcdWriter(dst)
-    crowd: CrowdErrors | None = None
-    rows, steps, no_fix = 0, 0, 0
+    rows, timesteps, no_fix = 0, 0, 0
     seen: set[str] = set()
-    lag = LagBuffer(model.lag_s)
-    travel = TravelDirections(model.lag_s)
-    vel = None if velocity is None else StreamedVelocity(velocity, seed, mode == 'plane')
-    overlay = _fcd_overlay(src, faults, mode, seed)
     try:
         for t, elem, agents in iter_fcd(src, progress):
-            m = model_step(t, rate_hz)
-            if crowd is None:
-                crowd = CrowdErrors(model, seed, m, conditional_cov=conditional, zoned=zones)
-            crowd.advance_to(m)
-            steps += 1
-            if not agents:
-                writer.timestep(elem, [])
-                continue
+            timesteps += 1
             names = [a[0] for a in agents]
             seen.update(names)
-            x, y = lag.lagged(names, t, [a[1] for a in agents], [a[2] for a in agents])
-            if zones is None:
-                err = crowd.errors(names)
-                cov = crowd.covariance(names) if conditional else \
-                    np.repeat(stationary[None], len(names), axis=0)
-            else:
-                lon, lat = _lonlat(mode, proj, x, y)
-                raw_lon, raw_lat = _lonlat(mode, proj, [a[1] for a in agents],
-                                           [a[2] for a in agents])
-                heading = travel.directions(names, t, raw_lat, raw_lon)
-                err, cov = crowd.zoned_errors(names, lat, lon, heading)
-            nx, ny, fmt = _moved(mode, proj, src, t, x, y, err)
-            fmt = fmt if digits is None else f'{{:.{digits}f}}'
-            fix = crowd.available(names)        # in an outage: no position written
-            radius, cov = stated.streamed(names, m, cov) if stated else (None, cov)
-            speeds = {} if vel is None else _fcd_velocity(vel, mode, proj, names, t, m, agents)
-            if overlay is not None:
-                nx, ny, fix, cov, radius = _fcd_faults(overlay, mode, proj, t, names, x, y,
-                                                       err, fix, cov, radius, speeds, (nx, ny))
-            acc = {k: (v, '{:.3f}') for k, v in accuracy_columns(cov, fix, radius).items()}
-            acc.update(speeds)
-            cols = {k: formatted(*vf) for k, vf in {'x': (nx, fmt), 'y': (ny, fmt), **acc}.items()}
-            writer.timestep(elem, [
-                (a[3], {k: v for k, c in cols.items() if (v := c[i]) is not None})
-                for i, a in enumerate(agents) if fix[i]])
-            rows += int(fix.sum())
-            no_fix += int((~fix).sum())
+            out = steps.timestep(t, names, [a[1] for a in agents], [a[2] for a in agents])
+            writer.timestep(elem, [(a[3], over) for a, over, fix in
+                                   zip(agents, _attributes(out, digits, errors), out.fix)
+                                   if fix])
+            rows += int(out.fix.sum())
+            no_fix += int((~out.fix).sum())
     finally:
         writer.close()
         progress.close()
-    return _fcd_counts(src, model, steps, rows, len(seen), no_fix, overlay is not None)
+    return fcd_counts(src, model, timesteps, rows, len(seen), no_fix, bool(faults))
 
 
-def _fcd_overlay(src: PathArg, faults: Sequence[Fault], mode: str,
-                 seed: int) -> FaultOverlay | None:
-    """Return the faults' overlay (None without faults); refuse them on a flat plane."""
-    if not faults:
-        return None
-    if mode == 'plane':
-        raise TrajectoryError(f'{src}: faults need longitude and latitude, and the network '
-                              f'has no geo-reference (no projection in its <location>)')
-    return FaultOverlay(faults, seed)
-
-
-def _fcd_faults(overlay: FaultOverlay, mode: str, proj: NetProjection | None, t: float,
-                names: Sequence[str], x: Numbers, y: Numbers, err: FloatArray, fix: BoolArray,
-                cov: FloatArray, radius: FloatArray | None,
-                speeds: dict[str, tuple[FloatArray, str]], moved: tuple[Any, Any]
-                ) -> tuple[Any, Any, BoolArray, FloatArray, FloatArray | None]:
-    """
-    Lay the faults over one FCD timestep; return its x, y, fix, covariance and radius.
-
-    ``x``, ``y``: the (lagged) truth the errors were added to; ``moved``
-    the positions with the errors; ``speeds`` (the reported velocity's
-    columns) are changed in place for a frozen receiver.
-    """
-    lon, lat = _lonlat(mode, proj, x, y)
-    mlon, mlat = add_errors_lonlat(lon, lat, err)
-    rows = FixRows(int(round(t * 1e9)), overlay.ids_of(names),
-                   streams.agent_keys(overlay.seed, names), lat, lon, mlat, mlon,
-                   np.zeros(len(names)), err.copy(), fix.copy(), cov.copy(),
-                   {k: v[0] for k, v in speeds.items()})
-    touched = overlay.apply(rows)
-    if not touched.any():
-        return (*moved, fix, cov, radius)
-    if radius is not None:
-        radius = np.array(radius, dtype=float)
-        radius[touched] = radius68(rows.cov[touched])
-    nx, ny = (rows.lon, rows.lat) if mode == 'lonlat' else _net(proj).to_xy(rows.lon, rows.lat)
-    return nx, ny, rows.fix, rows.cov, radius
-
-
-def _fcd_counts(src: PathArg, model: ErrorModel[S], steps: int, rows: int, agents: int,
-                no_fix: int, faults: bool = False) -> dict[str, int]:
-    """Return what simulate_fcd did; refuse a file in which nobody moved."""
-    if not agents:
-        raise TrajectoryError(f'{src}: {steps} timesteps and no person or vehicle in any: '
-                              f'expected positions to add errors to (did SUMO fail or end '
-                              f'before anyone departed?)')
-    out = {'timesteps': steps, 'positions': rows, 'agents': agents}
-    if model.has_outages or faults:
-        out['positions_without_fix'] = no_fix
-    return out
+def _attributes(out: FcdColumns, digits: int | None, errors: bool) -> list[dict[str, str]]:
+    """Return each agent's attributes to write: x, y, the accuracy, velocity and error ones."""
+    fmt = f'{{:.{digits}f}}' if digits is not None else '{:.3f}' if out.metres else '{:.8f}'
+    cols = {'x': formatted(out.x, fmt), 'y': formatted(out.y, fmt)}
+    cols.update({k: formatted(v, '{:.3f}') for k, v in out.accuracy.items()})
+    for k, v in out.velocity.items():
+        cols[k] = formatted(v, '{:.2f}' if k == 'reported_bearing' else '{:.3f}')
+    if errors:
+        cols['error_north'] = formatted(out.error[:, 0], '{:.17g}')
+        cols['error_east'] = formatted(out.error[:, 1], '{:.17g}')
+    return [{k: text for k, c in cols.items() if (text := c[i]) is not None}
+            for i in range(out.fix.size)]
 
 
 def formatted(values: Numbers, fmt: str) -> Sequence[str | None]:
     """
-    Return ``values`` as strings in ``fmt`` ('{:.Nf}'), None where not finite.
+    Return ``values`` as strings in ``fmt`` ('{:.Nf}' or '{:.Ng}'), None where not finite.
 
     One %-format over the whole array (done in C) instead of a call per
     value: the same digits, at a fraction of the cost for a crowd's
@@ -388,36 +252,14 @@ def formatted(values: Numbers, fmt: str) -> Sequence[str | None]:
     """
     values = np.asarray(values, dtype=float)
     ok = np.isfinite(values)
-    digits = re.fullmatch(r'\{:\.(\d+)f\}', fmt)
-    if digits is None:
+    spec = re.fullmatch(r'\{:\.(\d+)([fg])\}', fmt)
+    if spec is None:
         return [fmt.format(v) if o else None for v, o in zip(values.tolist(), ok.tolist())]
-    text = ('\x1f'.join([f'%.{digits.group(1)}f'] * values.size)
+    text = ('\x1f'.join([f'%.{spec.group(1)}{spec.group(2)}'] * values.size)
             % tuple(values.tolist())).split('\x1f') if values.size else []
     if ok.all():
         return text
     return [v if o else None for v, o in zip(text, ok.tolist())]
-
-
-def _fcd_velocity(vel: StreamedVelocity, mode: str, proj: NetProjection | None,
-                  names: Sequence[str], t: float, step: int,
-                  agents: Sequence[Sequence[Any]]) -> dict[str, tuple[FloatArray, str]]:
-    """Return the reported_speed and reported_bearing attributes (values, format)."""
-    x, y = [a[1] for a in agents], [a[2] for a in agents]
-    if mode == 'plane':
-        speed, course = vel.report(names, t, step, np.asarray(y, float), np.asarray(x, float))
-    else:
-        lon, lat = _lonlat(mode, proj, x, y)
-        speed, course = vel.report(names, t, step, lat, lon)
-    return {'reported_speed': (speed, '{:.3f}'), 'reported_bearing': (course, '{:.2f}')}
-
-
-def _check_georeferenced(src: PathArg, zones: ZoneSetup | None, mode: str) -> None:
-    """Refuse zones (or a street frame) on FCD metres without a geo-reference."""
-    if zones is not None and mode == 'plane':
-        raise TrajectoryError(f'{src}: the network has no geo-reference (no projection in '
-                              f'its <location>), so positions cannot be placed in the '
-                              f'zone map\'s longitude/latitude polygons or give a '
-                              f'direction of travel for street_frame')
 
 
 def _simulate_csv(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,

@@ -148,11 +148,17 @@ class Stated:
         self.ref_cov = reference_cov(model) if reported.follow != 0.0 else None
         self.tracker: StreamTracker | None = None
 
-    def streamed(self, names: Sequence[str], step: int,
-                 cov: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Return :meth:`radius` of agents streamed step by step (the first step starts them)."""
+    def streamed(self, names: Sequence[str], step: int, cov: FloatArray,
+                 start: int | None = None) -> tuple[FloatArray, FloatArray]:
+        """
+        Return :meth:`radius` of agents streamed step by step.
+
+        Their streams count from the run's first model step ``start``
+        (default: the step of the first call).
+        """
         if self.tracker is None:
-            self.tracker = StreamTracker(self.reported, self.seed, step)
+            self.tracker = StreamTracker(self.reported, self.seed,
+                                         step if start is None else start)
         return self.radius(self.tracker.values(names, step), cov)
 
     def radius(self, x: Numbers, cov: FloatArray | None) -> tuple[FloatArray, FloatArray]:
@@ -169,10 +175,17 @@ def accuracy_columns(cov: FloatArray, fix: BoolArray,
     ``radius``: the stated 68 % radius when the phone states it (else the
     covariance's own).
     """
-    major, minor, orientation = ellipse(cov)
-    cols = {'accuracy': radius68(cov) if radius is None else np.array(radius, dtype=float),
-            'accuracy_major': major, 'accuracy_minor': minor,
-            'accuracy_orientation': orientation}
+    flat = cov.reshape(-1, 4)
+    if flat.shape[0] > 1 and (flat == flat[0]).all():    # one covariance for all (stationary)
+        one = accuracy_columns(cov[:1], np.ones(1, dtype=bool))
+        cols = {k: np.full(flat.shape[0], v[0]) for k, v in one.items()}
+        if radius is not None:
+            cols['accuracy'] = np.array(radius, dtype=float)
+    else:
+        major, minor, orientation = ellipse(cov)
+        cols = {'accuracy': radius68(cov) if radius is None else np.array(radius, dtype=float),
+                'accuracy_major': major, 'accuracy_minor': minor,
+                'accuracy_orientation': orientation}
     for v in cols.values():
         v[~fix] = np.nan
     return cols

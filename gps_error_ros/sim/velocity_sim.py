@@ -163,10 +163,14 @@ class StreamedVelocity:
         self.hist: dict[str, list[Any]] = {}
 
     def report(self, names: Sequence[str], t: float, step: int, lat: Numbers,
-               lon: Numbers) -> tuple[FloatArray, FloatArray]:
-        """Store each agent's truth at ``t``; return (speed, course) arrays (NaN: none)."""
+               lon: Numbers, start: int | None = None) -> tuple[FloatArray, FloatArray]:
+        """
+        Store each agent's truth at ``t``; return (speed, course) arrays (NaN: none).
+
+        ``start``: the run's first model step (default: the first call's).
+        """
         if self.errors is None:
-            self.errors = StreamTracker(self.velocity, self.seed, step)
+            self.errors = StreamTracker(self.velocity, self.seed, step if start is None else start)
         chords = [min(t - lag + 0.5, t) for lag in self.velocity.lags]   # each chord's end
         earliest = min(chords) - 1.0
         ends: FloatArray = np.full((len(chords), len(names), 4), np.nan)

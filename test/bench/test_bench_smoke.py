@@ -51,3 +51,10 @@ def test_node_bench(tmp_path):
     assert row['agents'] == 1 and row['fixes_published'] > 0
     assert row['fixes_received_unique'] == row['fixes_published'], row
     assert row['fixes_published'] == row['agent_steps_with_truth'], row
+
+
+def test_simulate_parquet_bench(tmp_path):
+    printed, row = _run(tmp_path, 'bench_simulate_parquet.py', '--smoke')
+    assert row['positions'] > 10_000 and row['simulate_s'] > 0 and row['floor_s'] > 0
+    assert row['xml_positions'] > 1000 and row['dask_2_s'] > 0
+    assert 'floor' in printed and 'Dask' in printed

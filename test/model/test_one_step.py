@@ -6,7 +6,7 @@ subset of the effects (street_frame and cross_axis_coupling exclude each
 other), with and without a population, availability, gross failures,
 velocity, stated accuracy and a zone map. Each draw runs every path that
 takes a trajectory on a walk that turns corners and stands: ``add_errors``,
-``gps_error simulate`` to CSV and to FCD, and the node's engine
+``gps_error simulate`` to CSV, to FCD and to FCD as Parquet, and the node's engine
 (:class:`~gps_error_ros.sim.engine.FixEngine`, fed as the node feeds it).
 Their errors agree to 1e-9 m (the engine's and the trajectory path's, which
 ``simulate`` writes), and their positions, which are degrees, to 1e-8 m
@@ -268,6 +268,22 @@ def check_paths(raw, zone_raw, seed, mode, turning):
         fcd_lat = np.array([moved.get((v, a), (np.nan, np.nan))[0] for v, a in zip(t, agents)])
         fcd_lon = np.array([moved.get((v, a), (np.nan, np.nan))[1] for v, a in zip(t, agents)])
         assert apart_m(fcd_lat, fcd_lon, fixes.lat, fixes.lon) <= POS_M
+        # the same FCD as Parquet (SUMO's columns): the errors written to every bit
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+        pq.write_table(pa.table({'timestep_time': t, 'person_id': agents, 'person_x': lon,
+                                 'person_y': lat}), os.path.join(folder, 'fcd.parquet'))
+        run_cli('--trajectories', os.path.join(folder, 'fcd.parquet'), '--out',
+                os.path.join(folder, 'out.parquet'), '--coordinates', 'lonlat', '--errors',
+                *common)
+        table = pq.read_table(os.path.join(folder, 'out.parquet'))
+        by_row = {(r['timestep_time'], r['person_id']): r for r in table.to_pylist()}
+        assert len(by_row) == t.size
+        got = [by_row[k] for k in zip(t.tolist(), agents)]
+        pq_lat = np.array([np.nan if g['person_y'] is None else g['person_y'] for g in got])
+        pq_lon = np.array([np.nan if g['person_x'] is None else g['person_x'] for g in got])
+        assert apart_m(pq_lat, pq_lon, fixes.lat, fixes.lon) <= POS_M
+        np.testing.assert_array_equal([g['fix'] for g in got], fixes.fix)
         # the node's engine; and the errors themselves, where a path gives them
         about = mode != 'reported'
         model = profile.model(about_truth=about)
