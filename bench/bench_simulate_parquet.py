@@ -7,8 +7,8 @@ second; persons walking a grid near the Manhattan datum, each departing in
 the first minute), then measures, each command in a process of its own
 (time and peak resident memory):
 
-* the floor: pyarrow reading the file a batch at a time and writing every
-  column back, with no model;
+* the floor: pyarrow reading the file a batch at a time (as ``simulate``
+  reads it) and writing every column back, with no model;
 * ``gps_error simulate`` on it (DS5, stated accuracy);
 * today's XML path on the same persons' first ten minutes, as XML;
 * the file split by agent (``gps_error split``) and its parts run on a local
@@ -98,7 +98,7 @@ def write_xml(path, persons, seconds, seed=0):
 
 FLOOR = '''
 import sys, pyarrow.parquet as pq
-f = pq.ParquetFile(sys.argv[1]); w = None
+f = pq.ParquetFile(sys.argv[1], pre_buffer=False, buffer_size=1 << 22); w = None
 for b in f.iter_batches(batch_size=1 << 17):
     if w is None:
         w = pq.ParquetWriter(sys.argv[2], b.schema)

@@ -21,7 +21,7 @@ GROUPS = {
     'commands.md': ('`gps_error`: fitting and checking',
                     ('calibrate', 'validate', 'diagnose', 'compare')),
     'commands-simulate.md': ('`gps_error`: simulating and importing',
-                             ('simulate', 'import', 'synth', 'scenario')),
+                             ('simulate', 'split', 'import', 'synth', 'scenario')),
 }
 
 

@@ -84,6 +84,8 @@ class FcdColumns:
     error: FloatArray
     lonlat: tuple[FloatArray, FloatArray] | None
     metres: bool
+    #: False when ``x``, ``y`` are still the (lagged) truth: :meth:`FcdSteps.move` moves them
+    moved: bool = True
 
 
 class FcdSteps:
@@ -134,7 +136,8 @@ class FcdSteps:
         self.overlay = FaultOverlay(options.faults, options.seed) if options.faults else None
 
     def timestep(self, t: float, names: Sequence[str], x: Numbers, y: Numbers,
-                 coded: Optional[tuple[Sequence[str], IntArray]] = None) -> FcdColumns:
+                 coded: Optional[tuple[Sequence[str], IntArray]] = None,
+                 defer: bool = False) -> FcdColumns:
         """
         Return the noisy columns of one timestep's agents (true ``x``, ``y``).
 
@@ -142,6 +145,8 @@ class FcdSteps:
         ``start_step``): a timestep with nobody in it moves nothing.
         ``coded``: the names as (dictionary, codes), ``names`` being
         ``dictionary[codes]``: a table's column looks each name up once.
+        ``defer``: leave the positions unmoved where no fault can touch them
+        (``moved`` False), for :meth:`move` to move many timesteps at once.
         """
         m = model_step(t, self.o.rate_hz)
         raw_x, raw_y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
@@ -171,7 +176,9 @@ class FcdSteps:
             err, cov = crowd.zoned_errors(names, lat, lon, heading, rows)
             if crowd.generation != generation:
                 rows = self._rows(names, coded)
-        moved = self._moved(t, np.asarray(lx, dtype=float), np.asarray(ly, dtype=float), err)
+        lx, ly = np.asarray(lx, dtype=float), np.asarray(ly, dtype=float)
+        later = defer and self.overlay is None
+        moved: Moved = (lx, ly, None) if later else self._moved(t, lx, ly, err)
         fix = crowd.available(names, rows)
         radius, cov = self.stated.streamed(names, m, cov, crowd.start) if self.stated \
             else (None, cov)
@@ -183,7 +190,16 @@ class FcdSteps:
         nx, ny, geo = moved
         return FcdColumns(np.asarray(nx, dtype=float), np.asarray(ny, dtype=float), fix,
                           accuracy_columns(cov, fix, radius), speeds, err, geo,
-                          self.o.mode != 'lonlat')
+                          self.o.mode != 'lonlat', not later)
+
+    def move(self, t: FloatArray, x: FloatArray, y: FloatArray, err: FloatArray) -> Moved:
+        """
+        Return positions (rows of several timesteps, times ``t``) moved by ``err``.
+
+        What :meth:`timestep` does to one timestep's positions, row by row,
+        so the same rows give the same doubles however they are grouped.
+        """
+        return self._moved(t, x, y, err)
 
     def _rows(self, names: Sequence[str],
               coded: Optional[tuple[Sequence[str], IntArray]]) -> IntArray:
@@ -205,12 +221,15 @@ class FcdSteps:
             raise TrajectoryError('FCD x/y metres need the network\'s projection (--net NET.xml)')
         return self.o.proj
 
-    def _moved(self, t: float, x: FloatArray, y: FloatArray, err: FloatArray) -> Moved:
+    def _moved(self, t: float | FloatArray, x: FloatArray, y: FloatArray,
+               err: FloatArray) -> Moved:
         """Return the positions moved by ``err``, and their lon/lat in mode 'net'."""
         if self.o.mode == 'lonlat':
-            if np.any(np.abs(y) > 90) or np.any(np.abs(x) > 180):
-                raise TrajectoryError(f'{self.src}: time {t}: x/y outside lon/lat ranges, '
-                                      f'but the file says (or you said) lon/lat')
+            out = (np.abs(y) > 90) | (np.abs(x) > 180)
+            if np.any(out):
+                at = t if np.ndim(t) == 0 else np.asarray(t)[np.flatnonzero(out)[0]]
+                raise TrajectoryError(f'{self.src}: time {float(at)}: x/y outside lon/lat '
+                                      f'ranges, but the file says (or you said) lon/lat')
             return (*add_errors_lonlat(x, y, err), None)
         if self.o.mode == 'net':
             net = self._net()

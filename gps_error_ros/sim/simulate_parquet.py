@@ -16,6 +16,8 @@ network's metres it also appends the noisy ``lon`` and ``lat``; with
 """
 
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+import os
 from typing import Any
 
 import numpy as np
@@ -113,13 +115,40 @@ def _chunk_out(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps,
         sel = has[rows]
         codes = chunk.codes[rows][sel]
         out = steps.timestep(t, chunk.names[rows][sel], chunk.x[rows][sel], chunk.y[rows][sel],
-                             (chunk.dictionary, codes))
+                             (chunk.dictionary, codes), defer=True)
         parts.append((rows, sel, out))
     cols = _gathered(n, has, parts)
+    if any(not p[2].moved for p in parts):
+        _move(steps, chunk.t, cols, has)
     fix = cols.pop('fix').astype(bool)
     table = _with_columns(chunk.table, kinds, cols, fix, has, errors)
     got = int(fix[has].sum())
     return table, (len(parts), got, int(has.sum()) - got, set(chunk.dictionary))
+
+
+def _move(steps: FcdSteps, t: FloatArray, cols: dict[str, FloatArray], has: BoolArray) -> None:
+    """
+    Move the chunk's truth (``cols`` x, y) by its errors, in place, a slice per core.
+
+    pyproj's geodesic and projections run without the interpreter's lock,
+    so the slices run at once; each row's doubles are those of one
+    timestep moved alone.
+    """
+    rows = np.flatnonzero(has)
+    err = np.stack([cols['error_north'][rows], cols['error_east'][rows]], axis=1)
+    cuts = np.array_split(np.arange(rows.size), min(_CORES, max(1, rows.size // 20_000)))
+    with ThreadPoolExecutor(len(cuts)) as pool:
+        done = list(pool.map(lambda c: steps.move(t[rows[c]], cols['x'][rows[c]],
+                                                  cols['y'][rows[c]], err[c]), cuts))
+    for c, (nx, ny, geo) in zip(cuts, done):
+        cols['x'][rows[c]], cols['y'][rows[c]] = nx, ny
+        if geo is not None:
+            cols.setdefault('lon', np.full(t.size, np.nan))[rows[c]] = geo[0]
+            cols.setdefault('lat', np.full(t.size, np.nan))[rows[c]] = geo[1]
+
+
+#: Threads that move positions at once (pyproj releases the interpreter's lock).
+_CORES = os.cpu_count() or 1
 
 
 def _gathered(n: int, has: BoolArray, parts: Sequence[tuple[slice, BoolArray, FcdColumns]]

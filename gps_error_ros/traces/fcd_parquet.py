@@ -94,7 +94,8 @@ class FcdParquet:
         self.path = path
         self.batch_rows = batch_rows
         try:
-            self.file = pq.ParquetFile(path)
+            # pre-buffering keeps what it read: memory grew with the file (decision 0039)
+            self.file = pq.ParquetFile(path, pre_buffer=False, buffer_size=1 << 22)
         except FileNotFoundError:
             raise TrajectoryError(f'{path}: no such file') from None
         except (pa.ArrowException, OSError) as exc:
