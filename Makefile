@@ -122,12 +122,14 @@ gpsd-check: setup
 	$(PY) -m pytest -p no:cacheprovider test/traces/test_gpsd.py test/ros/test_nmea_node.py
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
-# 35 to 70 minutes on a 2-core machine of the kind (its CPU decides); see docs/performance.md.
+# 40 to 80 minutes on a 2-core machine of the kind (its CPU decides; the Parquet
+# benchmark adds about 6); see docs/performance.md.
 bench: setup
 	mkdir -p bench_output
 	$(PY) bench/bench_library.py --json bench_output/library.json
 	$(PY) bench/bench_node.py --json bench_output/node.json
 	$(PY) bench/bench_simulate_fcd.py --json bench_output/simulate_fcd.json
+	$(PY) bench/bench_simulate_parquet.py --json bench_output/simulate_parquet.json
 	$(PY) bench/bench_zones.py --json bench_output/zones.json
 	$(PY) bench/bench_long_recording.py --json bench_output/long_recording.json
 
