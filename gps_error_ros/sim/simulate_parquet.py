@@ -68,8 +68,8 @@ def simulate_parquet(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: 
     Add errors to every agent of a Parquet FCD file; return counts (see module doc).
 
     The options are :func:`~gps_error_ros.sim.simulate.simulate_fcd`'s.
-    ``start_s``: the time the run starts at (default: the file's first
-    row's); a part of a file split by agent is given the whole file's, so
+    ``start_s``: the time the run starts at (default: the first row
+    with an agent); a part of a file split by agent is given the whole file's, so
     its agents get the errors of the whole run. A malformed or truncated
     file is refused, naming it, and leaves no output.
     """
@@ -110,15 +110,15 @@ def _chunk_out(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps,
     """Return one chunk's output table, and its timesteps, fixes, misses and agents."""
     n = chunk.t.size
     has = chunk.codes >= 0
-    parts: list[tuple[slice, BoolArray, FcdColumns]] = []
+    parts: list[tuple[BoolArray, FcdColumns]] = []
     for t, rows in chunk.timesteps():
         sel = has[rows]
         codes = chunk.codes[rows][sel]
         out = steps.timestep(t, chunk.names[rows][sel], chunk.x[rows][sel], chunk.y[rows][sel],
                              (chunk.dictionary, codes), defer=True)
-        parts.append((rows, sel, out))
+        parts.append((sel, out))
     cols = _gathered(n, has, parts)
-    if any(not p[2].moved for p in parts):
+    if any(not out.moved for _, out in parts):
         _move(steps, chunk.t, cols, has)
     fix = cols.pop('fix').astype(bool)
     table = _with_columns(chunk.table, kinds, cols, fix, has, errors)
@@ -151,10 +151,10 @@ def _move(steps: FcdSteps, t: FloatArray, cols: dict[str, FloatArray], has: Bool
 _CORES = os.cpu_count() or 1
 
 
-def _gathered(n: int, has: BoolArray, parts: Sequence[tuple[slice, BoolArray, FcdColumns]]
+def _gathered(n: int, has: BoolArray, parts: Sequence[tuple[BoolArray, FcdColumns]]
               ) -> dict[str, FloatArray]:
     """Return the chunk's columns, each timestep's rows put back in place (NaN: no agent)."""
-    first = next((p[2] for p in parts if p[2].fix.size), None)
+    first = next((out for _, out in parts if out.fix.size), None)
     names = ['x', 'y', 'fix', 'error_north', 'error_east']
     if first is not None:
         names += list(first.accuracy) + list(first.velocity)
@@ -163,7 +163,7 @@ def _gathered(n: int, has: BoolArray, parts: Sequence[tuple[slice, BoolArray, Fc
     cols = {k: np.full(n, np.nan) for k in names}
     where = np.flatnonzero(has)
     k0 = 0
-    for rows, sel, out in parts:
+    for sel, out in parts:
         m = int(sel.sum())
         idx = where[k0:k0 + m]
         k0 += m
@@ -189,7 +189,7 @@ def _with_columns(table: Any, kinds: Sequence[str], cols: dict[str, FloatArray],
         for axis in ('x', 'y'):
             name = f'{k}_{axis}'
             keep = ~(mine & has)
-            moved = pa.array(cols[axis], mask=~(fix & mine & has) & ~keep)
+            moved = pa.array(cols[axis], mask=mine & has & ~fix)
             col = pc.if_else(pa.array(keep), table.column(name).combine_chunks(), moved)
             table = table.set_column(table.schema.get_field_index(name), name, col)
     table = table.append_column('fix', pa.array(fix, mask=~has))

@@ -13,6 +13,7 @@ and the new ones appended. Needs the extra ``parquet`` (pyarrow).
 
 from collections.abc import Iterator
 from dataclasses import dataclass
+import functools
 import queue
 import threading
 from typing import Any
@@ -121,8 +122,7 @@ class FcdParquet:
         ids = [f'{k}_id' for k in self.kinds]
         for batch in self.file.iter_batches(batch_size=1 << 14, columns=[TIME, *ids]):
             valid = [pc.is_valid(batch.column(c)) for c in ids]
-            has = valid[0] if len(valid) == 1 else pc.or_(*valid[:2]) if len(valid) == 2 \
-                else pc.or_(pc.or_(valid[0], valid[1]), valid[2])
+            has = functools.reduce(pc.or_, valid)
             found = np.flatnonzero(np.asarray(has.to_numpy(zero_copy_only=False)))
             if found.size:
                 return float(batch.column(TIME)[int(found[0])].as_py())
