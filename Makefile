@@ -18,7 +18,7 @@ DEMO_OUT ?= demo_output
 DEMO_HOURS ?= 2
 
 .PHONY: setup system-packages demo demo-sumo test lint clean calibration-doc bench soak diagnose-long close-the-loop-doc close-the-loop-page \
-	generalisation-page calibration-page \
+	generalisation-page calibration-page p2v \
 	walks-profile generalisation docs input-sweep site-screenshots gpsd-check presets model-page
 
 # The measured recordings the evidence targets read: the repository's data/
@@ -30,12 +30,12 @@ setup: $(STAMP)
 $(STAMP): requirements.txt requirements-ros.txt requirements-dev.txt requirements-import.txt \
 		requirements-sumo.txt requirements-zones.txt requirements-docs.txt \
 		requirements-fast.txt requirements-smoother.txt requirements-parquet.txt \
-		requirements-dask.txt setup.py setup.cfg package.xml
+		requirements-dask.txt requirements-ns3.txt setup.py setup.cfg package.xml
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PIP) -r requirements.txt -r requirements-ros.txt -r requirements-dev.txt \
 		-r requirements-import.txt -r requirements-sumo.txt -r requirements-zones.txt \
 		-r requirements-docs.txt -r requirements-fast.txt -r requirements-smoother.txt \
-		-r requirements-parquet.txt -r requirements-dask.txt
+		-r requirements-parquet.txt -r requirements-dask.txt -r requirements-ns3.txt
 	$(PIP) --no-deps -e . --config-settings editable_mode=compat
 	touch $@
 
@@ -46,6 +46,14 @@ demo: setup
 # (agent_pattern); figure and trace in demo_sumo_output/. About a minute.
 demo-sumo: setup
 	$(PY) -m gps_error_ros.ros.sumo_demo --out demo_sumo_output
+
+# The pedestrian-to-vehicle study in ns-3 (docs/p2v.md): 100 pedestrians' phones at a
+# crossing, 20 vehicles warning from their messages, 60 simulated seconds, with no GPS
+# errors, white noise of DS5's size, DS5 and phone-suburban-drive; p2v_output/p2v.json
+# and p2v.png. About 15 minutes on two cores (P2V_ARGS for other sizes).
+P2V_ARGS ?=
+p2v: setup
+	$(PY) -m gps_error_ros.ns3.p2v --out p2v_output $(P2V_ARGS)
 
 # Three workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py):
 # on two cores faster than two workers (about 7 min against 7.5), since the

@@ -10,7 +10,7 @@ setup(
     version='0.1.0',
     packages=find_packages(exclude=['test']),
     # py.typed: the package's annotations are for its users' type checkers too (PEP 561)
-    package_data={package_name: ['py.typed']},
+    package_data={package_name: ['py.typed'], f'{package_name}.ns3': ['gps_error_ns3.hpp']},
     data_files=[
         ('share/ament_index/resource_index/packages',
             ['resource/' + package_name]),
@@ -28,10 +28,12 @@ setup(
     # gps_error import: recordings in (NMEA, GPX); an extra, not a core need.
     # gps_error_sumo: SUMO live (the eclipse-sumo wheel, TraCI); an extra too.
     # Zone maps (node parameter zones, simulate --zones): shapely 2.
+    # ns3: the mobility source and the P2V study inside ns-3 (ns-3's Python bindings).
     # fast: the diagnosis's jump and regime filters compiled (numba); numpy without it.
     extras_require={'docs': ['mkdocs', 'mkdocs-material', 'mkdocstrings-python'],
                     'fast': ['numba'],
                     'import': ['pynmea2', 'gpxpy'],
+                    'ns3': ['ns3'],
                     'parquet': ['pyarrow'],
                     'dask': ['pyarrow', 'dask', 'distributed'],
                     'smoother': ['gtsam'],

@@ -17,7 +17,7 @@ ARGS = ['--style=numpy', '--quiet', '--skip-checking-short-docstrings=True',
         '--skip-checking-raises=True', '--check-class-attributes=False']
 TYPED = ['--arg-type-hints-in-docstring=False', '--arg-type-hints-in-signature=True']
 UNTYPED = ['--arg-type-hints-in-docstring=True', '--arg-type-hints-in-signature=False']
-STRICT = ('model', 'fit', 'traces', 'sim', 'diagnose', 'judge', 'reports', 'cli', 'ros')
+STRICT = ('model', 'fit', 'traces', 'sim', 'diagnose', 'judge', 'reports', 'cli', 'ros', 'ns3')
 
 
 def _wings():

@@ -4,10 +4,12 @@ The house rules, checked on the source: imports run one way, sizes stay small.
 Wings, bottom to top (``docs/architecture.md``): ``model`` imports nothing
 of the package; ``traces`` the model; ``fit`` and ``sim`` the model and
 traces; ``diagnose`` also fit; ``judge`` also diagnose; ``reports`` anything below; ``ros`` and
-``cli`` sit on top (cli never imports ros); ``api`` (the public names) takes
-from model, traces, fit, sim, diagnose and judge. Only ``ros`` imports rclpy or
-message packages, only ``traces.bag_io`` imports rosbags (and not at module
-level), and only ``reports`` imports matplotlib.
+``cli`` sit on top (cli never imports ros); ``ns3`` (ns-3's path) sits on sim and
+reports, beside them; ``api`` (the public names) takes from model, traces, fit,
+sim, diagnose and judge. Only ``ros`` imports rclpy or message packages, only
+``traces.bag_io`` imports rosbags (and not at module level), only ``ns3``
+imports ns-3 (``ns``, ``cppyy``; not at module level), and only ``reports``
+imports matplotlib.
 """
 
 import ast
@@ -26,6 +28,7 @@ BELOW = {
     'reports': {'model', 'traces', 'fit', 'sim', 'diagnose', 'judge'},
     'ros': {'model', 'traces', 'fit', 'sim', 'reports'},
     'cli': {'model', 'traces', 'fit', 'sim', 'diagnose', 'judge', 'reports'},
+    'ns3': {'model', 'traces', 'sim', 'reports'},
     'api': {'model', 'traces', 'fit', 'sim', 'diagnose', 'judge'},
 }
 ROS_PACKAGES = ('rclpy', 'rcl_interfaces', 'builtin_interfaces', 'rosgraph_msgs',
@@ -85,6 +88,9 @@ def test_imports_run_one_way(wing):
             if parts[0] == 'rosbags' and (path.name != 'bag_io.py' or top):
                 bad.append(f'{path.relative_to(PKG)}:{line} imports rosbags '
                            f'(only bag_io may, inside a function)')
+            if parts[0] in ('ns', 'cppyy') and (wing != 'ns3' or top):
+                bad.append(f'{path.relative_to(PKG)}:{line} imports ns-3 ({name}; only '
+                           f'ns3 may, inside a function)')
             if parts[0] == 'matplotlib' and wing != 'reports':
                 bad.append(f'{path.relative_to(PKG)}:{line} imports matplotlib')
     assert not bad, '\n'.join(bad)

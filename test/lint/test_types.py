@@ -17,7 +17,8 @@ ROOT = Path(__file__).resolve().parents[2]
 PKG = ROOT / 'gps_error_ros'
 #: The wings annotated whole, each with its strict section in setup.cfg
 #: ([mypy-gps_error_ros.<wing>.*]): today every wing of the package.
-STRICT = ('model', 'fit', 'traces', 'sim', 'diagnose', 'judge', 'reports', 'cli', 'ros')
+STRICT = ('model', 'fit', 'traces', 'sim', 'diagnose', 'judge', 'reports', 'cli', 'ros',
+          'ns3')
 
 
 def _annotated(fn):

@@ -1,0 +1,115 @@
+"""
+ns-3's nodes get the errors that ``gps_error simulate`` gives the same agents, to 1e-6 m.
+
+:class:`~gps_error_ros.ns3.source.GpsSource` runs in real ns-3 (the extra
+``ns3``, installed by ``make test``'s set-up) in a process of its own
+(``source_run.py``), on nodes that follow waypoints and an ns-2 mobility
+trace. The true positions it read are written as SUMO FCD (lon/lat about
+the source's datum) and given to ``gps_error simulate`` with the same
+profile and seed. Each node's error, position and fix must be
+``simulate``'s: for a profile with outages, a street frame (its error
+follows the direction of travel), outliers, a reported velocity and a
+stated accuracy, for a shipped preset, and with no profile at all.
+"""
+
+import contextlib
+import io
+import os
+from pathlib import Path
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+import yaml
+
+from gps_error_ros.cli import main as gps_error
+from gps_error_ros.model.geodesy import LocalTangentFrame
+from gps_error_ros.model.profiles import builtin_dir
+from gps_error_ros.ns3.source import MANHATTAN
+
+HERE = Path(__file__).resolve().parent
+TOL_M = 1e-6
+SECONDS = 60
+
+
+def everything(path):
+    """Write DS5 with outages, a street frame, outliers, velocity and stated accuracy."""
+    raw = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
+    preset = yaml.safe_load((builtin_dir() / 'phone-suburban-drive.yaml').read_text())
+    raw.update(name='ds5-everything',
+               effects={'street_frame': {'sigma_along': 0.8, 'sigma_across': 1.6},
+                        'outliers': {'rate': 0.05, 'mean_steps': 3.0, 'sigma_m': 10.0}},
+               availability={'outage_rate': 0.08,
+                             'durations': [[2, 0.5], [5, 0.3], [12, 0.2]]},
+               velocity=preset['velocity'], reported_accuracy=preset['reported_accuracy'])
+    path.write_text(yaml.safe_dump(raw))
+    return str(path)
+
+
+def in_ns3(profile, seed, folder):
+    """Run the source in ns-3 (a process of its own); return what it saved."""
+    out = folder / 'ns3.npz'
+    run = subprocess.run([sys.executable, str(HERE / 'source_run.py'), profile, str(seed),
+                          str(SECONDS), str(out)], capture_output=True, text=True,
+                         timeout=600, env={**os.environ, 'PYTHONUNBUFFERED': '1'})
+    assert run.returncode == 0, run.stderr[-3000:]
+    return dict(np.load(out))
+
+
+def simulated(got, profile, seed, folder):
+    """Return ``gps_error simulate``'s errors and positions for the truth ns-3 read."""
+    frame = LocalTangentFrame(*MANHATTAN)
+    lat, lon, _ = frame.to_geodetic(got['truth'][..., 0], got['truth'][..., 1])
+    src, dst = folder / 'truth.xml', folder / 'noisy.xml'
+    with open(src, 'w') as f:
+        f.write('<?xml version="1.0" encoding="UTF-8"?>\n<fcd-export>\n')
+        for k, t in enumerate(got['t']):
+            f.write(f'  <timestep time="{t:.2f}">\n')
+            for i, name in enumerate(got['names']):
+                f.write(f'    <person id="{name}" x="{float(lon[k, i])!r}" '
+                        f'y="{float(lat[k, i])!r}" angle="0" speed="1" pos="0" edge="e"/>\n')
+            f.write('  </timestep>\n')
+        f.write('</fcd-export>\n')
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert gps_error(['simulate', '--trajectories', str(src), '--out', str(dst),
+                          '--coordinates', 'lonlat', '--digits', '12', '--errors',
+                          '--profile', profile, '--seed', str(seed)]) == 0
+    shape = got['fix'].shape
+    err, pos = np.full(shape + (2,), np.nan), np.full(shape + (2,), np.nan)
+    index = {str(n): i for i, n in enumerate(got['names'])}
+    for k, step in enumerate(ET.parse(dst).getroot()):
+        for p in step:
+            i = index[p.get('id')]
+            err[k, i] = float(p.get('error_north')), float(p.get('error_east'))
+            e, n, _ = frame.to_enu(float(p.get('y')), float(p.get('x')))
+            pos[k, i] = e, n
+    return err, pos
+
+
+@pytest.mark.parametrize('profile', ['everything', 'phone-suburban-drive'])
+def test_the_nodes_errors_are_simulates(profile, tmp_path):
+    """Errors, positions and fixes equal ``simulate``'s for the same truth, profile and seed."""
+    spec = everything(tmp_path / 'everything.yaml') if profile == 'everything' else profile
+    got = in_ns3(spec, 11, tmp_path)
+    err, pos = simulated(got, spec, 11, tmp_path)
+    fix = got['fix']
+    assert np.array_equal(fix, ~np.isnan(err[..., 0])), 'a fix in ns-3 and not in simulate'
+    assert fix.any()
+    if profile == 'everything':
+        assert not fix.all(), 'the profile has outages: some epoch should have no fix'
+    ours = np.stack([got['error'][..., 0], got['error'][..., 1]], -1)
+    assert np.abs(ours[fix] - err[fix]).max() < TOL_M
+    assert np.abs(got['position'][fix] - pos[fix]).max() < TOL_M
+    moved = np.hypot(*(got['position'] - got['truth'])[fix].T)
+    assert np.median(moved) > 0.1, 'the positions should carry the errors'
+
+
+def test_no_profile_gives_the_truth(tmp_path):
+    """Without a profile every node knows its true position, and always has a fix."""
+    got = in_ns3('none', 1, tmp_path)
+    assert got['fix'].all()
+    assert np.array_equal(got['position'], got['truth'])
+    assert got['t'].tolist() == list(range(SECONDS + 1))
+    assert np.allclose(got['truth'][20, 4], [5.0 + 18 * 1.4, -3.0])     # the ns-2 trace
