@@ -50,7 +50,7 @@ demo-sumo: setup
 # The pedestrian-to-vehicle study in ns-3 (docs/p2v.md): 100 pedestrians' phones at a
 # crossing, 20 vehicles warning from their messages, 60 simulated seconds, with no GPS
 # errors, white noise of DS5's size, DS5 and phone-suburban-drive; p2v_output/p2v.json
-# and p2v.png. About 15 minutes on two cores (P2V_ARGS for other sizes).
+# and p2v.png. About 25 minutes on two cores (P2V_ARGS for other sizes).
 P2V_ARGS ?=
 p2v: setup
 	$(PY) -m gps_error_ros.ns3.p2v --out p2v_output $(P2V_ARGS)

@@ -24,7 +24,7 @@ def one(pedestrians, vehicles, seconds, profile):
     import numpy as np
     from gps_error_ros.ns3.p2v import condition_profile, scenario
     from gps_error_ros.ns3.world import run_world, WorldSpec
-    peds, cars = scenario(pedestrians, vehicles, seconds, 7)
+    peds, cars = scenario(pedestrians, vehicles, 60.0, 7)    # make p2v's layout, cut short
     log = run_world(WorldSpec(peds, cars, seconds), condition_profile(profile))
     print(json.dumps({'pedestrians': pedestrians, 'vehicles': vehicles, 'profile': profile,
                       'simulated_s': seconds, 'wall_s': log['wall_s'],

@@ -4,7 +4,7 @@ One crossing of two streets, with pedestrians who cross them and vehicles that d
 The true motion of the pedestrian-to-vehicle study
 (:mod:`~gps_error_ros.ns3.p2v`), as waypoints: piecewise-straight tracks
 that ns-3's ``WaypointMobilityModel`` follows, and that the study's truth
-(:meth:`Tracks.at`) interpolates the same way.
+(:meth:`~gps_error_ros.ns3.tracks.Tracks.at`) interpolates the same way.
 
 Two streets cross at the origin: one east-west along x, one north-south
 along y, each ``2 * street`` metres wide with a lane each way
@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gps_error_ros.model.state import FloatArray
+from gps_error_ros.ns3.tracks import Tracks
 
 
 @dataclass(frozen=True)
@@ -33,36 +34,6 @@ class Crossing:
     sidewalk: float = 8.0
     #: how far from the centre vehicles appear and leave
     arm: float = 250.0
-
-
-@dataclass
-class Tracks:
-    """Agents' waypoints: ``times[i]`` (s, increasing) and ``points[i]`` (x/y metres)."""
-
-    names: list[str]
-    times: list[FloatArray]
-    points: list[FloatArray]
-
-    def at(self, t: FloatArray) -> FloatArray:
-        """Return every agent's position at times ``t``: an array (agents, times, 2)."""
-        t = np.asarray(t, dtype=float)
-        out = np.empty((len(self.names), t.size, 2))
-        for i, (tt, pp) in enumerate(zip(self.times, self.points)):
-            out[i, :, 0] = np.interp(t, tt, pp[:, 0])
-            out[i, :, 1] = np.interp(t, tt, pp[:, 1])
-        return out
-
-    def velocity(self, t: FloatArray) -> FloatArray:
-        """Return every agent's velocity at times ``t``, in m/s: an array (agents, times, 2)."""
-        t = np.asarray(t, dtype=float)
-        out = np.zeros((len(self.names), t.size, 2))
-        for i, (tt, pp) in enumerate(zip(self.times, self.points)):
-            seg = np.clip(np.searchsorted(tt, t, side='right') - 1, 0, len(tt) - 2)
-            dt = tt[seg + 1] - tt[seg]
-            inside = (t >= tt[0]) & (t < tt[-1]) & (dt > 0)
-            v = (pp[seg + 1] - pp[seg]) / np.where(dt > 0, dt, 1.0)[:, None]
-            out[i][inside] = v[inside]
-        return out
 
 
 def _corners(c: Crossing) -> FloatArray:
@@ -87,7 +58,8 @@ def pedestrians(n: int, duration: float, rng: np.random.Generator,
         speed = rng.uniform(1.1, 1.6)
         k = int(rng.integers(4))
         out = np.sign(corners[k]) * (np.eye(2)[rng.integers(2)])    # a sidewalk leaving k
-        path = [corners[k] + out * rng.uniform(2.0, 0.6 * speed * duration), corners[k]]
+        walk_in = 2.0 + rng.uniform(0.0, max(0.6 * speed * duration - 2.0, 0.0))
+        path = [corners[k] + out * walk_in, corners[k]]
         turn = 1 if rng.random() < 0.5 else -1
         waits = [0.0, rng.uniform(0.0, 8.0)]
         for _ in range(1 + int(rng.random() < 0.5)):

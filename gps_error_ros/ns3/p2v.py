@@ -37,6 +37,7 @@ import numpy as np
 from gps_error_ros.model.profiles import load_profile, Profile, profile_from_dict
 from gps_error_ros.ns3 import crossing
 from gps_error_ros.ns3.p2v_metrics import delivery, encounters, Rule, score, warnings
+from gps_error_ros.ns3.tracks import Tracks
 from gps_error_ros.ns3.world import run_world, WorldSpec
 
 DEFAULT_CONDITIONS = ('none', 'white:DS5', 'DS5', 'phone-suburban-drive')
@@ -66,7 +67,7 @@ def condition_profile(name: str) -> Profile | None:
 
 
 def scenario(pedestrians: int, vehicles: int, duration: float,
-             seed: int) -> tuple[crossing.Tracks, crossing.Tracks]:
+             seed: int) -> tuple[Tracks, Tracks]:
     """Return the pedestrians' and vehicles' tracks of a run (the same for every condition)."""
     rng = np.random.default_rng(seed)
     return (crossing.pedestrians(pedestrians, duration, rng),

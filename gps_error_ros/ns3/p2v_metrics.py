@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.model.state import BoolArray, FloatArray, IntArray
-from gps_error_ros.ns3.crossing import Tracks
+from gps_error_ros.ns3.tracks import Tracks
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from gps_error_ros.model.state import BoolArray, FloatArray
 from gps_error_ros.ns3.native import cpp, FIELDS
 from gps_error_ros.sim.faults import Fault
 from gps_error_ros.sim.fcd_step import FcdOptions, FcdSteps
+from gps_error_ros.sim.trajectory_fixes import model_step
 
 #: The stated accuracy's columns (m, m, m, degrees from north), in the table's order.
 ACCURACY = ('accuracy', 'accuracy_major', 'accuracy_minor', 'accuracy_orientation')
@@ -78,6 +79,10 @@ class GpsSource:
         Faults laid over the fixes (times on the simulation's clock).
     keep
         Keep every epoch's truth, position and error (:attr:`epochs`).
+    start
+        The time (s) the agents' errors start from, as ``simulate``'s run
+        starts at its file's first timestep with an agent; None: the first
+        epoch the source makes.
 
     """
 
@@ -85,7 +90,7 @@ class GpsSource:
                  names: Sequence[str] | None = None,
                  datum: tuple[float, float] = MANHATTAN, covariance_mode: str = 'stationary',
                  covariance_about: str = 'truth', faults: Sequence[Fault] = (),
-                 keep: bool = False) -> None:
+                 keep: bool = False, start: float | None = None) -> None:
         self.nodes = nodes
         self.n = int(nodes.GetN())
         self.ids = np.array([nodes.Get(i).GetId() for i in range(self.n)], dtype=np.int64)
@@ -103,7 +108,8 @@ class GpsSource:
             options = FcdOptions('lonlat', None, profile.rate_hz, seed, covariance_mode, None,
                                  profile.reported_accuracy, profile.velocity,
                                  model.mean if about else None, tuple(faults))
-            self.steps = FcdSteps('ns-3', model, options)
+            self.steps = FcdSteps('ns-3', model, options, None if start is None
+                                  else model_step(start, profile.rate_hz))
         self.table = np.zeros((int(self.ids.max()) + 1 if self.n else 0, len(FIELDS)))
         self.epochs: Epochs | None = Epochs() if keep else None
         self._states = np.zeros((self.n, 4))

@@ -21,9 +21,9 @@ import numpy as np
 
 from gps_error_ros.model.profiles import Profile
 from gps_error_ros.model.state import FloatArray
-from gps_error_ros.ns3.crossing import Tracks
 from gps_error_ros.ns3.native import cpp
 from gps_error_ros.ns3.source import GpsSource
+from gps_error_ros.ns3.tracks import Tracks, waypoint_nodes
 
 #: The channel: frequency (Hz), the reference loss at 1 m for it (dB), transmit power (dBm).
 FREQUENCY_HZ = 5.9e9
@@ -42,20 +42,6 @@ class WorldSpec:
     size_bytes: int = 200
     seed: int = 1
     network_seed: int = 1
-
-
-def _nodes(ns: Any, tracks: Tracks) -> Any:
-    """Return nodes that follow ``tracks`` (ns-3's WaypointMobilityModel)."""
-    nodes = ns.NodeContainer()
-    nodes.Create(len(tracks.names))
-    helper = ns.MobilityHelper()
-    helper.SetMobilityModel('ns3::WaypointMobilityModel')
-    helper.Install(nodes)
-    for i, (tt, pp) in enumerate(zip(tracks.times, tracks.points)):
-        m = nodes.Get(i).GetObject[ns.WaypointMobilityModel]()
-        for t, (x, y) in zip(tt.tolist(), pp.tolist()):
-            m.AddWaypoint(ns.Waypoint(ns.Seconds(t), ns.Vector(x, y, 0.0)))
-    return nodes
 
 
 def _radios(ns: Any, everyone: Any) -> None:
@@ -100,7 +86,7 @@ def run_world(spec: WorldSpec, profile: Profile | None) -> dict[str, Any]:
     native.TheLog().Clear()
     ns.RngSeedManager.SetSeed(1)
     ns.RngSeedManager.SetRun(spec.network_seed)
-    peds, cars = _nodes(ns, spec.pedestrians), _nodes(ns, spec.vehicles)
+    peds, cars = waypoint_nodes(spec.pedestrians), waypoint_nodes(spec.vehicles)
     everyone = ns.NodeContainer(peds, cars)
     _radios(ns, everyone)
     rng = np.random.default_rng(spec.network_seed)

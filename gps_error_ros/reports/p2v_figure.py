@@ -46,13 +46,13 @@ def p2v_figure(result: dict[str, Any], path: PathArg) -> None:
     ax[0, 1].set(ylim=(0, 1.05), ylabel='share (95 % interval)',
                  title='Warnings against the truth')
     ax[0, 1].legend(fontsize=8)
+    ahead = np.linspace(0.0, 4.0, 81)
     for name, r in conds.items():
-        lead = np.sort(r['lead_s'])
-        if lead.size:
-            ax[1, 0].step(lead, np.arange(1, lead.size + 1) / r['encounters'], where='post',
-                          color=colours[name], label=name)
-    ax[1, 0].set(xlabel='lead time (s)', ylabel='share of encounters warned this early',
-                 title='Warning lead time', ylim=(0, 1.02))
+        lead = np.asarray(r['lead_s'])
+        share = [(lead >= a - 1e-9).sum() / max(r['encounters'], 1) for a in ahead]
+        ax[1, 0].plot(ahead, share, color=colours[name], label=name)
+    ax[1, 0].set(xlabel='warned at least this long before the encounter (s)',
+                 ylabel='share of encounters', title='Warning lead time', ylim=(0, 1.02))
     ax[1, 0].legend(fontsize=8)
     truth = np.asarray(result['example']['truth_xy'])
     ax[1, 1].plot(truth[:, 0], truth[:, 1], 'k-', lw=2.5, label='truth')

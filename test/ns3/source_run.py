@@ -3,7 +3,9 @@ Run :class:`~gps_error_ros.ns3.source.GpsSource` in ns-3 and save what it gave (
 
 Six nodes: four follow waypoints that turn corners and stand (ns-3's
 ``WaypointMobilityModel``), two follow an ns-2 mobility trace
-(``Ns2MobilityHelper``). Usage: ``source_run.py PROFILE|none SEED SECONDS OUT.npz``.
+(``Ns2MobilityHelper``). Usage: ``source_run.py PROFILE|none SEED SECONDS OUT.npz``;
+with ``--fcd FCD.xml`` before them, one node per agent of a SUMO FCD file
+(lon/lat) instead, its errors started at the file's first time.
 A process of its own: ns-3 takes some 15 s to import and has one simulator.
 """
 
@@ -32,10 +34,26 @@ WAYPOINTS = [
 
 def main() -> None:
     """Run the nodes for SECONDS; save the source's epochs and the agents' names."""
-    spec, seed, seconds, out = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
+    args = sys.argv[1:]
+    fcd = None
+    if args[0] == '--fcd':
+        fcd, args = args[1], args[2:]
+    spec, seed, seconds, out = args[0], int(args[1]), float(args[2]), args[3]
     from ns import ns
     import gps_error_ros as ge
     from gps_error_ros.ns3.source import GpsSource
+    profile = None if spec == 'none' else ge.load_profile(spec)
+    if fcd is not None:
+        from gps_error_ros.ns3.fcd import fcd_tracks
+        from gps_error_ros.ns3.tracks import waypoint_nodes
+        tracks, first = fcd_tracks(fcd, 'lonlat')
+        source = GpsSource(waypoint_nodes(tracks), profile, seed, names=tracks.names,
+                           keep=True, start=first)
+        source.run(seconds)
+        assert source.epochs is not None
+        np.savez(out, names=np.array(tracks.names), **source.epochs.arrays())
+        ns.Simulator.Destroy()
+        return
     walkers = ns.NodeContainer()
     walkers.Create(len(WAYPOINTS))
     helper = ns.MobilityHelper()
@@ -52,7 +70,6 @@ def main() -> None:
     ns.Ns2MobilityHelper(str(trace)).Install()
     nodes = ns.NodeContainer(walkers, traced)
     names = ['ann', 'bob', 'cy', 'dee', 'ns2-eve', 'ns2-fay']
-    profile = None if spec == 'none' else ge.load_profile(spec)
     source = GpsSource(nodes, profile, seed, names=names, keep=True)
     source.run(seconds)
     assert source.epochs is not None

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from gps_error_ros.ns3.crossing import pedestrians, Tracks, vehicles
+from gps_error_ros.ns3.crossing import pedestrians, vehicles
+from gps_error_ros.ns3.tracks import Tracks
 from gps_error_ros.ns3.p2v_metrics import delivery, encounters, Rule, score, warnings, wilson
 
 RULE = Rule()

@@ -48,30 +48,39 @@ def everything(path):
     return str(path)
 
 
-def in_ns3(profile, seed, folder):
+def in_ns3(profile, seed, folder, fcd=()):
     """Run the source in ns-3 (a process of its own); return what it saved."""
     out = folder / 'ns3.npz'
-    run = subprocess.run([sys.executable, str(HERE / 'source_run.py'), profile, str(seed),
-                          str(SECONDS), str(out)], capture_output=True, text=True,
+    run = subprocess.run([sys.executable, str(HERE / 'source_run.py'), *fcd, profile,
+                          str(seed), str(SECONDS), str(out)], capture_output=True, text=True,
                          timeout=600, env={**os.environ, 'PYTHONUNBUFFERED': '1'})
     assert run.returncode == 0, run.stderr[-3000:]
     return dict(np.load(out))
 
 
-def simulated(got, profile, seed, folder):
-    """Return ``gps_error simulate``'s errors and positions for the truth ns-3 read."""
-    frame = LocalTangentFrame(*MANHATTAN)
-    lat, lon, _ = frame.to_geodetic(got['truth'][..., 0], got['truth'][..., 1])
-    src, dst = folder / 'truth.xml', folder / 'noisy.xml'
-    with open(src, 'w') as f:
+def write_fcd(path, t, names, lat, lon, present=None):
+    """Write SUMO FCD (lon/lat) of agents ``names`` at times ``t`` (``present``: who is there)."""
+    with open(path, 'w') as f:
         f.write('<?xml version="1.0" encoding="UTF-8"?>\n<fcd-export>\n')
-        for k, t in enumerate(got['t']):
-            f.write(f'  <timestep time="{t:.2f}">\n')
-            for i, name in enumerate(got['names']):
-                f.write(f'    <person id="{name}" x="{float(lon[k, i])!r}" '
-                        f'y="{float(lat[k, i])!r}" angle="0" speed="1" pos="0" edge="e"/>\n')
+        for k, tk in enumerate(t):
+            f.write(f'  <timestep time="{tk:.2f}">\n')
+            for i, name in enumerate(names):
+                if present is None or present[k, i]:
+                    f.write(f'    <person id="{name}" x="{float(lon[k, i])!r}" '
+                            f'y="{float(lat[k, i])!r}" angle="0" speed="1" pos="0" '
+                            f'edge="e"/>\n')
             f.write('  </timestep>\n')
         f.write('</fcd-export>\n')
+
+
+def simulated(got, profile, seed, folder, src=None):
+    """Return ``simulate``'s errors and positions for the truth ns-3 read (or of ``src``)."""
+    frame = LocalTangentFrame(*MANHATTAN)
+    dst = folder / 'noisy.xml'
+    if src is None:
+        lat, lon, _ = frame.to_geodetic(got['truth'][..., 0], got['truth'][..., 1])
+        src = folder / 'truth.xml'
+        write_fcd(src, got['t'], got['names'], lat, lon)
     with contextlib.redirect_stdout(io.StringIO()):
         assert gps_error(['simulate', '--trajectories', str(src), '--out', str(dst),
                           '--coordinates', 'lonlat', '--digits', '12', '--errors',
@@ -113,3 +122,30 @@ def test_no_profile_gives_the_truth(tmp_path):
     assert np.array_equal(got['position'], got['truth'])
     assert got['t'].tolist() == list(range(SECONDS + 1))
     assert np.allclose(got['truth'][20, 4], [5.0 + 18 * 1.4, -3.0])     # the ns-2 trace
+
+
+def test_sumo_fcd_as_ns3_nodes_gets_simulates_errors(tmp_path):
+    """A node per agent of an FCD file (one comes late, one leaves early): simulate's errors."""
+    t = np.arange(0.0, SECONDS + 1.0)
+    north = np.stack([1.3 * t, 20.0 + 0 * t, 8.0 * t - 200.0], 1)
+    east = np.stack([np.maximum(t - 30.0, 0.0), 1.1 * t, 5.0 + 0 * t], 1)
+    present = np.ones((t.size, 3), dtype=bool)
+    present[:10, 1] = False                 # 'late' appears at 10 s
+    present[41:, 0] = False                 # 'early' leaves after 40 s
+    lat, lon, _ = LocalTangentFrame(*MANHATTAN).to_geodetic(east, north)
+    src = tmp_path / 'fcd.xml'
+    write_fcd(src, t, ['early', 'late', 'car'], lat, lon, present)
+    profile = yaml.safe_load((builtin_dir() / 'DS5.yaml').read_text())
+    profile['availability'] = {'outage_rate': 0.08, 'durations': [[2, 0.6], [5, 0.4]]}
+    spec = tmp_path / 'ds5-outages.yaml'
+    spec.write_text(yaml.safe_dump(profile))
+    got = in_ns3(str(spec), 5, tmp_path, ('--fcd', str(src)))
+    names = [str(n) for n in got['names']]
+    assert names == ['early', 'car', 'late']          # in the order they first appear
+    present = present[:, [['early', 'late', 'car'].index(n) for n in names]]
+    err, pos = simulated(got, str(spec), 5, tmp_path, src)
+    fix = got['fix'] & present
+    assert np.array_equal(fix, ~np.isnan(err[..., 0]))
+    assert fix.any() and not fix[present].all()
+    assert np.abs(got['error'][fix] - err[fix]).max() < TOL_M
+    assert np.abs(got['position'][fix] - pos[fix]).max() < TOL_M
