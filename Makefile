@@ -131,7 +131,7 @@ gpsd-check: setup
 
 # Benchmarks: figures printed (and kept in bench_output/), not timed tests.
 # 40 to 80 minutes on a 2-core machine of the kind (its CPU decides; the Parquet
-# benchmark adds about 6); see docs/performance.md.
+# benchmark adds about 6, the ns-3 study's cost about 15); see docs/performance.md.
 bench: setup
 	mkdir -p bench_output
 	$(PY) bench/bench_library.py --json bench_output/library.json
@@ -140,6 +140,7 @@ bench: setup
 	$(PY) bench/bench_simulate_parquet.py --json bench_output/simulate_parquet.json
 	$(PY) bench/bench_zones.py --json bench_output/zones.json
 	$(PY) bench/bench_long_recording.py --json bench_output/long_recording.json
+	$(PY) bench/bench_p2v.py --json bench_output/p2v.json
 
 # Soak (not part of make test, which runs 5-minute versions of both): 24
 # simulated hours for 100 agents, then one simulated hour for 1,000 agents, as

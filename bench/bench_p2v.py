@@ -16,7 +16,7 @@ import subprocess
 import sys
 import time
 
-SIZES = ((100, 20, 20.0), (1000, 100, 2.0))      # pedestrians, vehicles, simulated seconds
+SIZES = ((100, 20, 20.0), (1000, 100, 1.0))      # pedestrians, vehicles, simulated seconds
 
 
 def one(pedestrians, vehicles, seconds, profile):

@@ -5,7 +5,8 @@ Six nodes: four follow waypoints that turn corners and stand (ns-3's
 ``WaypointMobilityModel``), two follow an ns-2 mobility trace
 (``Ns2MobilityHelper``). Usage: ``source_run.py PROFILE|none SEED SECONDS OUT.npz``;
 with ``--fcd FCD.xml`` before them, one node per agent of a SUMO FCD file
-(lon/lat) instead, its errors started at the file's first time.
+(lon/lat) instead, its errors started at the file's first time, and with
+``--faults SCHEDULE.yaml`` too, those faults laid over its fixes.
 A process of its own: ns-3 takes some 15 s to import and has one simulator.
 """
 
@@ -35,9 +36,13 @@ WAYPOINTS = [
 def main() -> None:
     """Run the nodes for SECONDS; save the source's epochs and the agents' names."""
     args = sys.argv[1:]
-    fcd = None
-    if args[0] == '--fcd':
-        fcd, args = args[1], args[2:]
+    fcd = faults = None
+    while args[0] in ('--fcd', '--faults'):
+        if args[0] == '--fcd':
+            fcd = args[1]
+        else:
+            faults = args[1]
+        args = args[2:]
     spec, seed, seconds, out = args[0], int(args[1]), float(args[2]), args[3]
     from ns import ns
     import gps_error_ros as ge
@@ -47,8 +52,10 @@ def main() -> None:
         from gps_error_ros.ns3.fcd import fcd_tracks
         from gps_error_ros.ns3.tracks import waypoint_nodes
         tracks, first = fcd_tracks(fcd, 'lonlat')
+        from gps_error_ros.sim.faults import load_schedule
         source = GpsSource(waypoint_nodes(tracks), profile, seed, names=tracks.names,
-                           keep=True, start=first)
+                           keep=True, start=first,
+                           faults=load_schedule(faults) if faults else ())
         source.run(seconds)
         assert source.epochs is not None
         np.savez(out, names=np.array(tracks.names), **source.epochs.arrays())

@@ -73,7 +73,7 @@ def write_fcd(path, t, names, lat, lon, present=None):
         f.write('</fcd-export>\n')
 
 
-def simulated(got, profile, seed, folder, src=None):
+def simulated(got, profile, seed, folder, src=None, faults=()):
     """Return ``simulate``'s errors and positions for the truth ns-3 read (or of ``src``)."""
     frame = LocalTangentFrame(*MANHATTAN)
     dst = folder / 'noisy.xml'
@@ -84,7 +84,7 @@ def simulated(got, profile, seed, folder, src=None):
     with contextlib.redirect_stdout(io.StringIO()):
         assert gps_error(['simulate', '--trajectories', str(src), '--out', str(dst),
                           '--coordinates', 'lonlat', '--digits', '12', '--errors',
-                          '--profile', profile, '--seed', str(seed)]) == 0
+                          '--profile', profile, '--seed', str(seed), *faults]) == 0
     shape = got['fix'].shape
     err, pos = np.full(shape + (2,), np.nan), np.full(shape + (2,), np.nan)
     index = {str(n): i for i, n in enumerate(got['names'])}
@@ -125,7 +125,12 @@ def test_no_profile_gives_the_truth(tmp_path):
 
 
 def test_sumo_fcd_as_ns3_nodes_gets_simulates_errors(tmp_path):
-    """A node per agent of an FCD file (one comes late, one leaves early): simulate's errors."""
+    """
+    A node per agent of an FCD file (one comes late, one leaves early): simulate's errors.
+
+    With faults laid over the fixes: an outage (no fix), a frozen receiver
+    and an offset, as ``simulate --faults`` lays them.
+    """
     t = np.arange(0.0, SECONDS + 1.0)
     north = np.stack([1.3 * t, 20.0 + 0 * t, 8.0 * t - 200.0], 1)
     east = np.stack([np.maximum(t - 30.0, 0.0), 1.1 * t, 5.0 + 0 * t], 1)
@@ -139,11 +144,18 @@ def test_sumo_fcd_as_ns3_nodes_gets_simulates_errors(tmp_path):
     profile['availability'] = {'outage_rate': 0.08, 'durations': [[2, 0.6], [5, 0.4]]}
     spec = tmp_path / 'ds5-outages.yaml'
     spec.write_text(yaml.safe_dump(profile))
-    got = in_ns3(str(spec), 5, tmp_path, ('--fcd', str(src)))
+    schedule = tmp_path / 'faults.yaml'
+    schedule.write_text('faults:\n'
+                        '  - {kind: outage, at: 20, duration: 5, agent: car}\n'
+                        '  - {kind: frozen, at: 45, duration: 5, agent: late}\n'
+                        '  - {kind: offset, at: 30, duration: 5, size_m: 25, bearing_deg: 90}\n')
+    faults = ('--faults', str(schedule))
+    got = in_ns3(str(spec), 5, tmp_path, ('--fcd', str(src), *faults))
     names = [str(n) for n in got['names']]
     assert names == ['early', 'car', 'late']          # in the order they first appear
     present = present[:, [['early', 'late', 'car'].index(n) for n in names]]
-    err, pos = simulated(got, str(spec), 5, tmp_path, src)
+    err, pos = simulated(got, str(spec), 5, tmp_path, src, faults)
+    assert not got['fix'][20:25, names.index('car')].any()
     fix = got['fix'] & present
     assert np.array_equal(fix, ~np.isnan(err[..., 0]))
     assert fix.any() and not fix[present].all()
