@@ -36,12 +36,22 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, Inputs
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
 
 class AvailabilityError(ValueError):
     """An ``availability`` section that is not valid."""
+
+
+#: The ``availability`` section, field by field (read, written and documented from here).
+SECTION = SectionSpec('availability', (
+    Field('outage_rate', 'the chance, per step with a fix, that an outage begins', 'number',
+          0.0, 1.0, hi_open=True),
+    Field('durations', 'the outages\' lengths (model steps) and their probabilities, '
+          'each length once, the probabilities summing to 1', 'distribution', 1.0),
+), AvailabilityError)
 
 
 @dataclass(frozen=True)
@@ -67,8 +77,8 @@ class Availability:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the profile section as plain data."""
-        return {'outage_rate': float(self.outage_rate),
-                'durations': [[int(n), float(p)] for n, p in zip(self.lengths, self.probs)]}
+        return SECTION.write({'outage_rate': self.outage_rate,
+                              'durations': list(zip(self.lengths, self.probs))})
 
     # --- the process, vectorised over agents ------------------------------
 
@@ -106,35 +116,24 @@ class Availability:
 
 
 def availability_from_dict(raw: Any, source: str = '<profile>') -> Availability:
-    """Validate an ``availability`` mapping; return :class:`Availability`."""
-    key = 'availability'
-    if not isinstance(raw, dict) or sorted(raw) != ['durations', 'outage_rate']:
-        raise AvailabilityError(f'{source}: key {key!r}: expected a mapping with exactly '
-                                f'outage_rate and durations, got {raw!r}')
-    rate = raw['outage_rate']
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 0 <= rate < 1:
-        raise AvailabilityError(f'{source}: key {key}.outage_rate: expected a number in '
-                                f'[0, 1), got {rate!r}')
-    pairs = raw['durations']
-    ok = isinstance(pairs, list) and pairs and all(
-        isinstance(p, list) and len(p) == 2 and isinstance(p[0], int)
-        and not isinstance(p[0], bool) and p[0] >= 1
-        and isinstance(p[1], (int, float)) and not isinstance(p[1], bool) and p[1] > 0
-        for p in pairs)
-    if not ok:
-        raise AvailabilityError(
-            f'{source}: key {key}.durations: expected a non-empty list of [steps, '
-            f'probability] pairs (integer steps >= 1, probability > 0), got {pairs!r}')
-    lengths = [p[0] for p in pairs]
+    """
+    Validate an ``availability`` mapping; return :class:`Availability`.
+
+    Each key is checked as :data:`SECTION` declares it; what one field cannot
+    say is checked here: each length once, probabilities summing to 1.
+    """
+    values = SECTION.read(raw, source)
+    pairs = values['durations']
+    lengths = [n for n, _ in pairs]
     if len(set(lengths)) != len(lengths):
-        raise AvailabilityError(f'{source}: key {key}.durations: a length appears twice '
-                                f'in {lengths}')
-    total = sum(p[1] for p in pairs)
+        raise AvailabilityError(f'{source}: key availability.durations: a length appears '
+                                f'twice in {lengths}')
+    total = sum(p for _, p in pairs)
     if abs(total - 1.0) > 1e-6:
-        raise AvailabilityError(f'{source}: key {key}.durations: probabilities must sum '
-                                f'to 1, got {total!r}')
+        raise AvailabilityError(f'{source}: key availability.durations: probabilities must '
+                                f'sum to 1, got {total!r}')
     order = np.argsort(lengths)
-    return Availability(float(rate), tuple(int(lengths[i]) for i in order),
+    return Availability(values['outage_rate'], tuple(int(lengths[i]) for i in order),
                         tuple(float(pairs[i][1]) for i in order))
 
 

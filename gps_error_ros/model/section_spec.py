@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import math
 from typing import Any, Literal, Optional
 
-Kind = Literal['number', 'integer', 'choice', 'pair', 'sizes']
+Kind = Literal['number', 'integer', 'choice', 'pair', 'sizes', 'distribution']
 
 
 def _shown(v: float) -> str:
@@ -31,7 +31,9 @@ class Field:
     ``number``: a finite number in ``lo .. hi`` (``lo_open``, ``hi_open``:
     the bound excluded); ``integer``: an integer in ``[lo, hi]``; ``choice``:
     one of ``choices``; ``pair``: two numbers (north, east) in ``[lo, hi]``;
-    ``sizes``: a non-empty, non-decreasing list of numbers in ``lo .. hi``.
+    ``sizes``: a non-empty, non-decreasing list of numbers in ``lo .. hi``;
+    ``distribution``: a non-empty list of [value, probability] pairs, each
+    value an integer in ``[lo, hi]`` and each probability in (0, 1].
     ``absent``: what leaving an optional key out means (None: required).
     ``digits``: the decimals it is written with (None: as it is).
     """
@@ -55,7 +57,9 @@ class Field:
                 'integer': f'an integer in {span}',
                 'choice': f'one of {list(self.choices)}',
                 'pair': f'two numbers (north, east) in {span}',
-                'sizes': f'a non-empty, non-decreasing list of numbers in {span}'}[self.kind]
+                'sizes': f'a non-empty, non-decreasing list of numbers in {span}',
+                'distribution': f'a non-empty list of [value, probability] pairs (integer '
+                                f'values in {span}, probabilities in (0, 1])'}[self.kind]
 
     def _inside(self, v: Any) -> bool:
         """Return True when ``v`` is a number within the field's range."""
@@ -72,14 +76,29 @@ class Field:
             return int(v) if ok else None
         if self.kind == 'number':
             return float(v) if self._inside(v) else None
+        if self.kind == 'distribution':
+            return self._pairs(v)
         if not isinstance(v, list) or not v or not all(self._inside(x) for x in v):
             return None
         if self.kind == 'pair':
             return tuple(float(x) for x in v) if len(v) == 2 else None
         return tuple(float(x) for x in v) if all(b >= a for a, b in zip(v, v[1:])) else None
 
+    def _pairs(self, v: Any) -> Optional[tuple[tuple[int, float], ...]]:
+        """Return a distribution's (value, probability) pairs checked, or None when invalid."""
+        def one(p: Any) -> bool:
+            return (isinstance(p, list) and len(p) == 2 and isinstance(p[0], int)
+                    and self._inside(p[0]) and isinstance(p[1], (int, float))
+                    and not isinstance(p[1], bool) and math.isfinite(p[1]) and 0 < p[1] <= 1)
+        if not isinstance(v, list) or not v or not all(one(p) for p in v):
+            return None
+        return tuple((int(p[0]), float(p[1])) for p in v)
+
     def write(self, v: Any) -> Any:
         """Return a value as the section writes it."""
+        if self.kind == 'distribution':
+            return [[int(n), round(float(p), self.digits) if self.digits is not None
+                     else float(p)] for n, p in v]
         if self.kind in ('pair', 'sizes'):
             return [round(float(x), self.digits) if self.digits is not None else float(x)
                     for x in v]

@@ -73,7 +73,8 @@ def test_the_errors_are_the_inner_models_bit_for_bit():
 
 
 @pytest.mark.parametrize('section, expected', [
-    ({'outage_rate': 0.1}, 'exactly outage_rate and durations'),
+    ({'outage_rate': 0.1}, r"exactly \['outage_rate', 'durations'\]"),
+    ({'outage_rate': 0.1, 'durations': [[2, 0.5, 1]]}, r'\[value, probability\] pairs'),
     ({'outage_rate': 1.5, 'durations': [[1, 1.0]]}, 'availability.outage_rate'),
     ({'outage_rate': 0.1, 'durations': [[0, 1.0]]}, 'availability.durations'),
     ({'outage_rate': 0.1, 'durations': [[2, 0.5], [3, 0.4]]}, 'sum to 1'),
