@@ -162,8 +162,8 @@ def main(argv: list[str] | None = None) -> int:
         'broadcast safety messages over 802.11p, vehicles warn from them; the same run '
         'with no GPS errors, white noise and the package\'s profiles. Needs the extra '
         '"ns3".'))
-    p.add_argument('--pedestrians', type=int, default=100)
-    p.add_argument('--vehicles', type=int, default=20)
+    p.add_argument('--pedestrians', type=int, default=100, help='phones at the crossing')
+    p.add_argument('--vehicles', type=int, default=20, help='vehicles driving through it')
     p.add_argument('--duration', type=float, default=60.0, help='simulated seconds')
     p.add_argument('--rate', type=float, default=10.0,
                    help='messages per second per pedestrian (1-10)')
@@ -183,14 +183,17 @@ def main(argv: list[str] | None = None) -> int:
     peds, cars = scenario(a.pedestrians, a.vehicles, a.duration, a.scenario_seed)
     spec = WorldSpec(peds, cars, a.duration, a.rate, a.size, a.seed, a.scenario_seed)
     start = time.perf_counter()
+    conditions = tuple(a.conditions.split(','))
+    out = Path(a.out)
     try:
-        result = study(spec, tuple(a.conditions.split(',')), a.jobs)
+        for name in conditions:
+            condition_profile(name)     # a bad name fails before anything is written
+        out.mkdir(parents=True, exist_ok=True)
+        result = study(spec, conditions, a.jobs)
     except (ValueError, OSError) as exc:
         print(f'p2v: {exc}', file=sys.stderr)
         return 2
     result['run'] = {**vars(a), 'wall_s': time.perf_counter() - start}
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
     (out / 'p2v.json').write_text(json.dumps(result, indent=1))
     from gps_error_ros.reports.p2v_figure import p2v_figure
     p2v_figure(result, out / 'p2v.png')
