@@ -46,12 +46,19 @@ class Epochs:
     position: list[FloatArray] = field(default_factory=list)
     error: list[FloatArray] = field(default_factory=list)
     fix: list[BoolArray] = field(default_factory=list)
+    accuracy: list[FloatArray] = field(default_factory=list)
 
     def arrays(self) -> dict[str, FloatArray]:
-        """Return the epochs as arrays: t (k,), truth and position (k, n, 2) x/y, fix (k, n)."""
+        """
+        Return the epochs as arrays.
+
+        ``t`` (k,); ``truth`` and ``position`` (k, n, 2) x/y; ``error`` (k,
+        n, 2) north/east; ``fix`` (k, n); ``accuracy`` (k, n, 4), the
+        stated accuracy's columns (``ACCURACY``).
+        """
         return {'t': np.asarray(self.t), 'truth': np.asarray(self.truth),
                 'position': np.asarray(self.position), 'error': np.asarray(self.error),
-                'fix': np.asarray(self.fix)}
+                'fix': np.asarray(self.fix), 'accuracy': np.asarray(self.accuracy)}
 
 
 class GpsSource:
@@ -99,15 +106,17 @@ class GpsSource:
             raise ValueError(f'names: expected {self.n} distinct agent names, one per node, '
                              f'got {len(self.names)} ({len(set(self.names))} distinct)')
         self.frame = LocalTangentFrame(*datum)
-        self.profile = profile
         self.rate_hz = profile.rate_hz if profile is not None else 1.0
         self.steps: FcdSteps | None = None
         if profile is not None:
+            # as simulate: covariances about the truth, or for a reported radius
+            # the radius's circle plus the mean's m m^T
             about = covariance_about == 'truth' and covariance_mode != 'reported'
             model = profile.model(about_truth=about)
             options = FcdOptions('lonlat', None, profile.rate_hz, seed, covariance_mode, None,
                                  profile.reported_accuracy, profile.velocity,
-                                 model.mean if about else None, tuple(faults))
+                                 model.mean if covariance_about == 'truth' else None,
+                                 tuple(faults))
             self.steps = FcdSteps('ns-3', model, options, None if start is None
                                   else model_step(start, profile.rate_hz))
         self.table = np.zeros((int(self.ids.max()) + 1 if self.n else 0, len(FIELDS)))
@@ -135,7 +144,6 @@ class GpsSource:
         lat, lon, _ = self.frame.to_geodetic(x, y)
         speed: FloatArray = np.hypot(vx, vy)
         heading: FloatArray = np.degrees(np.arctan2(vx, vy)) % 360.0
-        rows = self.table[self.ids]
         if self.steps is None:
             fix = np.ones(self.n, dtype=bool)
             nlat, nlon, nx, ny = np.asarray(lat), np.asarray(lon), x, y
@@ -150,8 +158,8 @@ class GpsSource:
             if out.velocity:
                 speed = out.velocity['reported_speed']
                 heading = out.velocity['reported_bearing']
-        rows[:] = np.column_stack([fix, np.full(self.n, t), nlat, nlon, nx, ny, acc, speed,
-                                   heading])
+        rows = np.column_stack([fix, np.full(self.n, t), nlat, nlon, nx, ny, acc, speed,
+                                heading])
         rows[~fix, 2:] = np.nan
         self.table[self.ids] = rows
         self._cpp.Gps.Set(self.table.shape[0], self.table)
@@ -162,6 +170,7 @@ class GpsSource:
             e.position.append(np.column_stack([nx, ny]))
             e.error.append(np.asarray(err, dtype=float).copy())
             e.fix.append(np.asarray(fix, dtype=bool).copy())
+            e.accuracy.append(acc.copy())
 
     def fix(self, index: int) -> dict[str, float]:
         """Return node ``index``'s (in ``nodes``) current fix, by field (see ``native.FIELDS``)."""

@@ -6,7 +6,8 @@ Six nodes: four follow waypoints that turn corners and stand (ns-3's
 (``Ns2MobilityHelper``). Usage: ``source_run.py PROFILE|none SEED SECONDS OUT.npz``;
 with ``--fcd FCD.xml`` before them, one node per agent of a SUMO FCD file
 (lon/lat) instead, its errors started at the file's first time, and with
-``--faults SCHEDULE.yaml`` too, those faults laid over its fixes.
+``--faults SCHEDULE.yaml`` too, those faults laid over its fixes;
+``--covariance-mode MODE``: the stated accuracy's, as ``simulate``'s.
 A process of its own: ns-3 takes some 15 s to import and has one simulator.
 """
 
@@ -37,11 +38,14 @@ def main() -> None:
     """Run the nodes for SECONDS; save the source's epochs and the agents' names."""
     args = sys.argv[1:]
     fcd = faults = None
-    while args[0] in ('--fcd', '--faults'):
+    mode = 'stationary'
+    while args[0] in ('--fcd', '--faults', '--covariance-mode'):
         if args[0] == '--fcd':
             fcd = args[1]
-        else:
+        elif args[0] == '--faults':
             faults = args[1]
+        else:
+            mode = args[1]
         args = args[2:]
     spec, seed, seconds, out = args[0], int(args[1]), float(args[2]), args[3]
     from ns import ns
@@ -77,7 +81,7 @@ def main() -> None:
     ns.Ns2MobilityHelper(str(trace)).Install()
     nodes = ns.NodeContainer(walkers, traced)
     names = ['ann', 'bob', 'cy', 'dee', 'ns2-eve', 'ns2-fay']
-    source = GpsSource(nodes, profile, seed, names=names, keep=True)
+    source = GpsSource(nodes, profile, seed, names=names, keep=True, covariance_mode=mode)
     source.run(seconds)
     assert source.epochs is not None
     np.savez(out, names=np.array(names), **source.epochs.arrays())

@@ -73,8 +73,13 @@ def write_fcd(path, t, names, lat, lon, present=None):
         f.write('</fcd-export>\n')
 
 
-def simulated(got, profile, seed, folder, src=None, faults=()):
-    """Return ``simulate``'s errors and positions for the truth ns-3 read (or of ``src``)."""
+def simulated(got, profile, seed, folder, src=None, extra=(), stated=None):
+    """
+    Return ``simulate``'s errors and positions for the truth ns-3 read (or of ``src``).
+
+    ``extra``: more of ``simulate``'s options; ``stated``: a dict to fill with
+    its stated-accuracy columns, (epochs, nodes, 4).
+    """
     frame = LocalTangentFrame(*MANHATTAN)
     dst = folder / 'noisy.xml'
     if src is None:
@@ -84,9 +89,11 @@ def simulated(got, profile, seed, folder, src=None, faults=()):
     with contextlib.redirect_stdout(io.StringIO()):
         assert gps_error(['simulate', '--trajectories', str(src), '--out', str(dst),
                           '--coordinates', 'lonlat', '--digits', '12', '--errors',
-                          '--profile', profile, '--seed', str(seed), *faults]) == 0
+                          '--profile', profile, '--seed', str(seed), *extra]) == 0
+    columns = ('accuracy', 'accuracy_major', 'accuracy_minor', 'accuracy_orientation')
     shape = got['fix'].shape
     err, pos = np.full(shape + (2,), np.nan), np.full(shape + (2,), np.nan)
+    acc = np.full(shape + (4,), np.nan)
     index = {str(n): i for i, n in enumerate(got['names'])}
     for k, step in enumerate(ET.parse(dst).getroot()):
         for p in step:
@@ -94,16 +101,29 @@ def simulated(got, profile, seed, folder, src=None, faults=()):
             err[k, i] = float(p.get('error_north')), float(p.get('error_east'))
             e, n, _ = frame.to_enu(float(p.get('y')), float(p.get('x')))
             pos[k, i] = e, n
+            acc[k, i] = [float(p.get(c)) for c in columns]
+    if stated is not None:
+        stated['accuracy'] = acc
     return err, pos
 
 
-@pytest.mark.parametrize('profile', ['everything', 'phone-suburban-drive'])
-def test_the_nodes_errors_are_simulates(profile, tmp_path):
-    """Errors, positions and fixes equal ``simulate``'s for the same truth, profile and seed."""
+@pytest.mark.parametrize('profile, mode', [('everything', 'stationary'),
+                                           ('phone-suburban-drive', 'reported')])
+def test_the_nodes_errors_are_simulates(profile, mode, tmp_path):
+    """
+    Errors, positions, fixes and stated accuracy are ``simulate``'s for the same truth and seed.
+
+    ``reported``: the phone's own radius, whose ellipse holds the profile's
+    mean as ``simulate``'s does. ``simulate`` writes the accuracy to the
+    millimetre (and the orientation to a thousandth of a degree).
+    """
     spec = everything(tmp_path / 'everything.yaml') if profile == 'everything' else profile
-    got = in_ns3(spec, 11, tmp_path)
-    err, pos = simulated(got, spec, 11, tmp_path)
+    got = in_ns3(spec, 11, tmp_path, ('--covariance-mode', mode))
+    stated = {}
+    err, pos = simulated(got, spec, 11, tmp_path, extra=('--covariance-mode', mode),
+                         stated=stated)
     fix = got['fix']
+    assert np.abs(got['accuracy'][fix] - stated['accuracy'][fix]).max() < 5.1e-4
     assert np.array_equal(fix, ~np.isnan(err[..., 0])), 'a fix in ns-3 and not in simulate'
     assert fix.any()
     if profile == 'everything':
