@@ -7,8 +7,8 @@ that ns-3's ``WaypointMobilityModel`` follows, and that the study's truth
 (:meth:`~gps_error_ros.ns3.tracks.Tracks.at`) interpolates the same way.
 
 Two streets cross at the origin: one east-west along x, one north-south
-along y, each ``2 * street`` metres wide with a lane each way
-(``lane`` metres from the centre line; vehicles keep right). Sidewalks run
+along y, each with a lane each way (``lane`` metres from the centre
+line; vehicles keep right). Sidewalks run
 ``sidewalk`` metres from each centre line; the four corners where they
 meet are joined by crosswalks across the streets. A pedestrian walks along
 a sidewalk to a corner, waits at the kerb, crosses to the next corner (and
@@ -29,7 +29,6 @@ from gps_error_ros.ns3.tracks import Tracks
 class Crossing:
     """The crossing's layout, in metres from its centre."""
 
-    street: float = 6.0
     lane: float = 1.75
     sidewalk: float = 8.0
     #: how far from the centre vehicles appear and leave

@@ -19,9 +19,8 @@ from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.ns3.source import MANHATTAN
 from gps_error_ros.ns3.tracks import Tracks
-from gps_error_ros.sim.fcd_step import position_mode
-from gps_error_ros.traces.trajectories import (check_fcd_root, fcd_coordinates, fcd_net_file,
-                                               iter_fcd, TrajectoryError)
+from gps_error_ros.sim.fcd_step import xml_position_mode
+from gps_error_ros.traces.trajectories import iter_fcd, TrajectoryError
 
 
 def fcd_tracks(path: PathArg, coordinates: str | None = None, net: PathArg | None = None,
@@ -30,41 +29,30 @@ def fcd_tracks(path: PathArg, coordinates: str | None = None, net: PathArg | Non
     Return every agent's track of an FCD XML file, and the file's first time with an agent.
 
     ``coordinates`` and ``net``: what the file's x/y are, as ``simulate``'s
-    ``--coordinates`` and ``--net`` (SUMO's options comment at the top says
-    it when present). Positions on the globe (lon/lat, or a georeferenced
-    network's metres) become metres east and north of ``datum``; a
-    network without a projection keeps its own x/y.
+    ``--coordinates`` and ``--net``, read the same way (SUMO's options
+    comment at the top says it when present). Positions on the globe
+    (lon/lat, or a georeferenced network's metres) become metres east and
+    north of ``datum``; a network without a projection keeps its own x/y.
     """
-    check_fcd_root(path)
-    said = coordinates or fcd_coordinates(path)
-    if said is None:
-        raise TrajectoryError(f'{path}: no SUMO options comment at the top, so whether x/y '
-                              f'are lon/lat or metres is unknown: pass coordinates='
-                              f'"lonlat" or "xy"')
-    if net is None and said == 'lonlat':
-        net = fcd_net_file(path)
-    mode, proj = position_mode(path, said, net)
-    times: dict[str, list[float]] = {}
-    xs: dict[str, list[float]] = {}
-    ys: dict[str, list[float]] = {}
+    mode, proj = xml_position_mode(path, net, coordinates)
+    rows: dict[str, list[tuple[float, float, float]]] = {}
     for t, _, agents in iter_fcd(Path(path)):
         for name, x, y, _ in agents:
-            times.setdefault(name, []).append(t)
-            xs.setdefault(name, []).append(x)
-            ys.setdefault(name, []).append(y)
-    if not times:
+            rows.setdefault(name, []).append((t, x, y))
+    if not rows:
         raise TrajectoryError(f'{path}: no person or vehicle in any timestep: expected '
                               f'positions to follow')
     frame = LocalTangentFrame(*datum)
-    names = list(times)
-    points = []
+    names = list(rows)
+    times, points = [], []
     for n in names:
-        x, y = np.asarray(xs[n], dtype=float), np.asarray(ys[n], dtype=float)
+        t, x, y = np.asarray(rows[n], dtype=float).T
         if mode == 'net':
             assert proj is not None
             x, y = proj.to_lonlat(x, y)
         if mode != 'plane':
             x, y, _ = frame.to_enu(np.asarray(y, dtype=float), np.asarray(x, dtype=float))
+        times.append(t)
         points.append(np.column_stack([x, y]))
-    first = min(v[0] for v in times.values())
-    return Tracks(names, [np.asarray(times[n]) for n in names], points), first
+    first = min(float(t[0]) for t in times)
+    return Tracks(names, times, points), first

@@ -79,9 +79,8 @@ def warnings(logs: dict[str, Any], n_peds: int, cars: FloatArray, vel: FloatArra
     From the messages each vehicle received: their content is what the
     sender's phone stated when it sent them (``tx_*``).
     """
-    keys = logs['tx_node'] * (1 << 32) + logs['tx_count']
+    keys, rx_keys = _keys(logs)
     order = np.argsort(keys)
-    rx_keys = logs['rx_from'] * (1 << 32) + logs['rx_count']
     content = order[np.searchsorted(keys, rx_keys, sorter=order)]
     heading = np.radians(np.nan_to_num(logs['tx_heading']))
     speed = np.nan_to_num(logs['tx_speed'])
@@ -152,10 +151,9 @@ def delivery(logs: dict[str, Any], peds: Tracks, cars: Tracks,
     truth = np.empty((t.size, 2))
     for j in range(len(peds.names)):
         sel = who == j
-        truth[sel] = peds.at(t[sel])[j]
+        truth[sel] = peds.of(j, t[sel])
     error = np.hypot(logs['tx_x'] - truth[:, 0], logs['tx_y'] - truth[:, 1])
-    keys = who * (1 << 32) + logs['tx_count']
-    rx_keys = logs['rx_from'] * (1 << 32) + logs['rx_count']
+    keys, rx_keys = _keys(logs)
     where = cars.at(t)
     sent = np.zeros(edges.size - 1, dtype=np.int64)
     got = np.zeros(edges.size - 1, dtype=np.int64)
@@ -167,3 +165,9 @@ def delivery(logs: dict[str, Any], peds: Tracks, cars: Tracks,
         sent += np.bincount(bins[inside], minlength=edges.size - 1)
         got += np.bincount(bins[inside & received], minlength=edges.size - 1)
     return sent, got, error
+
+
+def _keys(logs: dict[str, Any]) -> tuple[IntArray, IntArray]:
+    """Return one key per message (its sender and count) for those sent and those received."""
+    return (logs['tx_node'] * (1 << 32) + logs['tx_count'],
+            logs['rx_from'] * (1 << 32) + logs['rx_count'])

@@ -29,10 +29,15 @@ class Tracks:
         """Return every agent's position at times ``t``: an array (agents, times, 2)."""
         t = np.asarray(t, dtype=float)
         out = np.empty((len(self.names), t.size, 2))
-        for i, (tt, pp) in enumerate(zip(self.times, self.points)):
-            out[i, :, 0] = np.interp(t, tt, pp[:, 0])
-            out[i, :, 1] = np.interp(t, tt, pp[:, 1])
+        for i in range(len(self.names)):
+            out[i] = self.of(i, t)
         return out
+
+    def of(self, i: int, t: FloatArray) -> FloatArray:
+        """Return agent ``i``'s positions at times ``t``: an array (times, 2)."""
+        t = np.asarray(t, dtype=float)
+        tt, pp = self.times[i], self.points[i]
+        return np.column_stack([np.interp(t, tt, pp[:, 0]), np.interp(t, tt, pp[:, 1])])
 
     def velocity(self, t: FloatArray) -> FloatArray:
         """Return every agent's velocity at times ``t``, in m/s: an array (agents, times, 2)."""

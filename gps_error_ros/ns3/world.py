@@ -78,8 +78,9 @@ def run_world(spec: WorldSpec, profile: Profile | None) -> dict[str, Any]:
     time, the fix's time, its x/y, accuracy, speed and heading), ``rx_*``
     (one per message a vehicle received: vehicle index, sender index,
     count, time), ``busy`` (each vehicle's radio time not idle, s),
-    ``no_fix`` (messages not sent for want of a fix), ``wall_s`` (the run's
-    wall time) and ``node_ids`` bookkeeping.
+    ``no_fix`` (messages not sent for want of a fix) and ``wall_s`` (the
+    run's wall time). Senders and vehicles are numbered by their index in
+    the spec's tracks, not by ns-3's node ids.
     """
     from ns import ns
     native = cpp()

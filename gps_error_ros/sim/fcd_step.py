@@ -31,7 +31,8 @@ from gps_error_ros.sim.faults import Fault, FaultOverlay, FixRows
 from gps_error_ros.sim.trajectory_fixes import (accuracy_columns, model_step, per_fix,
                                                 stated_accuracy)
 from gps_error_ros.sim.velocity_sim import StreamedVelocity
-from gps_error_ros.traces.trajectories import (add_errors_lonlat, NetProjection,
+from gps_error_ros.traces.trajectories import (add_errors_lonlat, check_fcd_root,
+                                               fcd_coordinates, fcd_net_file, NetProjection,
                                                TrajectoryError)
 
 
@@ -304,6 +305,24 @@ def position_mode(src: PathArg, coordinates: str,
             f'--fcd-output.geo): pass --net NET.xml to georeference them')
     proj = NetProjection(net)
     return ('net' if proj.geo else 'plane'), proj
+
+
+def xml_position_mode(src: PathArg, net: PathArg | None,
+                      coordinates: str | None) -> tuple[str, NetProjection | None]:
+    """
+    Return how to move an FCD XML file's positions, as :func:`position_mode`.
+
+    Never guessed from the values: SUMO writes its options in a comment at
+    the top of the file (``fcd-output.geo`` there means lon/lat); a file
+    without that comment needs ``coordinates`` ('lonlat' or 'xy').
+    """
+    check_fcd_root(src)
+    mode = coordinates or fcd_coordinates(src)
+    if mode is None:
+        raise TrajectoryError(
+            f'{src}: no SUMO options comment at the top, so whether x/y are '
+            f'lon/lat or metres is unknown: pass --coordinates lonlat or xy')
+    return position_mode(src, mode, net or (fcd_net_file(src) if mode == 'lonlat' else None))
 
 
 def fcd_counts(src: PathArg, model: ErrorModel[S], steps: int, rows: int, agents: int,

@@ -41,15 +41,14 @@ from gps_error_ros.model.velocity import Velocity
 from gps_error_ros.model.zoned import ZoneSetup
 from gps_error_ros.sim.faults import Fault
 from gps_error_ros.sim.fcd_step import (FcdColumns, fcd_counts, FcdOptions, FcdSteps,
-                                        position_mode)
+                                        xml_position_mode)
 from gps_error_ros.sim.trajectory_fixes import (accuracy_columns, agent_names, model_step,
                                                 trajectory_fixes)
 from gps_error_ros.traces.progress import Progress
 from gps_error_ros.traces.nmea_write import epoch_sentences
 from gps_error_ros.traces.trace_io import Trace, write_trace_csv
-from gps_error_ros.traces.trajectories import (
-    check_fcd_root, fcd_coordinates, fcd_net_file, FcdWriter, iter_fcd, NetProjection,
-    read_truth_csv, TrajectoryError)
+from gps_error_ros.traces.trajectories import (FcdWriter, iter_fcd, read_truth_csv,
+                                               TrajectoryError)
 
 
 def simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
@@ -178,24 +177,6 @@ def simulate_npz(dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int, 
                              start_s, prefix, chunk)
 
 
-def _fcd_mode(src: PathArg, net: PathArg | None,
-              coordinates: str | None) -> tuple[str, NetProjection | None]:
-    """
-    Return how to move an FCD file's positions: 'lonlat', 'net' or 'plane'.
-
-    Never guessed from the values: SUMO writes its options in a comment at
-    the top of the file (``fcd-output.geo`` there means lon/lat); a file
-    without that comment needs ``coordinates`` ('lonlat' or 'xy').
-    """
-    check_fcd_root(src)
-    mode = coordinates or fcd_coordinates(src)
-    if mode is None:
-        raise TrajectoryError(
-            f'{src}: no SUMO options comment at the top, so whether x/y are '
-            f'lon/lat or metres is unknown: pass --coordinates lonlat or xy')
-    return position_mode(src, mode, net or (fcd_net_file(src) if mode == 'lonlat' else None))
-
-
 def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float, seed: int,
                   net: PathArg | None = None, coordinates: str | None = None,
                   digits: int | None = None, zones: ZoneSetup | None = None,
@@ -204,7 +185,7 @@ def _simulate_fcd(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: flo
                   reported_bias: Numbers | None = None,
                   faults: Sequence[Fault] = (), errors: bool = False) -> dict[str, int]:
     """Add errors to every agent of a SUMO FCD file; return counts (one streamed pass)."""
-    mode, proj = _fcd_mode(src, net, coordinates)
+    mode, proj = xml_position_mode(src, net, coordinates)
     steps = FcdSteps(src, model, FcdOptions(mode, proj, rate_hz, seed, covariance_mode, zones,
                                             reported, velocity, reported_bias, faults))
     progress = Progress(os.path.getsize(src), f'simulating {Path(src).name}', min_total=20 << 20)
