@@ -30,6 +30,7 @@ from hypothesis import given, HealthCheck, Phase, settings, strategies as st
 
 import gps_error_ros as ge
 from gps_error_ros.cli import main as gps_error
+from gps_error_ros.model.effect_kinds import KINDS
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import builtin_dir, load_profile, profile_from_dict
 from gps_error_ros.model.streams import agent_keys
@@ -328,7 +329,13 @@ def check_paths(raw, zone_raw, seed, mode, turning):
         np.testing.assert_allclose(alone.reshape(-1, 2), rows.error, rtol=0, atol=TOL_M)
 
 
-MOVES = ('street_frame', 'motion_lag')
+#: effects whose errors depend on the walk: those that turn with it, and the lag
+MOVES = tuple(k.name for k in KINDS if k.needs_heading) + ('motion_lag',)
+
+
+def test_every_effect_of_the_registry_is_drawn():
+    """A new module in ``model/effect_kinds`` needs its strategy in ``EFFECTS`` above."""
+    assert sorted(EFFECTS) == sorted(k.name for k in KINDS)
 
 
 # derandomized (the same draws in every run), and no shrinking: a failure prints its draw
