@@ -115,6 +115,7 @@ class FcdParquet:
                                   f'(SUMO\'s FCD as Parquet)')
         self.columns = columns
         self.rows = self.file.metadata.num_rows
+        self._last: tuple[Any, list[str], Any] | None = None     # the last chunk's agents
 
     def first_time(self) -> float | None:
         """Return the time of the first row with an agent (None: none), reading a few columns."""
@@ -174,9 +175,13 @@ class FcdParquet:
         cols = [table.column(f'{k}_id') for k in self.kinds]
         ids = (pc.coalesce(*cols) if len(cols) > 1 else cols[0]).combine_chunks()
         enc = pc.dictionary_encode(ids)
-        dictionary = enc.dictionary.to_pylist()
+        if self._last is None or not enc.dictionary.equals(self._last[0]):
+            # the same agents in the same order: the same list, which lookups cache by
+            listed = enc.dictionary.to_pylist()
+            self._last = (enc.dictionary, listed, np.array(listed + [None], dtype=object))
+        _, dictionary, named = self._last
         codes = np.asarray(enc.indices.fill_null(-1).to_numpy(), dtype=np.int64)
-        names = np.array(dictionary + [None], dtype=object)[codes]
+        names = named[codes]
         x = self._coalesced(table, '_x')
         y = self._coalesced(table, '_y')
         starts = np.flatnonzero(np.diff(t)) + 1
@@ -239,6 +244,23 @@ class _Raised:
     exc: BaseException
 
 
+def writer_options(schema: Any) -> dict[str, Any]:
+    """
+    Return the Parquet writer's options for a table of ``schema`` (decision 0041).
+
+    Only the string columns (ids, types, edges, lanes) are dictionary-encoded:
+    pyarrow's default also hashes every double, which made writing cost
+    three times reading, for a larger file. Statistics (min and max per
+    row group) are written for the time, which readers filter by.
+    """
+    pa, _, _ = pyarrow_modules()
+    text = [f.name for f in schema
+            if pa.types.is_string(f.type) or pa.types.is_large_string(f.type)
+            or pa.types.is_dictionary(f.type)]
+    return {'use_dictionary': text,
+            'write_statistics': [TIME] if TIME in schema.names else False}
+
+
 class WriteBehind:
     """
     A Parquet writer that writes in a thread of its own, a table or two behind.
@@ -275,7 +297,8 @@ class WriteBehind:
                 if self.error is not None:
                     continue                # drain: the consumer learns at its next write
                 if writer is None:
-                    writer = pq.ParquetWriter(self.path, table.schema)
+                    writer = pq.ParquetWriter(self.path, table.schema,
+                                              **writer_options(table.schema))
                 writer.write_table(table)
         except BaseException as exc:
             self.error = exc
