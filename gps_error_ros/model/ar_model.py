@@ -363,7 +363,8 @@ class ARErrorModel(Process[ARState]):
         new = self._innovations(z)
         for i in range(self.order):
             new += self.phi[:, i] * dev[:, :, i]
-        dev[:, :, 1:] = dev[:, :, :-1]
+        for i in range(self.order - 1, 0, -1):     # lag by lag: no overlapping copy
+            dev[:, :, i] = dev[:, :, i - 1]
         dev[:, :, 0] = new
         return new + self.mean
 

@@ -11,7 +11,7 @@ caught up from the run's start (vectorised), so what it gets does not depend
 on when it appeared or who else is present.
 """
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -108,7 +108,7 @@ class CrowdErrors:
         rows = lut[codes]
         if (rows < 0).any():
             todo = np.unique(codes[rows < 0])
-            lut[todo] = self._rows([dictionary[c] for c in todo.tolist()])
+            lut[todo] = self._rows(list(map(dictionary.__getitem__, todo.tolist())))
             rows = lut[codes]
         return rows
 
@@ -116,8 +116,7 @@ class CrowdErrors:
         """Return the named agents' current north/east errors, in metres (``rows``: theirs)."""
         rows = self._rows(names) if rows is None else rows
         self.last_seen[rows] = self.step
-        every = rows.size == self.keys.size and np.array_equal(rows, np.arange(rows.size))
-        out = self.model.errors(self.state if every else self.state.take(rows))
+        out = self._of_rows(self.model.errors, rows)
         if self.forget_after and self.step % 64 == 0:
             self._forget()
         return out
@@ -151,14 +150,26 @@ class CrowdErrors:
 
     def available(self, names: Sequence[str], rows: IntArray | None = None) -> BoolArray:
         """Return which named agents have a fix now (profile availability; else all)."""
-        return self.model.fix_mask(self.state.take(self._rows(names) if rows is None else rows))
+        return self._of_rows(self.model.fix_mask, self._rows(names) if rows is None else rows)
+
+    def _of_rows(self, per_agent: Callable[[Any], Any], rows: IntArray) -> Any:
+        """
+        Return ``per_agent`` (a model's function of a state, agent by agent) for ``rows``.
+
+        When most agents are asked for, it runs on the whole state and is
+        indexed: cheaper than taking the rows of every field of the state.
+        """
+        if 2 * rows.size < self.keys.size:
+            return per_agent(self.state.take(rows))
+        out = per_agent(self.state)
+        every = rows.size == self.keys.size and np.array_equal(rows, np.arange(rows.size))
+        return out if every else out[rows]
 
     def _rows(self, names: Sequence[str]) -> IntArray:
         """Return the state rows of ``names``, adding the agents not yet known."""
-        new = [n for n in dict.fromkeys(names) if n not in self.index]
-        if new:
-            self._add(new)
-        return np.fromiter((self.index[n] for n in names), dtype=np.int64, count=len(names))
+        if not self.index.keys() >= set(names):
+            self._add([n for n in dict.fromkeys(names) if n not in self.index])
+        return np.fromiter(map(self.index.__getitem__, names), dtype=np.int64, count=len(names))
 
     def _add(self, names: Sequence[str]) -> None:
         keys = np.array([streams.agent_key(self.seed, n) for n in names],

@@ -16,7 +16,9 @@ network's metres it also appends the noisy ``lon`` and ``lat``; with
 """
 
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
+from collections import deque
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 import os
 from typing import Any
 
@@ -85,30 +87,55 @@ def simulate_parquet(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: 
 
 def _run(fcd: FcdParquet, steps: FcdSteps, dst: PathArg, model: ErrorModel[S],
          errors: bool, faults: bool) -> dict[str, int]:
-    """Stream ``fcd`` through ``steps`` into ``dst``; return counts."""
+    """
+    Stream ``fcd`` through ``steps`` into ``dst``; return counts.
+
+    The model steps each chunk here, in order; moving its positions and
+    building its table (pyproj and Arrow, without the interpreter's lock)
+    run in a pool beside it, a few chunks behind, and are written in order.
+    """
     progress = Progress(fcd.rows, f'simulating {fcd.path}', min_total=1 << 20)
     writer = WriteBehind(dst)
     timesteps, rows, no_fix = 0, 0, 0
     seen: set[str] = set()
+    last = None
+    pending: deque[Future[Any]] = deque()
     try:
-        for chunk in read_ahead(fcd.chunks()):
-            table, counts = _chunk_out(chunk, fcd.kinds, steps, errors)
-            writer.write(table)
-            timesteps += counts[0]
-            rows += counts[1]
-            no_fix += counts[2]
-            seen.update(counts[3])
-            progress.update(chunk.t.size)
+        with ThreadPoolExecutor(_CORES, thread_name_prefix='fcd-move') as pool:
+            for chunk in read_ahead(fcd.chunks()):
+                stepped = _stepped(chunk, steps)
+                pending.append(pool.submit(_finished, chunk, fcd.kinds, steps, stepped, errors))
+                while len(pending) > _CORES or (pending and pending[0].done()):
+                    writer.write(pending.popleft().result())
+                counts = stepped.counts
+                timesteps += counts[0]
+                rows += counts[1]
+                no_fix += counts[2]
+                if chunk.dictionary is not last:
+                    seen.update(chunk.dictionary)
+                    last = chunk.dictionary
+                progress.update(chunk.t.size)
+            while pending:
+                writer.write(pending.popleft().result())
     finally:
         writer.close()
         progress.close()
     return fcd_counts(fcd.path, model, timesteps, rows, len(seen), no_fix, faults)
 
 
-def _chunk_out(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps,
-               errors: bool) -> tuple[Any, tuple[int, int, int, set[str]]]:
-    """Return one chunk's output table, and its timesteps, fixes, misses and agents."""
-    n = chunk.t.size
+@dataclass
+class _Stepped:
+    """A chunk's columns from the model; ``moved``: whether x/y are moved yet."""
+
+    cols: dict[str, FloatArray]
+    fix: BoolArray
+    has: BoolArray
+    moved: bool
+    counts: tuple[int, int, int]
+
+
+def _stepped(chunk: Chunk, steps: FcdSteps) -> _Stepped:
+    """Return one chunk's columns, stepped through the model timestep by timestep."""
     has = chunk.codes >= 0
     parts: list[tuple[BoolArray, FcdColumns]] = []
     for t, rows in chunk.timesteps():
@@ -117,37 +144,37 @@ def _chunk_out(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps,
         out = steps.timestep(t, chunk.names[rows][sel], chunk.x[rows][sel], chunk.y[rows][sel],
                              (chunk.dictionary, codes), defer=True)
         parts.append((sel, out))
-    cols = _gathered(n, has, parts)
-    if any(not out.moved for _, out in parts):
-        _move(steps, chunk.t, cols, has)
+    cols = _gathered(chunk.t.size, has, parts)
     fix = cols.pop('fix').astype(bool)
-    table = _with_columns(chunk.table, kinds, cols, fix, has, errors)
     got = int(fix[has].sum())
-    return table, (len(parts), got, int(has.sum()) - got, set(chunk.dictionary))
+    return _Stepped(cols, fix, has, all(out.moved for _, out in parts),
+                    (len(parts), got, int(has.sum()) - got))
+
+
+def _finished(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps, stepped: _Stepped,
+              errors: bool) -> Any:
+    """Return one stepped chunk's output table, its positions moved."""
+    if not stepped.moved:
+        _move(steps, chunk.t, stepped.cols, stepped.has)
+    return _with_columns(chunk.table, kinds, stepped.cols, stepped.fix, stepped.has, errors)
 
 
 def _move(steps: FcdSteps, t: FloatArray, cols: dict[str, FloatArray], has: BoolArray) -> None:
     """
-    Move the chunk's truth (``cols`` x, y) by its errors, in place, a slice per core.
+    Move the chunk's truth (``cols`` x, y) by its errors, in place.
 
-    pyproj's geodesic and projections run without the interpreter's lock,
-    so the slices run at once; each row's doubles are those of one
-    timestep moved alone.
+    Each row's doubles are those of its timestep moved alone.
     """
     rows = np.flatnonzero(has)
     err = np.stack([cols['error_north'][rows], cols['error_east'][rows]], axis=1)
-    cuts = np.array_split(np.arange(rows.size), min(_CORES, max(1, rows.size // 20_000)))
-    with ThreadPoolExecutor(len(cuts)) as pool:
-        done = list(pool.map(lambda c: steps.move(t[rows[c]], cols['x'][rows[c]],
-                                                  cols['y'][rows[c]], err[c]), cuts))
-    for c, (nx, ny, geo) in zip(cuts, done):
-        cols['x'][rows[c]], cols['y'][rows[c]] = nx, ny
-        if geo is not None:
-            cols.setdefault('lon', np.full(t.size, np.nan))[rows[c]] = geo[0]
-            cols.setdefault('lat', np.full(t.size, np.nan))[rows[c]] = geo[1]
+    nx, ny, geo = steps.move(t[rows], cols['x'][rows], cols['y'][rows], err)
+    cols['x'][rows], cols['y'][rows] = nx, ny
+    if geo is not None:
+        cols.setdefault('lon', np.full(t.size, np.nan))[rows] = geo[0]
+        cols.setdefault('lat', np.full(t.size, np.nan))[rows] = geo[1]
 
 
-#: Threads that move positions at once (pyproj releases the interpreter's lock).
+#: Chunks moved and built at once (pyproj and Arrow release the interpreter's lock).
 _CORES = os.cpu_count() or 1
 
 
