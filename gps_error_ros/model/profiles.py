@@ -49,6 +49,7 @@ from gps_error_ros.model.population import (Population, population_from_dict, Po
                                             WithPopulation)
 from gps_error_ros.model.protocol import ErrorModel
 from gps_error_ros.model.reported import ReportedAccuracy, reported_from_dict, ReportedError
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
 
 SCHEMA_VERSION = 1
@@ -58,7 +59,6 @@ PROFILE_SUBDIR = ('config', 'profiles')
 _TOP_REQUIRED = ('schema', 'name', 'description', 'source', 'rate_hz')
 _TOP_OPTIONAL = ('axes', 'vertical_sd', 'notes', 'fit', 'effects', 'availability',
                  'velocity', 'reported_accuracy', 'gross_failures', 'population')
-_AXIS_KEYS = ('delta', 'phi', 'sigma_w')
 _NAME_RE = re.compile(r'^ds[1-9][0-9]*$', re.IGNORECASE)
 
 
@@ -234,27 +234,34 @@ def _text(source: str, key: str, value: Any) -> str:
     return value
 
 
+#: Each axis of ``axes`` (north, then east), field by field; the order and stationarity
+#: of ``phi`` are :class:`~.ar_model.AxisParams`'s rules.
+AXIS_FIELDS = (
+    Field('delta', 'the constant of the recursion (m); the mean error is '
+          '`delta / (1 - sum(phi))`', lo=-math.inf, hi=math.inf, lo_open=True, hi_open=True,
+          digits=6),
+    Field('phi', 'the AR coefficients, lag 1 first; their number is the order, 1 to 16, '
+          'and the process must be stationary', kind='numbers', lo=-math.inf, hi=math.inf,
+          lo_open=True, hi_open=True, digits=6),
+    Field('sigma_w', 'the innovations\' standard deviation (m)', lo=1e-6, hi=1e6, digits=6))
+#: ``axes.north`` and ``axes.east``, each declared by :data:`AXIS_FIELDS`.
+AXIS_SECTIONS = {ax: SectionSpec(f'axes.{ax}', AXIS_FIELDS, ProfileError) for ax in AXES}
+
+
 def _axis(source: str, name: str, raw: Any) -> AxisParams:
-    key = f'axes.{name}'
-    if not isinstance(raw, dict):
-        _fail(source, key, 'a mapping with delta, phi, sigma_w', raw)
-    unknown = sorted(set(raw) - set(_AXIS_KEYS))
-    if unknown:
-        _fail(source, f'{key}.{unknown[0]}', f'one of {list(_AXIS_KEYS)}', unknown[0])
-    for k in _AXIS_KEYS:
-        if k not in raw:
-            raise ProfileError(f'{source}: key {key}.{k!r} is missing '
-                               f'(expected {list(_AXIS_KEYS)})')
-    delta = _number(source, f'{key}.delta', raw['delta'])
-    phi = raw['phi']
-    if not isinstance(phi, list) or not phi:
-        _fail(source, f'{key}.phi', 'a non-empty list of numbers', phi)
-    phi = [_number(source, f'{key}.phi[{i}]', v) for i, v in enumerate(phi)]
-    sigma = _number(source, f'{key}.sigma_w', raw['sigma_w'], positive=True)
+    """Return one axis of ``axes``, checked as :data:`AXIS_SECTIONS` declares it."""
+    v = AXIS_SECTIONS[name].read(raw, source)
     try:
-        return AxisParams(delta, tuple(phi), sigma)
+        return AxisParams(v['delta'], v['phi'], v['sigma_w'])
     except ModelError as exc:
-        raise ProfileError(f'{source}: key {key!r}: {exc}') from None
+        raise ProfileError(f'{source}: key {"axes." + name!r}: {exc}') from None
+
+
+#: The optional sections with readers of their own, in schema order: key, reader.
+_SECTIONS: tuple[tuple[str, Callable[[Any, str], Any]], ...] = (
+    ('availability', availability_from_dict), ('velocity', velocity_from_dict),
+    ('reported_accuracy', reported_from_dict), ('gross_failures', failures_from_dict),
+    ('population', population_from_dict))
 
 
 def _section(raw: dict[str, Any], key: str, parse: Callable[[Any, str], Any],
@@ -303,11 +310,7 @@ def profile_from_dict(raw: Any, source: str = '<profile>') -> Profile:
         effects = effects_from_dict(raw.get('effects') or {}, source)
     except EffectsError as exc:
         raise ProfileError(str(exc)) from None
-    availability = _section(raw, 'availability', availability_from_dict, source)
-    velocity = _section(raw, 'velocity', velocity_from_dict, source)
-    reported = _section(raw, 'reported_accuracy', reported_from_dict, source)
-    failures = _section(raw, 'gross_failures', failures_from_dict, source)
-    population = _section(raw, 'population', population_from_dict, source)
+    sections = {key: _section(raw, key, read, source) for key, read in _SECTIONS}
     if effects.names and axes is None:
         _fail(source, 'effects', 'no effects in a profile without axes',
               raw['effects'])
@@ -322,12 +325,8 @@ def profile_from_dict(raw: Any, source: str = '<profile>') -> Profile:
         fit=dict(raw.get('fit') or {}),
         effects=effects,
         path=source,
-        availability=availability,
-        velocity=velocity,
-        reported_accuracy=reported,
-        gross_failures=failures,
-        population=population,
-        raw=copy.deepcopy(raw))
+        raw=copy.deepcopy(raw),
+        **sections)
 
 
 def load_profile_file(path: str | os.PathLike[str]) -> Profile:
@@ -416,12 +415,9 @@ def load_profile(spec: str | os.PathLike[str]) -> Profile:
     return load_profile_file(path)
 
 
-def axes_mapping(north: AxisParams, east: AxisParams,
-                 digits: int = 6) -> dict[str, dict[str, Any]]:
-    """Return the ``axes`` section of two :class:`AxisParams`, rounded for YAML."""
-    return {ax: {'delta': round(float(p.delta), digits),
-                 'phi': [round(float(v), digits) for v in p.phi],
-                 'sigma_w': round(float(p.sigma_w), digits)}
+def axes_mapping(north: AxisParams, east: AxisParams) -> dict[str, dict[str, Any]]:
+    """Return the ``axes`` section of two :class:`AxisParams`, rounded as declared."""
+    return {ax: AXIS_SECTIONS[ax].write({'delta': p.delta, 'phi': p.phi, 'sigma_w': p.sigma_w})
             for ax, p in zip(AXES, (north, east))}
 
 
@@ -434,37 +430,20 @@ def profile_mapping(name: str, description: str, source: str, axes: Any, rate_hz
     Return a profile as plain data (schema :data:`SCHEMA_VERSION`).
 
     ``axes`` is a pair of :class:`AxisParams` (north, east) or an ``axes``
-    mapping; ``effects`` an :class:`Effects` or its mapping. Keys come in
-    schema order, as :func:`write_profile` writes them.
+    mapping; each section is its object (:class:`Effects`, :class:`Velocity`,
+    ...) or its mapping. Keys come in schema order, as :func:`write_profile`
+    writes them.
     """
     if not isinstance(axes, dict):
         axes = axes_mapping(*axes)
     prof = {'schema': SCHEMA_VERSION, 'name': name, 'description': description,
             'source': source, 'rate_hz': float(rate_hz), 'axes': axes}
-    if isinstance(effects, Effects):
-        effects = effects.to_dict()
-    if effects:
-        prof['effects'] = effects
-    if isinstance(availability, Availability):
-        availability = availability.to_dict()
-    if availability:
-        prof['availability'] = availability
-    if isinstance(velocity, Velocity):
-        velocity = velocity.to_dict()
-    if velocity:
-        prof['velocity'] = velocity
-    if isinstance(reported_accuracy, ReportedAccuracy):
-        reported_accuracy = reported_accuracy.to_dict()
-    if reported_accuracy:
-        prof['reported_accuracy'] = reported_accuracy
-    if isinstance(gross_failures, GrossFailureProcess):
-        gross_failures = gross_failures.to_dict()
-    if gross_failures:
-        prof['gross_failures'] = gross_failures
-    if isinstance(population, Population):
-        population = population.to_dict()
-    if population:
-        prof['population'] = population
+    for key, section in (('effects', effects), ('availability', availability),
+                         ('velocity', velocity), ('reported_accuracy', reported_accuracy),
+                         ('gross_failures', gross_failures), ('population', population)):
+        plain = section.to_dict() if hasattr(section, 'to_dict') else section
+        if plain:
+            prof[key] = plain
     if fit is not None:
         prof['fit'] = fit
     return prof

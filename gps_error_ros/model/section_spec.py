@@ -15,12 +15,12 @@ from dataclasses import dataclass
 import math
 from typing import Any, Literal, Optional
 
-Kind = Literal['number', 'integer', 'choice', 'pair', 'sizes', 'distribution']
+Kind = Literal['number', 'integer', 'choice', 'pair', 'numbers', 'sizes', 'distribution']
 
 
 def _shown(v: float) -> str:
     """Return a bound as people write it: 0.5, 10000, 1e9."""
-    return f'{v:g}'.replace('e+0', 'e').replace('e+', 'e')
+    return f'{v:g}'.replace('e+0', 'e').replace('e+', 'e').replace('e-0', 'e-')
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,8 @@ class Field:
     ``number``: a finite number in ``lo .. hi`` (``lo_open``, ``hi_open``:
     the bound excluded); ``integer``: an integer in ``[lo, hi]``; ``choice``:
     one of ``choices``; ``pair``: two numbers (north, east) in ``[lo, hi]``;
-    ``sizes``: a non-empty, non-decreasing list of numbers in ``lo .. hi``;
+    ``numbers``: a non-empty list of numbers in ``lo .. hi``; ``sizes``: a
+    non-empty, non-decreasing list of numbers in ``lo .. hi``;
     ``distribution``: a non-empty list of [value, probability] pairs, each
     value an integer in ``[lo, hi]`` and each probability in (0, 1].
     ``absent``: what leaving an optional key out means (None: required).
@@ -53,10 +54,14 @@ class Field:
         """Return what the field takes, in words (the errors' and the docs' text)."""
         left, right = '(' if self.lo_open else '[', ')' if self.hi_open else ']'
         span = f'{left}{_shown(self.lo)}, {_shown(self.hi)}{right}'
+        if math.isinf(self.lo) and math.isinf(self.hi):
+            return {'number': 'a finite number',
+                    'numbers': 'a non-empty list of finite numbers'}[self.kind]
         return {'number': f'a number in {span}',
                 'integer': f'an integer in {span}',
                 'choice': f'one of {list(self.choices)}',
                 'pair': f'two numbers (north, east) in {span}',
+                'numbers': f'a non-empty list of numbers in {span}',
                 'sizes': f'a non-empty, non-decreasing list of numbers in {span}',
                 'distribution': f'a non-empty list of [value, probability] pairs (integer '
                                 f'values in {span}, probabilities in (0, 1])'}[self.kind]
@@ -82,6 +87,8 @@ class Field:
             return None
         if self.kind == 'pair':
             return tuple(float(x) for x in v) if len(v) == 2 else None
+        if self.kind == 'numbers':
+            return tuple(float(x) for x in v)
         return tuple(float(x) for x in v) if all(b >= a for a, b in zip(v, v[1:])) else None
 
     def _pairs(self, v: Any) -> Optional[tuple[tuple[int, float], ...]]:
@@ -99,7 +106,7 @@ class Field:
         if self.kind == 'distribution':
             return [[int(n), round(float(p), self.digits) if self.digits is not None
                      else float(p)] for n, p in v]
-        if self.kind in ('pair', 'sizes'):
+        if self.kind in ('pair', 'numbers', 'sizes'):
             return [round(float(x), self.digits) if self.digits is not None else float(x)
                     for x in v]
         if self.kind == 'integer':
@@ -134,12 +141,18 @@ class SectionSpec:
         Raises the section's error naming ``source``, the key and what was
         expected.
         """
-        if not isinstance(raw, Mapping) or not set(self.required) <= set(raw) or \
-                not set(raw) <= set(self.required + self.optional):
-            want = (f'exactly {self.required}' if not self.optional else
-                    f'{self.required} and optionally {self.optional}')
+        want = (f'exactly {self.required}' if not self.optional else
+                f'{self.required} and optionally {self.optional}')
+        if not isinstance(raw, Mapping):
             raise self.error(f'{source}: key {self.key!r}: expected a mapping with {want}, '
                              f'got {raw!r}')
+        unknown = [k for k in raw if k not in self.required + self.optional]
+        missing = [k for k in self.required if k not in raw]
+        if unknown or missing:
+            what = (f'{self.key}.{unknown[0]} is not a key of it' if unknown else
+                    f'{self.key}.{missing[0]} is missing')
+            raise self.error(f'{source}: key {self.key!r}: expected a mapping with {want} '
+                             f'({what}), got {raw!r}')
         out: dict[str, Any] = {}
         for f in self.fields:
             if f.name not in raw:

@@ -23,7 +23,8 @@ TOY = SectionSpec('toy', (
 @pytest.mark.parametrize('raw, says', [
     ({'rate': 0.5, 'sizes': [1.0], 'mode': 'a', 'x': 1},
      r"key 'toy': expected a mapping with \['rate', 'sizes', 'mode'\] and optionally "
-     r"\['dof', 'lengths'\]"),
+     r"\['dof', 'lengths'\] \(toy.x is not a key of it\)"),
+    ({'sizes': [1.0], 'mode': 'a'}, r"\(toy.rate is missing\)"),
     ({'rate': 1.0, 'sizes': [1.0], 'mode': 'a'}, r'toy.rate: expected a number in \[0, 1\)'),
     ({'rate': True, 'sizes': [1.0], 'mode': 'a'}, 'toy.rate: expected a number'),
     ({'rate': 0.5, 'sizes': [2.0, 1.0], 'mode': 'a'},
