@@ -24,12 +24,12 @@ the next phase's scale.
 """
 
 from dataclasses import dataclass
-import math
 from typing import Any
 
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import FloatArray, IntArray, Keys, Numbers
 
 #: The longest cycle a profile may carry, model steps.
@@ -57,47 +57,37 @@ class Periodic:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the section as plain data."""
-        return {'period_steps': int(self.period),
-                'scales': [round(float(v), 6) for v in self.scales],
-                'offsets': [[round(float(a), 6), round(float(b), 6)]
-                            for a, b in self.offsets]}
+        return SECTION.write({'period_steps': self.period, 'scales': self.scales,
+                              'offsets': self.offsets})
 
 
-def _number(source: str, key: str, value: Any, lo: float, hi: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-            not math.isfinite(value) or not lo <= value <= hi:
-        raise PeriodicError(f'{source}: key {key!r}: expected a number in [{lo}, {hi}], '
-                            f'got {value!r}')
-    return float(value)
+#: The section's fields; the rules between them (one scale and one offset per phase,
+#: offsets averaging 0) are :func:`periodic_from_dict`'s.
+FIELDS = (
+    Field('period_steps', 'the cycle\'s length, model steps', kind='integer', lo=2,
+          hi=MAX_PERIOD),
+    Field('scales', 'the innovations\' SD multiplier by phase, one per phase', kind='numbers',
+          lo=1e-6, hi=1e3, digits=6),
+    Field('offsets', 'the innovations\' mean by phase (m), one per phase, averaging 0 per '
+          'axis (`delta` carries the mean)', kind='pairs', lo=-1e4, hi=1e4, digits=6))
+SECTION = SectionSpec('effects.periodic', FIELDS, PeriodicError)
 
 
-def periodic_from_dict(body: Any, source: str = '<profile>',
-                       key: str = 'effects.periodic') -> Periodic:
-    """Validate a ``periodic`` mapping (its keys checked by the caller); return it."""
-    period = body['period_steps']
-    if isinstance(period, bool) or not isinstance(period, int) or \
-            not 2 <= period <= MAX_PERIOD:
-        raise PeriodicError(f'{source}: key {key + ".period_steps"!r}: expected an '
-                            f'integer in [2, {MAX_PERIOD}], got {period!r}')
-    scales, offsets = body['scales'], body['offsets']
-    if not isinstance(scales, list) or len(scales) != period:
-        raise PeriodicError(f'{source}: key {key + ".scales"!r}: expected a list of '
-                            f'{period} positive numbers (one per phase), got {scales!r}')
-    if not isinstance(offsets, list) or len(offsets) != period or not all(
-            isinstance(o, list) and len(o) == 2 for o in offsets):
-        raise PeriodicError(f'{source}: key {key + ".offsets"!r}: expected a list of '
-                            f'{period} [north, east] pairs (m, one per phase), got '
-                            f'{offsets!r}')
-    sc = tuple(_number(source, f'{key}.scales[{j}]', v, 1e-6, 1e3)
-               for j, v in enumerate(scales))
-    off = tuple(tuple(_number(source, f'{key}.offsets[{j}][{a}]', v, -1e4, 1e4)
-                      for a, v in enumerate(o)) for j, o in enumerate(offsets))
-    mean = np.mean(np.asarray(off), axis=0)
+def periodic_from_dict(body: Any, source: str = '<profile>') -> Periodic:
+    """Validate a ``periodic`` mapping as :data:`SECTION` declares it; return it."""
+    v = SECTION.read(body, source)
+    period = v['period_steps']
+    for name, what in (('scales', 'positive numbers (one per phase)'),
+                       ('offsets', '[north, east] pairs (m, one per phase)')):
+        if len(v[name]) != period:
+            raise PeriodicError(f'{source}: key {"effects.periodic." + name!r}: expected a '
+                                f'list of {period} {what}, got {body[name]!r}')
+    mean = np.mean(np.asarray(v['offsets']), axis=0)
     if np.any(np.abs(mean) > OFFSET_MEAN_TOLERANCE):
-        raise PeriodicError(f'{source}: key {key + ".offsets"!r}: expected offsets '
+        raise PeriodicError(f'{source}: key \'effects.periodic.offsets\': expected offsets '
                             f'averaging 0 per axis (delta carries the mean), got '
-                            f'averages {[round(float(v), 6) for v in mean]}')
-    return Periodic(int(period), sc, off)
+                            f'averages {[round(float(x), 6) for x in mean]}')
+    return Periodic(period, v['scales'], v['offsets'])
 
 
 def agent_phases(keys: Keys, period: int) -> IntArray:

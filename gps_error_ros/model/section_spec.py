@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import math
 from typing import Any, Literal, Optional
 
-Kind = Literal['number', 'integer', 'choice', 'pair', 'numbers', 'sizes', 'distribution']
+Kind = Literal['number', 'integer', 'choice', 'pair', 'pairs', 'numbers', 'sizes',
+               'distribution']
 
 
 def _shown(v: float) -> str:
@@ -31,6 +32,7 @@ class Field:
     ``number``: a finite number in ``lo .. hi`` (``lo_open``, ``hi_open``:
     the bound excluded); ``integer``: an integer in ``[lo, hi]``; ``choice``:
     one of ``choices``; ``pair``: two numbers (north, east) in ``[lo, hi]``;
+    ``pairs``: a non-empty list of such pairs;
     ``numbers``: a non-empty list of numbers in ``lo .. hi``; ``sizes``: a
     non-empty, non-decreasing list of numbers in ``lo .. hi``;
     ``distribution``: a non-empty list of [value, probability] pairs, each
@@ -61,6 +63,7 @@ class Field:
                 'integer': f'an integer in {span}',
                 'choice': f'one of {list(self.choices)}',
                 'pair': f'two numbers (north, east) in {span}',
+                'pairs': f'a non-empty list of [north, east] pairs of numbers in {span}',
                 'numbers': f'a non-empty list of numbers in {span}',
                 'sizes': f'a non-empty, non-decreasing list of numbers in {span}',
                 'distribution': f'a non-empty list of [value, probability] pairs (integer '
@@ -83,6 +86,10 @@ class Field:
             return float(v) if self._inside(v) else None
         if self.kind == 'distribution':
             return self._pairs(v)
+        if self.kind == 'pairs':
+            ok = isinstance(v, list) and v and all(
+                isinstance(p, list) and len(p) == 2 and all(map(self._inside, p)) for p in v)
+            return tuple((float(p[0]), float(p[1])) for p in v) if ok else None
         if not isinstance(v, list) or not v or not all(self._inside(x) for x in v):
             return None
         if self.kind == 'pair':
@@ -104,16 +111,20 @@ class Field:
     def write(self, v: Any) -> Any:
         """Return a value as the section writes it."""
         if self.kind == 'distribution':
-            return [[int(n), round(float(p), self.digits) if self.digits is not None
-                     else float(p)] for n, p in v]
+            return [[int(n), self._rounded(p)] for n, p in v]
+        if self.kind == 'pairs':
+            return [[self._rounded(a), self._rounded(b)] for a, b in v]
         if self.kind in ('pair', 'numbers', 'sizes'):
-            return [round(float(x), self.digits) if self.digits is not None else float(x)
-                    for x in v]
+            return [self._rounded(x) for x in v]
         if self.kind == 'integer':
             return int(v)
         if self.kind == 'choice':
             return v
-        return round(float(v), self.digits) if self.digits is not None else float(v)
+        return self._rounded(v)
+
+    def _rounded(self, x: Any) -> float:
+        """Return ``x`` as a float with the declared decimals."""
+        return round(float(x), self.digits) if self.digits is not None else float(x)
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,8 @@ def test_predictive_covariance_follows_the_phase():
     ({'period_steps': 1}, 'period_steps'),
     ({'scales': SCALES[:-1]}, 'list of 8 positive numbers'),
     ({'offsets': [[1.0, 0.0]] * PERIOD}, 'averaging 0 per axis'),
-    ({'scales': SCALES[:-1] + [-1.0]}, 'scales[7]'),
+    ({'scales': SCALES[:-1] + [-1.0]}, 'periodic.scales: expected a non-empty list of numbers'),
+    ({'offsets': [[0.0, 0.0, 0.0]] * PERIOD}, '[north, east] pairs of numbers in [-10000, 10000]'),
 ])
 def test_bad_sections_are_named(change, hint):
     with pytest.raises(EffectsError) as err:

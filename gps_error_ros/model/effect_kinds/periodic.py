@@ -66,7 +66,7 @@ class PeriodicKind(EffectKind[Periodic]):
     def parse(self, section: Section) -> Periodic:
         """Return the cycle (checked by :func:`~.model.periodic.periodic_from_dict`)."""
         try:
-            return periodic_from_dict(section.body, section.source, section.key)
+            return periodic_from_dict(section.body, section.source)
         except ValueError as exc:
             raise EffectsError(str(exc)) from None
 
