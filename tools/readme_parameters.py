@@ -15,7 +15,8 @@ import sys
 
 from gps_error_ros.ros.parameter_docs import (markdown_table, params_file, README_GROUPS,
                                               README_TABLES)
-from gps_error_ros.model import availability, failures, periodic, population, profiles, reported
+from gps_error_ros.model import (availability, failures, periodic, population, profiles,
+                                 reported, velocity)
 from gps_error_ros.model.effect_kinds import markdown_table as effects_table
 from gps_error_ros.ros.topics import markdown_topics
 
@@ -23,7 +24,8 @@ ROOT = Path(__file__).resolve().parents[1]
 #: The profile sections declared field by field, whose tables the docs show.
 SECTIONS = {'axes': profiles.AXIS_SECTIONS['north'], 'availability': availability.SECTION,
             'gross_failures': failures.SECTION, 'periodic': periodic.SECTION,
-            'population': population.SECTION, 'reported_accuracy': reported.SECTION}
+            'population': population.SECTION, 'reported_accuracy': reported.SECTION,
+            'velocity': velocity.SECTION}
 DOCS = ROOT / 'docs'
 
 

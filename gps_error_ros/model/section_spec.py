@@ -16,7 +16,7 @@ import math
 from typing import Any, Literal, Optional
 
 Kind = Literal['number', 'integer', 'choice', 'pair', 'pairs', 'numbers', 'sizes',
-               'distribution']
+               'distribution', 'by_speed']
 
 
 def _shown(v: float) -> str:
@@ -37,6 +37,8 @@ class Field:
     non-empty, non-decreasing list of numbers in ``lo .. hi``;
     ``distribution``: a non-empty list of [value, probability] pairs, each
     value an integer in ``[lo, hi]`` and each probability in (0, 1].
+    ``by_speed``: a table of 1 to ``most`` [speed m/s, value] pairs, speeds
+    in [0, 100] increasing, each value in ``lo .. hi``.
     ``absent``: what leaving an optional key out means (None: required).
     ``digits``: the decimals it is written with (None: as it is).
     """
@@ -51,6 +53,7 @@ class Field:
     choices: tuple[str, ...] = ()
     absent: Optional[str] = None
     digits: Optional[int] = None
+    most: int = 32
 
     def expected(self) -> str:
         """Return what the field takes, in words (the errors' and the docs' text)."""
@@ -67,7 +70,9 @@ class Field:
                 'numbers': f'a non-empty list of numbers in {span}',
                 'sizes': f'a non-empty, non-decreasing list of numbers in {span}',
                 'distribution': f'a non-empty list of [value, probability] pairs (integer '
-                                f'values in {span}, probabilities in (0, 1])'}[self.kind]
+                                f'values in {span}, probabilities in (0, 1])',
+                'by_speed': f'a list of 1 to {self.most} [speed m/s, value] pairs, speeds in '
+                            f'[0, 100] increasing, values in {span}'}[self.kind]
 
     def _inside(self, v: Any) -> bool:
         """Return True when ``v`` is a number within the field's range."""
@@ -86,8 +91,10 @@ class Field:
             return float(v) if self._inside(v) else None
         if self.kind == 'distribution':
             return self._pairs(v)
+        if self.kind == 'by_speed':
+            return self._table(v)
         if self.kind == 'pairs':
-            ok = isinstance(v, list) and v and all(
+            ok = isinstance(v, list) and bool(v) and all(
                 isinstance(p, list) and len(p) == 2 and all(map(self._inside, p)) for p in v)
             return tuple((float(p[0]), float(p[1])) for p in v) if ok else None
         if not isinstance(v, list) or not v or not all(self._inside(x) for x in v):
@@ -97,6 +104,17 @@ class Field:
         if self.kind == 'numbers':
             return tuple(float(x) for x in v)
         return tuple(float(x) for x in v) if all(b >= a for a, b in zip(v, v[1:])) else None
+
+    def _table(self, v: Any) -> Optional[tuple[tuple[float, float], ...]]:
+        """Return a speed table's (speed, value) pairs checked, or None when invalid."""
+        speed = Field('speed', '', lo=0.0, hi=100.0)
+        if not isinstance(v, list) or not 1 <= len(v) <= self.most or not all(
+                isinstance(p, list) and len(p) == 2 and speed._inside(p[0])
+                and self._inside(p[1]) for p in v):
+            return None
+        if any(b[0] <= a[0] for a, b in zip(v, v[1:])):
+            return None
+        return tuple((float(p[0]), float(p[1])) for p in v)
 
     def _pairs(self, v: Any) -> Optional[tuple[tuple[int, float], ...]]:
         """Return a distribution's (value, probability) pairs checked, or None when invalid."""
@@ -112,7 +130,7 @@ class Field:
         """Return a value as the section writes it."""
         if self.kind == 'distribution':
             return [[int(n), self._rounded(p)] for n, p in v]
-        if self.kind == 'pairs':
+        if self.kind in ('pairs', 'by_speed'):
             return [[self._rounded(a), self._rounded(b)] for a, b in v]
         if self.kind in ('pair', 'numbers', 'sizes'):
             return [self._rounded(x) for x in v]

@@ -90,11 +90,9 @@ from typing import Any, Optional
 import numpy as np
 
 from gps_error_ros.model import streams
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import BoolArray, FloatArray, Keys, Numbers
 
-_KEYS = ('lag_s', 'phi', 'sigma', 'standstill')
-_OPTIONAL = ('sigma_by_speed', 'course_lag_s', 'speed_bias', 'scale_sd_log', 'burst_share',
-             'burst_ratio')
 #: The largest ``burst_share`` and ``burst_ratio``.
 MAX_BURST_SHARE, MAX_BURST_RATIO = 0.5, 100.0
 #: Most speed nodes a ``sigma_by_speed`` table may have.
@@ -126,18 +124,7 @@ class Velocity:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the profile section as plain data."""
-        out: dict[str, Any] = {k: float(getattr(self, k))
-                               for k in ('sigma', 'phi', 'lag_s', 'standstill')}
-        if self.sigma_by_speed is not None:
-            out['sigma_by_speed'] = [[float(v), float(s)] for v, s in self.sigma_by_speed]
-        if self.course_lag_s is not None:
-            out['course_lag_s'] = float(self.course_lag_s)
-        if self.speed_bias is not None:
-            out['speed_bias'] = [[float(v), float(b)] for v, b in self.speed_bias]
-        for key in ('scale_sd_log', 'burst_share', 'burst_ratio'):
-            if getattr(self, key) is not None:
-                out[key] = float(getattr(self, key))
-        return out
+        return SECTION.write({f.name: getattr(self, f.name) for f in FIELDS})
 
     @property
     def lags(self) -> tuple[float, ...]:
@@ -344,76 +331,38 @@ def course_deg(v: FloatArray) -> FloatArray:
     return np.degrees(np.arctan2(v[..., 0], v[..., 1])) % 360.0
 
 
-def _speed_table(raw: Any, source: str,
-                 key: str = 'sigma_by_speed') -> tuple[tuple[float, float], ...]:
-    """Validate ``sigma_by_speed`` (or ``speed_bias``); return ((speed, value), ...)."""
-    value = 'sigma m/s' if key == 'sigma_by_speed' else 'bias m/s'
-    bounds = 'sigma in (0, 100)' if key == 'sigma_by_speed' else 'bias in (-100, 100)'
-    what = (f'{source}: key velocity.{key}: expected a list of 1 to {MAX_NODES} '
-            f'[speed m/s, {value}] pairs, speeds in [0, 100] increasing, {bounds}')
-    low = 0.0 if key == 'sigma_by_speed' else -100.0
-
-    def number(v: Any) -> bool:
-        return isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v)
-
-    if not isinstance(raw, (list, tuple)) or not 1 <= len(raw) <= MAX_NODES:
-        raise VelocityError(f'{what}, got {raw!r}')
-    rows = []
-    for pair in raw:
-        if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and all(map(number, pair))
-                and 0.0 <= pair[0] <= 100.0 and low < pair[1] < 100.0):
-            raise VelocityError(f'{what}, got the pair {pair!r}')
-        rows.append((float(pair[0]), float(pair[1])))
-    if any(b[0] <= a[0] for a, b in zip(rows, rows[1:])):
-        raise VelocityError(f'{what}, got speeds {[r[0] for r in rows]} (not increasing)')
-    return tuple(rows)
+#: The section's fields, in the order it is written; that bursts come both or neither is
+#: :func:`velocity_from_dict`'s rule.
+FIELDS = (
+    Field('sigma', 'the error\'s SD per component (m/s)', lo=0.0, hi=100.0, lo_open=True,
+          hi_open=True),
+    Field('phi', 'its lag-1 correlation; with `sigma_by_speed`, the persistence in units of '
+          'the SD', lo=-1.0, hi=1.0, lo_open=True, hi_open=True),
+    Field('lag_s', 'the reported speed is the truth\'s `lag_s` earlier (s)', hi=10.0),
+    Field('standstill', 'at or below this true speed (m/s) the phone reports 0 and no course',
+          hi=100.0),
+    Field('sigma_by_speed', 'the error\'s SD by true speed', kind='by_speed', lo=0.0,
+          hi=100.0, lo_open=True, hi_open=True, most=MAX_NODES, absent='`sigma`'),
+    Field('course_lag_s', 'the reported direction is the truth\'s that much earlier (s)',
+          hi=10.0, absent='`lag_s`'),
+    Field('speed_bias', 'a mean error along the travel by true speed (never below 0)',
+          kind='by_speed', lo=-100.0, hi=100.0, lo_open=True, hi_open=True, most=MAX_NODES,
+          absent='none'),
+    Field('scale_sd_log', '`s`: each agent\'s error is its own multiple `exp(s z - s^2)` of '
+          'the section\'s', hi=MAX_SCALE_SD_LOG, absent='one scale'),
+    Field('burst_share', '`p`, with `burst_ratio`: the share of steps whose innovation is `r` '
+          'times the others\', at the same SD', hi=MAX_BURST_SHARE, lo_open=True,
+          absent='none'),
+    Field('burst_ratio', '`r`, with `burst_share`', lo=1.0, hi=MAX_BURST_RATIO, lo_open=True,
+          absent='none'))
+SECTION = SectionSpec('velocity', FIELDS, VelocityError)
 
 
 def velocity_from_dict(raw: Any, source: str = '<profile>') -> Velocity:
-    """Validate a ``velocity`` mapping; return :class:`Velocity`."""
-    keys = sorted(k for k in raw if k not in _OPTIONAL) if isinstance(raw, dict) else None
-    if keys != sorted(_KEYS):
-        raise VelocityError(f'{source}: key \'velocity\': expected a mapping with exactly '
-                            f'{list(_KEYS)} (and optionally {list(_OPTIONAL)}), got {raw!r}')
-    bounds = {'sigma': (0.0, 100.0, True), 'phi': (-1.0, 1.0, True),
-              'lag_s': (0.0, 10.0, False), 'standstill': (0.0, 100.0, False)}
-    if 'course_lag_s' in raw:
-        bounds['course_lag_s'] = bounds['lag_s']
-    vals: dict[str, Any] = {}
-    for k, (lo, hi, open_ends) in bounds.items():
-        v = raw[k]
-        ok = isinstance(v, (int, float)) and not isinstance(v, bool) and (
-            lo < v < hi if open_ends else lo <= v <= hi)
-        if not ok:
-            ends = '()' if open_ends else '[]'
-            raise VelocityError(f'{source}: key velocity.{k}: expected a number in '
-                                f'{ends[0]}{lo:g}, {hi:g}{ends[1]}, got {v!r}')
-        vals[k] = float(v)
-    for key in ('sigma_by_speed', 'speed_bias'):
-        if key in raw:
-            vals[key] = _speed_table(raw[key], source, key)
-    if 'scale_sd_log' in raw:
-        v = raw['scale_sd_log']
-        if not (isinstance(v, (int, float)) and not isinstance(v, bool)
-                and 0.0 <= v <= MAX_SCALE_SD_LOG):
-            raise VelocityError(f'{source}: key velocity.scale_sd_log: expected a number in '
-                                f'[0, {MAX_SCALE_SD_LOG:g}], got {v!r}')
-        vals['scale_sd_log'] = float(v)
-    vals.update(_bursts(raw, source))
+    """Validate a ``velocity`` mapping as :data:`SECTION` declares it; return :class:`Velocity`."""
+    vals = SECTION.read(raw, source)
+    if (vals['burst_share'] is None) != (vals['burst_ratio'] is None):
+        raise VelocityError(f'{source}: key velocity.burst_share and burst_ratio: expected '
+                            f'both or neither, got {raw.get("burst_share")!r} and '
+                            f'{raw.get("burst_ratio")!r}')
     return Velocity(**vals)
-
-
-def _bursts(raw: dict[str, Any], source: str) -> dict[str, float]:
-    """Validate ``burst_share`` and ``burst_ratio`` (both or neither); return them."""
-    given = [k for k in ('burst_share', 'burst_ratio') if k in raw]
-    if not given:
-        return {}
-    what = (f'{source}: key velocity.burst_share and burst_ratio: expected both, a share in '
-            f'(0, {MAX_BURST_SHARE:g}] and a ratio in (1, {MAX_BURST_RATIO:g}]')
-    p: Any = raw.get('burst_share')
-    r: Any = raw.get('burst_ratio')
-    ok = len(given) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                 for v in (p, r))
-    if not (ok and 0.0 < p <= MAX_BURST_SHARE and 1.0 < r <= MAX_BURST_RATIO):
-        raise VelocityError(f'{what}, got {p!r} and {r!r}')
-    return {'burst_share': float(p), 'burst_ratio': float(r)}
