@@ -15,25 +15,25 @@ def is_table_input(src: Path) -> bool:
 def simulate_table(args: argparse.Namespace, model: Any, profile: Any, bias: Any,
                    faults: list[Any], zones: Any) -> dict[str, int]:
     """Run ``simulate`` on a Parquet file, or on a directory of parts over Dask's workers."""
+    from gps_error_ros.sim.fcd_step import FcdRequest
     src = Path(args.trajectories)
-    common = dict(net=args.net, coordinates=args.coordinates, zones=zones,
-                  covariance_mode=args.covariance_mode, reported=profile.reported_accuracy,
-                  velocity=profile.velocity, reported_bias=bias, faults=faults,
-                  errors=args.errors)
+    request = FcdRequest(model, profile.rate_hz, args.seed, args.net, args.coordinates, zones,
+                         args.covariance_mode, profile.reported_accuracy, profile.velocity,
+                         bias, tuple(faults), args.errors)
     if src.is_dir():
         from gps_error_ros.sim.parquet_parts import simulate_parts
         if Path(args.out).suffix:
             raise ValueError(f'--out {args.out}: the parts of {src} go to a directory of '
                              f'parts of the same names: expected a directory name')
-        return simulate_parts(src, args.out, model, profile.rate_hz, args.seed,
-                              scheduler=args.scheduler, workers=args.workers, **common)
+        return simulate_parts(src, args.out, request, scheduler=args.scheduler,
+                              workers=args.workers)
     if args.scheduler or args.workers:
         raise ValueError('--scheduler and --workers run the parts of a directory (gps_error '
                          'split writes them): give --trajectories DIR')
     if not is_parquet(args.out):
         raise ValueError(f'--out {args.out}: Parquet in, Parquet out: expected a .parquet name')
     from gps_error_ros.sim.simulate_parquet import simulate_parquet
-    return simulate_parquet(src, args.out, model, profile.rate_hz, args.seed, **common)
+    return simulate_parquet(src, args.out, request)
 
 
 def cmd_split(args: argparse.Namespace) -> int:

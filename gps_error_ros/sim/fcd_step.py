@@ -62,6 +62,37 @@ class FcdOptions:
     faults: Sequence[Fault] = ()
 
 
+@dataclass(frozen=True)
+class FcdRequest:
+    """
+    What ``simulate`` is asked to do with a Parquet FCD file or its parts, in one record.
+
+    ``net`` and ``coordinates`` say how x/y are read (they become
+    :class:`FcdOptions`' ``mode`` and ``proj`` once the file is seen);
+    ``errors``: also write each position's north/east error. The rest are
+    :func:`~gps_error_ros.sim.simulate.simulate_fcd`'s options.
+    """
+
+    model: ErrorModel[Any]
+    rate_hz: float
+    seed: int
+    net: str | None = None
+    coordinates: str | None = None
+    zones: ZoneSetup | None = None
+    covariance_mode: str = 'stationary'
+    reported: ReportedAccuracy | None = None
+    velocity: Velocity | None = None
+    reported_bias: Numbers | None = None
+    faults: Sequence[Fault] = ()
+    errors: bool = False
+
+    def options(self, mode: str, proj: NetProjection | None) -> FcdOptions:
+        """Return the options of the step, positions moved as ``mode`` says."""
+        return FcdOptions(mode, proj, self.rate_hz, self.seed, self.covariance_mode,
+                          self.zones, self.reported, self.velocity, self.reported_bias,
+                          self.faults)
+
+
 @dataclass
 class FcdColumns:
     """

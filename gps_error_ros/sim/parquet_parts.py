@@ -23,12 +23,7 @@ import zlib
 import numpy as np
 
 from gps_error_ros.model.atomic import PathArg
-from gps_error_ros.model.protocol import ErrorModel
-from gps_error_ros.model.reported import ReportedAccuracy
-from gps_error_ros.model.state import Numbers
-from gps_error_ros.model.velocity import Velocity
-from gps_error_ros.model.zoned import ZoneSetup
-from gps_error_ros.sim.faults import Fault
+from gps_error_ros.sim.fcd_step import FcdRequest
 from gps_error_ros.traces.fcd_parquet import FcdParquet, pyarrow_modules, WriteBehind
 from gps_error_ros.traces.trajectories import TrajectoryError
 
@@ -76,40 +71,23 @@ class PartJob:
 
     src: str
     dst: str
-    model: ErrorModel[Any]
-    rate_hz: float
-    seed: int
     start_s: float
-    net: str | None
-    coordinates: str | None
-    zones: ZoneSetup | None
-    covariance_mode: str
-    reported: ReportedAccuracy | None
-    velocity: Velocity | None
-    reported_bias: Numbers | None
-    faults: Sequence[Fault]
-    errors: bool
+    request: FcdRequest
 
 
 def run_part(job: PartJob) -> dict[str, int]:
     """Run one part on a worker; return its counts."""
     from gps_error_ros.sim.simulate_parquet import simulate_parquet
-    return simulate_parquet(job.src, job.dst, job.model, job.rate_hz, job.seed, job.net,
-                            job.coordinates, job.zones, job.covariance_mode, job.reported,
-                            job.velocity, job.reported_bias, job.faults, job.errors,
-                            start_s=job.start_s)
+    return simulate_parquet(job.src, job.dst, job.request, start_s=job.start_s)
 
 
-def simulate_parts(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: float,
-                   seed: int, net: PathArg | None = None, coordinates: str | None = None,
-                   zones: ZoneSetup | None = None, covariance_mode: str = 'stationary',
-                   reported: ReportedAccuracy | None = None,
-                   velocity: Velocity | None = None, reported_bias: Numbers | None = None,
-                   faults: Sequence[Fault] = (), errors: bool = False,
+def simulate_parts(src: PathArg, dst: PathArg, request: FcdRequest,
                    scheduler: str | None = None, workers: int | None = None) -> dict[str, int]:
     """
     Run every part of directory ``src`` (``*.parquet``) on Dask's workers into directory ``dst``.
 
+    ``request``: the model and the options, as for
+    :func:`~gps_error_ros.sim.simulate_parquet.simulate_parquet`.
     ``scheduler``: a Dask scheduler's address (``tcp://host:8786``);
     without it, a local cluster of ``workers`` processes (default: one per
     core), on loopback. Each part's output has the part's name; the
@@ -127,10 +105,7 @@ def simulate_parts(src: PathArg, dst: PathArg, model: ErrorModel[Any], rate_hz: 
         raise TrajectoryError(f'{dst}: exists: expected a new directory for the parts\' output')
     tmp = out.with_name(f'.{out.name}.partial-{os.getpid()}')
     tmp.mkdir(parents=True)
-    jobs = [PartJob(str(p), str(tmp / p.name), model, rate_hz, seed, min(starts),
-                    None if net is None else str(net), coordinates, zones, covariance_mode,
-                    reported,
-                    velocity, reported_bias, tuple(faults), errors) for p in parts]
+    jobs = [PartJob(str(p), str(tmp / p.name), min(starts), request) for p in parts]
     try:
         results = _on_dask(jobs, scheduler, workers)
         os.replace(tmp, out)

@@ -26,12 +26,8 @@ import numpy as np
 
 from gps_error_ros.model.atomic import atomic_output, PathArg
 from gps_error_ros.model.protocol import ErrorModel, S
-from gps_error_ros.model.reported import ReportedAccuracy
-from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
-from gps_error_ros.model.velocity import Velocity
-from gps_error_ros.model.zoned import ZoneSetup
-from gps_error_ros.sim.faults import Fault
-from gps_error_ros.sim.fcd_step import (FcdColumns, fcd_counts, FcdOptions, FcdSteps,
+from gps_error_ros.model.state import BoolArray, FloatArray
+from gps_error_ros.sim.fcd_step import (FcdColumns, fcd_counts, FcdRequest, FcdSteps,
                                         position_mode)
 from gps_error_ros.sim.trajectory_fixes import model_step
 from gps_error_ros.traces.fcd_parquet import (Chunk, FcdParquet, pyarrow_modules,
@@ -59,30 +55,24 @@ def parquet_mode(src: PathArg, net: PathArg | None,
     return position_mode(src, coordinates, net)
 
 
-def simulate_parquet(src: PathArg, dst: PathArg, model: ErrorModel[S], rate_hz: float,
-                     seed: int, net: PathArg | None = None, coordinates: str | None = None,
-                     zones: ZoneSetup | None = None, covariance_mode: str = 'stationary',
-                     reported: ReportedAccuracy | None = None,
-                     velocity: Velocity | None = None, reported_bias: Numbers | None = None,
-                     faults: Sequence[Fault] = (), errors: bool = False,
+def simulate_parquet(src: PathArg, dst: PathArg, request: FcdRequest,
                      start_s: float | None = None) -> dict[str, int]:
     """
     Add errors to every agent of a Parquet FCD file; return counts (see module doc).
 
-    The options are :func:`~gps_error_ros.sim.simulate.simulate_fcd`'s.
-    ``start_s``: the time the run starts at (default: the first row
-    with an agent); a part of a file split by agent is given the whole file's, so
-    its agents get the errors of the whole run. A malformed or truncated
-    file is refused, naming it, and leaves no output.
+    ``request``: the model and the options (those of
+    :func:`~gps_error_ros.sim.simulate.simulate_fcd`). ``start_s``: the
+    time the run starts at (default: the first row with an agent); a part
+    of a file split by agent is given the whole file's, so its agents get
+    the errors of the whole run. A malformed or truncated file is refused,
+    naming it, and leaves no output.
     """
-    mode, proj = parquet_mode(src, net, coordinates)
+    mode, proj = parquet_mode(src, request.net, request.coordinates)
     fcd = FcdParquet(src)
-    start = None if start_s is None else model_step(start_s, rate_hz)
-    steps = FcdSteps(src, model, FcdOptions(mode, proj, rate_hz, seed, covariance_mode, zones,
-                                            reported, velocity, reported_bias, faults),
-                     start_step=start)
+    start = None if start_s is None else model_step(start_s, request.rate_hz)
+    steps = FcdSteps(src, request.model, request.options(mode, proj), start_step=start)
     with atomic_output(dst) as tmp:
-        return _run(fcd, steps, tmp, model, errors, bool(faults))
+        return _run(fcd, steps, tmp, request.model, request.errors, bool(request.faults))
 
 
 def _run(fcd: FcdParquet, steps: FcdSteps, dst: PathArg, model: ErrorModel[S],

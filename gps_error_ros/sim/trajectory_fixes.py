@@ -177,8 +177,14 @@ def accuracy_columns(cov: FloatArray, fix: BoolArray,
     """
     flat = cov.reshape(-1, 4)
     if flat.shape[0] > 1 and (flat == flat[0]).all():    # one covariance for all (stationary)
-        one = accuracy_columns(cov[:1], np.ones(1, dtype=bool))
-        cols = {k: np.full(flat.shape[0], v[0]) for k, v in one.items()}
+        key = flat[0].tobytes()
+        one = _ONE.get(key)
+        if one is None:
+            if len(_ONE) > 1024:
+                _ONE.clear()
+            one = _ONE[key] = {k: float(v[0]) for k, v in
+                               accuracy_columns(cov[:1], np.ones(1, dtype=bool)).items()}
+        cols = {k: np.full(flat.shape[0], v) for k, v in one.items()}
         if radius is not None:
             cols['accuracy'] = np.array(radius, dtype=float)
     else:
@@ -186,9 +192,16 @@ def accuracy_columns(cov: FloatArray, fix: BoolArray,
         cols = {'accuracy': radius68(cov) if radius is None else np.array(radius, dtype=float),
                 'accuracy_major': major, 'accuracy_minor': minor,
                 'accuracy_orientation': orientation}
-    for v in cols.values():
-        v[~fix] = np.nan
+    if not fix.all():
+        miss = ~fix
+        for v in cols.values():
+            v[miss] = np.nan
     return cols
+
+
+#: The columns of one covariance shared by a whole timestep, by its bytes: a crowd in
+#: stationary mode has one covariance for the run.
+_ONE: dict[bytes, dict[str, float]] = {}
 
 
 def agent_names(n: int, prefix: str = 'agent') -> list[str]:
