@@ -46,13 +46,14 @@ ERRORS = (TraceError, BagError, PairingError, CalibrationError, ProfileError,
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Run ``gps_error simulate``; return the exit code."""
     from gps_error_ros.sim import simulate as batch
+    from gps_error_ros.model.about_truth import model_about_truth, reported_mean
     from gps_error_ros.model.profiles import load_profile
 
     _check_simulate_modes(args)
     profile = load_profile(args.profile)
     zones = None
     # covariances about the truth; reported: the phone's radius, the mean added after
-    about = args.covariance_about == 'truth' and args.covariance_mode != 'reported' \
+    about = model_about_truth(args.covariance_about, args.covariance_mode) \
         and bool(args.trajectories)
     if args.zones:
         from gps_error_ros.model.zoned import zoned_errors
@@ -64,7 +65,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                                              args.covariance_mode, about)
     else:
         model = profile.model(about_truth=about)
-    bias = model.mean if args.covariance_about == 'truth' else None
+    bias = reported_mean(model, args.covariance_about)
     if args.covariance_mode == 'reported' and profile.reported_accuracy is None:
         raise ValueError(f'--covariance-mode reported: profile {profile.name} '
                          f'({profile.path}) has no reported_accuracy section; calibrate '

@@ -36,6 +36,22 @@ from gps_error_ros.model.wrapped import Wrapper
 COVARIANCE_ABOUT = ('truth', 'mean')
 
 
+def model_about_truth(covariance_about: str, covariance_mode: str) -> bool:
+    """
+    Return whether the model's own covariances are to be about the truth (:class:`AboutTruth`).
+
+    So they are when ``covariance_about`` is truth, except in ``reported``
+    mode: there the phone's radius follows the plain predictive scale and
+    the mean is added after (:func:`reported_mean`).
+    """
+    return covariance_about == 'truth' and covariance_mode != 'reported'
+
+
+def reported_mean(model: ErrorModel[Any], covariance_about: str) -> FloatArray | None:
+    """Return the mean whose ``m m^T`` a stated radius's covariance gets (None: about the mean)."""
+    return np.asarray(model.mean) if covariance_about == 'truth' else None
+
+
 def mean_square(cov: Numbers, mean: Numbers) -> FloatArray:
     """Return ``cov + mean mean^T`` for covariances (..., 2, 2) and means (..., 2)."""
     mean = np.asarray(mean, dtype=float)

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from gps_error_ros.model.about_truth import model_about_truth, reported_mean
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import Profile
 from gps_error_ros.model.state import BoolArray, FloatArray
@@ -111,12 +112,11 @@ class GpsSource:
         if profile is not None:
             # as simulate: covariances about the truth, or for a reported radius
             # the radius's circle plus the mean's m m^T
-            about = covariance_about == 'truth' and covariance_mode != 'reported'
-            model = profile.model(about_truth=about)
+            model = profile.model(about_truth=model_about_truth(covariance_about,
+                                                                covariance_mode))
             options = FcdOptions('lonlat', None, profile.rate_hz, seed, covariance_mode, None,
                                  profile.reported_accuracy, profile.velocity,
-                                 model.mean if covariance_about == 'truth' else None,
-                                 tuple(faults))
+                                 reported_mean(model, covariance_about), tuple(faults))
             self.steps = FcdSteps('ns-3', model, options, None if start is None
                                   else model_step(start, profile.rate_hz))
         self.table = np.zeros((int(self.ids.max()) + 1 if self.n else 0, len(FIELDS)))

@@ -27,6 +27,7 @@ from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallba
 from rclpy.node import Node
 from sensor_msgs.msg import NavSatFix
 
+from gps_error_ros.model.about_truth import model_about_truth, reported_mean
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import load_profile, ProfileError
 from gps_error_ros.model.streams import agent_key
@@ -141,8 +142,7 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
             try:
                 profile = load_profile(spec)
                 # reported: the phone's radius follows the plain predictive scale
-                about = cfg['covariance_about'] == 'truth' and \
-                    cfg['covariance_mode'] != 'reported'
+                about = model_about_truth(cfg['covariance_about'], cfg['covariance_mode'])
                 if zone_map is None:
                     model = profile.model(about_truth=about)
                 else:
@@ -171,8 +171,8 @@ class GpsErrorNode(WaitsOnUndrained, PatternAgents, Node):
                                velocity=profile.velocity,
                                conditional_cov=cfg['covariance_mode'] == 'conditional',
                                zones=zones, reported=reported,
-                               reported_bias=model.mean if reported is not None and
-                               cfg['covariance_about'] == 'truth' else None,
+                               reported_bias=None if reported is None else
+                               reported_mean(model, cfg['covariance_about']),
                                faults=FaultOverlay(self.faults.faults, self.seed))
             cov, cov_type = conversions.enu_covariance(
                 model.stationary_cov, profile.vertical_variance(model))
