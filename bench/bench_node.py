@@ -276,7 +276,8 @@ def _drive(n, sim_s, speed, node, counter, count_file):
     node.log.seek(0)
     out = node.log.read()
     counter.send_signal(signal.SIGINT)
-    counter.wait(timeout=60)
+    # an overloaded run (5,000 agents) leaves the counter a backlog to drain before it writes
+    counter.wait(timeout=300)
     counts = json.loads(count_file.read_text())
     m = SUMMARY.search(out)
     if not m:
