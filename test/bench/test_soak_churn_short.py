@@ -11,6 +11,7 @@ import soak_churn  # noqa: E402
 pytestmark = pytest.mark.integration
 
 
+@pytest.mark.long
 def test_short_churn_soak():
     """
     What the node guarantees of agents that come and go, whatever the machine's speed.
