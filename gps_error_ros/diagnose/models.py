@@ -35,7 +35,7 @@ from gps_error_ros.model.effect_kinds.variance_regimes import Regimes
 from gps_error_ros.model.effects import build_model, Effects, stationary_distribution
 from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.model.periodic import Periodic
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import OpaqueProcess
 from gps_error_ros.model.state import FloatArray, IntArray
 
 
@@ -99,7 +99,7 @@ class FittedModel:
                                           float(self.jumps.sigma_m))
         return Effects(params)
 
-    def simulator(self) -> ErrorModel[Any]:
+    def simulator(self) -> OpaqueProcess:
         """Return the model as a simulator: plain AR, or with its effects."""
         return build_model(*self.axis_params(), self.effects_obj())
 

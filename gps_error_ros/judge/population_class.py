@@ -26,6 +26,7 @@ from gps_error_ros.fit.population_fit import block_means, block_pieces, BLOCK_S,
 from gps_error_ros.model.ar_model import ARErrorModel, AxisParams
 from gps_error_ros.model.effects import build_model
 from gps_error_ros.model.population import Population, WithPopulation
+from gps_error_ros.model.protocol import opaque, OpaqueModel
 from gps_error_ros.model.state import FloatArray
 
 if TYPE_CHECKING:
@@ -52,14 +53,14 @@ class PopulationClass:
                              two_scales=within is None)
         self.fit, self.within = fit, within
         self.ar = ARErrorModel(*fit.axis_params())
-        inner: Any = self.ar
+        inner: OpaqueModel = opaque(self.ar)
         if within is not None:
             axes = [AxisParams((1.0 - sum(p.phi)) * float(m), p.phi, p.sigma_w)
                     for p, m in zip(within.axis_params(), fit.mean)]
             inner = build_model(axes[0], axes[1], within.effects_obj())
         self.axes = axes if within is not None else fit.axis_params()
         pop = fit.population
-        self.model = inner if pop is None else WithPopulation(inner, pop)
+        self.model = inner if pop is None else opaque(WithPopulation(inner, pop))
         self.mean: Any = within.mean if within is not None else \
             SimpleNamespace(lag_s=0.0, gain=1.0)
 
@@ -68,7 +69,7 @@ class PopulationClass:
         offsets = motion_offsets(part, self.truth, *self.lag)
         return [e - o for e, o in zip(part.err, offsets)]
 
-    def simulator(self) -> Any:
+    def simulator(self) -> OpaqueModel:
         """Return the model to simulate with."""
         return self.model
 

@@ -33,6 +33,7 @@ from gps_error_ros.fit.zone_calibration import MIN_ZONE_SAMPLES
 from gps_error_ros.model import streams
 from gps_error_ros.model.ar_model import ARErrorModel, AXES
 from gps_error_ros.model.geodesy import offset
+from gps_error_ros.model.protocol import opaque
 from gps_error_ros.model.state import FloatArray, IntArray
 from gps_error_ros.model.stepping import StepsPerFix
 from gps_error_ros.model.zoned import simulate_along, WithZones
@@ -120,7 +121,8 @@ def _simulate(part: Part, zones: Sequence[IntArray], models: Sequence[ARErrorMod
     """Return ``sims`` traces along ``part``'s grid, each step in its zone's model."""
     steps = part_steps(part)
     keys = streams.agent_keys(seed, [f'sim{i}' for i in range(sims)])
-    x = simulate_along(StepsPerFix(WithZones(models)), keys, np.concatenate(steps),
+    zoned = opaque(WithZones([opaque(m) for m in models]))
+    x = simulate_along(StepsPerFix(zoned), keys, np.concatenate(steps),
                        np.concatenate(zones))
     bounds = np.cumsum([0] + [len(s) for s in steps])
     return [[x[b0:b1, i] for b0, b1 in zip(bounds[:-1], bounds[1:])] for i in range(sims)]

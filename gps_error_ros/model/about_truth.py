@@ -24,12 +24,10 @@ the mean square error matrix about the truth, ``E[e e^T] = C + m m^T``:
 model's own, bit for bit.
 """
 
-from typing import Any
-
 import numpy as np
 
-from gps_error_ros.model.protocol import ErrorModel, Inputs
-from gps_error_ros.model.state import AgentState, FloatArray, Keys, Numbers
+from gps_error_ros.model.protocol import ErrorModel, Inputs, S
+from gps_error_ros.model.state import FloatArray, Inner, Keys, Numbers
 from gps_error_ros.model.wrapped import Wrapper
 
 #: What a stated covariance covers: the error about the truth, or about its mean.
@@ -47,7 +45,7 @@ def model_about_truth(covariance_about: str, covariance_mode: str) -> bool:
     return covariance_about == 'truth' and covariance_mode != 'reported'
 
 
-def reported_mean(model: ErrorModel[Any], covariance_about: str) -> FloatArray | None:
+def reported_mean(model: ErrorModel[S], covariance_about: str) -> FloatArray | None:
     """Return the mean whose ``m m^T`` a stated radius's covariance gets (None: about the mean)."""
     return np.asarray(model.mean) if covariance_about == 'truth' else None
 
@@ -58,7 +56,7 @@ def mean_square(cov: Numbers, mean: Numbers) -> FloatArray:
     return np.asarray(cov, dtype=float) + mean[..., :, None] * mean[..., None, :]
 
 
-class AboutTruth(Wrapper[AgentState]):
+class AboutTruth(Wrapper[Inner, Inner]):
     """
     A model whose stated covariances are about the truth (see the module docstring).
 
@@ -67,27 +65,27 @@ class AboutTruth(Wrapper[AgentState]):
     """
 
     @property
-    def core(self) -> ErrorModel[Any]:
+    def core(self) -> ErrorModel[Inner]:
         """Return the wrapped model (the one ``inner`` names)."""
         return self.inner
 
-    def part(self, state: AgentState) -> AgentState:
+    def part(self, state: Inner) -> Inner:
         """Return ``state``: the wrapped model's, unchanged."""
         return state
 
-    def empty_state(self, n: int) -> AgentState:
+    def empty_state(self, n: int) -> Inner:
         """Return the wrapped model's state of ``n`` agents, all zeros."""
         return self.core.empty_state(n)
 
-    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> AgentState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> Inner:
         """Draw the wrapped model's state at model step ``index``."""
         return self.core.initial_state(keys, index, inputs)
 
-    def state_after(self, keys: Keys, start: int, step: int, inputs: Inputs = None) -> AgentState:
+    def state_after(self, keys: Keys, start: int, step: int, inputs: Inputs = None) -> Inner:
         """Return the wrapped model's state at ``step`` of a run started at ``start``."""
         return self.core.state_after(keys, start, step, inputs)
 
-    def advance(self, state: AgentState, keys: Keys, index: int,
+    def advance(self, state: Inner, keys: Keys, index: int,
                 inputs: Inputs = None) -> FloatArray:
         """Advance the wrapped model's state in place; return its errors."""
         return self.core.advance(state, keys, index, inputs)
@@ -101,7 +99,7 @@ class AboutTruth(Wrapper[AgentState]):
         """Return the mean one-step mean square error matrix, the stationary mean's included."""
         return mean_square(self.core.mean_step_cov(), self.core.mean)
 
-    def predictive_cov(self, state: AgentState, first: bool = False) -> FloatArray:
+    def predictive_cov(self, state: Inner, first: bool = False) -> FloatArray:
         """Return each agent's mean square error matrix of the next error given ``state``."""
         return mean_square(self.core.predictive_cov(state, first),
                            self.core.predictive_mean(state, first))

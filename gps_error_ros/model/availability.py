@@ -37,7 +37,7 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.section_spec import Field, SectionSpec
-from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
+from gps_error_ros.model.state import BoolArray, FloatArray, Inner, Keys, Numbers, WrappedState
 from gps_error_ros.model.wrapped import Wrapper
 
 
@@ -138,7 +138,7 @@ def availability_from_dict(raw: Any, source: str = '<profile>') -> Availability:
 
 
 @dataclasses.dataclass(eq=False)
-class AvailabilityState(AgentState):
+class AvailabilityState(WrappedState[Inner]):
     """
     The state of :class:`WithAvailability`: the inner model's, and the outage's.
 
@@ -146,11 +146,10 @@ class AvailabilityState(AgentState):
     steps of outage left (0: a fix).
     """
 
-    inner: Any
     outage_left: FloatArray
 
 
-class WithAvailability(Wrapper[AvailabilityState]):
+class WithAvailability(Wrapper[AvailabilityState[Inner], Inner]):
     """
     An error model with fix availability: the inner model's errors, unchanged.
 
@@ -158,21 +157,26 @@ class WithAvailability(Wrapper[AvailabilityState]):
     the inner model's (:class:`~.wrapped.Wrapper`).
     """
 
-    def __init__(self, inner: ErrorModel[Any], availability: Availability) -> None:
+    def __init__(self, inner: ErrorModel[Inner], availability: Availability) -> None:
         super().__init__(inner)
         self.availability = availability
 
-    def empty_state(self, n: int) -> AvailabilityState:
+    def part(self, state: AvailabilityState[Inner]) -> Inner:
+        """Return the wrapped model's state (``inner``)."""
+        return state.inner
+
+    def empty_state(self, n: int) -> AvailabilityState[Inner]:
         """Return the state of ``n`` agents, all zeros."""
         return AvailabilityState(self.inner.empty_state(n), np.zeros(n))
 
-    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> AvailabilityState:
+    def initial_state(self, keys: Keys, index: int,
+                      inputs: Inputs = None) -> AvailabilityState[Inner]:
         """Draw the inner state and the outage state at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return AvailabilityState(self.inner.initial_state(keys, index, inputs),
                                  np.asarray(self.availability.initial(keys, index), dtype=float))
 
-    def advance(self, state: AvailabilityState, keys: Keys, index: int,
+    def advance(self, state: AvailabilityState[Inner], keys: Keys, index: int,
                 inputs: Inputs = None) -> FloatArray:
         """Advance both in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
@@ -180,16 +184,16 @@ class WithAvailability(Wrapper[AvailabilityState]):
         self.availability.advance(state.outage_left, keys, index)
         return err
 
-    def fix_mask(self, state: AvailabilityState) -> BoolArray:
+    def fix_mask(self, state: AvailabilityState[Inner]) -> BoolArray:
         """Return which agents have a fix at the current step."""
         return (state.outage_left == 0) & self.inner.fix_mask(state.inner)
 
-    def failed(self, state: AvailabilityState) -> BoolArray:
+    def failed(self, state: AvailabilityState[Inner]) -> BoolArray:
         """Return which agents' fixes failed at the current step: none without a fix."""
         return self.inner.failed(state.inner) & self.fix_mask(state)
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    inputs: Inputs = None) -> AvailabilityState:
+                    inputs: Inputs = None) -> AvailabilityState[Inner]:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         inner = self.inner.state_after(keys, start, step, inputs)

@@ -70,7 +70,7 @@ from gps_error_ros.model.effect_schema import (  # noqa: F401 (the schema, re-ex
 
     EFFECT_NAMES, Effects, effects_from_dict, EffectsError, MAX_DOF, MAX_LAG_S, MOVING_M,
     stationary_distribution)
-from gps_error_ros.model.protocol import Inputs, Process
+from gps_error_ros.model.protocol import Inputs, opaque, OpaqueProcess, Process
 from gps_error_ros.model.state import (EffectsState, FloatArray, IntArray, Keys,
                                        Numbers, zeros_effects_state)
 
@@ -366,8 +366,8 @@ class ExtendedModel(Process[EffectsState]):
 
 
 def build_model(north: AxisParams, east: AxisParams,
-                effects: Optional[Effects] = None) -> ARErrorModel | ExtendedModel:
+                effects: Optional[Effects] = None) -> OpaqueProcess:
     """Return the plain AR model, or an :class:`ExtendedModel` with effects."""
     if effects is None or not effects.names:
-        return ARErrorModel(north, east)
-    return ExtendedModel(north, east, effects)
+        return opaque(ARErrorModel(north, east))
+    return opaque(ExtendedModel(north, east, effects))

@@ -45,7 +45,7 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.section_spec import Field, SectionSpec
-from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Keys, Numbers
+from gps_error_ros.model.state import BoolArray, FloatArray, Inner, Keys, Numbers, WrappedState
 from gps_error_ros.model.wrapped import Wrapper
 
 #: The largest failure distance a profile may carry, m (a fix on the wrong continent).
@@ -203,7 +203,7 @@ def failures_from_sizes(count: int, fixes: int, sizes_m: Numbers, quantiles: int
 
 
 @dataclasses.dataclass(eq=False)
-class FailureState(AgentState):
+class FailureState(WrappedState[Inner]):
     """
     The state of :class:`WithFailures`: the inner model's, and this step's failure.
 
@@ -211,11 +211,10 @@ class FailureState(AgentState):
     failure offset, metres (north, east; zero: no failure).
     """
 
-    inner: Any
     offset: FloatArray
 
 
-class WithFailures(Wrapper[FailureState]):
+class WithFailures(Wrapper[FailureState[Inner], Inner]):
     """
     An error model with gross failures: the inner model's errors, replaced where a fix failed.
 
@@ -224,21 +223,25 @@ class WithFailures(Wrapper[FailureState]):
     (:class:`~.wrapped.Wrapper`).
     """
 
-    def __init__(self, inner: ErrorModel[Any], failures: GrossFailureProcess) -> None:
+    def __init__(self, inner: ErrorModel[Inner], failures: GrossFailureProcess) -> None:
         super().__init__(inner)
         self.failures = failures
 
-    def empty_state(self, n: int) -> FailureState:
+    def part(self, state: FailureState[Inner]) -> Inner:
+        """Return the wrapped model's state (``inner``)."""
+        return state.inner
+
+    def empty_state(self, n: int) -> FailureState[Inner]:
         """Return the state of ``n`` agents, all zeros."""
         return FailureState(self.inner.empty_state(n), np.zeros((n, 2)))
 
-    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> FailureState:
+    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> FailureState[Inner]:
         """Draw the inner state and this step's failure at model step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return FailureState(self.inner.initial_state(keys, index, inputs),
                             self.failures.offsets(keys, index)[0])
 
-    def advance(self, state: FailureState, keys: Keys, index: int,
+    def advance(self, state: FailureState[Inner], keys: Keys, index: int,
                 inputs: Inputs = None) -> FloatArray:
         """Advance in place to model step ``index``; return the errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
@@ -247,18 +250,18 @@ class WithFailures(Wrapper[FailureState]):
         state.offset[:] = off
         return np.where(fails[:, None], off, err)
 
-    def failed(self, state: FailureState) -> BoolArray:
+    def failed(self, state: FailureState[Inner]) -> BoolArray:
         """Return which agents' fixes failed at the current step."""
         return np.any(state.offset != 0.0, axis=1) | self.inner.failed(state.inner)
 
-    def errors(self, state: FailureState) -> FloatArray:
+    def errors(self, state: FailureState[Inner]) -> FloatArray:
         """Return the current north/east errors, a failed fix's where one failed."""
         err = self.inner.errors(state.inner)
         off = state.offset
         return np.where(np.any(off != 0.0, axis=1)[:, None], off, err)
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    inputs: Inputs = None) -> FailureState:
+                    inputs: Inputs = None) -> FailureState[Inner]:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return FailureState(self.inner.state_after(keys, start, step, inputs),

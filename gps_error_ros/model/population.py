@@ -76,7 +76,7 @@ import numpy as np
 from gps_error_ros.model import streams
 from gps_error_ros.model.protocol import ErrorModel, Inputs
 from gps_error_ros.model.section_spec import Field, SectionSpec
-from gps_error_ros.model.state import AgentState, FloatArray, Keys
+from gps_error_ros.model.state import FloatArray, Inner, Keys, WrappedState
 from gps_error_ros.model.wrapped import Wrapper
 
 #: The most degrees of freedom a Student-t bias may have (beyond, it is all but normal).
@@ -249,7 +249,7 @@ class AgentDraws:
 
 
 @dataclasses.dataclass(eq=False)
-class PopulationState(AgentState):
+class PopulationState(WrappedState[Inner]):
     """
     The state of :class:`WithPopulation`: the inner model's, and the agent's draws.
 
@@ -268,14 +268,13 @@ class PopulationState(AgentState):
 
     """
 
-    inner: Any
     bias: FloatArray
     scale: FloatArray
     bias_factor: FloatArray
     held: Optional[FloatArray]
 
 
-class WithPopulation(Wrapper[PopulationState]):
+class WithPopulation(Wrapper[PopulationState[Inner], Inner]):
     """
     An error model of one agent drawn from a population (see the module docstring).
 
@@ -283,7 +282,7 @@ class WithPopulation(Wrapper[PopulationState]):
     are the inner model's, turned into the agent's by its scale and bias.
     """
 
-    def __init__(self, inner: ErrorModel[Any], population: Population,
+    def __init__(self, inner: ErrorModel[Inner], population: Population,
                  rate_hz: float = 1.0) -> None:
         super().__init__(inner)
         self.population = population
@@ -305,31 +304,36 @@ class WithPopulation(Wrapper[PopulationState]):
 
     # --- state -----------------------------------------------------------
 
-    def _state(self, inner_state: Any, keys: Keys, start: int, bias: FloatArray,
-               g: FloatArray) -> PopulationState:
+    def _state(self, inner_state: Inner, keys: Keys, start: int, bias: FloatArray,
+               g: FloatArray) -> PopulationState[Inner]:
         """Return the state of ``inner_state`` with the run's biases, ``g`` and the scales."""
         held = self.draws.held_part(keys, start, g) if self.draws.held else None
         return PopulationState(inner_state, np.array(bias, dtype=float),
                                self.draws.scales(keys), np.array(g, dtype=float), held)
 
-    def empty_state(self, n: int) -> PopulationState:
+    def part(self, state: PopulationState[Inner]) -> Inner:
+        """Return the wrapped model's state (``inner``)."""
+        return state.inner
+
+    def empty_state(self, n: int) -> PopulationState[Inner]:
         """Return the state of ``n`` agents, all zeros."""
         return PopulationState(self.inner.empty_state(n), np.zeros((n, 2)), np.zeros(n),
                                np.zeros(n), np.zeros((n, 2)) if self.draws.held else None)
 
-    def _agent(self, inner_err: FloatArray, state: PopulationState) -> FloatArray:
+    def _agent(self, inner_err: FloatArray, state: PopulationState[Inner]) -> FloatArray:
         """Return the agent's errors from the inner model's: ``m + f d + b``."""
         m = self.inner.means(state.inner)
         out = m + state.scale[:, None] * (inner_err - m) + state.bias
         return out if state.held is None else out + state.held
 
-    def initial_state(self, keys: Keys, index: int, inputs: Inputs = None) -> PopulationState:
+    def initial_state(self, keys: Keys, index: int,
+                      inputs: Inputs = None) -> PopulationState[Inner]:
         """Draw the inner state, the run's bias and the agent's scale at step ``index``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         return self._state(self.inner.initial_state(keys, index, inputs), keys, index,
                            *self.draws.run_bias(keys, index))
 
-    def advance(self, state: PopulationState, keys: Keys, index: int,
+    def advance(self, state: PopulationState[Inner], keys: Keys, index: int,
                 inputs: Inputs = None) -> FloatArray:
         """Advance in place to model step ``index``; return the agent's errors."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
@@ -337,12 +341,12 @@ class WithPopulation(Wrapper[PopulationState]):
         self.draws.wander(state.bias, state.bias_factor, keys, index)
         return self._agent(err, state)
 
-    def errors(self, state: PopulationState) -> FloatArray:
+    def errors(self, state: PopulationState[Inner]) -> FloatArray:
         """Return each agent's current north/east errors, (n, 2)."""
         return self._agent(self.inner.errors(state.inner), state)
 
     def state_after(self, keys: Keys, start: int, step: int,
-                    inputs: Inputs = None) -> PopulationState:
+                    inputs: Inputs = None) -> PopulationState[Inner]:
         """Return the state at model step ``step`` of a run started at ``start``."""
         keys = np.atleast_1d(np.asarray(keys, dtype=np.uint64))
         inner = self.inner.state_after(keys, start, step, inputs)
@@ -369,7 +373,7 @@ class WithPopulation(Wrapper[PopulationState]):
 
     # --- what a consumer is told ------------------------------------------
 
-    def predictive_cov(self, state: PopulationState, first: bool = False) -> FloatArray:
+    def predictive_cov(self, state: PopulationState[Inner], first: bool = False) -> FloatArray:
         """
         Return each agent's covariance (n, 2, 2) of the next error given ``state``.
 
@@ -384,7 +388,7 @@ class WithPopulation(Wrapper[PopulationState]):
         """Return the process's mean one-step covariance plus the population's bias spread."""
         return np.asarray(self.inner.mean_step_cov()) + self.draws.spread
 
-    def predictive_mean(self, state: PopulationState, first: bool = False) -> FloatArray:
+    def predictive_mean(self, state: PopulationState[Inner], first: bool = False) -> FloatArray:
         """Return each agent's expected next error (n, 2) given ``state``, mean included."""
         return self.draws.agent_mean(self.inner.means(state.inner),
                                      self.inner.predictive_mean(state.inner, first),

@@ -37,17 +37,16 @@ from typing import Any, Callable, NoReturn, Optional
 import yaml
 
 from gps_error_ros.model.about_truth import AboutTruth
-from gps_error_ros.model.ar_model import ARErrorModel, AxisParams, AXES, ModelError
+from gps_error_ros.model.ar_model import AxisParams, AXES, ModelError
 from gps_error_ros.model.atomic import atomic_output
 from gps_error_ros.model.availability import (Availability, availability_from_dict,
                                               AvailabilityError, WithAvailability)
-from gps_error_ros.model.effects import (build_model, Effects, effects_from_dict, EffectsError,
-                                         ExtendedModel)
+from gps_error_ros.model.effects import build_model, Effects, effects_from_dict, EffectsError
 from gps_error_ros.model.failures import (failures_from_dict, FailuresError,
                                           GrossFailureProcess, WithFailures)
 from gps_error_ros.model.population import (Population, population_from_dict, PopulationError,
                                             WithPopulation)
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import opaque, OpaqueModel, OpaqueProcess
 from gps_error_ros.model.reported import ReportedAccuracy, reported_from_dict, ReportedError
 from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.velocity import Velocity, velocity_from_dict, VelocityError
@@ -127,14 +126,16 @@ class Profile:
         """Return True when the profile carries AR parameters."""
         return self.axes is not None
 
-    def process(self) -> ARErrorModel | ExtendedModel:
+    def process(self) -> OpaqueProcess:
         """
         Return the profile's error process alone: the AR part and its effects.
 
         Returns
         -------
-        ARErrorModel or ExtendedModel
-            The process, without population, failures or availability.
+        OpaqueProcess
+            The process, without population, failures or availability: an
+            :class:`~.ar_model.ARErrorModel` or, with effects, an
+            :class:`~.effects.ExtendedModel`.
 
         Raises
         ------
@@ -157,9 +158,9 @@ class Profile:
             raise ProfileError(f'{self.path}: {exc}') from None
 
     def model(self, gross_failures: bool = True, about_truth: bool = False,
-              process: Optional[ErrorModel[Any]] = None) -> ErrorModel[Any]:
+              process: Optional[OpaqueModel] = None) -> OpaqueModel:
         """
-        Return the :class:`ARErrorModel` of this profile.
+        Return the error model of this profile.
 
         With its effects, the agent's population draw (``population``), gross
         failures (unless ``gross_failures`` is False) and availability, each
@@ -179,8 +180,10 @@ class Profile:
 
         Returns
         -------
-        ARErrorModel or a wrapped model
-            The model to simulate or serve with.
+        OpaqueModel
+            The model to simulate or serve with: an :class:`ARErrorModel` or
+            :class:`~.effects.ExtendedModel`, wrapped as the profile says (its
+            state class is known at run time, :func:`~.protocol.opaque`).
 
         Raises
         ------
@@ -188,18 +191,18 @@ class Profile:
             For a placeholder profile.
 
         """
-        model: ErrorModel[Any] = self.process() if process is None else process
+        model: OpaqueModel = self.process() if process is None else process
         if self.population is not None:
-            model = WithPopulation(model, self.population, self.rate_hz)
+            model = opaque(WithPopulation(model, self.population, self.rate_hz))
         if about_truth:
-            model = AboutTruth(model)
+            model = opaque(AboutTruth(model))
         if gross_failures and self.gross_failures is not None:
-            model = WithFailures(model, self.gross_failures)
+            model = opaque(WithFailures(model, self.gross_failures))
         if self.availability is not None:
-            model = WithAvailability(model, self.availability)
+            model = opaque(WithAvailability(model, self.availability))
         return model
 
-    def vertical_variance(self, model: Optional[ErrorModel[Any]] = None) -> float:
+    def vertical_variance(self, model: Optional[OpaqueModel] = None) -> float:
         """
         Return the altitude variance (m^2) reported in fixes.
 

@@ -25,7 +25,7 @@ the agents' stream keys (uint64, :func:`~.streams.agent_keys`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Generic, Optional, Protocol, TypeVar
+from typing import Any, Generic, Optional, overload, Protocol, TypeVar, cast
 
 import numpy as np
 
@@ -190,6 +190,19 @@ class ErrorModel(Protocol[S]):
         ...
 
 
+class ZoneProcess(ErrorModel[S], Protocol):
+    """An error process a zone may have: it hands its AR errors on and takes them over."""
+
+    def carried(self, state: S) -> FloatArray:
+        """Return the AR part's last ``p`` errors (n, 2, p), mean included, newest first."""
+        ...
+
+    def resumed(self, carried: FloatArray, keys: Any, index: int,
+                inputs: Inputs = None) -> S:
+        """Return the state of agents entering at step ``index`` with errors ``carried``."""
+        ...
+
+
 class Process(Generic[S]):
     """
     What an error process (not a wrapper) answers of availability and failures: none.
@@ -218,3 +231,37 @@ class Process(Generic[S]):
     def simulate_fix(self, keys: Any, n_steps: int, start: int = 0) -> BoolArray:
         """Return True at every step, (n, n_steps): a process alone has no outages."""
         return np.ones((np.size(keys), n_steps), dtype=bool)
+
+
+#: A model whose state class is chosen at run time: a profile's chain of
+#: wrappers (:meth:`~.profiles.Profile.model`). Its states are known to the
+#: type checker only as :class:`~.state.AgentState`.
+OpaqueModel = ErrorModel[AgentState]
+#: An error process chosen at run time (:func:`~.effects.build_model`: the AR
+#: process, with effects or without), as a zone takes it.
+OpaqueProcess = ZoneProcess[AgentState]
+
+
+@overload
+def opaque(model: ZoneProcess[S]) -> OpaqueProcess: ...
+
+
+@overload
+def opaque(model: ErrorModel[S]) -> OpaqueModel: ...
+
+
+def opaque(model: ErrorModel[S]) -> OpaqueModel:
+    """
+    Return ``model`` typed as an :data:`OpaqueModel` (the same object).
+
+    Which wrappers a profile's model has is read from the profile at run
+    time, so no one static type names its state class, and Python's types
+    cannot say "some one state class S, with a model of S". This is the one
+    place the package forgets S. It stays sound by one rule every holder
+    keeps (:class:`~.stepping.StepsPerFix`, the node's engine, the crowd):
+    a state goes back only to the model that made it, which holds them
+    together. Everything after the choice is typed: a wrapper is generic in
+    its inner model's state (:class:`~.state.WrappedState`), and the paths
+    that step a model are generic in ``S``.
+    """
+    return cast('OpaqueModel', model)

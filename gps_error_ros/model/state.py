@@ -22,12 +22,14 @@ map's processes, :mod:`.zoned`).
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, TypeVar
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
 S = TypeVar('S', bound='AgentState')
+#: The state class of the model a wrapper wraps.
+Inner = TypeVar('Inner', bound='AgentState')
 
 #: A float array (the package's errors, covariances and state fields).
 FloatArray = npt.NDArray[np.floating[Any]]
@@ -129,6 +131,19 @@ class AgentState:
             else:
                 out[name] = np.concatenate([value, getattr(other, name)])
         return type(self)(**out)
+
+
+@dataclasses.dataclass(eq=False)
+class WrappedState(AgentState, Generic[Inner]):
+    """
+    The base of a wrapper's state: the wrapped model's state, whole, as ``inner``.
+
+    A wrapper's own fields follow it in its subclass (:mod:`.population`,
+    :mod:`.failures`, :mod:`.availability`); ``Inner`` is the wrapped model's
+    state class, so a wrapper's state is typed to the end.
+    """
+
+    inner: Inner
 
 
 @dataclasses.dataclass(eq=False)

@@ -98,7 +98,7 @@ def run(model: ErrorModel[S], keys: Keys, start: int, steps: int, cov: bool = Fa
     fix = np.empty((n, steps), dtype=bool)
     failed = np.empty((n, steps), dtype=bool)
     covariance = np.empty((n, steps, 2, 2)) if cov else None
-    state: Any = None
+    state: Optional[S] = None
     for i in range(steps):
         now = None if inputs is None else inputs(start + i)
         if state is None:

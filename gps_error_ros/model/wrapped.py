@@ -10,7 +10,8 @@ what they share: every member of the protocol, passed to the inner model
 with its part of the state (:meth:`Wrapper.part`), so that a wrapper
 writes only what it changes. A wrapper with state of its own keeps the
 inner model's state whole as the ``inner`` field of its own state class
-(:mod:`.state`).
+(:mod:`.state`), so a wrapper is generic in two state classes: its own
+(``W``) and its inner model's (``Inner``).
 """
 
 from __future__ import annotations
@@ -20,23 +21,23 @@ from typing import Any, Generic, Optional, TypeVar
 import numpy as np
 
 from gps_error_ros.model.protocol import ErrorModel, Inputs
-from gps_error_ros.model.state import AgentState, BoolArray, FloatArray
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, Inner
 
 #: The wrapper's own state class.
 W = TypeVar('W', bound=AgentState)
 
 
-class Wrapper(Generic[W]):
+class Wrapper(Generic[W, Inner]):
     """An :class:`~.protocol.ErrorModel` made from ``inner``: every member passed on."""
 
-    def __init__(self, inner: ErrorModel[Any]) -> None:
+    def __init__(self, inner: ErrorModel[Inner]) -> None:
         self.inner = inner
 
     # --- what a wrapper with state of its own overrides -------------------
 
-    def part(self, state: W) -> Any:
+    def part(self, state: W) -> Inner:
         """Return the inner model's part of ``state`` (its ``inner`` field)."""
-        return state.inner  # type: ignore[attr-defined]
+        raise NotImplementedError
 
     def empty_state(self, n: int) -> W:
         """Return the state of ``n`` agents, all zeros."""

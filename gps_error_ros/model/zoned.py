@@ -40,7 +40,7 @@ transition:
 
 import dataclasses
 import math
-from typing import Any, Iterator, Optional, Protocol, Sequence
+from typing import Callable, Iterator, Optional, Sequence
 
 import numpy as np
 
@@ -48,7 +48,8 @@ from gps_error_ros.model.effects import MOVING_M
 from gps_error_ros.model.geodesy import difference
 from gps_error_ros.model.motion_lag import between, NS, stamp_ns
 from gps_error_ros.model.profiles import Profile
-from gps_error_ros.model.protocol import ErrorModel, Inputs, Process, S, StepInputs
+from gps_error_ros.model.protocol import (Inputs, opaque, OpaqueModel, OpaqueProcess, Process,
+                                          StepInputs)
 from gps_error_ros.model.reported import needs_predictive
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray, Keys, Numbers
 from gps_error_ros.model.stepping import StepsPerFix
@@ -70,19 +71,6 @@ def travel_direction(lat0: Numbers, lon0: Numbers, lat1: Numbers, lon1: Numbers,
     if ok is not None:
         moving &= ok
     return np.where(moving, np.arctan2(east, north), np.nan)
-
-
-class ZoneProcess(ErrorModel[S], Protocol):
-    """An error process a zone may have: it hands its AR errors on and takes them over."""
-
-    def carried(self, state: S) -> FloatArray:
-        """Return the AR part's last ``p`` errors (n, 2, p), mean included, newest first."""
-        ...
-
-    def resumed(self, carried: FloatArray, keys: Keys, index: int,
-                inputs: Inputs = None) -> S:
-        """Return the state of agents entering at step ``index`` with errors ``carried``."""
-        ...
 
 
 @dataclasses.dataclass(eq=False)
@@ -124,9 +112,9 @@ class WithZones(Process[ZonedState]):
 
     """
 
-    def __init__(self, processes: Sequence[ZoneProcess[Any]]) -> None:
+    def __init__(self, processes: Sequence[OpaqueProcess]) -> None:
         assert OUTSIDE == -1
-        self.processes: list[ZoneProcess[Any]] = []
+        self.processes: list[OpaqueProcess] = []
         index: dict[int, int] = {}
         for m in processes:
             if id(m) not in index:
@@ -260,17 +248,17 @@ class WithZones(Process[ZonedState]):
             return state.parts[z]
         return state.parts[z].take(rows)
 
-    def _per_process(self, state: ZonedState, what: str, shape: tuple[int, ...],
-                     *args: Any) -> FloatArray:
-        """Return member ``what`` of each agent's process, gathered, (n, *shape)."""
+    def _per_process(self, state: ZonedState, shape: tuple[int, ...],
+                     member: Callable[[OpaqueProcess, AgentState], FloatArray]) -> FloatArray:
+        """Return ``member(process, its agents' state)`` of each agent's process, (n, *shape)."""
         out = np.empty((len(state),) + shape)
         for z, r in self._groups(state.zone):
-            out[r] = getattr(self.processes[z], what)(self._part(state, z, r), *args)
+            out[r] = member(self.processes[z], self._part(state, z, r))
         return out
 
     def errors(self, state: ZonedState) -> FloatArray:
         """Return the current north/east errors of every agent, (n, 2)."""
-        return self._per_process(state, 'errors', (2,))
+        return self._per_process(state, (2,), lambda m, part: m.errors(part))
 
     def means(self, state: ZonedState) -> FloatArray:
         """Return the stationary mean (n, 2) of each agent's zone process."""
@@ -278,11 +266,11 @@ class WithZones(Process[ZonedState]):
 
     def predictive_cov(self, state: ZonedState, first: bool = False) -> FloatArray:
         """Return each agent's covariance (n, 2, 2) of the next error under its process."""
-        return self._per_process(state, 'predictive_cov', (2, 2), first)
+        return self._per_process(state, (2, 2), lambda m, part: m.predictive_cov(part, first))
 
     def predictive_mean(self, state: ZonedState, first: bool = False) -> FloatArray:
         """Return each agent's expected next error (n, 2) under its process."""
-        return self._per_process(state, 'predictive_mean', (2,), first)
+        return self._per_process(state, (2,), lambda m, part: m.predictive_mean(part, first))
 
     def simulate(self, keys: Keys, n_steps: int, start: int = 0,
                  out: Optional[FloatArray] = None) -> FloatArray:
@@ -292,12 +280,12 @@ class WithZones(Process[ZonedState]):
 
 #: What the engine, the crowd and ``simulate`` take as ``zones``: a zone map and the
 #: agents stepped per fix (the map None: a street frame, no map).
-ZoneSetup = tuple[Optional[ZoneMap], StepsPerFix[Any]]
+ZoneSetup = tuple[Optional[ZoneMap], StepsPerFix[AgentState]]
 
 
 def zoned_errors(zone_map: ZoneMap, profile: Profile, covariance_mode: str = 'stationary',
                  about_truth: bool = False
-                 ) -> tuple[Profile, ErrorModel[Any], tuple[ZoneMap, StepsPerFix[Any]]]:
+                 ) -> tuple[Profile, OpaqueModel, tuple[ZoneMap, StepsPerFix[AgentState]]]:
     """
     Return (default profile, its model, ``(zone_map, StepsPerFix)``) for a run.
 
@@ -309,12 +297,12 @@ def zoned_errors(zone_map: ZoneMap, profile: Profile, covariance_mode: str = 'st
     (:mod:`about_truth`).
     """
     default, processes = zone_models(zone_map, profile)
-    zoned = default.model(about_truth=about_truth, process=WithZones(processes))
+    zoned = default.model(about_truth=about_truth, process=opaque(WithZones(processes)))
     return default, default.model(about_truth=about_truth), (zone_map, StepsPerFix(
         zoned, conditional_cov=needs_predictive(covariance_mode, default.reported_accuracy)))
 
 
-def simulate_along(zoned: StepsPerFix[Any], keys: Keys, steps: Numbers,
+def simulate_along(zoned: StepsPerFix[AgentState], keys: Keys, steps: Numbers,
                    zones: Numbers) -> FloatArray:
     """
     Return errors (n samples, agents, 2) simulated along sampled steps in zones.

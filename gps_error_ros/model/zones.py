@@ -43,9 +43,8 @@ from typing import Any, NoReturn, Optional, Sequence
 import numpy as np
 import os
 
-from gps_error_ros.model.ar_model import ARErrorModel
-from gps_error_ros.model.effects import ExtendedModel
 from gps_error_ros.model.profiles import load_profile, Profile, ProfileError
+from gps_error_ros.model.protocol import OpaqueProcess
 from gps_error_ros.model.state import FloatArray, IntArray, Numbers
 
 #: The zone index of a point outside every polygon.
@@ -276,7 +275,7 @@ def load_zone_map(path: str | os.PathLike[str]) -> ZoneMap:
 
 
 def zone_models(zone_map: ZoneMap,
-                profile: Profile) -> tuple[Profile, list[ARErrorModel | ExtendedModel]]:
+                profile: Profile) -> tuple[Profile, list[OpaqueProcess]]:
     """
     Return (the default profile, the error processes of the zones then the default's).
 
@@ -289,8 +288,8 @@ def zone_models(zone_map: ZoneMap,
     """
     default = zone_map.default or profile
     inner = default.process()
-    models: list[ARErrorModel | ExtendedModel] = []
-    built: dict[str, ARErrorModel | ExtendedModel] = {}
+    models: list[OpaqueProcess] = []
+    built: dict[str, OpaqueProcess] = {}
     for name, zp in zip(zone_map.names, zone_map.profiles):
         where = f'{zone_map.path}: zone {name!r} (profile {zp.name})'
         if zp.path == default.path:

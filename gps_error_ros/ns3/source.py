@@ -26,7 +26,7 @@ import numpy as np
 from gps_error_ros.model.about_truth import model_about_truth, reported_mean
 from gps_error_ros.model.geodesy import LocalTangentFrame
 from gps_error_ros.model.profiles import Profile
-from gps_error_ros.model.state import BoolArray, FloatArray
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray
 from gps_error_ros.ns3.native import cpp, FIELDS
 from gps_error_ros.sim.faults import Fault
 from gps_error_ros.sim.fcd_step import FcdOptions, FcdSteps
@@ -108,7 +108,7 @@ class GpsSource:
                              f'got {len(self.names)} ({len(set(self.names))} distinct)')
         self.frame = LocalTangentFrame(*datum)
         self.rate_hz = profile.rate_hz if profile is not None else 1.0
-        self.steps: FcdSteps | None = None
+        self.steps: FcdSteps[AgentState] | None = None
         if profile is not None:
             # as simulate: covariances about the truth, or for a reported radius
             # the radius's circle plus the mean's m m^T

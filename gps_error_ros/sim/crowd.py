@@ -12,19 +12,23 @@ on when it appeared or who else is present.
 """
 
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
 from gps_error_ros.model import streams
-from gps_error_ros.model.protocol import ErrorModel
-from gps_error_ros.model.state import BoolArray, FloatArray, IntArray, Numbers
+from gps_error_ros.model.protocol import ErrorModel, S
+from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray, Numbers
 from gps_error_ros.model.stepping import state_at, step as model_step, StepsPerFix
 from gps_error_ros.model.zoned import ZoneSetup
 from gps_error_ros.model.zones import ZoneMap
 
 
-class CrowdErrors:
+#: What :meth:`CrowdErrors._of_rows` gathers: errors or masks.
+A = TypeVar('A', FloatArray, BoolArray)
+
+
+class CrowdErrors(Generic[S]):
     """
     Per-agent AR errors on the model grid, for agents that come and go.
 
@@ -46,7 +50,7 @@ class CrowdErrors:
 
     """
 
-    def __init__(self, model: ErrorModel[Any], seed: int, start_step: int,
+    def __init__(self, model: ErrorModel[S], seed: int, start_step: int,
                  forget_after: int = 600, conditional_cov: bool = False,
                  zoned: ZoneSetup | None = None) -> None:
         self.model = model
@@ -68,7 +72,7 @@ class CrowdErrors:
         self.cov_now: FloatArray = np.zeros((0, 2, 2))
         # zoned: (ZoneMap, StepsPerFix) when the errors follow a zone map
         self.zone_map: ZoneMap | None = None
-        self.zoned: StepsPerFix[Any] | None = None
+        self.zoned: StepsPerFix[AgentState] | None = None
         if zoned is not None:
             self.zone_map, self.zoned = zoned
         if self.zoned is not None:
@@ -152,7 +156,7 @@ class CrowdErrors:
         """Return which named agents have a fix now (profile availability; else all)."""
         return self._of_rows(self.model.fix_mask, self._rows(names) if rows is None else rows)
 
-    def _of_rows(self, per_agent: Callable[[Any], Any], rows: IntArray) -> Any:
+    def _of_rows(self, per_agent: Callable[[S], A], rows: IntArray) -> A:
         """
         Return ``per_agent`` (a model's function of a state, agent by agent) for ``rows``.
 

@@ -11,12 +11,12 @@ documentation: ``docs/timing.md``.
 """
 
 from collections import deque
-from typing import Any
+from typing import Generic
 
 import numpy as np
 
 from gps_error_ros.model.geodesy import offset
-from gps_error_ros.model.protocol import ErrorModel
+from gps_error_ros.model.protocol import ErrorModel, opaque, S
 from gps_error_ros.model.reported import reference_cov, ReportedAccuracy
 from gps_error_ros.model.state import AgentState, BoolArray, FloatArray, IntArray, Keys, Numbers
 from gps_error_ros.model.stepping import state_at, step as model_step, StepsPerFix
@@ -32,7 +32,7 @@ NS = 1_000_000_000
 FUTURE_TOLERANCE_S = 60.0
 
 
-class FixEngine:
+class FixEngine(Generic[S]):
     """
     Turn truth samples and clock readings into noisy fixes.
 
@@ -78,7 +78,7 @@ class FixEngine:
 
     """
 
-    def __init__(self, model: ErrorModel[Any], keys: Keys, rate: float = 1.0,
+    def __init__(self, model: ErrorModel[S], keys: Keys, rate: float = 1.0,
                  model_rate: float = 1.0, max_pose_age: float = 1.0, history: int = 64,
                  max_pending: int = 1000, active: bool = True, start_ns: int | None = None,
                  velocity: Velocity | None = None, conditional_cov: bool = False,
@@ -147,16 +147,16 @@ class FixEngine:
         A street frame needs each fix's direction of travel: the same path, one zone.
         """
         self.zone_map: ZoneMap | None = None
-        self.zoned: StepsPerFix[Any] | None = None
+        self.zoned: StepsPerFix[AgentState] | None = None
         if zones is not None:
             self.zone_map, self.zoned = zones
         if self.zoned is None and self.model.needs_heading:
-            self.zoned = StepsPerFix(self.model, conditional_cov=self.conditional_cov)
+            self.zoned = StepsPerFix(opaque(self.model), conditional_cov=self.conditional_cov)
         if self.zoned is not None:
             self.zoned.grow(self.n - self.zoned.n)
 
     def _reset_time(self) -> None:
-        self.state: AgentState | None = None
+        self.state: S | None = None
         self.began_ns: int | None = None        # clock time of the streams' first step
         # the model step of the state, and of the streams' first step (0 before it)
         self.model_index = 0
@@ -334,7 +334,7 @@ class FixEngine:
             side.history(keys, 0, span)
 
     def _caught_up(self, keys: Keys, m: int,
-                   start: int | None = None) -> tuple[AgentState, FloatArray | None]:
+                   start: int | None = None) -> tuple[S, FloatArray | None]:
         """Return the state at model step ``m`` of agents ``keys``, and its covariance."""
         start = self.start_index if start is None else start
         return state_at(self.model, keys, start, m, cov=self.conditional_cov)

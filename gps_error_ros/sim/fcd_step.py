@@ -13,7 +13,7 @@ either format, bit for bit.
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any, Generic, Optional
 
 import numpy as np
 
@@ -63,7 +63,7 @@ class FcdOptions:
 
 
 @dataclass(frozen=True)
-class FcdRequest:
+class FcdRequest(Generic[S]):
     """
     What ``simulate`` is asked to do with a Parquet FCD file or its parts, in one record.
 
@@ -73,7 +73,7 @@ class FcdRequest:
     :func:`~gps_error_ros.sim.simulate.simulate_fcd`'s options.
     """
 
-    model: ErrorModel[Any]
+    model: ErrorModel[S]
     rate_hz: float
     seed: int
     net: str | None = None
@@ -120,7 +120,7 @@ class FcdColumns:
     moved: bool = True
 
 
-class FcdSteps:
+class FcdSteps(Generic[S]):
     """
     A pass over one FCD file's timesteps, in order (see the module doc).
 
@@ -160,7 +160,7 @@ class FcdSteps:
                                   f'network has no geo-reference (no projection in its '
                                   f'<location>)')
         self.start = start_step
-        self.crowd: CrowdErrors | None = None
+        self.crowd: CrowdErrors[S] | None = None
         self.lag = LagBuffer(model.lag_s)
         self.travel = TravelDirections(model.lag_s)
         self.vel = None if options.velocity is None else \

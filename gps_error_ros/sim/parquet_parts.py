@@ -17,12 +17,13 @@ from dataclasses import dataclass
 import os
 from pathlib import Path
 import shutil
-from typing import Any
+from typing import Any, Generic
 import zlib
 
 import numpy as np
 
 from gps_error_ros.model.atomic import PathArg
+from gps_error_ros.model.protocol import S
 from gps_error_ros.sim.fcd_step import FcdRequest
 from gps_error_ros.traces.fcd_parquet import FcdParquet, pyarrow_modules, WriteBehind
 from gps_error_ros.traces.trajectories import TrajectoryError
@@ -66,22 +67,22 @@ def split_by_agent(src: PathArg, dst: PathArg, parts: int) -> list[Path]:
 
 
 @dataclass(frozen=True)
-class PartJob:
+class PartJob(Generic[S]):
     """What one worker needs to run one part (sent to it whole)."""
 
     src: str
     dst: str
     start_s: float
-    request: FcdRequest
+    request: FcdRequest[S]
 
 
-def run_part(job: PartJob) -> dict[str, int]:
+def run_part(job: PartJob[S]) -> dict[str, int]:
     """Run one part on a worker; return its counts."""
     from gps_error_ros.sim.simulate_parquet import simulate_parquet
     return simulate_parquet(job.src, job.dst, job.request, start_s=job.start_s)
 
 
-def simulate_parts(src: PathArg, dst: PathArg, request: FcdRequest,
+def simulate_parts(src: PathArg, dst: PathArg, request: FcdRequest[S],
                    scheduler: str | None = None, workers: int | None = None) -> dict[str, int]:
     """
     Run every part of directory ``src`` (``*.parquet``) on Dask's workers into directory ``dst``.
@@ -119,7 +120,7 @@ def simulate_parts(src: PathArg, dst: PathArg, request: FcdRequest,
     return total
 
 
-def _on_dask(jobs: Sequence[PartJob], scheduler: str | None,
+def _on_dask(jobs: Sequence[PartJob[S]], scheduler: str | None,
              workers: int | None) -> list[dict[str, int]]:
     """Run ``jobs`` on a Dask cluster (the scheduler's, or a local one); return their results."""
     try:

@@ -55,7 +55,7 @@ def parquet_mode(src: PathArg, net: PathArg | None,
     return position_mode(src, coordinates, net)
 
 
-def simulate_parquet(src: PathArg, dst: PathArg, request: FcdRequest,
+def simulate_parquet(src: PathArg, dst: PathArg, request: FcdRequest[S],
                      start_s: float | None = None) -> dict[str, int]:
     """
     Add errors to every agent of a Parquet FCD file; return counts (see module doc).
@@ -75,7 +75,7 @@ def simulate_parquet(src: PathArg, dst: PathArg, request: FcdRequest,
         return _run(fcd, steps, tmp, request.model, request.errors, bool(request.faults))
 
 
-def _run(fcd: FcdParquet, steps: FcdSteps, dst: PathArg, model: ErrorModel[S],
+def _run(fcd: FcdParquet, steps: FcdSteps[S], dst: PathArg, model: ErrorModel[S],
          errors: bool, faults: bool) -> dict[str, int]:
     """
     Stream ``fcd`` through ``steps`` into ``dst``; return counts.
@@ -124,7 +124,7 @@ class _Stepped:
     counts: tuple[int, int, int]
 
 
-def _stepped(chunk: Chunk, steps: FcdSteps) -> _Stepped:
+def _stepped(chunk: Chunk, steps: FcdSteps[S]) -> _Stepped:
     """Return one chunk's columns, stepped through the model timestep by timestep."""
     has = chunk.codes >= 0
     parts: list[tuple[BoolArray, FcdColumns]] = []
@@ -141,7 +141,7 @@ def _stepped(chunk: Chunk, steps: FcdSteps) -> _Stepped:
                     (len(parts), got, int(has.sum()) - got))
 
 
-def _finished(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps, stepped: _Stepped,
+def _finished(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps[S], stepped: _Stepped,
               errors: bool) -> Any:
     """Return one stepped chunk's output table, its positions moved."""
     if not stepped.moved:
@@ -149,7 +149,7 @@ def _finished(chunk: Chunk, kinds: Sequence[str], steps: FcdSteps, stepped: _Ste
     return _with_columns(chunk.table, kinds, stepped.cols, stepped.fix, stepped.has, errors)
 
 
-def _move(steps: FcdSteps, t: FloatArray, cols: dict[str, FloatArray], has: BoolArray) -> None:
+def _move(steps: FcdSteps[S], t: FloatArray, cols: dict[str, FloatArray], has: BoolArray) -> None:
     """
     Move the chunk's truth (``cols`` x, y) by its errors, in place.
 

@@ -17,7 +17,7 @@ import numpy as np
 from gps_error_ros.model.accuracy import ellipse, radius68
 from gps_error_ros.model.atomic import PathArg
 from gps_error_ros.model.motion_lag import LagBuffer
-from gps_error_ros.model.protocol import ErrorModel, S
+from gps_error_ros.model.protocol import ErrorModel, opaque, S
 from gps_error_ros.model.reported import needs_predictive, reference_cov, ReportedAccuracy
 from gps_error_ros.model.state import BoolArray, FloatArray, Numbers
 from gps_error_ros.model.velocity import Velocity
@@ -33,7 +33,7 @@ def per_fix(model: ErrorModel[S], zones: ZoneSetup | None,
             conditional: bool = False) -> ZoneSetup | None:
     """Return ``zones``, or the agents stepped per fix of a street-frame model, or None."""
     if zones is None and model.needs_heading:
-        return None, StepsPerFix(model, conditional_cov=conditional)
+        return None, StepsPerFix(opaque(model), conditional_cov=conditional)
     return zones
 
 
@@ -138,7 +138,7 @@ def stated_accuracy(covariance_mode: str, model: ErrorModel[S],
 class Stated:
     """The radius a profile's ``reported_accuracy`` states, for covariance_mode reported."""
 
-    def __init__(self, model: ErrorModel[Any], reported: ReportedAccuracy | None, seed: int,
+    def __init__(self, model: ErrorModel[S], reported: ReportedAccuracy | None, seed: int,
                  bias: Numbers | None = None) -> None:
         if reported is None:
             raise TrajectoryError('covariance mode reported: the profile has no '
