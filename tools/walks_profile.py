@@ -139,14 +139,14 @@ def _diagnosis_rows(traces, seed=1):
             rows.append(f'| {tr.name} | {acf1[0]:.2f} / {acf1[1]:.2f} | - | too short to '
                         f'diagnose alone ({str(exc).split(": ", 1)[1]}) | | |')
             continue
-        imp = s['improvement']
-        gains[tr.name] = (imp['heldout_nll_per_sample'], *imp['ci95'])
+        imp = s.improvement
+        gains[tr.name] = (imp.heldout_nll_per_sample, *imp.ci95)
         rows.append(f'| {tr.name} | {acf1[0]:.2f} / {acf1[1]:.2f} | '
-                    f'{s["base"]["order"]["north"]} / {s["base"]["order"]["east"]} | '
-                    f'{", ".join(e["name"] for e in s["effects"]) or "none"} | '
-                    f'{", ".join(s["selection"]["kept"]) or "none"} | '
-                    f'{imp["heldout_nll_per_sample"]:.3f} ({imp["ci95"][0]:.3f} .. '
-                    f'{imp["ci95"][1]:.3f}) |')
+                    f'{s.base.order["north"]} / {s.base.order["east"]} | '
+                    f'{", ".join(s.effect_names) or "none"} | '
+                    f'{", ".join(s.selection.kept) or "none"} | '
+                    f'{imp.heldout_nll_per_sample:.3f} ({imp.ci95[0]:.3f} .. '
+                    f'{imp.ci95[1]:.3f}) |')
     return rows, gains
 
 

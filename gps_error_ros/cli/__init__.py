@@ -205,7 +205,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         print(found.describe())
     print(diag.summary())
     _write_results(args, diag.to_dict(), 'diagnosis.png',
-                   lambda path: diagnosis_figure(diag, path, diag.findings['input']))
+                   lambda path: diagnosis_figure(diag, path, diag.findings.input))
     if args.profile_out:
         _write_diagnosed_profile(args, diag)
     return 0
@@ -214,7 +214,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 def _write_diagnosed_profile(args: argparse.Namespace, diag: 'Diagnosis') -> None:
     """Write ``diagnose --profile-out``: the extended profile, or with ``--population`` that."""
     from gps_error_ros.diagnose import extended_profile
-    out, source = Path(args.profile_out), diag.findings['input']
+    out, source = Path(args.profile_out), diag.findings.input
     prof = extended_profile(diag, out.stem, source)
     if args.population:
         from gps_error_ros.judge.generalise import population_profile

@@ -8,16 +8,17 @@ them. What no effect explains is reported as ``unexplained``, never forced
 into an effect.
 """
 
-from collections.abc import Collection, Mapping
+from collections.abc import Collection
 from dataclasses import dataclass, field
 import math
-from typing import Any, Optional
+from typing import Optional
 
 import numpy as np
 
 from gps_error_ros.diagnose.common import EFFECT_ORDER
 from gps_error_ros.diagnose.laws import fit_law, law_logpdf
 from gps_error_ros.diagnose.family import FamilyResult
+from gps_error_ros.diagnose.findings import Alternative, Approximation, Json, Left
 from gps_error_ros.diagnose.mean import Design, to_travel_frame
 from gps_error_ros.diagnose.models import fit_model, FittedModel
 from gps_error_ros.fit.holdout import Split
@@ -30,16 +31,16 @@ class Attribution:
     """Effects chosen from the tests, with their evidence, and what is left."""
 
     effects: list[str]
-    evidence: dict[str, Any]
-    alternatives_rejected: list[Any]
-    unexplained: list[Any]
+    evidence: dict[str, dict[str, Json]]       # by effect: its test, figures, BICs
+    alternatives_rejected: list[Alternative]
+    unexplained: list[Left]
     regimes: int = 2
     lag_s: Optional[float] = None
     period: int = 0             # periodic: the cycle's length, steps
     orders: tuple[int, ...] = ()          # the base model's AR orders
     # with outliers: those of the series without its jumps
     jump_orders: tuple[int, ...] = ()
-    approximations: list[Any] = field(default_factory=list)
+    approximations: list[Approximation] = field(default_factory=list)
 
     def orders_for(self, effects: Collection[str]) -> tuple[int, ...]:
         """Return the AR orders of a model with ``effects``."""
@@ -56,11 +57,6 @@ def travel_axes_win(r: FloatArray, d: Design) -> bool:
         bic[name] = -2 * float(np.sum(law_logpdf(law, x, d.seg)[0])) + \
             law.n_params * math.log(n)
     return bic['travel'] < bic['fixed']
-
-
-def _pick(test: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: test[k] for k in ('statistic', 'p_value', 'holm_adjusted_p',
-                                 'at_lag_s') if k in test}
 
 
 def _attribute_law(split: Split, base: FittedModel, family: FamilyResult,
@@ -82,30 +78,26 @@ def _attribute_law(split: Split, base: FittedModel, family: FamilyResult,
         extra, att.regimes = cands[pick]
         att.effects.extend(e for e in EFFECT_ORDER if e in extra)
         att.evidence['variance_regimes'] = {
-            'test': 'squared_persistence', **_pick(tests['squared_persistence']),
+            'test': 'squared_persistence', **tests['squared_persistence'].picked(),
             'levels': att.regimes, 'bic': bics, 'chosen': pick}
         if 'heavy_tails' in extra:
             att.evidence['heavy_tails'] = {
-                'test': 'kurtosis and BIC', **_pick(tests['kurtosis']),
+                'test': 'kurtosis and BIC', **tests['kurtosis'].picked(),
                 'reason': 'tails beyond the regimes: the BIC with both is '
                           'the lowest', 'bic': bics}
         else:
-            att.alternatives_rejected.append({
-                'effect': 'heavy_tails',
-                'reason': 'with the regimes, Student-t innovations do not '
-                          'lower the BIC (the marginal tails come from the '
-                          'regimes)', 'bic': bics})
+            att.alternatives_rejected.append(Alternative(
+                'heavy_tails', 'with the regimes, Student-t innovations do not lower the BIC '
+                '(the marginal tails come from the regimes)', bics))
         return
     att.effects.append('heavy_tails')
     att.evidence['heavy_tails'] = {
-        'test': 'kurtosis', **_pick(tests['kurtosis']), 'bic': bics,
+        'test': 'kurtosis', **tests['kurtosis'].picked(), 'bic': bics,
         'reason': 'excess kurtosis without persistence of the squared '
                   'innovations'}
-    att.alternatives_rejected.append({
-        'effect': 'variance_regimes',
-        'reason': 'the squared innovations do not persist (Holm-adjusted '
-                  f'p = {adjusted["squared_persistence"]:.3g})',
-        'bic': bics})
+    att.alternatives_rejected.append(Alternative(
+        'variance_regimes', 'the squared innovations do not persist (Holm-adjusted '
+        f'p = {adjusted["squared_persistence"]:.3g})', bics))
 
 
 def _attribute_cycle(split: Split, base: FittedModel, family: FamilyResult,
@@ -122,10 +114,10 @@ def _attribute_cycle(split: Split, base: FittedModel, family: FamilyResult,
     bics = {p: fit_model(split.train, att.orders_for(common), common + ('periodic',),
                          split.truth,
                          att.lag_s, att.regimes, period=p).bic
-            for p in range(2, t['at_period'] + 1) if t['at_period'] % p == 0}
+            for p in range(2, t.whole('at_period') + 1) if t.whole('at_period') % p == 0}
     att.period = min(bics, key=lambda k: bics[k])
     att.effects.append('periodic')
-    att.evidence['periodic'] = {'test': 'periodicity', **_pick(t), 'in': t['in'],
+    att.evidence['periodic'] = {'test': 'periodicity', **t.picked(), 'in': t.word('in'),
                                 'period_steps': att.period,
                                 'bic_by_period': {str(k): v for k, v in bics.items()}}
 
@@ -150,14 +142,13 @@ def _attribute_frame(split: Split, base: FittedModel, family: FamilyResult,
     t = family.tests['travel_frame']
     att.effects[:] = [e for e in EFFECT_ORDER if e in common + (pick,)]
     att.evidence.pop(other, None)
-    att.evidence.setdefault(pick, {'test': 'travel_frame', **_pick(t)})
+    att.evidence.setdefault(pick, {'test': 'travel_frame', **t.picked()})
     att.evidence[pick]['frame_bic'] = bics
-    att.alternatives_rejected.append({
-        'effect': other, 'bic': bics,
-        'reason': ('the covariance turns with the direction of travel, but a fixed '
-                   'north/east ellipse fits it better (lower BIC)') if other == 'street_frame'
+    att.alternatives_rejected.append(Alternative(
+        other, ('the covariance turns with the direction of travel, but a fixed '
+                'north/east ellipse fits it better (lower BIC)') if other == 'street_frame'
         else ('the innovation covariance turns with the direction of travel: axes along '
-              'and across it fit better than fixed north/east axes (lower BIC)')})
+              'and across it fit better than fixed north/east axes (lower BIC)'), bics))
 
 
 def attribute(split: Split, base: FittedModel, family: FamilyResult) -> Attribution:
@@ -168,13 +159,13 @@ def attribute(split: Split, base: FittedModel, family: FamilyResult) -> Attribut
                          ('motion_dependence', 'motion_lag')):
         if reject[test]:
             att.effects.append(effect)
-            att.evidence[effect] = {'test': test, **_pick(tests[test])}
+            att.evidence[effect] = {'test': test, **tests[test].picked()}
     att.lag_s = family.lag_s if 'motion_lag' in att.effects else None
     if reject['jump_reversal']:
         att.effects.append('outliers')
         t = tests['jump_reversal']
-        att.evidence['outliers'] = {'test': 'jump_reversal', **_pick(t),
-                                    'pairs': t['pairs'], 'large': t['large']}
+        att.evidence['outliers'] = {'test': 'jump_reversal', **t.picked(),
+                                    'pairs': t.whole('pairs'), 'large': t.whole('large')}
     if reject['travel_frame']:
         _attribute_frame(split, base, family, att)
     if reject['squared_persistence'] or reject['kurtosis']:
@@ -183,18 +174,15 @@ def attribute(split: Split, base: FittedModel, family: FamilyResult) -> Attribut
         _attribute_cycle(split, base, family, att)
     if reject['squared_oscillation'] and 'periodic' not in att.effects:
         t = tests['squared_oscillation']
-        att.unexplained.append({
-            'structure': 'periodic variance: squared innovations anti-correlated '
-                         f'at lag {t["at_lag"]}', 'stage': 'base model',
-            'p_value': t['p_value'],
-            'holm_adjusted_p': adjusted['squared_oscillation']})
+        att.unexplained.append(Left(
+            'periodic variance: squared innovations anti-correlated at lag '
+            f'{t.whole("at_lag")}', 'base model', t.p_value, adjusted['squared_oscillation']))
     for ax in AXES:
         k = f'serial_{ax}'
         if reject[k]:
-            att.unexplained.append({
-                'structure': RETEST_LABEL[k], 'stage': 'base model',
-                'lags_largest': tests[k]['largest_acf_lags'],
-                'p_value': tests[k]['p_value'], 'holm_adjusted_p': adjusted[k]})
+            att.unexplained.append(Left(
+                RETEST_LABEL[k], 'base model', tests[k].p_value, adjusted[k],
+                tuple(tests[k].wholes('largest_acf_lags'))))
     att.effects[:] = [e for e in EFFECT_ORDER if e in att.effects]
     return att
 

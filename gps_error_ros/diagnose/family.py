@@ -45,6 +45,7 @@ from scipy import stats
 
 from gps_error_ros.diagnose.common import (FAMILY_ALPHA, MOTION_TEST_LAGS, Orders, PERIODS,
                                            PERSIST_LAGS, SERIAL_LAGS)
+from gps_error_ros.diagnose.findings import Outcome
 from gps_error_ros.diagnose.laws import mahalanobis, robust_cov
 from gps_error_ros.diagnose.models import FittedModel
 from gps_error_ros.fit.autocorrelation import segment_acf
@@ -128,19 +129,18 @@ def holm(pvalues: Mapping[str, float], alpha: float = FAMILY_ALPHA,
     return reject, adjusted
 
 
-def holm_tests(tests: Mapping[str, Mapping[str, Any]], alpha: float = FAMILY_ALPHA,
+def holm_tests(tests: Mapping[str, Outcome], alpha: float = FAMILY_ALPHA,
                given: Mapping[str, float] | None = None
-               ) -> tuple[dict[str, dict[str, Any]], dict[str, bool], dict[str, float]]:
+               ) -> tuple[dict[str, Outcome], dict[str, bool], dict[str, float]]:
     """
     Return (``tests`` each with its Holm-adjusted p and decision, reject, adjusted).
 
-    ``tests``: name -> a test's dict with its ``p_value``; the dicts returned
-    are copies (a test shared by two families keeps each family's decision).
-    ``given``: as :func:`holm`; those tests are marked ``given``.
+    ``tests``: name -> a test; those returned are new records (a test shared
+    by two families keeps each family's decision). ``given``: as
+    :func:`holm`; those tests are marked ``given``.
     """
-    reject, adjusted = holm({k: v['p_value'] for k, v in tests.items()}, alpha, given)
-    return ({k: dict(v, holm_adjusted_p=adjusted[k], rejected=reject[k],
-                     **({'given': True} if k in (given or {}) else {}))
+    reject, adjusted = holm({k: v.p_value for k, v in tests.items()}, alpha, given)
+    return ({k: v.decided(adjusted[k], reject[k], k in (given or {}))
              for k, v in tests.items()}, reject, adjusted)
 
 
@@ -149,7 +149,7 @@ MOTION_DRAWS = 200_000
 
 
 def motion_test(lrs: Numbers, corr: FloatArray | None = None, draws: int = MOTION_DRAWS,
-                seed: int = 0) -> dict[str, Any]:
+                seed: int = 0) -> Outcome:
     """
     Return the motion-dependence test from the likelihood ratios per lag.
 
@@ -171,11 +171,11 @@ def motion_test(lrs: Numbers, corr: FloatArray | None = None, draws: int = MOTIO
         top = np.max(np.maximum(z, 0.0) ** 2, axis=1)
         p = min(p, (1 + int(np.sum(top >= lrs[i]))) / (draws + 1))
         how = 'the largest over L against its max-T law'
-    return {
-        'statistic': float(lrs[i]), 'at_lag_s': MOTION_TEST_LAGS[i], 'p_value': p,
-        'test': f'likelihood ratio for an error component b x (truth L s '
-                f'ago - truth now), b >= 0, against none, for L in '
-                f'{list(MOTION_TEST_LAGS)} (chi-bar-squared each, {how})'}
+    return Outcome(float(lrs[i]), p,
+                   f'likelihood ratio for an error component b x (truth L s '
+                   f'ago - truth now), b >= 0, against none, for L in '
+                   f'{list(MOTION_TEST_LAGS)} (chi-bar-squared each, {how})',
+                   {'at_lag_s': MOTION_TEST_LAGS[i]})
 
 
 #: Circular shifts of the travel-frame test (its p-value is at least 1/1000).
@@ -183,7 +183,7 @@ TRAVEL_SHIFTS = 1000
 
 
 def travel_frame_test(r: FloatArray, heading: FloatArray | None,
-                      shifts: int = TRAVEL_SHIFTS) -> dict[str, Any]:
+                      shifts: int = TRAVEL_SHIFTS) -> Outcome:
     """
     Return the test that the innovation covariance turns with the travel.
 
@@ -207,18 +207,18 @@ def travel_frame_test(r: FloatArray, heading: FloatArray | None,
     c2, s2 = np.cos(2 * heading), np.sin(2 * heading)
     c2, s2 = c2 - c2.mean(), s2 - s2.mean()
     n = len(r)
-    out = {'test': 'covariance of the innovations\' squares with twice the direction '
-                   'of travel, against circular shifts of the directions, two-sided'}
+    what = ('covariance of the innovations\' squares with twice the direction '
+            'of travel, against circular shifts of the directions, two-sided')
     spread = float(np.mean(c2 ** 2 + s2 ** 2))
     k_shifts = min(shifts, n)
     if spread < 1e-9 or k_shifts < 20:
-        return {**out, 'statistic': 0.0, 'p_value': 1.0, 'shifts': k_shifts}
+        return Outcome(0.0, 1.0, what, {'shifts': k_shifts})
     stat = float(np.mean(u * c2 + v * s2))
     offsets = (np.arange(k_shifts) * n) // k_shifts          # 0 (unshifted) first
     null = np.array([np.mean(u * np.roll(c2, o) + v * np.roll(s2, o)) for o in offsets])
     p = int(np.sum(np.abs(null) >= abs(stat) * (1 - 1e-12))) / k_shifts
-    return {**out, 'statistic': stat, 'half_difference_m2': stat / spread,
-            'shifts': int(k_shifts), 'p_value': float(p)}
+    return Outcome(stat, float(p), what,
+                   {'half_difference_m2': stat / spread, 'shifts': int(k_shifts)})
 
 
 #: Steps per block whose phases :func:`periodicity_test` shifts together.
@@ -237,7 +237,7 @@ def _phase_spread(series: Sequence[FloatArray], phase: IntArray, period: int) ->
 
 def periodicity_test(r: FloatArray, seg: IntArray, steps: IntArray | None,
                      periods: Sequence[int] = PERIODS, block: int = CYCLE_BLOCK,
-                     draws: int = CYCLE_DRAWS, seed: int = 0) -> dict[str, Any]:
+                     draws: int = CYCLE_DRAWS, seed: int = 0) -> Outcome:
     """
     Return the test for a cycle of ``P`` steps in the innovations ``r`` (n, 2).
 
@@ -256,12 +256,12 @@ def periodicity_test(r: FloatArray, seg: IntArray, steps: IntArray | None,
 
     Long because it is one test: statistics, null draws, p-value.
     """
-    out = {'test': f'cycle of P steps in the innovations\' mean or variance, P in '
-                   f'{periods[0]}-{periods[-1]}, against blocks of {block} steps with '
-                   f'their phases shifted at random ({draws} draws)'}
+    what = (f'cycle of P steps in the innovations\' mean or variance, P in '
+            f'{periods[0]}-{periods[-1]}, against blocks of {block} steps with '
+            f'their phases shifted at random ({draws} draws)')
     n = len(r)
     if n < 4 * max(periods):
-        return {**out, 'statistic': 0.0, 'at_period': 0, 'in': 'none', 'p_value': 1.0}
+        return Outcome(0.0, 1.0, what, {'at_period': 0, 'in': 'none'})
     d = r - r.mean(axis=0)
     z = d / d.std(axis=0)
     dm = stats.rankdata(mahalanobis(d, np.cov(d.T, bias=True)))
@@ -283,8 +283,8 @@ def periodicity_test(r: FloatArray, seg: IntArray, steps: IntArray | None,
     zobs, znull = (obs - mu) / sd, ((null - mu) / sd).reshape(draws, -1).max(axis=1)
     bi, bj = (int(v) for v in np.unravel_index(int(np.argmax(zobs)), zobs.shape))
     p_value = (1 + int(np.sum(znull >= zobs[bi, bj]))) / (draws + 1)
-    return {**out, 'statistic': float(zobs[bi, bj]), 'at_period': int(periods[bi]),
-            'in': ('mean', 'variance')[bj], 'p_value': float(p_value)}
+    return Outcome(float(zobs[bi, bj]), float(p_value), what,
+                   {'at_period': int(periods[bi]), 'in': ('mean', 'variance')[bj]})
 
 
 #: Large innovations at most this many samples apart pair up (jump_reversal).
@@ -303,7 +303,7 @@ def robust_whitened(r: FloatArray) -> FloatArray:
 
 
 def jump_reversal_test(r: FloatArray, seg: IntArray, window: int = REVERSAL_WINDOW,
-                       draws: int = REVERSAL_DRAWS, seed: int = 0) -> dict[str, Any]:
+                       draws: int = REVERSAL_DRAWS, seed: int = 0) -> Outcome:
     """
     Return the test for jumps of the fix that come back (the ``outliers`` effect).
 
@@ -319,8 +319,8 @@ def jump_reversal_test(r: FloatArray, seg: IntArray, window: int = REVERSAL_WIND
     independent random sign: exact for any centrally symmetric law of the
     innovations, however their variance clusters in time (tails, regimes).
     """
-    out = {'test': f'large innovations in opposite directions within {window} samples '
-                   f'(pairs in bursts weighted down), against random signs ({draws} draws)'}
+    what = (f'large innovations in opposite directions within {window} samples '
+            f'(pairs in bursts weighted down), against random signs ({draws} draws)')
     z = robust_whitened(r)
     q = np.sum(z * z, axis=1)
     big = np.flatnonzero(q > REVERSAL_THRESHOLD * np.median(q) / math.log(4.0))
@@ -328,7 +328,7 @@ def jump_reversal_test(r: FloatArray, seg: IntArray, window: int = REVERSAL_WIND
     near = (big[j] - big[i] <= window) & (seg[big[j]] == seg[big[i]])
     i, j = i[near], j[near]
     if not i.size:
-        return {**out, 'statistic': 0.0, 'pairs': 0, 'large': int(big.size), 'p_value': 1.0}
+        return Outcome(0.0, 1.0, what, {'pairs': 0, 'large': int(big.size)})
     u = z[big] / np.sqrt(q[big])[:, None]
     degree = np.bincount(np.r_[i, j], minlength=big.size)
     cos = np.sum(u[i] * u[j], axis=1) / np.sqrt(degree[i] * degree[j])
@@ -336,12 +336,11 @@ def jump_reversal_test(r: FloatArray, seg: IntArray, window: int = REVERSAL_WIND
     signs = np.random.default_rng(seed).choice([-1.0, 1.0], size=(draws, big.size))
     null = -(signs[:, i] * signs[:, j]) @ cos
     p = (1 + int(np.sum(null >= stat - 1e-12))) / (draws + 1)
-    return {**out, 'statistic': stat, 'pairs': int(i.size), 'large': int(big.size),
-            'p_value': float(p)}
+    return Outcome(stat, float(p), what, {'pairs': int(i.size), 'large': int(big.size)})
 
 
 def innovation_tests(r: FloatArray, seg: IntArray, orders: Orders,
-                     r_axes: FloatArray | None = None) -> dict[str, dict[str, Any]]:
+                     r_axes: FloatArray | None = None) -> dict[str, Outcome]:
     """
     Return the first-round test statistics and p-values (dict by name).
 
@@ -353,49 +352,42 @@ def innovation_tests(r: FloatArray, seg: IntArray, orders: Orders,
     n = len(r)
     out = {}
     rho, p = robust_correlation_test(r[:, 0], r[:, 1])
-    out['cross_axis_correlation'] = {
-        'statistic': rho, 'p_value': p,
-        'test': 'lag-0 north-east correlation of the innovations, '
-                'heteroscedasticity-robust z'}
+    out['cross_axis_correlation'] = Outcome(
+        rho, p, 'lag-0 north-east correlation of the innovations, heteroscedasticity-robust z')
     cov = np.cov(r.T, bias=True)
     dm = mahalanobis(r - r.mean(axis=0), cov)
     b2 = float(np.mean(dm ** 2))
     zk = (b2 - 8.0) / math.sqrt(64.0 / n)
-    out['kurtosis'] = {'statistic': b2, 'gaussian_value': 8.0,
-                       'p_value': float(stats.norm.sf(zk)),
-                       'test': "Mardia's bivariate kurtosis, one-sided"}
+    out['kurtosis'] = Outcome(b2, float(stats.norm.sf(zk)),
+                              "Mardia's bivariate kurtosis, one-sided", {'gaussian_value': 8.0})
     ranks = stats.rankdata(dm)
     q, p, acf = ljung_box(ranks, seg, PERSIST_LAGS, PERSIST_LAGS)
-    out['squared_persistence'] = {
-        'statistic': q, 'p_value': p, 'acf': [round(v, 4) for v in acf],
-        'test': f'Ljung-Box, lags 1-{PERSIST_LAGS}, ranks of squared '
-                f'Mahalanobis innovations'}
+    out['squared_persistence'] = Outcome(
+        q, p, f'Ljung-Box, lags 1-{PERSIST_LAGS}, ranks of squared Mahalanobis innovations',
+        {'acf': [round(v, 4) for v in acf]})
     # Regimes and tails can only make the squares correlate positively; a
     # significantly negative autocorrelation is periodic variance instead.
     k = int(np.argmin(acf))
     z = -acf[k] * math.sqrt(n)
     p_one = float(stats.norm.sf(z))
-    out['squared_oscillation'] = {
-        'statistic': float(acf[k]), 'at_lag': k + 1,
-        'p_value': float(1.0 - (1.0 - p_one) ** PERSIST_LAGS),
-        'test': f'most negative autocorrelation of the ranks of the squared '
-                f'innovations, lags 1-{PERSIST_LAGS}, one-sided, Sidak over lags'}
+    out['squared_oscillation'] = Outcome(
+        float(acf[k]), float(1.0 - (1.0 - p_one) ** PERSIST_LAGS),
+        f'most negative autocorrelation of the ranks of the squared innovations, '
+        f'lags 1-{PERSIST_LAGS}, one-sided, Sidak over lags', {'at_lag': k + 1})
     out.update(serial_tests(r if r_axes is None else r_axes, seg, orders))
     return out
 
 
-def serial_tests(r: FloatArray, seg: IntArray, orders: Orders) -> dict[str, dict[str, Any]]:
+def serial_tests(r: FloatArray, seg: IntArray, orders: Orders) -> dict[str, Outcome]:
     """Return the serial tests of north/east innovations ``r`` (an AR of ``orders`` fitted)."""
     out = {}
     for a, ax in enumerate(AXES):
         q, p, acf = robust_portmanteau(r[:, a], seg, SERIAL_LAGS,
                                        SERIAL_LAGS - orders[a])
         top = np.argsort(-np.abs(acf))[:3] + 1
-        out[f'serial_{ax}'] = {
-            'statistic': q, 'p_value': p,
-            'largest_acf_lags': [int(v) for v in top],
-            'test': f'heteroscedasticity-robust Ljung-Box, lags 1-'
-                    f'{SERIAL_LAGS}, {SERIAL_LAGS - orders[a]} dof'}
+        out[f'serial_{ax}'] = Outcome(
+            q, p, f'heteroscedasticity-robust Ljung-Box, lags 1-{SERIAL_LAGS}, '
+                  f'{SERIAL_LAGS - orders[a]} dof', {'largest_acf_lags': [int(v) for v in top]})
     return out
 
 
@@ -423,7 +415,7 @@ def pit_radial(model: FittedModel, r: FloatArray, pred: FloatArray) -> FloatArra
 
 
 def retest(model: FittedModel, r: FloatArray, seg: IntArray, pred: FloatArray,
-           r_axes: FloatArray | None = None, serial: bool = True) -> dict[str, dict[str, Any]]:
+           r_axes: FloatArray | None = None, serial: bool = True) -> dict[str, Outcome]:
     """
     Test the extended model's own innovations; return the test dict.
 
@@ -432,18 +424,16 @@ def retest(model: FittedModel, r: FloatArray, seg: IntArray, pred: FloatArray,
     round); ``serial``: whether to run the serial tests at all.
     """
     z = standardised(model, r, pred)
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, Outcome] = {}
     rho, p = robust_correlation_test(z[:, 0], z[:, 1])
-    out['cross_axis_correlation'] = {'statistic': rho, 'p_value': p}
+    out['cross_axis_correlation'] = Outcome(rho, p)
     u = pit_radial(model, r, pred)
     ranks = stats.rankdata(u)
     q, p, _ = ljung_box(ranks, seg, PERSIST_LAGS, PERSIST_LAGS)
-    out['squared_persistence'] = {'statistic': q, 'p_value': p}
+    out['squared_persistence'] = Outcome(q, p)
     ks = stats.kstest(np.clip(u, 0, 1), 'uniform')
-    out['pit_uniformity'] = {'statistic': float(ks.statistic),
-                             'p_value': float(ks.pvalue),
-                             'test': 'Kolmogorov-Smirnov of the PIT of the '
-                                     'Mahalanobis radius'}
+    out['pit_uniformity'] = Outcome(float(ks.statistic), float(ks.pvalue),
+                                    'Kolmogorov-Smirnov of the PIT of the Mahalanobis radius')
     if r_axes is not None:
         z = r_axes / np.sqrt(pred @ (model.law.scales ** 2))[:, None]
     if serial:
@@ -455,7 +445,7 @@ def retest(model: FittedModel, r: FloatArray, seg: IntArray, pred: FloatArray,
 class FamilyResult:
     """The first-round tests, their Holm decisions, and what they ran on."""
 
-    tests: dict[str, dict[str, Any]]   # name -> statistic, p_value, holm_adjusted_p, rejected
+    tests: dict[str, Outcome]           # by name, with Holm's decisions
     reject: dict[str, bool]
     adjusted: dict[str, float]
     lag_s: Optional[float] = None    # the lag removed before the law's tests, if any

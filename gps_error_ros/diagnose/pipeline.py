@@ -59,6 +59,8 @@ from gps_error_ros.diagnose.attribution import (attribute, Attribution, RETEST_E
 from gps_error_ros.diagnose.common import (ALPHA, DiagnosisError, FAMILY_ALPHA, FIRST_SHARE,
                                            MIN_TEST, MIN_TRAIN, MOTION_TEST_LAGS, N_TESTS,
                                            Orders, RETEST_ALPHA, round_levels, TRAIN_FRACTION)
+from gps_error_ros.diagnose.findings import (Approximation, EffectFound, Findings, HeldOut,
+                                             Improvement, Left, ModelFound, Outcome)
 from gps_error_ros.diagnose.family import (FamilyResult, holm_tests, innovation_tests,
                                            jump_reversal_test, motion_test, periodicity_test,
                                            retest, travel_frame_test)
@@ -101,12 +103,13 @@ class Diagnosis:
     """
     Everything ``diagnose`` found, with the data needed for figures.
 
-    ``findings`` holds the raw values; :meth:`to_dict` rounds them for JSON
-    and :meth:`summary` says them for the terminal; ``fitted`` holds steps
-    1-5 (split, base, attribution, selection, extended).
+    ``findings`` holds the raw values (:class:`~.findings.Findings`);
+    :meth:`to_dict` rounds them for JSON and :meth:`summary` says them for
+    the terminal; ``fitted`` holds steps 1-5 (split, base, attribution,
+    selection, extended).
     """
 
-    findings: dict[str, Any]
+    findings: Findings
     fitted: 'FittedModels'
     train_residuals: dict[str, tuple[Any, ...]] = field(default_factory=dict)
 
@@ -127,49 +130,37 @@ class Diagnosis:
 
     def to_dict(self) -> dict[str, Any]:
         """Return the findings as plain data (floats to 6 significant digits)."""
-        return rounded(self.findings)
+        out: dict[str, Any] = rounded(self.findings.to_dict())
+        return out
 
     def summary(self) -> str:
         """Return what the terminal shows: the split, the tests, the effects, the held-out gain."""
         s = self.findings
-        out = [f'{s["input"]}: {s["samples"]} samples, {s["train_samples"]} train / '
-               f'{s["test_samples"]} held out ({s["split"]["rule"]})',
-               f'  base: AR orders north {s["base"]["order"]["north"]}, east '
-               f'{s["base"]["order"]["east"]}']
-        for name, t in s['tests'].items():
-            flag = ('REJECTED' if t['rejected'] else 'ok') + \
-                (' (by the family with the jumps in)' if t.get('given') else '')
-            out.append(f'  test {name:24s} p={t["p_value"]:.3g} '
-                       f'(Holm {t["holm_adjusted_p"]:.3g}) {flag}')
-        out.append('  effects found: ' + (', '.join(e['name'] for e in s['effects']) or 'none'))
-        if s['effects']:
+        out = [f'{s.input}: {s.samples} samples, {s.train_samples} train / '
+               f'{s.test_samples} held out ({s.split_rule})',
+               f'  base: AR orders north {s.base.order["north"]}, east '
+               f'{s.base.order["east"]}']
+        for name, t in s.tests.items():
+            flag = ('REJECTED' if t.rejected else 'ok') + \
+                (' (by the family with the jumps in)' if t.given else '')
+            out.append(f'  test {name:24s} p={t.p_value:.3g} '
+                       f'(Holm {t.holm_adjusted_p:.3g}) {flag}')
+        out.append('  effects found: ' + (', '.join(s.effect_names) or 'none'))
+        if s.effects:
             out.append('  kept for simulation (cross-validated over the training part): '
-                       + (', '.join(s['selection']['kept']) or 'none'))
-        unexplained = '; '.join(u['structure'] for u in s['unexplained'])
+                       + (', '.join(s.selection.kept) or 'none'))
+        unexplained = '; '.join(u.structure for u in s.unexplained)
         out.append('  unexplained: ' + (unexplained or 'none'))
-        imp = s['improvement']
+        imp = s.improvement
         out.append(f'  held-out NLL per sample: before '
-                   f'{s["error_before"]["heldout_nll_per_sample"]:.4f}, after '
-                   f'{s["error_after"]["heldout_nll_per_sample"]:.4f}; improvement '
-                   f'{imp["heldout_nll_per_sample"]:.4f} (95 % CI {imp["ci95"][0]:.4f} .. '
-                   f'{imp["ci95"][1]:.4f})')
-        note = improvement_note(s)
+                   f'{s.error_before.heldout_nll_per_sample:.4f}, after '
+                   f'{s.error_after.heldout_nll_per_sample:.4f}; improvement '
+                   f'{imp.heldout_nll_per_sample:.4f} (95 % CI {imp.ci95[0]:.4f} .. '
+                   f'{imp.ci95[1]:.4f})')
+        note = s.note()
         if note:
             out.append('  note: ' + note)
         return '\n'.join(out)
-
-
-def improvement_note(summary: Mapping[str, Any]) -> str | None:
-    """Return the remark diagnose prints under the held-out improvement, or None."""
-    if not summary['effects']:
-        return None
-    if not summary['selection']['kept']:
-        return 'no effect kept: the extended model is the base model'
-    lo, hi = summary['improvement']['ci95']
-    if lo <= 0.0 <= hi:
-        return ('the 95 % interval of the improvement spans zero: the held-out '
-                'part does not show that the extended model predicts better')
-    return None
 
 
 #: The effects that change the mean part (the AR residuals north/east); the others change the law.
@@ -197,7 +188,7 @@ def fit_base(split: Split) -> FittedModel:
     return fit_model(split.train, select_orders(split.train), (), split.truth)
 
 
-def _motion_family(split: Split, base: FittedModel, r: FloatArray) -> dict[str, Any]:
+def _motion_family(split: Split, base: FittedModel, r: FloatArray) -> Outcome:
     """Return the motion test from the probes at 1..5 s (``r``: the base's innovations)."""
     if not _moving(split):
         return motion_test([0.0] * len(MOTION_TEST_LAGS))
@@ -220,7 +211,7 @@ def _orders_without_jumps(split: Split, jumpy: FittedModel,
 
 
 def _motion_without_jumps(split: Split, jumpy: FittedModel, jf: jumps.JumpFilter,
-                          alpha: float) -> tuple[dict[str, Any], float | None]:
+                          alpha: float) -> tuple[Outcome, float | None]:
     """
     Return the motion test on the training part with the jumps set aside, and its lag.
 
@@ -246,15 +237,15 @@ def _motion_without_jumps(split: Split, jumpy: FittedModel, jf: jumps.JumpFilter
                                               1.0 / np.var(r, axis=0), clean))
     else:
         test = motion_test([0.0] * len(MOTION_TEST_LAGS))
-    test['test'] += ', with the jumps set aside'
-    if test['p_value'] > alpha / N_TESTS:
+    test = replace(test, test=test.test + ', with the jumps set aside')
+    if test.p_value > alpha / N_TESTS:
         return test, None
     return test, fit_lag(split.train, jumpy.orders, split.truth, clean=clean)
 
 
 def _set_jumps_aside(split: Split, base: FittedModel, effects: tuple[str, ...],
                      lag_s: float | None, period: int,
-                     alpha: float) -> tuple[FittedModel, dict[str, Any], float | None]:
+                     alpha: float) -> tuple[FittedModel, Outcome, float | None]:
     """
     Return (the model the law's tests see, the motion test, the lag) with the jumps aside.
 
@@ -314,21 +305,21 @@ def run_family(split: Split, base: FittedModel, alpha: float = FAMILY_ALPHA) -> 
     motion = _motion_family(split, base, r_law)
     base_residuals = (r_law, d_law.seg)
     lag_s = None
-    if motion['p_value'] <= alpha / N_TESTS:
+    if motion.p_value <= alpha / N_TESTS:
         lagged = fit_model(split.train, base.orders, ('motion_lag',), split.truth)
         lag_s = lagged.mean.lag_s
         _, r_law, d_law, _ = lagged.score(split.train, split.truth)
     effects, period = ('motion_lag',) * (lag_s is not None), 0
     cycle = periodicity_test(r_law, d_law.seg, d_law.steps)
-    if cycle['p_value'] <= alpha / N_TESTS:
+    if cycle.p_value <= alpha / N_TESTS:
         # the law's tests without the cycle, or periodic variance passes for tails
-        effects, period = effects + ('periodic',), cycle['at_period']
+        effects, period = effects + ('periodic',), cycle.whole('at_period')
         cyc = fit_model(split.train, base.orders, effects, split.truth, lag_s, period=period)
         _, r_law, d_law, _ = cyc.score(split.train, split.truth)
     reversal = jump_reversal_test(_robust_cycle(r_law, d_law, period, cyc) if period else r_law,
                                   d_law.seg)
     jumps_in = _family(motion, (r_law, d_law, base.orders), cycle, reversal, alpha, lag_s)
-    if reversal['p_value'] <= alpha:
+    if reversal.p_value <= alpha:
         # the jumps are set aside when a family rejects the reversal: the one
         # that sees them aside (at Holm's first step, alpha / m, it always
         # does), or else the one with them in, whose rejection is then a
@@ -348,8 +339,8 @@ def run_family(split: Split, base: FittedModel, alpha: float = FAMILY_ALPHA) -> 
     return replace(jumps_in, base_residuals=base_residuals)
 
 
-def _family(motion: dict[str, Any], law_input: tuple[FloatArray, Design, Orders],
-            cycle: dict[str, Any], reversal: dict[str, Any], alpha: float, lag_s: float | None
+def _family(motion: Outcome, law_input: tuple[FloatArray, Design, Orders],
+            cycle: Outcome, reversal: Outcome, alpha: float, lag_s: float | None
             ) -> FamilyResult:
     """
     Return the :class:`FamilyResult` of the tests on the innovations ``law_input``.
@@ -363,7 +354,7 @@ def _family(motion: dict[str, Any], law_input: tuple[FloatArray, Design, Orders]
     r_law, d_law, orders = law_input
     frame = travel_frame_test(r_law, d_law.heading)
     r_tests = r_law
-    if frame['p_value'] <= alpha / N_TESTS and travel_axes_win(r_law, d_law):
+    if frame.p_value <= alpha / N_TESTS and travel_axes_win(r_law, d_law):
         r_tests = to_travel_frame(r_law, d_law.heading)
     tests = {'motion_dependence': motion,
              **innovation_tests(r_tests, d_law.seg, orders, r_law), 'travel_frame': frame,
@@ -371,7 +362,7 @@ def _family(motion: dict[str, Any], law_input: tuple[FloatArray, Design, Orders]
     return _holm_family(tests, alpha, lag_s)
 
 
-def _holm_family(tests: Mapping[str, dict[str, Any]], alpha: float, lag_s: float | None,
+def _holm_family(tests: Mapping[str, Outcome], alpha: float, lag_s: float | None,
                  given: Mapping[str, float] | None = None) -> FamilyResult:
     """Return the :class:`FamilyResult` of Holm's procedure over ``tests``."""
     decided, reject, adjusted = holm_tests(tests, alpha, given)
@@ -396,7 +387,7 @@ def fit_extended(split: Split, base: FittedModel, att: Attribution,
 
 def retest_extended(split: Split, extended: FittedModel, att: Attribution,
                     alpha: float = RETEST_ALPHA
-                    ) -> tuple[dict[str, dict[str, Any]], tuple[Any, ...]]:
+                    ) -> tuple[dict[str, Outcome], tuple[Any, ...]]:
     """
     Step 6: test the extended model's innovations; record what is left.
 
@@ -419,25 +410,19 @@ def retest_extended(split: Split, extended: FittedModel, att: Attribution,
                    else None, serial=moved)
     tests, reject, adjusted = holm_tests(tests, alpha)
     for k, t in tests.items():
-        covered = [e for e in RETEST_EFFECTS[k] if e in extended.effects]
-        seen = any(u['structure'] == RETEST_LABEL[k] for u in att.unexplained)
-        t['explained_by'] = covered
+        covered = tuple(e for e in RETEST_EFFECTS[k] if e in extended.effects)
+        seen = any(u.structure == RETEST_LABEL[k] for u in att.unexplained)
+        tests[k] = replace(t, explained_by=covered)
         if reject[k] and not covered and not seen:
-            att.unexplained.append({'structure': RETEST_LABEL[k],
-                                    'stage': 'extended model',
-                                    'p_value': t['p_value'],
-                                    'holm_adjusted_p': adjusted[k]})
+            att.unexplained.append(Left(RETEST_LABEL[k], 'extended model', t.p_value,
+                                        adjusted[k]))
         elif reject[k] and covered:
-            att.approximations.append({
-                'structure': RETEST_LABEL[k], 'effects': covered,
-                'holm_adjusted_p': adjusted[k],
-                'note': 'left by an effect already in the model: its fitted '
-                        'form approximates the data-generating one'})
+            att.approximations.append(Approximation(RETEST_LABEL[k], covered, adjusted[k]))
     return tests, (r, d.seg, pred)
 
 
 def heldout_measures(split: Split, base: FittedModel, extended: FittedModel, sims: int, seed: int,
-                     name: str) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any], int]:
+                     name: str) -> tuple[HeldOut, HeldOut, Improvement, int]:
     """
     Step 7: held-out NLL before and after, and the fidelity of simulations.
 
@@ -453,16 +438,12 @@ def heldout_measures(split: Split, base: FittedModel, extended: FittedModel, sim
             f'gross failures included, leave that few); at least {MIN_TEST // 2} are '
             f'needed')
     mean, lo, hi = block_bootstrap_mean(ll_e - ll_b, seed=seed)
-    before = {'heldout_nll_per_sample': float(-ll_b.mean()),
-              **fidelity(base, split.test, split.truth, sims, seed)}
-    after = before if extended is base else {
-        'heldout_nll_per_sample': float(-ll_e.mean()),
-        **fidelity(extended, split.test, split.truth, sims, seed)}
-    improvement = {
-        'heldout_nll_per_sample': mean, 'ci95': [lo, hi],
-        'method': 'moving-block bootstrap (blocks of 30 samples, 2000 '
-                  'replicates) of the paired per-sample differences '
-                  'NLL(before) - NLL(after); positive = better after'}
+    before = HeldOut(float(-ll_b.mean()), fidelity(base, split.test, split.truth, sims, seed))
+    after = before if extended is base else HeldOut(
+        float(-ll_e.mean()), fidelity(extended, split.test, split.truth, sims, seed))
+    improvement = Improvement(
+        mean, (lo, hi), 'moving-block bootstrap (blocks of 30 samples, 2000 replicates) of '
+        'the paired per-sample differences NLL(before) - NLL(after); positive = better after')
     return before, after, improvement, int(len(ll_b))
 
 
@@ -539,32 +520,25 @@ def diagnose(recordings: Trace | Sequence[Trace], sims: int = 100, seed: int = 0
                                                          round_levels(alpha)[1]))
     before, after, improvement, scored = _tick(done, heldout_measures(
         split, base, extended, sims, seed, fitted.name))
-    summary = {
-        'input': fitted.name, 'samples': split.train.n + split.test.n,
-        'train_samples': split.train.n, 'test_samples': split.test.n,
-        'scored_test_samples': scored,
-        'split': {'rule': split.rule, 'cut_time_s': split.cut_time_s},
-        'alpha': alpha,
-        'multiple_testing': f'Holm step-down in the family at alpha x {FIRST_SHARE:.4g} '
-                            f'and in the retest at the rest (Bonferroni over the two)',
-        'estimation': ESTIMATION,
-        'base': {'order': dict(zip(AXES, base.orders)),
-                 'parameters': base.parameters(), 'train_bic': base.bic},
-        'tests': family.tests,
-        'effects': [{'name': e, 'evidence': att.evidence[e]} for e in att.effects],
-        'alternatives_rejected': att.alternatives_rejected,
-        'selection': fitted.selection.to_dict(),
-        'extended': {'order': dict(zip(AXES, extended.orders)),
-                     'parameters': extended.parameters(),
-                     'train_bic': extended.bic, 'retest': retests},
-        'unexplained': att.unexplained,
-        'approximations': att.approximations,
-        'error_before': before,
-        'error_after': after,
-        'improvement': improvement,
-        'gross_failures': failures_doc(fitted.failures),
-    }
-    return Diagnosis(summary, fitted,
+    findings = Findings(
+        input=fitted.name, samples=split.train.n + split.test.n,
+        train_samples=split.train.n, test_samples=split.test.n,
+        scored_test_samples=scored, split_rule=split.rule, cut_time_s=split.cut_time_s,
+        alpha=alpha,
+        multiple_testing=f'Holm step-down in the family at alpha x {FIRST_SHARE:.4g} '
+                         f'and in the retest at the rest (Bonferroni over the two)',
+        estimation=ESTIMATION,
+        base=ModelFound(dict(zip(AXES, base.orders)), base.parameters(), base.bic),
+        tests=family.tests,
+        effects=[EffectFound(e, att.evidence[e]) for e in att.effects],
+        alternatives_rejected=list(att.alternatives_rejected),
+        selection=fitted.selection,
+        extended=ModelFound(dict(zip(AXES, extended.orders)), extended.parameters(),
+                            extended.bic, retests),
+        unexplained=list(att.unexplained), approximations=list(att.approximations),
+        error_before=before, error_after=after, improvement=improvement,
+        gross_failures=failures_doc(fitted.failures))
+    return Diagnosis(findings, fitted,
                      {'base': family.base_residuals, 'extended': ext_residuals})
 
 
@@ -575,7 +549,7 @@ def extended_profile(diag: Diagnosis, name: str, source: str) -> dict[str, Any]:
         name, f'extended model diagnosed from {source}',
         f'gps_error diagnose {source}', diag.extended.axis_params(),
         effects=diag.extended.effects_obj(),
-        fit={'method': s['estimation'], 'input': source,
-             'train_samples': s['train_samples'],
-             'effects_found': [e['name'] for e in s['effects']],
-             'unexplained': [u['structure'] for u in s['unexplained']]})
+        fit={'method': s.estimation, 'input': source,
+             'train_samples': s.train_samples,
+             'effects_found': s.effect_names,
+             'unexplained': [u.structure for u in s.unexplained]})

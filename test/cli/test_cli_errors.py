@@ -1,11 +1,12 @@
 """Bad command lines and inputs: refused at parse time, naming what was wrong."""
 
 import re
+from types import SimpleNamespace
 
 import pytest
 
 from gps_error_ros.cli import main as cli
-from gps_error_ros.diagnose.pipeline import improvement_note
+from gps_error_ros.diagnose.findings import Findings
 from gps_error_ros.sim.synthetic import synthetic_trace
 from gps_error_ros.traces.trace_io import read_trace_csv, TraceError, write_trace_csv
 
@@ -110,9 +111,9 @@ def test_diagnose_remarks_when_the_improvement_may_be_nothing(tmp_path, capsys):
     (['motion_lag'], ['motion_lag'], (0.001, 0.01), None),
 ])
 def test_the_improvement_note_says_when_the_gain_may_be_nothing(effects, kept, ci, expected):
-    note = improvement_note({'effects': [{'name': e} for e in effects],
-                             'selection': {'kept': kept},
-                             'improvement': {'ci95': list(ci)}})
+    # the three fields the note reads, on a stand-in for the whole findings
+    note = Findings.note(SimpleNamespace(effects=effects, selection=SimpleNamespace(kept=kept),
+                                         improvement=SimpleNamespace(ci95=ci)))
     assert (note is None) if expected is None else (expected in note)
 
 

@@ -29,27 +29,26 @@ SEED = 1
 def test_blind_attribution(scenario):
     expected, unexplained = SCENARIOS[scenario]
     s = diagnose(synthetic_trace(scenario, SEED, 3600), sims=30).findings
-    found = [e['name'] for e in s['effects']]
-    assert sorted(found) == sorted(expected), (found, s['tests'])
-    assert bool(s['unexplained']) == unexplained, s['unexplained']
-    before = s['error_before']['heldout_nll_per_sample']
-    after = s['error_after']['heldout_nll_per_sample']
+    found = s.effect_names
+    assert sorted(found) == sorted(expected), (found, s.tests)
+    assert bool(s.unexplained) == unexplained, s.unexplained
+    before = s.error_before.heldout_nll_per_sample
+    after = s.error_after.heldout_nll_per_sample
     if expected:
         assert after < before, (before, after)
-        assert s['improvement']['heldout_nll_per_sample'] == \
-            pytest.approx(before - after, abs=1e-5)
+        assert s.improvement.heldout_nll_per_sample == pytest.approx(before - after, abs=1e-5)
     else:
         assert after == before
-        assert s['improvement']['ci95'] == [0.0, 0.0]
+        assert s.improvement.ci95 == (0.0, 0.0)
     # each round's Holm at its share of the diagnosis's level, the two summing to it
-    assert s['alpha'] == ALPHA
+    assert s.alpha == ALPHA
     assert sum(round_levels(ALPHA)) == pytest.approx(ALPHA)
-    for tests, level in zip((s['tests'], s['extended']['retest']), round_levels(ALPHA)):
-        given = {k: t['holm_adjusted_p'] for k, t in tests.items() if t.get('given')}
-        reject, adjusted = holm({k: t['p_value'] for k, t in tests.items()}, level, given)
+    for tests, level in zip((s.tests, s.extended.retest or {}), round_levels(ALPHA)):
+        given = {k: t.holm_adjusted_p for k, t in tests.items() if t.given}
+        reject, adjusted = holm({k: t.p_value for k, t in tests.items()}, level, given)
         for k, t in tests.items():
-            assert t['holm_adjusted_p'] == pytest.approx(adjusted[k], rel=1e-5, abs=1e-9)
-            assert t['rejected'] == reject[k], (k, t, level)
+            assert t.holm_adjusted_p == pytest.approx(adjusted[k], rel=1e-5, abs=1e-9)
+            assert t.rejected == reject[k], (k, t, level)
 
 
 def test_every_scenario_has_its_own_fixed_stream():

@@ -77,12 +77,12 @@ def test_kurtosis_and_persistence_tell_tails_from_regimes():
     seg = np.zeros(3000, dtype=int)
     t_iid = stats.t.rvs(4, size=(3000, 2), random_state=rng)
     tests = innovation_tests(t_iid, seg, (1, 1))
-    assert tests['kurtosis']['p_value'] < 1e-4
-    assert tests['squared_persistence']['p_value'] > 0.001
+    assert tests['kurtosis'].p_value < 1e-4
+    assert tests['squared_persistence'].p_value > 0.001
     scale = np.repeat(rng.choice([1.0, 3.0], size=30), 100)
     reg = rng.normal(size=(3000, 2)) * scale[:, None]
     tests = innovation_tests(reg, seg, (1, 1))
-    assert tests['squared_persistence']['p_value'] < 1e-6
+    assert tests['squared_persistence'].p_value < 1e-6
 
 
 def test_periodicity_keeps_its_level_and_finds_cycles():
@@ -96,14 +96,15 @@ def test_periodicity_keeps_its_level_and_finds_cycles():
     for _ in range(20):           # white, and variance levels lasting ~40 steps
         level = np.repeat(rng.choice([1.0, 3.0], size=n // 40 + 1), 40)[:n]
         ps.append(periodicity_test(rng.normal(size=(n, 2)) * level[:, None], seg, steps,
-                                   draws=100)['p_value'])
+                                   draws=100).p_value)
     assert np.mean(np.array(ps) <= 0.05) <= 0.15, ps          # 5 % expected; 20 draws
     scale = np.where(steps % 7 == 3, 2.0, 0.85)               # variance, not a sine
     t = periodicity_test(rng.normal(size=(n, 2)) * scale[:, None], seg, steps)
-    assert t['p_value'] < 0.01 and t['at_period'] in (7, 14, 21, 28) and t['in'] == 'variance'
+    assert t.p_value < 0.01 and t.whole('at_period') in (7, 14, 21, 28)
+    assert t.word('in') == 'variance'
     mean = np.where(steps % 5 < 2, 0.6, -0.4)[:, None]       # a cycle in the mean
     t = periodicity_test(rng.normal(size=(n, 2)) + mean, seg, steps)
-    assert t['p_value'] < 0.01 and t['at_period'] % 5 == 0 and t['in'] == 'mean'
+    assert t.p_value < 0.01 and t.whole('at_period') % 5 == 0 and t.word('in') == 'mean'
 
 
 def _ar1(w, phi=0.9):
@@ -124,13 +125,13 @@ def test_jump_reversal_tells_jumps_that_come_back_from_tails_and_regimes():
         loud = np.where((np.arange(n) // 100) % 5 == 0, 4.0, 1.0)
         burst = rng.normal(size=(n, 2)) * loud[:, None]
         for w in (tails, burst):
-            level['null'].append(jump_reversal_test(w, seg, seed=rep)['p_value'])
+            level['null'].append(jump_reversal_test(w, seg, seed=rep).p_value)
         x = _ar1(rng.normal(size=(n, 2)))
         t0 = rng.choice(n - 5, 30, replace=False)
         for k in t0:                          # jumps of 1-3 steps, 10 SD away
             x[k:k + rng.integers(1, 4)] += rng.normal(0, 10, 2)
         r = x[1:] - 0.9 * x[:-1]              # the AR residuals
-        level['jumps'].append(jump_reversal_test(r, seg[1:], seed=rep)['p_value'])
+        level['jumps'].append(jump_reversal_test(r, seg[1:], seed=rep).p_value)
     # binomial(80, 0.05): P(X > 9) < 0.01
     assert sum(p <= 0.05 for p in level['null']) <= 9, sorted(level['null'])[:12]
     assert all(p <= 0.005 for p in level['jumps']), sorted(level['jumps'])[-5:]
@@ -150,7 +151,7 @@ def test_jump_reversal_sees_single_jumps_beside_bursts():
             r[k + length] -= o
         for k in (20, 520, 1020, 1520):     # four bursts of 8 steps at 10x
             r[k + 3:k + 11] *= 10
-        ps.append(jump_reversal_test(r, np.zeros(n, dtype=int), seed=rep)['p_value'])
+        ps.append(jump_reversal_test(r, np.zeros(n, dtype=int), seed=rep).p_value)
     # unweighted (every pair the same say): median p 0.10, and 5 of 20 at most 0.05
     assert np.median(ps) <= 0.01 and sum(p <= 0.05 for p in ps) >= 19, sorted(ps)
 
@@ -159,7 +160,7 @@ def test_jump_reversal_without_large_pairs_is_no_evidence():
     from gps_error_ros.diagnose.family import jump_reversal_test
     r = np.random.default_rng(3).normal(size=(500, 2))
     t = jump_reversal_test(r, np.zeros(500, dtype=int))
-    assert t['p_value'] == 1.0 and t['pairs'] == 0
+    assert t.p_value == 1.0 and t.whole('pairs') == 0
 
 
 def test_robust_phase_scales_are_not_moved_by_a_few_jumps():
@@ -183,16 +184,16 @@ def test_motion_max_t_lies_between_one_lag_and_bonferroni():
     from gps_error_ros.diagnose.family import motion_test
     lrs = [9.0, 8.0, 7.0, 6.0, 5.0]
     one = 0.5 * stats.chi2.sf(9.0, 1)
-    bonferroni = motion_test(lrs)['p_value']
+    bonferroni = motion_test(lrs).p_value
     assert bonferroni == pytest.approx(5 * one)
-    same = motion_test(lrs, np.ones((5, 5)))['p_value']
-    apart = motion_test(lrs, np.eye(5))['p_value']
+    same = motion_test(lrs, np.ones((5, 5))).p_value
+    apart = motion_test(lrs, np.eye(5)).p_value
     lag = np.abs(np.subtract.outer(np.arange(5), np.arange(5)))
-    near = motion_test(lrs, 0.8 ** lag)['p_value']
+    near = motion_test(lrs, 0.8 ** lag).p_value
     assert same == pytest.approx(one, rel=0.15)
     assert apart == pytest.approx(1 - (1 - one) ** 5, rel=0.1)
     assert same < near < apart <= bonferroni
-    assert motion_test([0.0] * 5, np.eye(5))['p_value'] == 1.0
+    assert motion_test([0.0] * 5, np.eye(5)).p_value == 1.0
 
 
 def test_motion_scores_correlate_across_lags_on_a_walk():

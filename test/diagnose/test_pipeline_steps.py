@@ -1,5 +1,7 @@
 """Each step of ``diagnose`` on its own (the pipeline is their list)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -55,12 +57,12 @@ def test_base_model_takes_calibrations_pacf_orders(coupled):
 def test_family_is_holm_over_nine_tests(coupled):
     _, _, _, family = coupled
     assert set(family.tests) == FAMILY
-    reject, adjusted = holm({k: t['p_value'] for k, t in family.tests.items()}, FAMILY_ALPHA)
+    reject, adjusted = holm({k: t.p_value for k, t in family.tests.items()}, FAMILY_ALPHA)
     for k, t in family.tests.items():
-        assert t['holm_adjusted_p'] == adjusted[k]
-        assert t['rejected'] == reject[k] == (adjusted[k] <= FAMILY_ALPHA)
-    assert family.tests['cross_axis_correlation']['rejected']
-    assert family.tests['cross_axis_correlation']['statistic'] > 0.1
+        assert t.holm_adjusted_p == adjusted[k]
+        assert t.rejected == reject[k] == (adjusted[k] <= FAMILY_ALPHA)
+    assert family.tests['cross_axis_correlation'].rejected
+    assert family.tests['cross_axis_correlation'].statistic > 0.1
 
 
 def test_attribution_follows_the_rejections(coupled):
@@ -72,17 +74,18 @@ def test_attribution_follows_the_rejections(coupled):
     # the regimes are listed as rejected; periodic variance stays unexplained
     reject = {k: False for k in FAMILY} | {'kurtosis': True,
                                            'squared_oscillation': True}
-    tests = {k: dict(t) for k, t in family.tests.items()}
+    tests = dict(family.tests)
     fake = FamilyResult(tests, reject, {k: 0.5 for k in FAMILY})
     att = attribute(split, base, fake)
     assert att.effects == ['heavy_tails']
-    assert [a['effect'] for a in att.alternatives_rejected] == ['variance_regimes']
+    assert [a.effect for a in att.alternatives_rejected] == ['variance_regimes']
     assert set(att.evidence['heavy_tails']['bic']) >= {'neither', 'heavy_tails'}
-    assert [u['stage'] for u in att.unexplained] == ['base model']
-    assert 'periodic variance' in att.unexplained[0]['structure']
+    assert [u.stage for u in att.unexplained] == ['base model']
+    assert 'periodic variance' in att.unexplained[0].structure
     # a cycle found: periodic, at the divisor of the test's period with the
     # lowest training BIC; the squared innovations' oscillation is then its
-    tests['periodicity'].update(at_period=12, p_value=1e-3, statistic=9.0, **{'in': 'mean'})
+    tests['periodicity'] = replace(tests['periodicity'], p_value=1e-3, statistic=9.0,
+                                   about={'at_period': 12, 'in': 'mean'})
     reject['periodicity'] = True
     att = attribute(split, base, FamilyResult(tests, reject, {k: 0.5 for k in FAMILY}))
     assert att.effects == ['heavy_tails', 'periodic'] and att.unexplained == []
@@ -99,8 +102,8 @@ def test_extended_fit_and_retest(coupled):
     assert ext.effects_obj().innovation_corr > 0.1
     assert ext.train_loglik > base.train_loglik
     retests, (r, seg, pred) = retest_extended(split, ext, att)
-    assert not retests['cross_axis_correlation']['rejected']
-    assert retests['cross_axis_correlation']['explained_by'] == ['cross_axis_coupling']
+    assert not retests['cross_axis_correlation'].rejected
+    assert retests['cross_axis_correlation'].explained_by == ('cross_axis_coupling',)
     assert len(r) == len(seg) == len(pred) == ext.n_train
     quiet = FamilyResult(family.tests, {k: False for k in FAMILY},
                          {k: 1.0 for k in FAMILY})
@@ -114,13 +117,13 @@ def test_heldout_measures_score_the_same_samples(coupled):
     ext = fit_extended(split, base, attribute(split, base, family))
     before, after, imp, scored = heldout_measures(split, base, ext, 10, 0, trace.name)
     assert scored >= MIN_TEST // 2
-    assert imp['heldout_nll_per_sample'] == pytest.approx(
-        before['heldout_nll_per_sample'] - after['heldout_nll_per_sample'], abs=1e-12)
-    lo, hi = imp['ci95']
-    assert lo <= imp['heldout_nll_per_sample'] <= hi
-    assert after['heldout_nll_per_sample'] < before['heldout_nll_per_sample']
-    assert before['sims'] == after['sims'] == 10
-    assert np.isfinite(after['acf_distance'])
+    assert imp.heldout_nll_per_sample == pytest.approx(
+        before.heldout_nll_per_sample - after.heldout_nll_per_sample, abs=1e-12)
+    lo, hi = imp.ci95
+    assert lo <= imp.heldout_nll_per_sample <= hi
+    assert after.heldout_nll_per_sample < before.heldout_nll_per_sample
+    assert before.fidelity['sims'] == after.fidelity['sims'] == 10
+    assert np.isfinite(after.fidelity['acf_distance'])
 
 
 @pytest.mark.long
@@ -136,12 +139,12 @@ def test_with_jumps_the_motion_test_and_the_orders_see_the_series_without_them()
     split = split_step(trace)
     base = fit_base(split)
     r = base.score(split.train, split.truth)[1]
-    assert _motion_family(split, base, r)['p_value'] <= 0.05 / N_TESTS
+    assert _motion_family(split, base, r).p_value <= 0.05 / N_TESTS
     family = run_family(split, base)
     assert family.reject['jump_reversal']
     motion = family.tests['motion_dependence']
-    assert motion['p_value'] > 0.05 and family.lag_s is None
-    assert 'with the jumps set aside' in motion['test']
+    assert motion.p_value > 0.05 and family.lag_s is None
+    assert 'with the jumps set aside' in motion.test
     # the walk's errors are AR(3); the jumps pass for lost persistence to the PACF rule
     assert sum(abs(p - 3) for p in family.jump_orders) < sum(abs(p - 3) for p in base.orders)
     att = attribute(split, base, family)
@@ -151,7 +154,7 @@ def test_with_jumps_the_motion_test_and_the_orders_see_the_series_without_them()
     before, after, _, scored = heldout_measures(split, base, ext, 5, 0, trace.name)
     assert scored == len(base.score(split.test, split.truth,
                                     condition_count(base.orders, ext.orders))[0])
-    assert after['heldout_nll_per_sample'] < before['heldout_nll_per_sample']
+    assert after.heldout_nll_per_sample < before.heldout_nll_per_sample
 
 
 def test_a_reversal_found_with_the_jumps_in_sets_them_aside_for_the_laws_tests():
@@ -169,16 +172,16 @@ def test_a_reversal_found_with_the_jumps_in_sets_them_aside_for_the_laws_tests()
     base = fit_base(split)
     family = run_family(split, base)
     rev = family.tests['jump_reversal']
-    assert rev['given'] and rev['rejected'] and rev['p_value'] > FAMILY_ALPHA / (N_TESTS - 1)
-    assert family.tests['periodicity']['rejected']
+    assert rev.given and rev.rejected and rev.p_value > FAMILY_ALPHA / (N_TESTS - 1)
+    assert family.tests['periodicity'].rejected
     assert not family.reject['kurtosis'] and not family.reject['cross_axis_correlation']
-    assert family.tests['kurtosis']['p_value'] > 0.05
-    given = {'jump_reversal': rev['holm_adjusted_p']}
-    reject, adjusted = holm({k: t['p_value'] for k, t in family.tests.items()},
+    assert family.tests['kurtosis'].p_value > 0.05
+    given = {'jump_reversal': rev.holm_adjusted_p}
+    reject, adjusted = holm({k: t.p_value for k, t in family.tests.items()},
                             FAMILY_ALPHA, given)
     assert reject == family.reject and adjusted == family.adjusted
     att = attribute(split, base, family)
     assert sorted(att.effects) == ['outliers', 'periodic']
     ext = fit_extended(split, base, att)
     before, after, _, _ = heldout_measures(split, base, ext, 5, 0, trace.name)
-    assert after['heldout_nll_per_sample'] < before['heldout_nll_per_sample']
+    assert after.heldout_nll_per_sample < before.heldout_nll_per_sample

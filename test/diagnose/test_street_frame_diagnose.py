@@ -48,7 +48,7 @@ def test_level_with_fixed_axes_and_persistent_variance():
         h = walk_headings(rng)
         scale = np.repeat(rng.choice([1.0, 2.5], size=h.size // 100 + 1), 100)[:h.size]
         r = (rng.standard_normal((h.size, 2)) @ chol.T) * scale[:, None]
-        small += travel_frame_test(r, h)['p_value'] <= 0.05
+        small += travel_frame_test(r, h).p_value <= 0.05
     assert small <= 18, small
 
 
@@ -59,8 +59,8 @@ def test_no_power_without_turns_and_power_with_them():
     c, s = np.cos(h), np.sin(h)
     z = rng.standard_normal((n, 2)) * [0.6, 1.5]            # along, across
     turning = np.stack([z[:, 0] * c - z[:, 1] * s, z[:, 0] * s + z[:, 1] * c], axis=1)
-    assert travel_frame_test(turning, h)['p_value'] <= 0.001
-    assert travel_frame_test(turning, np.full(n, 0.5))['p_value'] == 1.0
+    assert travel_frame_test(turning, h).p_value <= 0.001
+    assert travel_frame_test(turning, np.full(n, 0.5)).p_value == 1.0
 
 
 def straight_avenue_trace(seed, n=3600):
@@ -85,18 +85,17 @@ def straight_avenue_trace(seed, n=3600):
 def test_one_avenue_cannot_tell_a_walk_that_turns_can():
     from gps_error_ros.sim.synthetic import synthetic_trace
     s = diagnose(straight_avenue_trace(2), sims=20).findings
-    found = [e['name'] for e in s['effects']]
-    assert found == ['cross_axis_coupling'], found
-    assert s['tests']['travel_frame']['p_value'] == 1.0       # one direction: no power
+    assert s.effect_names == ['cross_axis_coupling'], s.effect_names
+    assert s.tests['travel_frame'].p_value == 1.0       # one direction: no power
     s = diagnose(synthetic_trace('street_canyon', 2), sims=20).findings
-    found = {e['name']: e for e in s['effects']}
+    found = {e.name: e for e in s.effects}
     assert 'street_frame' in found and 'cross_axis_coupling' not in found, list(found)
-    ev = found['street_frame']['evidence']
+    ev = found['street_frame'].evidence
     assert ev['test'] == 'travel_frame'
     bic = ev['frame_bic']
     assert bic['street_frame'] < bic['cross_axis_coupling'], bic
-    assert any(a['effect'] == 'cross_axis_coupling' and 'turns with the direction' in
-               a['reason'] for a in s['alternatives_rejected'])
+    assert any(a.effect == 'cross_axis_coupling' and 'turns with the direction' in
+               a.reason for a in s.alternatives_rejected)
 
 
 def test_the_serial_tests_stay_in_the_axes_the_ar_part_is_fitted_in():
@@ -113,11 +112,11 @@ def test_the_serial_tests_stay_in_the_axes_the_ar_part_is_fitted_in():
     family = run_family(split, base)
     assert family.reject['travel_frame'] and family.reject['periodicity']
     cyc = fit_model(split.train, base.orders, ('periodic',), split.truth,
-                    period=family.tests['periodicity']['at_period'])
+                    period=family.tests['periodicity'].whole('at_period'))
     _, r, d, _ = cyc.score(split.train, split.truth)
     turned = innovation_tests(to_travel_frame(r, d.heading), d.seg, base.orders)
-    assert turned['serial_north']['p_value'] < 0.01
+    assert turned['serial_north'].p_value < 0.01
     for ax in ('north', 'east'):
-        assert family.tests[f'serial_{ax}']['statistic'] == \
-            innovation_tests(r, d.seg, base.orders)[f'serial_{ax}']['statistic']
-        assert family.tests[f'serial_{ax}']['p_value'] > 0.05
+        assert family.tests[f'serial_{ax}'].statistic == \
+            innovation_tests(r, d.seg, base.orders)[f'serial_{ax}'].statistic
+        assert family.tests[f'serial_{ax}'].p_value > 0.05

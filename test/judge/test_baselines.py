@@ -30,7 +30,7 @@ def test_classes_score_the_same_samples_as_the_diagnosis():
     table = compare(d, sims=10)
     assert list(table) == list(CLASSES)
     nll = {k: v['heldout_nll_per_sample'] for k, v in table.items()}
-    assert nll['extended'] == pytest.approx(d.findings['error_after']['heldout_nll_per_sample'])
+    assert nll['extended'] == pytest.approx(d.findings.error_after.heldout_nll_per_sample)
     assert nll['AR(p), PACF'] == pytest.approx(
-        d.findings['error_before']['heldout_nll_per_sample'])
+        d.findings.error_before.heldout_nll_per_sample)
     assert nll['white noise + bias'] > nll['AR(p), PACF']
