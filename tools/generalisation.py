@@ -39,7 +39,7 @@ from gps_error_ros.judge.fold_summary import ERROR_GROUPS, precedent, summarise
 from gps_error_ros.judge.generalise import (EXTRA_GROUPS, GROUPS, HORIZON, judge_folds,
                                             ORIGINS, recording_splits, rolling_splits,
                                             split_between)
-from gps_error_ros.diagnose.velocity_check import precedent as velocity_precedent
+from gps_error_ros.judge.velocity_check import precedent as velocity_precedent
 from gps_error_ros.judge.window_persistence import spread_above
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.fit.gross_failures import find_gross_failures, without_rows

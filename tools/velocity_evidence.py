@@ -30,7 +30,7 @@ import sys
 import numpy as np
 
 from gps_error_ros.judge.generalise import rolling_splits
-from gps_error_ros.diagnose.velocity_check import BANDS as FOLD_BANDS
+from gps_error_ros.judge.velocity_check import BANDS as FOLD_BANDS
 from gps_error_ros.fit.validation import slice_trace
 from gps_error_ros.fit.velocity_fit import estimate_velocity, residuals, SLOW_TRUTH, vectors
 from gps_error_ros.model.motion_lag import truth_at

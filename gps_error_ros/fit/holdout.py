@@ -76,7 +76,7 @@ class Split:
     #: see :func:`~gps_error_ros.fit.population_fit.segment_weights`)
     train_weights: Optional[tuple[float, ...]] = None
     #: (training rows, held-out rows) as traces, where the trace has speed and
-    #: course columns (:mod:`~gps_error_ros.diagnose.velocity_check`); else None
+    #: course columns (:mod:`~gps_error_ros.judge.velocity_check`); else None
     velocity: Optional[tuple[Trace, Trace]] = None
 
 

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.fit.holdout import Split
-from gps_error_ros.diagnose.velocity_check import velocity_line
+from gps_error_ros.judge.velocity_check import velocity_line
 from gps_error_ros.fit.envelope import inside
 from gps_error_ros.judge.beaten import beaten_lines
 from gps_error_ros.judge.generalise import EXTRA_GROUPS, GROUPS, judge_folds, POPULATION

@@ -41,7 +41,7 @@ from gps_error_ros.fit.fidelity import (acf_by_axis, part_fix_mask, run_masks,
                                         score_differences, simulate_part)
 from gps_error_ros.diagnose.mean import condition_count
 from gps_error_ros.fit.holdout import cut_trace, like_windows, Part, Split
-from gps_error_ros.diagnose.velocity_check import has_velocity, velocity_group
+from gps_error_ros.judge.velocity_check import has_velocity, velocity_group
 from gps_error_ros.fit.envelope import (envelope, Envelope, inside, OUTAGE_MEASURES,
                                         outage_envelopes, outage_stats)
 from gps_error_ros.fit.gross_failures import without_rows
@@ -370,7 +370,7 @@ def judge_folds(splits: Sequence[tuple[str, Split]], sims: int = 100, seed: int 
     own measures and :func:`training_windows` beside them; the speed and
     course group of the profile's velocity section, which every class
     shares, or None:
-    :func:`~gps_error_ros.diagnose.velocity_check.velocity_group`). ``done()`` after each
+    :func:`~gps_error_ros.judge.velocity_check.velocity_group`). ``done()`` after each
     fold.
     """
     from gps_error_ros.diagnose.pipeline import fit_split

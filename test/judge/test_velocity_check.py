@@ -4,8 +4,8 @@ import numpy as np
 
 from gps_error_ros.judge.generalise import rolling_splits
 from gps_error_ros.fit.holdout import like_windows
-from gps_error_ros.diagnose.velocity_check import (band_measures, precedent, velocity_group,
-                                                   velocity_line)
+from gps_error_ros.judge.velocity_check import (band_measures, precedent, velocity_group,
+                                                velocity_line)
 from gps_error_ros.fit.gross_failures import without_rows
 from gps_error_ros.model.profiles import load_profile
 from gps_error_ros.model.velocity import velocity_from_dict
