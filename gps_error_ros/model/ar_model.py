@@ -419,9 +419,10 @@ class ARErrorModel(Process[ARState]):
             run(keys[a0:a1], n_steps, start, out[:, a0:a1])
         return out
 
-    def _noise_innovations(self, keys: Keys, start: int, count: int) -> FloatArray:
-        """Return innovations (2, count, m) in the node's order of operations."""
-        z = streams.normal_block_axes(keys, streams.DOMAIN_STEP, start, count)
+    def _noise_innovations(self, keys: Keys, start: int, count: int,
+                           by_agent: bool = False) -> FloatArray:
+        """Return innovations (2, count, m) as the node computes them (``by_agent``: m first)."""
+        z = streams.normal_block_axes(keys, streams.DOMAIN_STEP, start, count, by_agent)
         c = self._innovation_chol
         z[1] *= c[1, 1]
         if c[1, 0] != 0.0:
@@ -469,9 +470,8 @@ class ARErrorModel(Process[ARState]):
         t_block = max(1, (1 << 21) // m)
         for t0 in range(1, n_steps, t_block):
             t1 = min(n_steps, t0 + t_block)
-            w = self._noise_innovations(keys, start + t0, t1 - t0)
+            w = self._noise_innovations(keys, start + t0, t1 - t0, by_agent=True)   # (2, m, T)
             for ax in range(2):
-                series = np.ascontiguousarray(w[ax].T)           # (m, T)
                 y, zi[ax] = signal.lfilter([1.0], np.r_[1.0, -self.phi[ax]],
-                                           series, axis=-1, zi=zi[ax])
-                out[t0:t1, :, ax] = y.T + self.mean[ax]
+                                           w[ax], axis=-1, zi=zi[ax])
+                np.add(y.T, self.mean[ax], out=out[t0:t1, :, ax])

@@ -314,18 +314,21 @@ def normal_pairs(keys: Any, domain: int, index: Any) -> npt.NDArray[np.float64]:
     return out
 
 
-def normal_block_axes(keys: Any, domain: int, start: int,
-                      count: int) -> npt.NDArray[np.float64]:
+def normal_block_axes(keys: Any, domain: int, start: int, count: int,
+                      by_agent: bool = False) -> npt.NDArray[np.float64]:
     """
     Return normal pairs for consecutive indices, axis-major: (2, count, n).
 
     Entry ``[a, j, i]`` equals ``normal_pairs(keys, domain, start + j)[i, a]``;
     each axis is contiguous over (time, agent), for vectorised loops.
+    ``by_agent``: shape (2, n, count) instead, entry ``[a, i, j]``, each
+    agent's series contiguous (for a filter along time).
     """
     keys = np.asarray(keys, dtype=np.uint64)
-    idx = np.arange(start, start + count, dtype=np.int64)[:, None]
-    pos = np.ascontiguousarray(_positions(keys[None, :], domain, idx)).reshape(-1)
-    out = np.empty((2, count, keys.size))
+    idx = np.arange(start, start + count, dtype=np.int64)
+    pos = np.ascontiguousarray(_positions(keys[:, None], domain, idx[None, :]) if by_agent
+                               else _positions(keys[None, :], domain, idx[:, None])).reshape(-1)
+    out = np.empty((2, keys.size, count) if by_agent else (2, count, keys.size))
     on, oe = out[0].reshape(-1), out[1].reshape(-1)
     for c0 in range(0, pos.size, _CHUNK):
         c1 = min(pos.size, c0 + _CHUNK)
