@@ -15,15 +15,15 @@ import sys
 
 from gps_error_ros.ros.parameter_docs import (markdown_table, params_file, README_GROUPS,
                                               README_TABLES)
-from gps_error_ros.model import (availability, failures, periodic, population, profiles,
+from gps_error_ros.model import (availability, failures, population, profiles,
                                  reported, velocity)
-from gps_error_ros.model.effect_kinds import markdown_table as effects_table
+from gps_error_ros.model.effect_kinds import keys_table, markdown_table as effects_table
 from gps_error_ros.ros.topics import markdown_topics
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The profile sections declared field by field, whose tables the docs show.
 SECTIONS = {'axes': profiles.AXIS_SECTIONS['north'], 'availability': availability.SECTION,
-            'gross_failures': failures.SECTION, 'periodic': periodic.SECTION,
+            'gross_failures': failures.SECTION,
             'population': population.SECTION, 'reported_accuracy': reported.SECTION,
             'velocity': velocity.SECTION}
 DOCS = ROOT / 'docs'
@@ -51,12 +51,13 @@ def render(pages):
         for p in found:
             pages[p] = pattern.sub(lambda m, t=spec.markdown(): m.group(1) + t + m.group(2),
                                    pages[p])
-    pattern = re.compile(r'(<!-- effects:table -->\n).*?(<!-- /effects:table -->)', re.S)
-    found = [p for p, text in pages.items() if pattern.search(text)]
-    if not found:
-        raise SystemExit('docs/: no page has a <!-- effects:table --> block')
-    for p in found:
-        pages[p] = pattern.sub(lambda m: m.group(1) + effects_table() + m.group(2), pages[p])
+    for mark, table in (('effects:table', effects_table()), ('effects:keys', keys_table())):
+        pattern = re.compile(rf'(<!-- {mark} -->\n).*?(<!-- /{mark} -->)', re.S)
+        found = [p for p, text in pages.items() if pattern.search(text)]
+        if not found:
+            raise SystemExit(f'docs/: no page has a <!-- {mark} --> block')
+        for p in found:
+            pages[p] = pattern.sub(lambda m, t=table: m.group(1) + t + m.group(2), pages[p])
     return pages
 
 

@@ -21,13 +21,12 @@ autocovariance a term adds, the next step's covariance and mean given the
 state.
 """
 
-from collections.abc import Mapping
-import math
 from typing import Any, ClassVar, Generic, Optional, TypeVar
 
 import numpy as np
 
 from gps_error_ros.model.ar_model import AxisParams
+from gps_error_ros.model.section_spec import Field, SectionSpec
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys
 
 P = TypeVar('P')
@@ -38,27 +37,28 @@ class EffectsError(ValueError):
 
 
 class Section:
-    """One effect's mapping under ``effects``, read with messages that name its keys."""
+    """
+    One effect's mapping under ``effects``, read through its declared fields.
 
-    def __init__(self, body: Any, source: str, name: str, keys: tuple[str, ...]) -> None:
-        self.key = f'effects.{name}'
+    Each value is checked against its :class:`~.section_spec.Field` (the
+    errors name the key, what was expected and what was given); what no
+    one field can say (a matrix's shape, rows summing to 1) is the kind's
+    :meth:`EffectKind.parse`, which raises :meth:`fail`.
+    """
+
+    def __init__(self, body: Any, source: str, spec: SectionSpec) -> None:
+        self.key = spec.key
         self.source = source
-        if not isinstance(body, Mapping) or sorted(body) != sorted(keys):
-            raise EffectsError(f'{source}: key {self.key!r}: expected a mapping with '
-                               f'exactly {list(keys)}, got {body!r}')
+        self.values = spec.read(body, source)
         self.body = body
 
-    def number(self, key: str, lo: float, hi: float, lo_open: bool = True,
-               value: Any = None, where: Optional[str] = None) -> float:
-        """Return the number at ``key`` (or ``value``), in ``(lo, hi]`` (``[lo, hi]``)."""
-        value = self.body[key] if value is None else value
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and \
-            math.isfinite(value) and (value > lo if lo_open else value >= lo) and value <= hi
-        if not ok:
-            bracket = '(' if lo_open else '['
-            raise EffectsError(f'{self.source}: key {where or self.key + "." + key!r}: '
-                               f'expected a number in {bracket}{lo}, {hi}], got {value!r}')
-        return float(value)
+    def number(self, key: str) -> float:
+        """Return the number at ``key``, checked."""
+        return float(self.values[key])
+
+    def table(self, key: str) -> Any:
+        """Return the list (as tuples) at ``key``, checked."""
+        return self.values[key]
 
     def fail(self, what: str) -> EffectsError:
         """Return the error for this section: ``what`` was wrong."""
@@ -134,7 +134,8 @@ class EffectKind(Generic[P]):
     """
 
     name: ClassVar[str]
-    keys: ClassVar[tuple[str, ...]]
+    #: its YAML section, key by key: read, written and documented from these
+    fields: ClassVar[tuple[Field, ...]]
     summary: ClassVar[str]
     order: ClassVar[int]
     stage: ClassVar[int] = 0
@@ -142,6 +143,16 @@ class EffectKind(Generic[P]):
     needs_heading: ClassVar[bool] = False
     #: True when the effect sets the innovation covariance (one such effect per profile)
     sets_innovations: ClassVar[bool] = False
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """Return the section's keys."""
+        return tuple(f.name for f in self.fields)
+
+    @property
+    def spec(self) -> SectionSpec:
+        """Return the section as a :class:`~.section_spec.SectionSpec` (``effects.<name>``)."""
+        return SectionSpec(f'effects.{self.name}', self.fields, EffectsError)
 
     def parse(self, section: Section) -> P:
         """Return the effect's parameters from its checked section."""
@@ -170,23 +181,18 @@ class EffectKind(Generic[P]):
 
 
 class OneNumber(EffectKind[float]):
-    """An effect whose parameters are one number, ``keys[0]``; ``none`` means it is absent."""
+    """An effect whose parameters are one number, its one field; ``none`` means it is absent."""
 
-    lo: ClassVar[float]
-    hi: ClassVar[float]
-    lo_open: ClassVar[bool] = True
-    #: the decimals it is written with
-    digits: ClassVar[int]
     #: the value that means no effect (what the accessors give without it)
     none: ClassVar[float]
 
     def parse(self, section: Section) -> float:
         """Return the number, in its range."""
-        return section.number(self.keys[0], self.lo, self.hi, lo_open=self.lo_open)
+        return section.number(self.fields[0].name)
 
     def to_dict(self, params: float) -> dict[str, Any]:
         """Return the section."""
-        return {self.keys[0]: round(float(params), self.digits)}
+        return self.spec.write({self.fields[0].name: params})
 
     def absent(self, params: float) -> bool:
         """Return True for the value that means no effect."""

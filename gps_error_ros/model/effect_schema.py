@@ -160,7 +160,7 @@ def effects_from_dict(raw: Any, source: str = '<profile>') -> Effects:
         if kind is None:
             raise EffectsError(f'{source}: key {"effects." + str(name)!r}: unknown effect; '
                                f'expected one of {list(EFFECT_NAMES)}')
-        params[name] = kind.parse(Section(body, source, name, kind.keys))
+        params[name] = kind.parse(Section(body, source, kind.spec))
     setting = [n for n in params if BY_NAME[n].sets_innovations]
     if setting and params.get('cross_axis_coupling'):
         setting.append('cross_axis_coupling')

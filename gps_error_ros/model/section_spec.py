@@ -16,7 +16,7 @@ import math
 from typing import Any, Literal, Optional
 
 Kind = Literal['number', 'integer', 'choice', 'pair', 'pairs', 'numbers', 'sizes',
-               'distribution', 'by_speed']
+               'distribution', 'by_speed', 'rows']
 
 
 def _shown(v: float) -> str:
@@ -38,7 +38,9 @@ class Field:
     ``distribution``: a non-empty list of [value, probability] pairs, each
     value an integer in ``[lo, hi]`` and each probability in (0, 1].
     ``by_speed``: a table of 1 to ``most`` [speed m/s, value] pairs, speeds
-    in [0, 100] increasing, each value in ``lo .. hi``.
+    in [0, 100] increasing, each value in ``lo .. hi``. ``rows``: a
+    non-empty list of non-empty lists of numbers in ``lo .. hi`` (a matrix;
+    its shape is the section's rule).
     ``absent``: what leaving an optional key out means (None: required).
     ``digits``: the decimals it is written with (None: as it is).
     """
@@ -72,7 +74,9 @@ class Field:
                 'distribution': f'a non-empty list of [value, probability] pairs (integer '
                                 f'values in {span}, probabilities in (0, 1])',
                 'by_speed': f'a list of 1 to {self.most} [speed m/s, value] pairs, speeds in '
-                            f'[0, 100] increasing, values in {span}'}[self.kind]
+                            f'[0, 100] increasing, values in {span}',
+                'rows': f'a non-empty list of rows, each a non-empty list of numbers in '
+                        f'{span}'}[self.kind]
 
     def _inside(self, v: Any) -> bool:
         """Return True when ``v`` is a number within the field's range."""
@@ -93,6 +97,10 @@ class Field:
             return self._pairs(v)
         if self.kind == 'by_speed':
             return self._table(v)
+        if self.kind == 'rows':
+            ok = isinstance(v, list) and bool(v) and all(
+                isinstance(r, list) and bool(r) and all(map(self._inside, r)) for r in v)
+            return tuple(tuple(float(x) for x in r) for r in v) if ok else None
         if self.kind == 'pairs':
             ok = isinstance(v, list) and bool(v) and all(
                 isinstance(p, list) and len(p) == 2 and all(map(self._inside, p)) for p in v)
@@ -130,8 +138,8 @@ class Field:
         """Return a value as the section writes it."""
         if self.kind == 'distribution':
             return [[int(n), self._rounded(p)] for n, p in v]
-        if self.kind in ('pairs', 'by_speed'):
-            return [[self._rounded(a), self._rounded(b)] for a, b in v]
+        if self.kind in ('pairs', 'by_speed', 'rows'):
+            return [[self._rounded(x) for x in r] for r in v]
         if self.kind in ('pair', 'numbers', 'sizes'):
             return [self._rounded(x) for x in v]
         if self.kind == 'integer':

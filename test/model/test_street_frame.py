@@ -28,7 +28,8 @@ def test_schema_round_trip_and_conflict():
     with pytest.raises(EffectsError, match='street_frame and cross_axis_coupling'):
         effects_from_dict({'street_frame': {'sigma_along': 1, 'sigma_across': 2},
                            'cross_axis_coupling': {'innovation_corr': 0.3}})
-    with pytest.raises(EffectsError, match=r"effects.street_frame.sigma_across'"):
+    with pytest.raises(EffectsError, match=r'effects.street_frame.sigma_across: expected a '
+                                           r'number in \(0, 1e6\], got -2'):
         effects_from_dict({'street_frame': {'sigma_along': 1, 'sigma_across': -2}})
     # the stationary covariance: the AR part with the average innovation variance
     m = street_model()

@@ -40,3 +40,12 @@ def markdown_table() -> str:
         lines.append(f'| `{k.name}` | {keys} | {k.summary} | '
                      f'{"yes" if k.needs_heading else "no"} |')
     return '\n'.join(lines) + '\n'
+
+
+def keys_table() -> str:
+    """Return the docs' table of every effect's keys: what each takes, from its fields."""
+    lines = ['| key | takes | meaning |', '|---|---|---|']
+    for k in KINDS:
+        for f in k.fields:
+            lines.append(f'| `{k.name}.{f.name}` | {f.expected()} | {f.doc} |')
+    return '\n'.join(lines) + '\n'

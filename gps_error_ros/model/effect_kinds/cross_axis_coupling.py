@@ -2,16 +2,17 @@
 
 from gps_error_ros.model.ar_model import AxisParams
 from gps_error_ros.model.effect_kind import OneNumber
+from gps_error_ros.model.section_spec import Field
 
 
 class CrossAxisCoupling(OneNumber):
     """The innovations' correlation ``innovation_corr``, in the AR part's own draw."""
 
     name = 'cross_axis_coupling'
-    keys = ('innovation_corr',)
     summary = 'the north and east innovations are correlated'
+    fields = (Field('innovation_corr', 'their correlation', lo=-0.99, hi=0.99, digits=6),)
     order = 0
-    lo, hi, lo_open, digits, none = -0.99, 0.99, False, 6, 0.0
+    none = 0.0
 
     def ar(self, params: float, north: AxisParams, east: AxisParams,
            corr: float) -> tuple[AxisParams, AxisParams, float]:

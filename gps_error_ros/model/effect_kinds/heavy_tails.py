@@ -6,6 +6,7 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.effect_kind import OneNumber, Term
+from gps_error_ros.model.section_spec import Field
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys
 
 #: The most degrees of freedom a profile may carry (beyond, all but Gaussian).
@@ -32,11 +33,12 @@ class HeavyTails(OneNumber):
     """Bivariate Student-t innovations, scaled to the AR part's covariance."""
 
     name = 'heavy_tails'
-    keys = ('dof',)
     summary = 'Student-t innovations with `dof` degrees of freedom (one mixing draw per step)'
+    fields = (Field('dof', 'the degrees of freedom', lo=2.0, hi=MAX_DOF, lo_open=True,
+                    digits=4),)
     order = 2
     stage = 2
-    lo, hi, digits, none = 2.0, MAX_DOF, 4, math.inf
+    none = math.inf
 
     def absent(self, params: float) -> bool:
         """Return True for infinite degrees of freedom (Gaussian)."""

@@ -6,6 +6,7 @@ import numpy as np
 
 from gps_error_ros.model import outliers as jumps
 from gps_error_ros.model.effect_kind import EffectKind, Section, Term
+from gps_error_ros.model.section_spec import Field
 from gps_error_ros.model.outliers import Outliers
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys
 
@@ -48,7 +49,10 @@ class OutliersKind(EffectKind[Outliers]):
     """Jumps: at a rate per step, an offset held for a geometric number of steps."""
 
     name = 'outliers'
-    keys = ('rate', 'mean_steps', 'sigma_m')
+    fields = (Field('rate', 'jumps starting per step', lo=0.0, hi=0.5, lo_open=True),
+              Field('mean_steps', 'steps a jump is held on average', lo=1.0, hi=1e3),
+              Field('sigma_m', 'SD of a jump per axis, m', lo=0.0, hi=jumps.MAX_SIGMA_M,
+                    lo_open=True))
     summary = ('jumps at `rate` per step, held `mean_steps` on average, SD `sigma_m` m; '
                'outside the AR recursion')
     order = 6
@@ -56,9 +60,7 @@ class OutliersKind(EffectKind[Outliers]):
 
     def parse(self, section: Section) -> Outliers:
         """Return the jumps' law."""
-        return Outliers(section.number('rate', 0.0, 0.5),
-                        section.number('mean_steps', 1.0, 1e3, lo_open=False),
-                        section.number('sigma_m', 0.0, jumps.MAX_SIGMA_M))
+        return Outliers(*(section.number(k) for k in self.keys))
 
     def to_dict(self, params: Outliers) -> dict[str, Any]:
         """Return the section."""

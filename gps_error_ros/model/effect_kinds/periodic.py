@@ -5,7 +5,7 @@ from typing import Any
 import numpy as np
 
 from gps_error_ros.model.effect_kind import EffectKind, EffectsError, Section, Term
-from gps_error_ros.model.periodic import (agent_phases, mean_autocovariance, Periodic,
+from gps_error_ros.model.periodic import (agent_phases, FIELDS, mean_autocovariance, Periodic,
                                           periodic_from_dict, periodic_mean)
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys
 
@@ -58,7 +58,7 @@ class PeriodicKind(EffectKind[Periodic]):
     """A position engine's cycle: scale and offset of the innovations by phase."""
 
     name = 'periodic'
-    keys = ('period_steps', 'scales', 'offsets')
+    fields = FIELDS
     summary = 'a cycle of `period_steps` in the innovations\' scale and mean, by phase'
     order = 5
     stage = 3

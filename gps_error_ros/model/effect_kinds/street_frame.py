@@ -7,6 +7,7 @@ import numpy as np
 
 from gps_error_ros.model.ar_model import AxisParams
 from gps_error_ros.model.effect_kind import EffectKind, Section, Term
+from gps_error_ros.model.section_spec import Field
 from gps_error_ros.model.state import EffectsState, FloatArray
 
 Street = tuple[float, float]
@@ -41,7 +42,10 @@ class StreetFrame(EffectKind[Street]):
     """The error ellipse turns with the walker; the AR coefficients stay per axis."""
 
     name = 'street_frame'
-    keys = ('sigma_along', 'sigma_across')
+    fields = (Field('sigma_along', 'innovation SD along the direction of travel, m', lo=0.0,
+                    hi=1e6, lo_open=True, digits=6),
+              Field('sigma_across', 'innovation SD across it, m', lo=0.0, hi=1e6, lo_open=True,
+                    digits=6))
     summary = 'innovations along and across the direction of travel (SDs in m)'
     order = 4
     needs_heading = True
@@ -49,13 +53,12 @@ class StreetFrame(EffectKind[Street]):
 
     def parse(self, section: Section) -> Street:
         """Return the SDs along and across, m."""
-        along, across = (section.number(k, 0.0, 1e6) for k in self.keys)
+        along, across = (section.number(k) for k in self.keys)
         return along, across
 
     def to_dict(self, params: Street) -> dict[str, Any]:
         """Return the section."""
-        return {'sigma_along': round(float(params[0]), 6),
-                'sigma_across': round(float(params[1]), 6)}
+        return self.spec.write(dict(zip(self.keys, params)))
 
     def ar(self, params: Street, north: AxisParams, east: AxisParams,
            corr: float) -> tuple[AxisParams, AxisParams, float]:

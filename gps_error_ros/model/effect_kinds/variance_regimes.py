@@ -7,6 +7,7 @@ import numpy as np
 
 from gps_error_ros.model import streams
 from gps_error_ros.model.effect_kind import EffectKind, Section, Term
+from gps_error_ros.model.section_spec import Field
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys, Numbers
 
 
@@ -69,28 +70,24 @@ class VarianceRegimes(EffectKind[Regimes]):
     """Calm and disturbed stretches: the innovations' scale follows a Markov chain."""
 
     name = 'variance_regimes'
-    keys = ('scales', 'transition')
+    fields = (Field('scales', 'each regime\'s scale of the innovations (2 or more)',
+                    'numbers', lo=0.0, hi=1e3, lo_open=True),
+              Field('transition', 'the chain\'s transition matrix, one row per regime, each '
+                    'summing to 1', 'rows', lo=0.0, hi=1.0))
     summary = 'a Markov chain over regimes, each scaling the innovations'
     order = 3
     stage = 1
 
     def parse(self, section: Section) -> Regimes:
         """Return the regimes: two scales or more, and a square row-stochastic matrix."""
-        scales, trans = section.body['scales'], section.body['transition']
-        if not isinstance(scales, list) or len(scales) < 2:
+        values, rows = section.table('scales'), section.table('transition')
+        if len(values) < 2:
             raise section.fail(f'.scales: expected a list of at least 2 positive numbers, '
-                               f'got {scales!r}')
-        values = tuple(section.number('scales', 0.0, 1e3, value=v,
-                                      where=f'{section.key}.scales[{i}]')
-                       for i, v in enumerate(scales))
+                               f'got {list(values)!r}')
         k = len(values)
-        if not isinstance(trans, list) or len(trans) != k or not all(
-                isinstance(r, list) and len(r) == k for r in trans):
+        if len(rows) != k or not all(len(r) == k for r in rows):
             raise section.fail(f'.transition: expected a {k}x{k} list of rows (one per '
-                               f'scale), got {trans!r}')
-        rows = tuple(tuple(section.number('transition', 0.0, 1.0, lo_open=False, value=v,
-                                          where=f'{section.key}.transition[{i}][{j}]')
-                           for j, v in enumerate(r)) for i, r in enumerate(trans))
+                               f'scale), got {[list(r) for r in rows]!r}')
         for i, r in enumerate(rows):
             if abs(sum(r) - 1.0) > 1e-5:
                 raise section.fail(f'.transition[{i}]: expected a row summing to 1, '
