@@ -37,11 +37,11 @@ def one(job):
     scenario, seed, duration = job
     s = diagnose(synthetic_trace(scenario, seed, duration), sims=10).findings
     return {'scenario': scenario, 'seed': seed,
-            'effects': [e['name'] for e in s['effects']],
-            'kept': s['selection'].get('kept', []),
-            'unexplained': [u['structure'] for u in s['unexplained']],
-            'before': s['error_before']['heldout_nll_per_sample'],
-            'after': s['error_after']['heldout_nll_per_sample']}
+            'effects': s.effect_names,
+            'kept': list(s.selection.kept),
+            'unexplained': [u.structure for u in s.unexplained],
+            'before': s.error_before.heldout_nll_per_sample,
+            'after': s.error_after.heldout_nll_per_sample}
 
 
 def _share(k, n):
