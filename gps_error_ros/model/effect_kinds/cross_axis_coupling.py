@@ -10,7 +10,8 @@ class CrossAxisCoupling(OneNumber):
 
     name = 'cross_axis_coupling'
     summary = 'the north and east innovations are correlated'
-    fields = (Field('innovation_corr', 'their correlation', lo=-0.99, hi=0.99, digits=6),)
+    fields = (Field('innovation_corr', 'the correlation of the north and east innovations',
+                    lo=-0.99, hi=0.99, digits=6),)
     order = 0
     none = 0.0
 
