@@ -61,12 +61,6 @@ class Outliers:
         k = np.arange(max_lag + 1)
         return self.share * (1.0 - self.end_probability) ** k * self.sigma_m ** 2
 
-    def to_dict(self) -> dict[str, float]:
-        """Return the section as plain data."""
-        return {'rate': round(float(self.rate), 8),
-                'mean_steps': round(float(self.mean_steps), 6),
-                'sigma_m': round(float(self.sigma_m), 6)}
-
 
 def initial_offsets(outliers: Outliers, keys: Keys,
                     index: int) -> tuple[FloatArray, FloatArray]:

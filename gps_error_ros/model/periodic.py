@@ -23,6 +23,7 @@ the covariance published in ``stationary`` mode; ``conditional`` mode uses
 the next phase's scale.
 """
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,7 +63,7 @@ class Periodic:
 
 
 #: The section's fields; the rules between them (one scale and one offset per phase,
-#: offsets averaging 0) are :func:`periodic_from_dict`'s.
+#: offsets averaging 0) are :func:`periodic_from_values`'s.
 FIELDS = (
     Field('period_steps', 'the cycle\'s length, model steps', kind='integer', lo=2,
           hi=MAX_PERIOD),
@@ -73,9 +74,13 @@ FIELDS = (
 SECTION = SectionSpec('effects.periodic', FIELDS, PeriodicError)
 
 
-def periodic_from_dict(body: Any, source: str = '<profile>') -> Periodic:
-    """Validate a ``periodic`` mapping as :data:`SECTION` declares it; return it."""
-    v = SECTION.read(body, source)
+def periodic_from_values(v: Mapping[str, Any], body: Any, source: str) -> Periodic:
+    """
+    Return the cycle of a section whose fields :data:`SECTION` has read (``v``).
+
+    What is left to check are the rules between the fields; ``body`` (the
+    section as written) is quoted in their errors.
+    """
     period = v['period_steps']
     for name, what in (('scales', 'positive numbers (one per phase)'),
                        ('offsets', '[north, east] pairs (m, one per phase)')):

@@ -49,10 +49,10 @@ class OutliersKind(EffectKind[Outliers]):
     """Jumps: at a rate per step, an offset held for a geometric number of steps."""
 
     name = 'outliers'
-    fields = (Field('rate', 'jumps starting per step', lo=0.0, hi=0.5, lo_open=True),
-              Field('mean_steps', 'steps a jump is held on average', lo=1.0, hi=1e3),
+    fields = (Field('rate', 'jumps starting per step', lo=0.0, hi=0.5, lo_open=True, digits=8),
+              Field('mean_steps', 'steps a jump is held on average', lo=1.0, hi=1e3, digits=6),
               Field('sigma_m', 'SD of a jump per axis, m', lo=0.0, hi=jumps.MAX_SIGMA_M,
-                    lo_open=True))
+                    lo_open=True, digits=6))
     summary = ('jumps at `rate` per step, held `mean_steps` on average, SD `sigma_m` m; '
                'outside the AR recursion')
     order = 6
@@ -64,7 +64,8 @@ class OutliersKind(EffectKind[Outliers]):
 
     def to_dict(self, params: Outliers) -> dict[str, Any]:
         """Return the section."""
-        return params.to_dict()
+        values = (params.rate, params.mean_steps, params.sigma_m)
+        return self.spec.write(dict(zip(self.keys, values)))
 
     def term(self, params: Outliers, phi: FloatArray, order: int) -> JumpTerm:
         """Return the jumps' term."""

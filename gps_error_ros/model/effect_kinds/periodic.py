@@ -6,7 +6,7 @@ import numpy as np
 
 from gps_error_ros.model.effect_kind import EffectKind, EffectsError, Section, Term
 from gps_error_ros.model.periodic import (agent_phases, FIELDS, mean_autocovariance, Periodic,
-                                          periodic_from_dict, periodic_mean)
+                                          periodic_from_values, periodic_mean)
 from gps_error_ros.model.state import EffectsState, FloatArray, Keys
 
 
@@ -64,9 +64,9 @@ class PeriodicKind(EffectKind[Periodic]):
     stage = 3
 
     def parse(self, section: Section) -> Periodic:
-        """Return the cycle (checked by :func:`~.model.periodic.periodic_from_dict`)."""
+        """Return the cycle (its rules: :func:`~.model.periodic.periodic_from_values`)."""
         try:
-            return periodic_from_dict(section.body, section.source)
+            return periodic_from_values(section.values, section.body, section.source)
         except ValueError as exc:
             raise EffectsError(str(exc)) from None
 
