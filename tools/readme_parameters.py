@@ -29,35 +29,26 @@ SECTIONS = {'axes': profiles.AXIS_SECTIONS['north'], 'availability': availabilit
 DOCS = ROOT / 'docs'
 
 
+def fill(pages, mark, table):
+    """Put ``table`` between every page's ``<!-- mark -->`` and ``<!-- /mark -->``; none: exit."""
+    pattern = re.compile(rf'(<!-- {mark} -->\n).*?(<!-- /{mark} -->)', re.S)
+    found = [p for p, text in pages.items() if pattern.search(text)]
+    if not found:
+        raise SystemExit(f'docs/: no page has a <!-- {mark} --> block')
+    for p in found:
+        pages[p] = pattern.sub(lambda m: m.group(1) + table + m.group(2), pages[p])
+
+
 def render(pages):
     """Return {page: text} with every marked table regenerated where its markers are."""
     for node, specs in README_TABLES.items():
         groups = README_GROUPS.get(node, ())
-        for kind, table in (('parameters', markdown_table(specs, groups)),
-                            ('topics', markdown_topics(node))):
-            pattern = re.compile(rf'(<!-- {kind}:{node} -->\n).*?(<!-- /{kind}:{node} -->)',
-                                 re.S)
-            found = [p for p, text in pages.items() if pattern.search(text)]
-            if not found:
-                raise SystemExit(f'docs/: no page has a <!-- {kind}:{node} --> block')
-            for p in found:
-                pages[p] = pattern.sub(lambda m, t=table: m.group(1) + t + m.group(2),
-                                       pages[p])
+        fill(pages, f'parameters:{node}', markdown_table(specs, groups))
+        fill(pages, f'topics:{node}', markdown_topics(node))
     for name, spec in SECTIONS.items():
-        pattern = re.compile(rf'(<!-- section:{name} -->\n).*?(<!-- /section:{name} -->)', re.S)
-        found = [p for p, text in pages.items() if pattern.search(text)]
-        if not found:
-            raise SystemExit(f'docs/: no page has a <!-- section:{name} --> block')
-        for p in found:
-            pages[p] = pattern.sub(lambda m, t=spec.markdown(): m.group(1) + t + m.group(2),
-                                   pages[p])
-    for mark, table in (('effects:table', effects_table()), ('effects:keys', keys_table())):
-        pattern = re.compile(rf'(<!-- {mark} -->\n).*?(<!-- /{mark} -->)', re.S)
-        found = [p for p, text in pages.items() if pattern.search(text)]
-        if not found:
-            raise SystemExit(f'docs/: no page has a <!-- {mark} --> block')
-        for p in found:
-            pages[p] = pattern.sub(lambda m, t=table: m.group(1) + t + m.group(2), pages[p])
+        fill(pages, f'section:{name}', spec.markdown())
+    fill(pages, 'effects:table', effects_table())
+    fill(pages, 'effects:keys', keys_table())
     return pages
 
 
