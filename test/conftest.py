@@ -27,11 +27,6 @@ os.environ['ROS_DOMAIN_ID'] = str(worker_domain(int(os.environ['ROS_DOMAIN_ID'])
                                                 os.environ.get('PYTEST_XDIST_WORKER')))
 
 
-def pytest_collection_modifyitems(config, items):
-    """Run the tests marked ``long`` first, so that no worker starts one last (in order else)."""
-    items.sort(key=lambda item: item.get_closest_marker('long') is None)
-
-
 @pytest.fixture(autouse=True)
 def _no_leftover_nodes():
     """Kill node processes a failing test left behind (after each test)."""

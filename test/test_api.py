@@ -40,7 +40,6 @@ def test_all_is_the_api_and_every_name_has_an_example():
         gps_error_ros.simulate_everything
 
 
-@pytest.mark.long
 def test_the_examples_run_as_written(monkeypatch):
     monkeypatch.chdir(ROOT)
     from gps_error_ros.model import profiles

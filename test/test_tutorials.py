@@ -71,7 +71,6 @@ def test_the_matcher_takes_ellipses_and_order():
     assert not matches('wrote .../x.xml (3)\n', 'wrote /tmp/a/b/x.xml (4)\n')
 
 
-@pytest.mark.long
 @pytest.mark.parametrize('name', PAGES)
 def test_a_tutorial_runs_as_written(name, tmp_path, monkeypatch):
     page = (ROOT / 'docs' / name).read_text()

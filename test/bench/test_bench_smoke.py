@@ -53,7 +53,6 @@ def test_node_bench(tmp_path):
     assert row['fixes_published'] == row['agent_steps_with_truth'], row
 
 
-@pytest.mark.long
 def test_simulate_parquet_bench(tmp_path):
     printed, row = _run(tmp_path, 'bench_simulate_parquet.py', '--smoke')
     assert row['positions'] > 10_000 and row['simulate_s'] > 0 and row['floor_s'] > 0

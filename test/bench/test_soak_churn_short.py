@@ -11,7 +11,6 @@ import soak_churn  # noqa: E402
 pytestmark = pytest.mark.integration
 
 
-@pytest.mark.long
 def test_short_churn_soak():
     """
     What the node guarantees of agents that come and go, whatever the machine's speed.

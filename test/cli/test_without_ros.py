@@ -13,7 +13,6 @@ import sys
 import textwrap
 
 import numpy as np
-import pytest
 
 from trace_helpers import synthetic_trace, write_csv
 
@@ -47,7 +46,6 @@ def test_blocker_blocks():
     assert r.returncode != 0 and 'no ROS here' in r.stderr
 
 
-@pytest.mark.long
 def test_commands_without_ros(tmp_path):
     trace, _ = synthetic_trace(900, seed=3)
     csv = tmp_path / 'walk.csv'

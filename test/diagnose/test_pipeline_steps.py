@@ -126,7 +126,6 @@ def test_heldout_measures_score_the_same_samples(coupled):
     assert np.isfinite(after.fidelity['acf_distance'])
 
 
-@pytest.mark.long
 def test_with_jumps_the_motion_test_and_the_orders_see_the_series_without_them():
     """
     Reflections and multipath, no motion: the jumps sway the motion test.

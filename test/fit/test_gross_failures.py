@@ -130,7 +130,6 @@ def test_calibrate_command_on_walks_prints_no_warning(tmp_path):
     assert f'{len(WALKS)} recordings' in proc.stdout
 
 
-@pytest.mark.long
 def test_a_profile_of_the_walks_gives_each_receiver_its_own_failure_rate(tmp_path):
     """
     With --population, calibrate fits how receivers differ in failing; validate uses it.

@@ -19,7 +19,6 @@ DATA = Path(__file__).resolve().parents[2] / 'data'
 PHONE = DATA / 'gsdc2020-mtv1-pixel4.csv'
 
 
-@pytest.mark.long
 def test_the_profile_is_the_class_the_folds_judged():
     # calibrate on a recording's first 70 % is, section for section, the
     # population class compare --folds and the generalisation page judge on
@@ -34,7 +33,6 @@ def test_the_profile_is_the_class_the_folds_judged():
         assert fitted[section] == judged[section], section
 
 
-@pytest.mark.long
 def test_calibrate_population_writes_the_best_class(tmp_path, capsys):
     out = tmp_path / 'best.yaml'
     assert cli(['calibrate', str(PHONE), '--population', '-o', str(out)]) == 0

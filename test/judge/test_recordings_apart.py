@@ -10,7 +10,6 @@ import json
 from dataclasses import replace
 
 import numpy as np
-import pytest
 
 from gps_error_ros.cli import main as cli
 from gps_error_ros.judge.consumers import run_filter
@@ -65,7 +64,6 @@ def test_the_filter_restarts_at_each_recording_and_the_acf_stays_within():
     assert pooled[0, 0] > 0.4, pooled
 
 
-@pytest.mark.long
 def test_compare_with_two_recordings_held_out_judges_each_apart(tmp_path):
     a, b, c = _walks()
     d = replace(_white_walk('d', 4, 900, 51.81, 3.0), name='d')

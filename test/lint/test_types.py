@@ -41,7 +41,6 @@ def annotation_counts():
     return out
 
 
-@pytest.mark.long
 @pytest.mark.linter
 def test_mypy_is_clean():
     run = subprocess.run([sys.executable, '-m', 'mypy', '--config-file',
@@ -123,7 +122,6 @@ print(east - fixes.east if fixes.east is not None else north, error)
 '''
 
 
-@pytest.mark.long
 def test_a_users_script_type_checks_against_the_installed_package(tmp_path):
     """
     A user's own script, outside the repository, sees the package's types (mypy --strict).

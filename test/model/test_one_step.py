@@ -338,7 +338,6 @@ def test_every_effect_of_the_registry_is_drawn():
     assert sorted(EFFECTS) == sorted(k.name for k in KINDS)
 
 
-@pytest.mark.long
 # derandomized (the same draws in every run), and no shrinking: a failure prints its draw
 @settings(max_examples=int(os.environ.get('ONE_STEP_EXAMPLES', 40)), deadline=None,
           derandomize=True, phases=[Phase.explicit, Phase.generate], print_blob=True,

@@ -15,7 +15,6 @@ import subprocess
 import sys
 
 import numpy as np
-import pytest
 
 
 def run_p2v(*argv, timeout=900):
@@ -24,7 +23,6 @@ def run_p2v(*argv, timeout=900):
                           capture_output=True, text=True, timeout=timeout)
 
 
-@pytest.mark.long
 def test_a_short_study(tmp_path):
     """Twelve pedestrians, four vehicles, 12 s at 10 Hz, three conditions."""
     run = run_p2v('--pedestrians', '12', '--vehicles', '4', '--duration', '12',

@@ -37,7 +37,6 @@ def _same(built, shipped, where='profile'):
         assert built == shipped, where
 
 
-@pytest.mark.long
 def test_make_walks_profile_writes_the_shipped_page_and_profile(tmp_path):
     (tmp_path / 'docs').mkdir()
     (tmp_path / 'config' / 'profiles').mkdir(parents=True)
