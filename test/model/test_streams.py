@@ -56,6 +56,33 @@ def test_index_range_checked():
         streams.normal_pairs(streams.agent_keys(0, ['a']), 0, -1)
 
 
+CHUNK = streams._CHUNK
+
+
+@pytest.mark.parametrize('n, count', [(1, 2 * CHUNK + 5), (3, CHUNK), (2, CHUNK - 1),
+                                      (5, 7), (CHUNK + 3, 2), (700, 30), (1, 1)])
+@pytest.mark.parametrize('by_agent', [False, True])
+def test_a_block_is_the_pairs_drawn_one_index_at_a_time(n, count, by_agent):
+    """Whatever the layout and its chunks, a block holds ``normal_pairs``'s words."""
+    # keys near the top of the word, so that the positions' sums wrap
+    keys = np.uint64(2 ** 64 - 40) - np.arange(n, dtype=np.uint64) * np.uint64(7919)
+    start = 2 ** 48 - count - 3
+    block = streams.normal_block_axes(keys, streams.DOMAIN_STEP, start, count, by_agent)
+    assert block.shape == ((2, n, count) if by_agent else (2, count, n))
+    for j in sorted({0, min(1, count - 1), count // 2, count - 1}):
+        pairs = streams.normal_pairs(keys, streams.DOMAIN_STEP, start + j)   # (n, 2)
+        got = block[:, :, j] if by_agent else block[:, j, :]
+        assert np.array_equal(got, pairs.T), j
+
+
+def test_a_block_past_the_counter_is_refused():
+    keys = streams.agent_keys(0, ['a', 'b'])
+    with pytest.raises(ValueError, match='stream index'):
+        streams.normal_block_axes(keys, streams.DOMAIN_STEP, 2 ** 48 - 3, 4, by_agent=True)
+    with pytest.raises(ValueError, match='stream index'):
+        streams.normal_block_axes(keys, streams.DOMAIN_STEP, -1, 4)
+
+
 def _recorded_draws(monkeypatch):
     """Record (domain, position) of every draw the model makes."""
     seen = []
