@@ -56,9 +56,9 @@ p2v: setup
 	$(PY) -m gps_error_ros.ns3.p2v --out p2v_output $(P2V_ARGS)
 
 # Three workers (pytest-xdist), each in a ROS domain of its own (test/conftest.py):
-# on two cores faster than two workers (about 7 min against 7.5), since the
-# node tests spend much of their time waiting on a peer process or the graph
-# (docs/performance.md, The test suite).
+# on two cores a third worker uses the cores better, since the node tests spend
+# much of their time waiting on a peer process or the graph. About 15 minutes
+# on a quiet two-core machine (docs/performance.md, The test suite).
 test: setup system-packages
 	$(PY) -m pytest -n 3
 
