@@ -64,8 +64,7 @@ class OutliersKind(EffectKind[Outliers]):
 
     def to_dict(self, params: Outliers) -> dict[str, Any]:
         """Return the section."""
-        values = (params.rate, params.mean_steps, params.sigma_m)
-        return self.spec.write(dict(zip(self.keys, values)))
+        return self.spec.write({key: getattr(params, key) for key in self.keys})
 
     def term(self, params: Outliers, phi: FloatArray, order: int) -> JumpTerm:
         """Return the jumps' term."""
