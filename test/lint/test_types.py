@@ -7,6 +7,7 @@ rules there (every function annotated, no untyped calls, bodies checked).
 """
 
 import ast
+import itertools
 from pathlib import Path
 import subprocess
 import sys
@@ -130,7 +131,7 @@ def test_a_users_script_type_checks_against_the_installed_package(tmp_path):
     one a type checker follows, and ``py.typed`` ships; a covariance mode that
     does not exist is caught before the script runs.
     """
-    scripts = iter(range(10))
+    scripts = itertools.count()
 
     def check(text):
         # a cache of this test's own: the package is read once, each script after it
